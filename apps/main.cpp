@@ -1,1 +1,49 @@
-int main() { return 0; }
+// mmval: validate pore-scale simulations of fines migration against
+// micromodel experiments. One command, one subcommand per capability.
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include "CaseCommands.hpp"
+#include "Registry.hpp"
+#include "mmval/core/BuildInfo.hpp"
+#include "mmval/core/Error.hpp"
+#include "mmval/core/Units.hpp"
+
+namespace {
+
+/// Thrown by subcommands to leave with a given status after printing their own message.
+int toStatus(mmval::ExitCode code) { return static_cast<int>(code); }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"mmval: validate pore-scale simulations of fine-particle migration against micromodel experiments"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", fmt::format("mmval {} ({}, {}, {})", mmval::build::kVersion, mmval::build::kGitHash,
+                                                mmval::build::kCompiler, mmval::build::kBuildType));
+  mmval::CaseKindRegistry registry;
+  mmval::app::registerAllKinds(registry);
+  mmval::app::registerCaseCommands(app, registry);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int status = app.exit(e);
+    return status == 0 ? 0 : toStatus(mmval::ExitCode::usage);
+  } catch (const mmval::InputError& e) {
+    std::fprintf(stderr, "mmval: error: %s\n", e.what());
+    return toStatus(mmval::ExitCode::bad_input);
+  } catch (const mmval::UnitError& e) {
+    std::fprintf(stderr, "mmval: error: %s\n", e.what());
+    return toStatus(mmval::ExitCode::bad_input);
+  } catch (const mmval::MetricsFailed& e) {
+    std::fprintf(stderr, "mmval: %s\n", e.what());
+    return toStatus(mmval::ExitCode::metric_failed);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "mmval: internal error: %s\n", e.what());
+    return toStatus(mmval::ExitCode::internal);
+  }
+  return 0;
+}

@@ -37,10 +37,10 @@ void writeFileAtomic(const fs::path& path, std::string_view content) {
   commitTemporary(tmp, path);
 }
 
-StagedDirectory::StagedDirectory(fs::path final_dir)
+StagedDirectory::StagedDirectory(fs::path final_dir, bool resume)
     : m_final(std::move(final_dir)), m_staging(m_final.string() + ".partial") {
   std::error_code ec;
-  fs::remove_all(m_staging, ec);
+  if (!resume) fs::remove_all(m_staging, ec);
   fs::create_directories(m_staging);
 }
 

@@ -22,7 +22,9 @@ void commitTemporary(const std::filesystem::path& temporary, const std::filesyst
 /// the staging directory is left for inspection and the old `dir` is untouched.
 class StagedDirectory {
  public:
-  explicit StagedDirectory(std::filesystem::path final_dir);
+  /// With `resume`, an existing `<dir>.partial` from an interrupted run is kept
+  /// so the runner can pick up its checkpoints; otherwise it is cleared.
+  explicit StagedDirectory(std::filesystem::path final_dir, bool resume = false);
   const std::filesystem::path& path() const { return m_staging; }
   const std::filesystem::path& finalPath() const { return m_final; }
   void commit();

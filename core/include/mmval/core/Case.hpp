@@ -26,6 +26,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mmval/core/Error.hpp"
+#include "mmval/core/ReferenceData.hpp"
 #include "mmval/core/Schema.hpp"
 
 namespace mmval {
@@ -128,6 +129,6 @@ class Case {
 /// Resolves a reference pointer { file, quantity, at } against reference-data.
 /// `where` names the case file location for errors.
 ReferenceValue lookupReference(const std::filesystem::path& file, std::string_view quantity,
-                               const std::map<std::string, std::string>& at, const InputLocation& where);
+                               const AtMap& at, const InputLocation& where);
 
 }  // namespace mmval

@@ -22,7 +22,8 @@ namespace mmval {
 /// renamed into place when the run completes) and run options.
 struct RunContext {
   std::filesystem::path out_dir;
-  bool quiet = false;  ///< no progress bars
+  bool quiet = false;   ///< no progress bars
+  bool resume = false;  ///< out_dir may hold checkpoints of an interrupted run
   int threads = 0;     ///< 0: library default
 };
 

@@ -46,6 +46,13 @@ class InputError : public std::runtime_error {
   std::string m_expected;
 };
 
+/// A run completed and wrote its results, but an acceptance metric failed
+/// (exit status 3). The message summarises which.
+class MetricsFailed : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 /// Builds the message InputError uses; exposed for tests and for tools that
 /// collect several problems before throwing.
 std::string formatInputError(const InputLocation& where, const std::string& problem,

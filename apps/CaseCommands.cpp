@@ -1,0 +1,162 @@
+#include "CaseCommands.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/Case.hpp"
+#include "mmval/core/Error.hpp"
+#include "mmval/core/Run.hpp"
+#include "mmval/reports/Summary.hpp"
+
+namespace fs = std::filesystem;
+
+namespace mmval::app {
+
+namespace {
+
+struct CaseCheckOptions {
+  std::vector<std::string> files;
+  bool resolved = false;
+};
+
+struct CaseDocOptions {
+  std::string kind;
+  std::string out;
+};
+
+struct RunOptionsCli {
+  std::string file;
+  std::string out;
+  bool quiet = false;
+  bool resume = false;
+};
+
+struct ValidateOptions {
+  std::string out = "out/validate";
+  std::string cases = "cases";
+  std::string tag = "default";
+  bool quiet = false;
+};
+
+void printMetrics(const RunSummary& s) {
+  reports::Summary summary;
+  summary.results.push_back(s.result);
+  std::fputs(summary.text().c_str(), stdout);
+  std::printf("%s: %s in %.2f s -> %s\n", s.case_name.c_str(), s.all_pass ? "all metrics pass" : "SOME METRICS FAIL",
+              s.wall_seconds, s.result_file.string().c_str());
+}
+
+/// Case files under `dir` whose case.tags contain `tag` ("all" selects every case).
+std::vector<fs::path> casesTagged(const fs::path& dir, const std::string& tag, const CaseKindRegistry& registry) {
+  if (!fs::is_directory(dir)) throw InputError({dir.string(), 0, 0, {}}, "cases folder not found", dir.string(), "a folder of *.toml case files (--cases)");
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.path().extension() == ".toml") files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  std::vector<fs::path> out;
+  for (const auto& f : files) {
+    const Case c = Case::load(f, registry);
+    const auto& tags = c.strings("case.tags");
+    if (tag == "all" || std::find(tags.begin(), tags.end(), tag) != tags.end()) out.push_back(f);
+  }
+  return out;
+}
+
+void writeSummary(const fs::path& out, const reports::Summary& summary) {
+  writeFileAtomic(out / "metrics.json", summary.metricsJson().dump(2) + "\n");
+  writeFileAtomic(out / "index.md", summary.markdown());
+  writeFileAtomic(out / "index.html", summary.html());
+}
+
+}  // namespace
+
+void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
+  // case-check
+  auto check_opts = std::make_shared<CaseCheckOptions>();
+  CLI::App* check = app.add_subcommand("case-check", "Validate case files against their kind's schema and print the resolved case");
+  check->add_option("files", check_opts->files, "Case files (TOML)")->required();
+  check->add_flag("--resolved", check_opts->resolved, "Print the resolved case (defaults filled in) as JSON");
+  check->callback([check_opts, &registry] {
+    for (const auto& f : check_opts->files) {
+      const Case c = Case::load(f, registry);
+      std::printf("%s: ok (kind %s, case '%s', %zu acceptance criteria, hash %s)\n", f.c_str(), c.kind().c_str(),
+                  c.name().c_str(), c.acceptance().size(), c.hash().c_str());
+      if (check_opts->resolved) std::printf("%s\n", c.resolvedJson().dump(2).c_str());
+    }
+  });
+
+  // case-doc
+  auto doc_opts = std::make_shared<CaseDocOptions>();
+  CLI::App* doc = app.add_subcommand("case-doc", "Print the reference of every case kind's keys (Markdown)");
+  doc->add_option("kind", doc_opts->kind, "Only this kind");
+  doc->add_option("--out", doc_opts->out, "Write to this file instead of stdout");
+  doc->callback([doc_opts, &registry] {
+    std::string text = "# mmval case files\n\nOne TOML file per scene. Quantities take units as strings (\"5 um\", "
+                       "\"0.024 cm/min\", \"2.5 D\"); bare numbers are SI. Known units: " +
+                       knownUnitSymbols() + ".\n\n";
+    bool found = false;
+    for (const auto& name : registry.names()) {
+      if (!doc_opts->kind.empty() && name != doc_opts->kind) continue;
+      text += registry.schema(name).markdown() + "\n";
+      found = true;
+    }
+    if (!found && !doc_opts->kind.empty())
+      throw InputError({"(command line)", 0, 0, "kind"}, "unknown case kind", doc_opts->kind, "one of the kinds listed by `mmval case-doc`");
+    if (doc_opts->out.empty())
+      std::fputs(text.c_str(), stdout);
+    else
+      writeFileAtomic(doc_opts->out, text);
+  });
+
+  // run
+  auto run_opts = std::make_shared<RunOptionsCli>();
+  CLI::App* run = app.add_subcommand("run", "Run one case file and write DIR/result.json (metrics against their references)");
+  run->add_option("case", run_opts->file, "Case file (TOML)")->required();
+  run->add_option("--out", run_opts->out, "Output folder (written as DIR.partial, renamed when complete)")->required();
+  run->add_flag("--quiet", run_opts->quiet, "No progress output");
+  run->add_flag("--resume", run_opts->resume, "Continue an interrupted run from DIR.partial");
+  run->callback([run_opts, &registry] {
+    const Case c = Case::load(run_opts->file, registry);
+    const RunSummary s = runCase(c, registry, run_opts->out, {run_opts->quiet, run_opts->resume});
+    printMetrics(s);
+    if (!s.all_pass) throw MetricsFailed(fmt::format("case '{}': an acceptance metric failed (see {})", c.name(), s.result_file.string()));
+  });
+
+  // validate
+  auto val_opts = std::make_shared<ValidateOptions>();
+  CLI::App* val = app.add_subcommand("validate", "Run the default validation cases and write metrics.json, index.md and index.html");
+  val->add_option("--out", val_opts->out, "Output folder")->capture_default_str();
+  val->add_option("--cases", val_opts->cases, "Folder of case files")->capture_default_str();
+  val->add_option("--tag", val_opts->tag, "Run the cases carrying this tag in case.tags ('all' for every case)")->capture_default_str();
+  val->add_flag("--quiet", val_opts->quiet, "No progress output");
+  val->callback([val_opts, &registry] {
+    const auto start = std::chrono::steady_clock::now();
+    const auto files = casesTagged(val_opts->cases, val_opts->tag, registry);
+    if (files.empty())
+      throw InputError({val_opts->cases, 0, 0, "case.tags"}, "no case carries the tag '" + val_opts->tag + "'", {}, "at least one case to run");
+    const fs::path out = val_opts->out;
+    fs::create_directories(out / "runs");
+    reports::Summary summary;
+    for (std::size_t i = 0; i < files.size(); ++i) {
+      const Case c = Case::load(files[i], registry);
+      std::fprintf(stderr, "[%zu/%zu] %s (%s)\n", i + 1, files.size(), c.name().c_str(), c.kind().c_str());
+      const RunSummary s = runCase(c, registry, out / "runs" / c.name(), {val_opts->quiet, false});
+      summary.results.push_back(s.result);
+      summary.total_wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      writeSummary(out, summary);  // partial summaries survive an interrupted validation
+    }
+    std::fputs(summary.text().c_str(), stdout);
+    std::printf("validation: %zu case(s), %d failing metric(s), %.1f s; summary in %s\n", files.size(), summary.failures(),
+                summary.total_wall_seconds, (out / "index.html").string().c_str());
+    if (summary.failures() > 0) throw MetricsFailed(fmt::format("{} metric(s) outside tolerance (see {})", summary.failures(), (out / "index.md").string()));
+  });
+}
+
+}  // namespace mmval::app

@@ -1,0 +1,44 @@
+// Running a case: dispatch on its kind, evaluate its acceptance criteria,
+// record provenance and cost, and write result.json atomically into a folder
+// that only appears under its final name when the run is complete.
+#pragma once
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "mmval/core/Case.hpp"
+#include "mmval/core/CaseKind.hpp"
+
+namespace mmval {
+
+struct RunSummary {
+  std::string case_name;
+  std::filesystem::path result_file;
+  std::vector<MetricResult> metrics;
+  double wall_seconds = 0.0;
+  bool all_pass = true;  ///< every metric with a tolerance passed
+  nlohmann::json result; ///< what result.json holds
+};
+
+struct RunOptions {
+  bool quiet = false;
+  bool resume = false;  ///< keep `<out>.partial` of an interrupted run for the runner's checkpoints
+};
+
+/// Runs `c` with its kind's runner into `out_dir` (staged as `out_dir.partial`).
+RunSummary runCase(const Case& c, const CaseKindRegistry& registry, const std::filesystem::path& out_dir,
+                   const RunOptions& options = {});
+
+/// Combines a runner's output with the case's acceptance entries: one result
+/// per acceptance entry (a missing metric fails), then the informational ones.
+std::vector<MetricResult> evaluateMetrics(const Case& c, const RunOutput& output);
+
+/// Peak resident memory of this process so far, bytes (getrusage).
+long long peakMemoryBytes();
+
+/// Versions, git hash, compiler, host: the provenance block of result.json.
+nlohmann::json provenanceJson();
+
+}  // namespace mmval

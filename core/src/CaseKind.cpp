@@ -1,0 +1,39 @@
+#include "mmval/core/CaseKind.hpp"
+
+#include <stdexcept>
+
+namespace mmval {
+
+void CaseKindRegistry::add(CaseKind kind) {
+  if (kind.name.empty() || !kind.run || !kind.declare) throw std::logic_error("case kind without name, declare or run");
+  if (m_kinds.count(kind.name) != 0) throw std::logic_error("case kind '" + kind.name + "' registered twice");
+  m_kinds.emplace(kind.name, std::move(kind));
+  // Every schema lists every kind in case.kind's choices, so rebuild them all.
+  m_schemas.clear();
+  const auto all = names();
+  for (const auto& [name, k] : m_kinds) {
+    auto schema = std::make_unique<Schema>(name, k.summary);
+    declareCommonKeys(*schema, all);
+    k.declare(*schema);
+    m_schemas.emplace(name, std::move(schema));
+  }
+}
+
+const CaseKind* CaseKindRegistry::find(std::string_view name) const {
+  auto it = m_kinds.find(name);
+  return it == m_kinds.end() ? nullptr : &it->second;
+}
+
+const Schema& CaseKindRegistry::schema(std::string_view name) const {
+  auto it = m_schemas.find(name);
+  if (it == m_schemas.end()) throw std::logic_error("no case kind '" + std::string(name) + "'");
+  return *it->second;
+}
+
+std::vector<std::string> CaseKindRegistry::names() const {
+  std::vector<std::string> out;
+  for (const auto& [name, k] : m_kinds) out.push_back(name);
+  return out;
+}
+
+}  // namespace mmval

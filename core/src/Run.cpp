@@ -1,0 +1,109 @@
+#include "mmval/core/Run.hpp"
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <ctime>
+
+#include <fmt/format.h>
+
+#include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/BuildInfo.hpp"
+
+namespace mmval {
+
+long long peakMemoryBytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<long long>(usage.ru_maxrss) * 1024;  // Linux reports KiB
+}
+
+nlohmann::json provenanceJson() {
+  char host[256] = {0};
+  gethostname(host, sizeof host - 1);
+  const std::time_t now = std::time(nullptr);
+  char stamp[64];
+  std::strftime(stamp, sizeof stamp, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  return {{"mmval_version", build::kVersion},
+          {"git_hash", build::kGitHash},
+          {"compiler", build::kCompiler},
+          {"build_type", build::kBuildType},
+          {"dependencies",
+           {{"opencv", build::kOpenCV},
+            {"eigen", build::kEigen},
+            {"gsl", build::kGsl},
+            {"petsc", build::kPetsc},
+            {"mpi", build::kMpi},
+            {"tomlplusplus", build::kTomlpp},
+            {"nlohmann_json", build::kNlohmannJson}}},
+          {"host", host},
+          {"cores", static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN))},
+          {"finished_utc", stamp}};
+}
+
+std::vector<MetricResult> evaluateMetrics(const Case& c, const RunOutput& output) {
+  std::vector<MetricResult> out;
+  for (const auto& a : c.acceptance()) {
+    auto it = output.metrics.find(a.metric);
+    if (it == output.metrics.end()) {
+      MetricResult m = evaluateMetric(a, std::nan(""));
+      m.pass = false;
+      m.reason = "the run produced no metric '" + a.metric + "'; " + a.reason;
+      out.push_back(m);
+    } else {
+      out.push_back(evaluateMetric(a, it->second));
+    }
+  }
+  for (const auto& [name, value] : output.metrics) {
+    if (c.acceptanceFor(name) != nullptr) continue;
+    MetricResult m;
+    m.name = name;
+    auto u = output.units.find(name);
+    m.unit = u == output.units.end() ? "1" : u->second;
+    m.value = value / parseUnit(m.unit).to_si;
+    out.push_back(m);
+  }
+  return out;
+}
+
+RunSummary runCase(const Case& c, const CaseKindRegistry& registry, const std::filesystem::path& out_dir,
+                   const RunOptions& options) {
+  const CaseKind* kind = registry.find(c.kind());
+  if (kind == nullptr) throw std::logic_error("no runner for kind '" + c.kind() + "'");
+  StagedDirectory staged(out_dir, options.resume);
+  RunContext ctx;
+  ctx.out_dir = staged.path();
+  ctx.quiet = options.quiet;
+  ctx.resume = options.resume;
+  const auto start = std::chrono::steady_clock::now();
+  const RunOutput output = kind->run(c, ctx);
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  RunSummary s;
+  s.case_name = c.name();
+  s.wall_seconds = wall;
+  s.metrics = evaluateMetrics(c, output);
+  nlohmann::json metrics = nlohmann::json::array();
+  for (const auto& m : s.metrics) {
+    metrics.push_back(m.toJson());
+    if (m.pass.has_value() && !*m.pass) s.all_pass = false;
+  }
+  s.result = {{"schema", "mmval-result/1"},
+              {"case", {{"name", c.name()}, {"kind", c.kind()}, {"file", c.file().string()}, {"hash", c.hash()},
+                        {"description", c.description()}}},
+              {"resolved_case", c.resolvedJson()},
+              {"metrics", metrics},
+              {"all_pass", s.all_pass},
+              {"cost", {{"wall_seconds", wall}, {"peak_memory_bytes", peakMemoryBytes()}}},
+              {"details", output.details},
+              {"files", output.files},
+              {"provenance", provenanceJson()}};
+  writeFileAtomic(staged.path() / "result.json", s.result.dump(2) + "\n");
+  staged.commit();
+  s.result_file = out_dir / "result.json";
+  return s;
+}
+
+}  // namespace mmval

@@ -1,0 +1,151 @@
+#include "mmval/reports/Summary.hpp"
+
+#include <fmt/format.h>
+
+namespace mmval::reports {
+
+namespace {
+
+std::string number(const nlohmann::json& v) {
+  if (v.is_null()) return "-";
+  if (v.is_number()) return fmt::format("{:.6g}", v.get<double>());
+  return v.dump();
+}
+
+std::string passText(const nlohmann::json& m) {
+  if (m["pass"].is_null()) return "info";
+  return m["pass"].get<bool>() ? "pass" : "FAIL";
+}
+
+std::string htmlEscape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string referenceText(const nlohmann::json& m) {
+  const auto& r = m["reference"];
+  if (r.is_null()) return "-";
+  if (r.is_array()) return fmt::format("[{:.6g}, {:.6g}]", r[0].get<double>(), r[1].get<double>());
+  std::string out = number(r);
+  if (m.contains("reference_uncertainty")) out += fmt::format(" ± {:.3g}", m["reference_uncertainty"].get<double>());
+  return out;
+}
+
+std::string errorText(const nlohmann::json& m) {
+  if (m["error"].is_null()) return "-";
+  const double e = m["error"].get<double>();
+  if (m.value("error_kind", "relative") == "relative") return fmt::format("{:.3g} %", 100.0 * e);
+  return fmt::format("{:.3g} {}", e, m.value("unit", ""));
+}
+
+nlohmann::json Summary::metricsJson() const {
+  nlohmann::json cases = nlohmann::json::array(), metrics = nlohmann::json::array();
+  bool all = true;
+  for (const auto& r : results) {
+    const std::string name = r["case"]["name"];
+    cases.push_back({{"name", name}, {"kind", r["case"]["kind"]}, {"hash", r["case"]["hash"]},
+                     {"wall_seconds", r["cost"]["wall_seconds"]}, {"peak_memory_bytes", r["cost"]["peak_memory_bytes"]},
+                     {"all_pass", r["all_pass"]}});
+    for (auto m : r["metrics"]) {
+      m["case"] = name;
+      metrics.push_back(m);
+    }
+    all = all && r["all_pass"].get<bool>();
+  }
+  return {{"schema", "mmval-metrics/1"}, {"cases", cases}, {"metrics", metrics}, {"all_pass", all},
+          {"total_wall_seconds", total_wall_seconds}};
+}
+
+int Summary::failures() const {
+  int n = 0;
+  for (const auto& r : results)
+    for (const auto& m : r["metrics"])
+      if (m["pass"].is_boolean() && !m["pass"].get<bool>()) ++n;
+  return n;
+}
+
+std::string Summary::markdown() const {
+  std::string out = "# mmval validation summary\n\n";
+  out += fmt::format("{} case(s), {} failing metric(s), total wall time {:.1f} s.\n\n", results.size(), failures(),
+                     total_wall_seconds);
+  out += "| case | metric | ours | reference | error | tolerance | result |\n|---|---|---|---|---|---|---|\n";
+  for (const auto& r : results)
+    for (const auto& m : r["metrics"])
+      out += fmt::format("| {} | {} | {} {} | {} | {} | {} | {} |\n", r["case"]["name"].get<std::string>(),
+                         m["name"].get<std::string>(), number(m["value"]), m.value("unit", ""), referenceText(m),
+                         errorText(m), m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>(), passText(m));
+  out += "\n## Cost and provenance\n\n| case | kind | wall time (s) | peak memory (MiB) | case hash |\n|---|---|---|---|---|\n";
+  for (const auto& r : results)
+    out += fmt::format("| {} | {} | {:.2f} | {:.0f} | `{}` |\n", r["case"]["name"].get<std::string>(),
+                       r["case"]["kind"].get<std::string>(), r["cost"]["wall_seconds"].get<double>(),
+                       r["cost"]["peak_memory_bytes"].get<double>() / 1048576.0, r["case"]["hash"].get<std::string>());
+  if (!results.empty()) {
+    const auto& p = results.front()["provenance"];
+    out += fmt::format("\nmmval {} (git {}), {} {}, host {}.\n", p["mmval_version"].get<std::string>(),
+                       p["git_hash"].get<std::string>(), p["compiler"].get<std::string>(),
+                       p["build_type"].get<std::string>(), p["host"].get<std::string>());
+  }
+  out += "\n## Sources of the references\n\n";
+  for (const auto& r : results)
+    for (const auto& m : r["metrics"])
+      if (m.contains("source")) out += fmt::format("- {} / {}: {}\n", r["case"]["name"].get<std::string>(), m["name"].get<std::string>(), m["source"].get<std::string>());
+  return out;
+}
+
+std::string Summary::html() const {
+  std::string out =
+      "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>mmval validation summary</title>\n"
+      "<style>body{font-family:sans-serif;margin:2em;max-width:70em}table{border-collapse:collapse}"
+      "td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}td:first-child,td:nth-child(2){text-align:left}"
+      ".pass{background:#dfd}.FAIL{background:#fcc}.info{color:#666}</style></head><body>\n";
+  out += fmt::format("<h1>mmval validation summary</h1>\n<p>{} case(s), <b>{}</b> failing metric(s), total wall time {:.1f} s.</p>\n",
+                     results.size(), failures(), total_wall_seconds);
+  out += "<table id=\"summary\"><tr><th>case</th><th>metric</th><th>ours</th><th>unit</th><th>reference</th><th>error</th><th>tolerance</th><th>result</th></tr>\n";
+  for (const auto& r : results)
+    for (const auto& m : r["metrics"]) {
+      const std::string pass = passText(m);
+      out += fmt::format("<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+                         pass, htmlEscape(r["case"]["name"].get<std::string>()), htmlEscape(m["name"].get<std::string>()),
+                         number(m["value"]), htmlEscape(m.value("unit", "")), htmlEscape(referenceText(m)),
+                         htmlEscape(errorText(m)),
+                         htmlEscape(m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>()), pass);
+    }
+  out += "</table>\n<h2>Cost</h2>\n<table><tr><th>case</th><th>kind</th><th>wall time (s)</th><th>peak memory (MiB)</th><th>case hash</th></tr>\n";
+  for (const auto& r : results)
+    out += fmt::format("<tr><td>{}</td><td>{}</td><td>{:.2f}</td><td>{:.0f}</td><td>{}</td></tr>\n",
+                       htmlEscape(r["case"]["name"].get<std::string>()), htmlEscape(r["case"]["kind"].get<std::string>()),
+                       r["cost"]["wall_seconds"].get<double>(), r["cost"]["peak_memory_bytes"].get<double>() / 1048576.0,
+                       r["case"]["hash"].get<std::string>());
+  out += "</table>\n<h2>Sources</h2>\n<ul>\n";
+  for (const auto& r : results)
+    for (const auto& m : r["metrics"])
+      if (m.contains("source"))
+        out += fmt::format("<li>{} / {}: {}</li>\n", htmlEscape(r["case"]["name"].get<std::string>()),
+                           htmlEscape(m["name"].get<std::string>()), htmlEscape(m["source"].get<std::string>()));
+  out += "</ul>\n</body></html>\n";
+  return out;
+}
+
+std::string Summary::text() const {
+  std::string out = fmt::format("{:<28} {:<22} {:>14} {:>24} {:>10} {:>10} {}\n", "case", "metric", "ours", "reference",
+                                "error", "tolerance", "result");
+  for (const auto& r : results)
+    for (const auto& m : r["metrics"])
+      out += fmt::format("{:<28} {:<22} {:>14} {:>24} {:>10} {:>10} {}\n", r["case"]["name"].get<std::string>(),
+                         m["name"].get<std::string>(), number(m["value"]) + " " + m.value("unit", ""), referenceText(m),
+                         errorText(m), m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>(), passText(m));
+  return out;
+}
+
+}  // namespace mmval::reports
