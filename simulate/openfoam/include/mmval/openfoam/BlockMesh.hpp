@@ -1,0 +1,64 @@
+// blockMesh dictionaries for the geometries the OpenFOAM peer runs: a plain
+// channel, a cylinder in a channel (a multi-block O-grid, so the peer runs at
+// its best), and a periodic unit cell of a square cylinder array (O-grid with
+// cyclic patch pairs). 2D cases are one cell thick with empty front and back.
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+namespace mmval::openfoam {
+
+struct Point {
+  double x = 0, y = 0, z = 0;
+};
+
+struct Block {
+  std::array<int, 8> v{};     ///< vertex ids: bottom face CCW seen from +z, then top face
+  std::array<int, 3> cells{}; ///< along local x1, x2, x3
+  std::array<double, 3> grading{1, 1, 1};  ///< simpleGrading: last/first cell size ratio
+};
+
+struct ArcEdge {
+  int from = 0, to = 0;
+  Point through;
+};
+
+struct Patch {
+  std::string name, type;                  ///< patch, wall, empty, cyclic, symmetryPlane
+  std::vector<std::array<int, 4>> faces;
+  std::string neighbour;                   ///< cyclic partner
+};
+
+struct BlockMeshDict {
+  std::vector<Point> vertices;
+  std::vector<Block> blocks;
+  std::vector<ArcEdge> arcs;
+  std::vector<Patch> patches;
+  long long cellCount() const;
+  /// The dictionary text (system/blockMeshDict).
+  std::string text() const;
+};
+
+/// Channel [0, length] x [0, height], one cell deep; patches inlet, outlet,
+/// walls (or top/bottom pairs as given), frontAndBack.
+BlockMeshDict channelMesh(double length, double height, double depth, int nx, int ny);
+
+struct CylinderChannel {
+  double length = 2.2, height = 0.41;     ///< channel
+  double cx = 0.2, cy = 0.2, diameter = 0.1;
+  double depth = 0.1;                     ///< extrusion thickness (2D: any)
+};
+
+/// O-grid around the cylinder inside a square box of side 4r (clipped to the
+/// channel), Cartesian blocks elsewhere, cells stretched downstream.
+/// `cells_around` (multiple of 4) sets the resolution; `radial_grading` is the
+/// ratio of the outer to the inner radial cell size.
+BlockMeshDict cylinderChannelMesh(const CylinderChannel& g, int cells_around, double radial_grading = 4.0);
+
+/// Unit cell [0, L]^2 with a cylinder of radius a at its centre: four O-grid
+/// blocks from the circle to the cell edges; cyclic pairs left/right and
+/// bottom/top; patch "cylinder" is a wall.
+BlockMeshDict periodicCellMesh(double cell, double radius, double depth, int cells_around, double radial_grading = 2.0);
+
+}  // namespace mmval::openfoam

@@ -1,0 +1,94 @@
+// The OpenFOAM peer: writes a complete, self-contained OpenFOAM v1912 case
+// (system/, constant/, 0/) for a scene, runs blockMesh and simpleFoam or
+// pimpleFoam (serially or decomposed over N ranks), and reads back forces,
+// pressure probes and fluxes. The generated case stays on disk so a user can
+// rerun or change it by hand.
+//
+// Environment facts this relies on (docs/openfoam-notes.md): WM_PROJECT_DIR
+// must point at /usr/share/openfoam; mpirun needs --allow-run-as-root as
+// root; scotch/metis are stubs, so decomposition is "simple"; nothing
+// compiled at run time works, so inlet profiles use exprFixedValue.
+#pragma once
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "mmval/openfoam/BlockMesh.hpp"
+
+namespace mmval::openfoam {
+
+struct Installation {
+  bool available = false;
+  std::string version;  ///< e.g. "v1912"
+  std::string reason;   ///< why not available
+  std::filesystem::path project_dir;
+};
+
+/// Looks for the OpenFOAM binaries and etc/ folder.
+Installation detect();
+
+/// One scene, in SI units, as the peer needs it.
+struct Scene {
+  enum class Kind { channel, cylinder_channel, periodic_array } kind = Kind::cylinder_channel;
+  double rho = 1.0, nu = 1e-3;
+  // channel and cylinder channel
+  double length = 2.2, height = 0.41, depth = 0.1;
+  double inflow_max = 0.3;          ///< peak of the parabolic inflow (cylinder channel)
+  double pressure_drop = 0.0;       ///< inlet - outlet, kinematic (channel)
+  double cx = 0.2, cy = 0.2, diameter = 0.1;
+  double u_ref = 0.2, l_ref = 0.1;  ///< for force coefficients: c = 2F / (rho u_ref^2 l_ref depth)
+  std::vector<std::array<double, 2>> pressure_probes;  ///< dp = p(first) - p(second)
+  // periodic array
+  double cell = 1.0, radius = 0.25;
+  double mean_velocity = 1e-3;      ///< interstitial mean velocity the source enforces
+  // numerics
+  int cells_around = 64;            ///< resolution (cylinder: cells around it; channel: cells across)
+  bool unsteady = false;
+  double end_time = 0, dt = 0;      ///< unsteady
+  int max_iterations = 2000;        ///< steady
+  double residual = 1e-7;           ///< steady convergence target (p and U)
+};
+
+struct StepTiming {
+  std::string command;
+  double wall_seconds = 0;
+  int exit_code = 0;
+};
+
+struct Result {
+  bool ok = false;
+  std::string failure;               ///< OpenFOAM's own message when a step failed
+  long long cells = 0;
+  int ranks = 1;
+  double mesh_seconds = 0, solve_seconds = 0;
+  std::vector<StepTiming> steps;
+  int iterations = 0;
+  // outputs (SI, kinematic pressures multiplied by rho)
+  std::optional<double> c_d, c_l, c_d_max, c_l_max, strouhal, dp, flow_rate, permeability, drag_per_length, f_star;
+};
+
+/// Writes the case into `dir` (which is created); returns the cell count.
+long long writeCase(const Scene& scene, const std::filesystem::path& dir, int ranks = 1);
+
+/// Runs blockMesh (+ decomposePar) and the solver in `dir`, then reads the results.
+Result runCase(const Scene& scene, const std::filesystem::path& dir, int ranks = 1);
+
+/// Runs a case already written into `dir` (possibly edited by hand).
+Result runWrittenCase(const Scene& scene, const std::filesystem::path& dir, int ranks = 1);
+
+/// Reads the last line of a forceCoeffs coefficient.dat (Time Cd Cs Cl ...), or
+/// the whole history when `history` is given.
+struct Coefficients {
+  double time = 0, cd = 0, cl = 0;
+};
+std::vector<Coefficients> readCoefficients(const std::filesystem::path& file);
+
+/// Strouhal number from a lift history by zero crossings over the last
+/// `periods` periods; returns nullopt without a clear oscillation.
+std::optional<double> strouhalFromLift(const std::vector<Coefficients>& history, double l_ref, double u_ref, int periods = 4);
+
+/// The first "FOAM FATAL ERROR" block of a log, or its last lines.
+std::string fatalMessage(const std::string& log);
+
+}  // namespace mmval::openfoam

@@ -1,0 +1,470 @@
+#include "mmval/openfoam/Peer.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "mmval/core/AtomicFile.hpp"
+#include "mmval/openfoam/FoamFile.hpp"
+
+namespace fs = std::filesystem;
+
+namespace mmval::openfoam {
+
+std::string foamHeader(const std::string& cls, const std::string& object, const std::string& location) {
+  std::string out =
+      "/*--------------------------------*- C++ -*----------------------------------*\\\n"
+      "  Written by mmval (OpenFOAM peer). Edit freely and rerun by hand.\n"
+      "\\*---------------------------------------------------------------------------*/\n"
+      "FoamFile\n{\n    version     2.0;\n    format      ascii;\n";
+  out += fmt::format("    class       {};\n", cls);
+  if (!location.empty()) out += fmt::format("    location    \"{}\";\n", location);
+  out += fmt::format("    object      {};\n}}\n\n", object);
+  return out;
+}
+
+Installation detect() {
+  Installation inst;
+  const char* env = std::getenv("WM_PROJECT_DIR");
+  inst.project_dir = env != nullptr ? fs::path(env) : fs::path("/usr/share/openfoam");
+  if (!fs::exists(inst.project_dir / "etc" / "controlDict")) {
+    inst.reason = "OpenFOAM not found: no " + (inst.project_dir / "etc/controlDict").string() +
+                  " (install the Debian package 'openfoam', or set WM_PROJECT_DIR)";
+    return inst;
+  }
+  for (const char* tool : {"blockMesh", "simpleFoam", "pimpleFoam"}) {
+    if (std::system(fmt::format("command -v {} >/dev/null 2>&1", tool).c_str()) != 0) {
+      inst.reason = fmt::format("OpenFOAM tool '{}' not on PATH (install the Debian package 'openfoam')", tool);
+      return inst;
+    }
+  }
+  inst.available = true;
+  inst.version = "v1912";
+  std::ifstream ver("/usr/share/doc/openfoam/changelog.Debian.gz");
+  (void)ver;
+  return inst;
+}
+
+namespace {
+
+std::string vec(double x, double y, double z) { return fmt::format("({:.12g} {:.12g} {:.12g})", x, y, z); }
+
+std::string boundaryField(const std::vector<std::pair<std::string, std::string>>& patches) {
+  std::string out = "boundaryField\n{\n";
+  for (const auto& [name, body] : patches) out += fmt::format("    {}\n    {{\n{}    }}\n", name, body);
+  return out + "}\n";
+}
+
+std::string controlDict(const Scene& s, const std::string& application, const std::string& functions) {
+  std::string out = foamHeader("dictionary", "controlDict", "system");
+  out += fmt::format("application     {};\nstartFrom       startTime;\nstartTime       0;\nstopAt          endTime;\n", application);
+  if (s.unsteady) {
+    out += fmt::format("endTime         {:.12g};\ndeltaT          {:.12g};\nwriteControl    adjustableRunTime;\nwriteInterval   {:.12g};\n",
+                       s.end_time, s.dt, s.end_time);
+    out += "adjustTimeStep  yes;\nmaxCo           0.5;\n";
+  } else {
+    out += fmt::format("endTime         {};\ndeltaT          1;\nwriteControl    timeStep;\nwriteInterval   {};\n", s.max_iterations,
+                       s.max_iterations);
+  }
+  out += "purgeWrite      1;\nwriteFormat     ascii;\nwritePrecision  12;\nwriteCompression off;\ntimeFormat      general;\n"
+         "timePrecision   8;\nrunTimeModifiable false;\n\nfunctions\n{\n" +
+         functions + "}\n";
+  return out;
+}
+
+std::string fvSchemes(const Scene& s) {
+  std::string out = foamHeader("dictionary", "fvSchemes", "system");
+  out += s.unsteady ? "ddtSchemes { default backward; }\n" : "ddtSchemes { default steadyState; }\n";
+  out += "gradSchemes { default Gauss linear; }\n"
+         "divSchemes\n{\n    default none;\n";
+  out += s.unsteady ? "    div(phi,U) Gauss linear;\n" : "    div(phi,U) bounded Gauss linearUpwind grad(U);\n";
+  out += "    div((nuEff*dev2(T(grad(U))))) Gauss linear;\n}\n"
+         "laplacianSchemes { default Gauss linear corrected; }\n"
+         "interpolationSchemes { default linear; }\n"
+         "snGradSchemes { default corrected; }\n"
+         "wallDist { method meshWave; }\n";
+  return out;
+}
+
+std::string fvSolution(const Scene& s, bool reference_pressure) {
+  std::string out = foamHeader("dictionary", "fvSolution", "system");
+  out += "solvers\n{\n"
+         "    p { solver GAMG; smoother GaussSeidel; tolerance 1e-10; relTol 0.01; }\n"
+         "    pFinal { $p; relTol 0; }\n"
+         "    \"(U|UFinal)\" { solver smoothSolver; smoother symGaussSeidel; tolerance 1e-12; relTol 0.05; }\n}\n";
+  const std::string ref = reference_pressure ? "    pRefCell 0;\n    pRefValue 0;\n" : "";
+  if (s.unsteady) {
+    out += "PIMPLE\n{\n    nOuterCorrectors 1;\n    nCorrectors 2;\n    nNonOrthogonalCorrectors 1;\n" + ref + "}\n";
+  } else {
+    out += fmt::format("SIMPLE\n{{\n    nNonOrthogonalCorrectors 1;\n    consistent yes;\n{}    residualControl {{ p {:g}; U {:g}; }}\n}}\n",
+                       ref, s.residual, s.residual);
+    out += "relaxationFactors\n{\n    equations { U 0.9; \".*\" 0.9; }\n    fields { p 1; }\n}\n";
+  }
+  return out;
+}
+
+/// Slabs along x, or along y for periodic cells (a surfaceFieldValue on a
+/// cyclic patch fails in parallel when the decomposition splits the pair).
+std::string decomposeParDict(int ranks, bool along_y) {
+  return foamHeader("dictionary", "decomposeParDict", "system") +
+         fmt::format("numberOfSubdomains {};\nmethod simple;\ncoeffs {{ n ({} {} 1); }}\n", ranks, along_y ? 1 : ranks,
+                     along_y ? ranks : 1);
+}
+
+std::string transportProperties(const Scene& s) {
+  return foamHeader("dictionary", "transportProperties", "constant") +
+         fmt::format("transportModel Newtonian;\nnu {:.12g};\n", s.nu);
+}
+
+std::string turbulenceProperties() {
+  return foamHeader("dictionary", "turbulenceProperties", "constant") + "simulationType laminar;\n";
+}
+
+const std::string kNoSlip = "        type noSlip;\n";
+const std::string kZeroGradient = "        type zeroGradient;\n";
+const std::string kEmpty = "        type empty;\n";
+const std::string kCyclic = "        type cyclic;\n";
+
+void put(const fs::path& file, const std::string& text) { writeFileAtomic(file, text); }
+
+}  // namespace
+
+long long writeCase(const Scene& s, const fs::path& dir, int ranks) {
+  fs::create_directories(dir / "system");
+  fs::create_directories(dir / "constant");
+  fs::create_directories(dir / "0");
+  BlockMeshDict mesh;
+  std::string functions;
+  std::string u_file = foamHeader("volVectorField", "U", "0") + "dimensions [0 1 -1 0 0 0 0];\ninternalField uniform (0 0 0);\n\n";
+  std::string p_file = foamHeader("volScalarField", "p", "0") + "dimensions [0 2 -2 0 0 0 0];\ninternalField uniform 0;\n\n";
+  bool reference_pressure = false;
+
+  switch (s.kind) {
+    case Scene::Kind::cylinder_channel: {
+      CylinderChannel g{s.length, s.height, s.cx, s.cy, s.diameter, s.depth};
+      mesh = cylinderChannelMesh(g, s.cells_around);
+      const double zc = 0.5 * s.depth;
+      functions += fmt::format(
+          "    forceCoeffs1\n    {{\n        type forceCoeffs;\n        libs (\"libforces.so\");\n        writeControl timeStep;\n"
+          "        writeInterval 1;\n        patches (cylinder);\n        rho rhoInf;\n        rhoInf {:.12g};\n"
+          "        liftDir (0 1 0);\n        dragDir (1 0 0);\n        CofR {};\n        pitchAxis (0 0 1);\n"
+          "        magUInf {:.12g};\n        lRef {:.12g};\n        Aref {:.12g};\n    }}\n",
+          s.rho, vec(s.cx, s.cy, zc), s.u_ref, s.l_ref, s.l_ref * s.depth);
+      if (!s.pressure_probes.empty()) {
+        std::string points;
+        const double r = 0.5 * s.diameter;
+        for (auto [x, y] : s.pressure_probes) {
+          // Points on the cylinder surface are moved a hair into the fluid so a cell contains them.
+          const double dx = x - s.cx, dy = y - s.cy, d = std::hypot(dx, dy);
+          if (d > 0 && d < r * (1 + 1e-6)) {
+            x = s.cx + dx / d * r * (1 + 1e-6);
+            y = s.cy + dy / d * r * (1 + 1e-6);
+          }
+          points += "            " + vec(x, y, zc) + "\n";
+        }
+        functions += "    probes1\n    {\n        type probes;\n        libs (\"libsampling.so\");\n        writeControl timeStep;\n"
+                     "        writeInterval 1;\n        fields (p);\n        interpolationScheme cellPoint;\n        probeLocations\n        (\n" +
+                     points + "        );\n    }\n";
+      }
+      const std::string inlet = fmt::format(
+          "        type exprFixedValue;\n        value uniform (0 0 0);\n"
+          "        valueExpr \"vector(4*{0:.12g}*pos().y()*({1:.12g}-pos().y())/({1:.12g}*{1:.12g}), 0, 0)\";\n",
+          s.inflow_max, s.height);
+      u_file += boundaryField({{"inlet", inlet}, {"outlet", kZeroGradient}, {"walls", kNoSlip}, {"cylinder", kNoSlip}, {"frontAndBack", kEmpty}});
+      p_file += boundaryField({{"inlet", kZeroGradient}, {"outlet", "        type fixedValue;\n        value uniform 0;\n"},
+                               {"walls", kZeroGradient}, {"cylinder", kZeroGradient}, {"frontAndBack", kEmpty}});
+      break;
+    }
+    case Scene::Kind::periodic_array: {
+      mesh = periodicCellMesh(s.cell, s.radius, s.depth, s.cells_around);
+      reference_pressure = true;
+      // The superficial velocity is measured as the flux through one periodic face.
+      functions += "    fluxLeft\n    {\n        type surfaceFieldValue;\n        libs (\"libfieldFunctionObjects.so\");\n"
+                   "        writeControl timeStep;\n        writeInterval 1;\n        log false;\n        writeFields false;\n"
+                   "        regionType patch;\n        name left;\n        operation sum;\n        fields (phi);\n    }\n";
+      u_file += boundaryField({{"left", kCyclic}, {"right", kCyclic}, {"bottom", kCyclic}, {"top", kCyclic}, {"cylinder", kNoSlip}, {"frontAndBack", kEmpty}});
+      p_file += boundaryField({{"left", kCyclic}, {"right", kCyclic}, {"bottom", kCyclic}, {"top", kCyclic}, {"cylinder", kZeroGradient}, {"frontAndBack", kEmpty}});
+      put(dir / "constant" / "fvOptions",
+          foamHeader("dictionary", "fvOptions", "constant") +
+              fmt::format("momentumSource\n{{\n    type meanVelocityForce;\n    selectionMode all;\n    fields (U);\n"
+                          "    Ubar ({:.12g} 0 0);\n}}\n",
+                          s.mean_velocity));
+      break;
+    }
+    case Scene::Kind::channel: {
+      const int ny = std::max(4, s.cells_around);
+      const int nx = std::max(4, static_cast<int>(std::lround(ny * s.length / s.height / 4)));
+      mesh = channelMesh(s.length, s.height, s.depth, nx, ny);
+      functions += "    flowRate\n    {\n        type surfaceFieldValue;\n        libs (\"libfieldFunctionObjects.so\");\n"
+                   "        writeControl timeStep;\n        writeInterval 1;\n        log false;\n        writeFields false;\n"
+                   "        regionType patch;\n        name outlet;\n        operation sum;\n        fields (phi);\n    }\n";
+      u_file += boundaryField({{"inlet", "        type pressureInletOutletVelocity;\n        value uniform (0 0 0);\n"},
+                               {"outlet", "        type pressureInletOutletVelocity;\n        value uniform (0 0 0);\n"},
+                               {"walls", kNoSlip}, {"frontAndBack", kEmpty}});
+      p_file += boundaryField({{"inlet", fmt::format("        type fixedValue;\n        value uniform {:.12g};\n", s.pressure_drop)},
+                               {"outlet", "        type fixedValue;\n        value uniform 0;\n"},
+                               {"walls", kZeroGradient}, {"frontAndBack", kEmpty}});
+      break;
+    }
+  }
+  put(dir / "system" / "blockMeshDict", mesh.text());
+  put(dir / "system" / "controlDict", controlDict(s, s.unsteady ? "pimpleFoam" : "simpleFoam", functions));
+  put(dir / "system" / "fvSchemes", fvSchemes(s));
+  put(dir / "system" / "fvSolution", fvSolution(s, reference_pressure));
+  put(dir / "system" / "decomposeParDict", decomposeParDict(std::max(1, ranks), s.kind == Scene::Kind::periodic_array));
+  put(dir / "constant" / "transportProperties", transportProperties(s));
+  put(dir / "constant" / "turbulenceProperties", turbulenceProperties());
+  put(dir / "0" / "U", u_file);
+  put(dir / "0" / "p", p_file);
+  put(dir / "Allrun",
+      fmt::format("#!/bin/sh\n# Reruns this case by hand (written by mmval).\ncd \"$(dirname \"$0\")\"\n"
+                  "export WM_PROJECT_DIR=${{WM_PROJECT_DIR:-/usr/share/openfoam}}\n"
+                  "blockMesh > log.blockMesh 2>&1 || exit 1\n{}",
+                  ranks > 1 ? fmt::format("decomposePar -force > log.decomposePar 2>&1 || exit 1\n"
+                                          "mpirun --allow-run-as-root -np {} {} -parallel > log.solver 2>&1\n",
+                                          ranks, s.unsteady ? "pimpleFoam" : "simpleFoam")
+                            : fmt::format("{} > log.solver 2>&1\n", s.unsteady ? "pimpleFoam" : "simpleFoam")));
+  fs::permissions(dir / "Allrun", fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec, fs::perm_options::add);
+  return mesh.cellCount();
+}
+
+std::string fatalMessage(const std::string& log) {
+  const auto pos = log.find("FOAM FATAL");
+  if (pos != std::string::npos) {
+    std::string block = log.substr(pos, 1200);
+    const auto end = block.find("\n\n\n");
+    if (end != std::string::npos) block.resize(end);
+    return block;
+  }
+  // Last few lines.
+  std::vector<std::string> lines;
+  std::istringstream in(log);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  std::string out;
+  for (std::size_t i = lines.size() > 8 ? lines.size() - 8 : 0; i < lines.size(); ++i) out += lines[i] + "\n";
+  return out;
+}
+
+std::vector<Coefficients> readCoefficients(const fs::path& file) {
+  std::ifstream in(file);
+  if (!in) throw std::runtime_error("OpenFOAM peer: no force coefficients at " + file.string());
+  std::vector<Coefficients> out;
+  // Columns named in the last comment line: "# Time Cd Cs Cl CmRoll CmPitch CmYaw Cd(f) Cd(r) ..."
+  int col_cd = 1, col_cl = 3;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty()) continue;
+    if (line[0] == '#') {
+      std::istringstream h(line.substr(1));
+      std::vector<std::string> names;
+      for (std::string w; h >> w;) names.push_back(w);
+      for (std::size_t i = 0; i < names.size(); ++i) {
+        if (names[i] == "Cd") col_cd = static_cast<int>(i);
+        if (names[i] == "Cl") col_cl = static_cast<int>(i);
+      }
+      continue;
+    }
+    std::istringstream row(line);
+    std::vector<double> v;
+    for (double x; row >> x;) v.push_back(x);
+    if (static_cast<int>(v.size()) > std::max(col_cd, col_cl)) out.push_back({v[0], v[col_cd], v[col_cl]});
+  }
+  return out;
+}
+
+std::optional<double> strouhalFromLift(const std::vector<Coefficients>& h, double l_ref, double u_ref, int periods) {
+  if (h.size() < 10) return std::nullopt;
+  // Use the last half of the history: mean-removed upward zero crossings.
+  const std::size_t start = h.size() / 2;
+  double mean = 0;
+  for (std::size_t i = start; i < h.size(); ++i) mean += h[i].cl;
+  mean /= static_cast<double>(h.size() - start);
+  std::vector<double> crossings;
+  for (std::size_t i = start + 1; i < h.size(); ++i) {
+    const double a = h[i - 1].cl - mean, b = h[i].cl - mean;
+    if (a < 0 && b >= 0) crossings.push_back(h[i - 1].time + (h[i].time - h[i - 1].time) * (-a) / (b - a));
+  }
+  if (static_cast<int>(crossings.size()) < 2) return std::nullopt;
+  const int use = std::min<int>(periods, static_cast<int>(crossings.size()) - 1);
+  const double period = (crossings.back() - crossings[crossings.size() - 1 - use]) / use;
+  if (period <= 0) return std::nullopt;
+  return l_ref / (period * u_ref);
+}
+
+namespace {
+
+std::string readText(const fs::path& file) {
+  std::ifstream in(file);
+  std::stringstream b;
+  b << in.rdbuf();
+  return b.str();
+}
+
+std::string shellQuote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+StepTiming runStep(const fs::path& dir, const std::string& command, const std::string& log) {
+  const Installation inst = detect();
+  const std::string env = fmt::format(
+      "WM_PROJECT_DIR={} GLIBC_TUNABLES=glibc.malloc.mmap_threshold=4294967295:glibc.malloc.trim_threshold=4294967295",
+      shellQuote(inst.project_dir.string()));
+  const std::string line = fmt::format("cd {} && env {} {} > {} 2>&1", shellQuote(dir.string()), env, command, log);
+  const auto t0 = std::chrono::steady_clock::now();
+  const int status = std::system(line.c_str());
+  StepTiming t;
+  t.command = command;
+  t.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  t.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+  return t;
+}
+
+std::optional<double> lastPressureGradient(const std::string& log) {
+  // meanVelocityForce reports "Pressure gradient source: uncorrected Ubar = U, pressure gradient = G".
+  static const std::regex re("pressure gradient = ([-+0-9.eE]+)");
+  std::optional<double> g;
+  for (auto it = std::sregex_iterator(log.begin(), log.end(), re); it != std::sregex_iterator(); ++it) g = std::stod((*it)[1]);
+  return g;
+}
+
+int lastIteration(const std::string& log) {
+  static const std::regex re("\\nTime = ([0-9.eE+-]+)");
+  int n = 0;
+  for (auto it = std::sregex_iterator(log.begin(), log.end(), re); it != std::sregex_iterator(); ++it) ++n;
+  return n;
+}
+
+std::vector<double> lastRow(const fs::path& file) {
+  std::ifstream in(file);
+  std::vector<double> v;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream row(line);
+    std::vector<double> cur;
+    for (double x; row >> x;) cur.push_back(x);
+    if (!cur.empty()) v = cur;
+  }
+  return v;
+}
+
+}  // namespace
+
+Result runCase(const Scene& s, const fs::path& dir, int ranks) {
+  const Installation inst = detect();
+  if (!inst.available) {
+    Result r;
+    r.failure = inst.reason;
+    return r;
+  }
+  writeCase(s, dir, ranks);
+  return runWrittenCase(s, dir, ranks);
+}
+
+Result runWrittenCase(const Scene& s, const fs::path& dir, int ranks) {
+  Result r;
+  r.ranks = std::max(1, ranks);
+  const Installation inst = detect();
+  if (!inst.available) {
+    r.failure = inst.reason;
+    return r;
+  }
+  const std::string solver = s.unsteady ? "pimpleFoam" : "simpleFoam";
+  auto step = [&](const std::string& cmd, const std::string& log) {
+    StepTiming t = runStep(dir, cmd, log);
+    r.steps.push_back(t);
+    if (t.exit_code != 0) r.failure = fmt::format("{} failed (exit {}): {}", cmd, t.exit_code, fatalMessage(readText(dir / log)));
+    return t.exit_code == 0;
+  };
+  if (!step("blockMesh", "log.blockMesh")) return r;
+  r.mesh_seconds = r.steps.back().wall_seconds;
+  if (!step("checkMesh", "log.checkMesh")) return r;
+  const std::string check = readText(dir / "log.checkMesh");
+  if (check.find("Failed") != std::string::npos && check.find("mesh checks") != std::string::npos) {
+    r.failure = "checkMesh reports errors: " + fatalMessage(check.substr(check.find("Failed") > 600 ? check.find("Failed") - 600 : 0));
+    return r;
+  }
+  r.mesh_seconds += r.steps.back().wall_seconds;
+  {
+    static const std::regex cells_re("cells: +([0-9]+)");
+    std::smatch m;
+    if (std::regex_search(check, m, cells_re)) r.cells = std::stoll(m[1]);
+  }
+  if (r.ranks > 1) {
+    if (!step("decomposePar -force", "log.decomposePar")) return r;
+    const std::string root = geteuid() == 0 ? "--allow-run-as-root " : "";
+    if (!step(fmt::format("mpirun {}-np {} {} -parallel", root, r.ranks, solver), "log.solver")) return r;
+  } else if (!step(solver, "log.solver")) {
+    return r;
+  }
+  r.solve_seconds = r.steps.back().wall_seconds;
+  const std::string log = readText(dir / "log.solver");
+  r.iterations = lastIteration(log);
+
+  switch (s.kind) {
+    case Scene::Kind::cylinder_channel: {
+      const auto hist = readCoefficients(dir / "postProcessing" / "forceCoeffs1" / "0" / "coefficient.dat");
+      if (hist.empty()) {
+        r.failure = "no force coefficients written";
+        return r;
+      }
+      r.c_d = hist.back().cd;
+      r.c_l = hist.back().cl;
+      if (s.unsteady) {
+        double cdmax = -1e300, clmax = -1e300;
+        for (std::size_t i = hist.size() / 2; i < hist.size(); ++i) {
+          cdmax = std::max(cdmax, hist[i].cd);
+          clmax = std::max(clmax, hist[i].cl);
+        }
+        r.c_d_max = cdmax;
+        r.c_l_max = clmax;
+        r.strouhal = strouhalFromLift(hist, s.l_ref, s.u_ref);
+      }
+      if (s.pressure_probes.size() >= 2) {
+        const auto row = lastRow(dir / "postProcessing" / "probes1" / "0" / "p");
+        if (row.size() >= 3) r.dp = (row[1] - row[2]) * s.rho;
+      }
+      break;
+    }
+    case Scene::Kind::periodic_array: {
+      const auto g = lastPressureGradient(log);
+      if (!g) {
+        r.failure = "meanVelocityForce reported no pressure gradient in log.solver";
+        return r;
+      }
+      // The body force f stands for the mean pressure gradient G. Sangani & Acrivos' drag per
+      // cylinder includes the force of the linear pressure part on the cylinder itself, so
+      // F = G L^2 per unit length (not G times the fluid area, which is what a `forces`
+      // function object on the periodic pressure would report). With the superficial
+      // velocity U_d from the flux through the left face, F* = F / (mu U_d) = f L^2 / (nu U_d).
+      const auto flux = lastRow(dir / "postProcessing" / "fluxLeft" / "0" / "surfaceFieldValue.dat");
+      if (flux.size() < 2 || flux[1] == 0.0) {
+        r.failure = "no flux through the periodic face was written";
+        return r;
+      }
+      const double u_darcy = std::abs(flux[1]) / (s.cell * s.depth);
+      r.f_star = *g * s.cell * s.cell / (s.nu * u_darcy);
+      r.permeability = s.cell * s.cell / *r.f_star;
+      r.drag_per_length = *r.f_star * s.rho * s.nu * u_darcy;
+      break;
+    }
+    case Scene::Kind::channel: {
+      const auto row = lastRow(dir / "postProcessing" / "flowRate" / "0" / "surfaceFieldValue.dat");
+      if (row.size() >= 2) r.flow_rate = row[1] / s.depth;  // per unit depth
+      break;
+    }
+  }
+  r.ok = true;
+  return r;
+}
+
+}  // namespace mmval::openfoam

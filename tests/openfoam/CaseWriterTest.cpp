@@ -1,0 +1,142 @@
+// The OpenFOAM case writer, checked without running OpenFOAM: block
+// topology, patch names and types, boundary conditions per scene kind.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "mmval/openfoam/BlockMesh.hpp"
+#include "mmval/openfoam/Peer.hpp"
+
+namespace mmval::openfoam {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string slurp(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream b;
+  b << in.rdbuf();
+  return b.str();
+}
+
+/// Each interior face of a valid 2D block layout is shared by exactly two
+/// blocks and each boundary face belongs to exactly one patch.
+void expectClosedTopology(const BlockMeshDict& d) {
+  std::map<std::set<int>, int> faces;
+  for (const auto& b : d.blocks) {
+    const int f[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4}, {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}};
+    for (const auto& face : f) faces[{b.v[face[0]], b.v[face[1]], b.v[face[2]], b.v[face[3]]}]++;
+  }
+  std::map<std::set<int>, int> patch_faces;
+  for (const auto& p : d.patches)
+    for (const auto& f : p.faces) patch_faces[{f[0], f[1], f[2], f[3]}]++;
+  for (const auto& [face, count] : faces) {
+    if (count == 2) {
+      EXPECT_EQ(patch_faces.count(face), 0u) << "interior face listed in a patch";
+    } else {
+      EXPECT_EQ(count, 1);
+      EXPECT_EQ(patch_faces[face], 1) << "boundary face not in exactly one patch";
+    }
+  }
+  for (const auto& [face, count] : patch_faces) EXPECT_EQ(faces.count(face), 1u) << "patch face is not a block face";
+}
+
+TEST(BlockMesh, CylinderChannelIsClosedAndNamesItsPatches) {
+  const CylinderChannel g;  // Schaefer-Turek geometry
+  const BlockMeshDict d = cylinderChannelMesh(g, 64);
+  EXPECT_EQ(d.blocks.size(), 12u);
+  EXPECT_EQ(d.arcs.size(), 8u);
+  expectClosedTopology(d);
+  const std::string text = d.text();
+  for (const char* name : {"inlet", "outlet", "walls", "cylinder", "frontAndBack"}) EXPECT_THAT(text, HasSubstr(name));
+  EXPECT_THAT(text, HasSubstr("type empty;"));
+  // Arc mid-points lie on the cylinder: |p - c| = r.
+  for (const auto& a : d.arcs) EXPECT_NEAR(std::hypot(a.through.x - 0.2, a.through.y - 0.2), 0.05, 1e-12);
+  EXPECT_GT(d.cellCount(), 2000);
+  EXPECT_LT(d.cellCount(), 20000);
+}
+
+TEST(BlockMesh, CellsAroundMustBeAMultipleOfFour) {
+  EXPECT_THROW(cylinderChannelMesh(CylinderChannel{}, 30), std::invalid_argument);
+  EXPECT_THROW(periodicCellMesh(1.0, 0.6, 0.1, 32), std::invalid_argument);  // radius too large for the cell
+}
+
+TEST(BlockMesh, PeriodicCellHasCyclicPairs) {
+  const BlockMeshDict d = periodicCellMesh(1.0, std::sqrt(0.2 / M_PI), 0.1, 32);
+  expectClosedTopology(d);
+  const std::string text = d.text();
+  EXPECT_THAT(text, HasSubstr("type cyclic;"));
+  EXPECT_THAT(text, HasSubstr("neighbourPatch right;"));
+  EXPECT_THAT(text, HasSubstr("neighbourPatch top;"));
+}
+
+TEST(CaseWriter, CylinderCaseHasParabolicInletForcesAndProbes) {
+  Scene s;
+  s.pressure_probes = {{0.15, 0.2}, {0.25, 0.2}};
+  const auto dir = std::filesystem::path(MMVAL_BINARY_DIR) / "test-output" / "foam-writer-cyl";
+  std::filesystem::remove_all(dir);
+  const long long cells = writeCase(s, dir, 2);
+  EXPECT_GT(cells, 0);
+  for (const char* f : {"system/blockMeshDict", "system/controlDict", "system/fvSchemes", "system/fvSolution",
+                        "system/decomposeParDict", "constant/transportProperties", "constant/turbulenceProperties", "0/U", "0/p", "Allrun"})
+    EXPECT_TRUE(std::filesystem::exists(dir / f)) << f;
+  const std::string u = slurp(dir / "0/U");
+  EXPECT_THAT(u, HasSubstr("exprFixedValue"));
+  EXPECT_THAT(u, HasSubstr("4*0.3*pos().y()*(0.41-pos().y())"));
+  EXPECT_THAT(slurp(dir / "0/p"), HasSubstr("outlet\n    {\n        type fixedValue;"));
+  const std::string control = slurp(dir / "system/controlDict");
+  EXPECT_THAT(control, HasSubstr("application     simpleFoam;"));
+  EXPECT_THAT(control, HasSubstr("type forceCoeffs;"));
+  EXPECT_THAT(control, HasSubstr("Aref 0.01;"));  // D * depth = 0.1 * 0.1
+  EXPECT_THAT(control, HasSubstr("type probes;"));
+  EXPECT_THAT(slurp(dir / "system/decomposeParDict"), HasSubstr("method simple;"));
+  EXPECT_THAT(slurp(dir / "constant/transportProperties"), HasSubstr("nu 0.001;"));
+}
+
+TEST(CaseWriter, PeriodicCaseDrivesTheMeanVelocity) {
+  Scene s;
+  s.kind = Scene::Kind::periodic_array;
+  s.radius = std::sqrt(0.2 / M_PI);
+  s.cells_around = 32;
+  const auto dir = std::filesystem::path(MMVAL_BINARY_DIR) / "test-output" / "foam-writer-array";
+  std::filesystem::remove_all(dir);
+  writeCase(s, dir);
+  EXPECT_THAT(slurp(dir / "constant/fvOptions"), HasSubstr("type meanVelocityForce;"));
+  EXPECT_THAT(slurp(dir / "system/fvSolution"), HasSubstr("pRefCell 0;"));
+  EXPECT_THAT(slurp(dir / "0/p"), HasSubstr("type cyclic;"));
+}
+
+TEST(CaseWriter, UnsteadyCaseUsesPimpleFoam) {
+  Scene s;
+  s.unsteady = true;
+  s.end_time = 1.0;
+  s.dt = 1e-3;
+  const auto dir = std::filesystem::path(MMVAL_BINARY_DIR) / "test-output" / "foam-writer-pimple";
+  std::filesystem::remove_all(dir);
+  writeCase(s, dir);
+  EXPECT_THAT(slurp(dir / "system/controlDict"), HasSubstr("application     pimpleFoam;"));
+  EXPECT_THAT(slurp(dir / "system/fvSchemes"), HasSubstr("default backward;"));
+  EXPECT_THAT(slurp(dir / "system/fvSolution"), HasSubstr("PIMPLE"));
+}
+
+TEST(Results, StrouhalFromASineLift) {
+  // c_l = sin(2 pi f t) with f = 3 Hz, D = 0.1, U = 1 -> St = f D / U = 0.3.
+  std::vector<Coefficients> h;
+  for (int i = 0; i <= 4000; ++i) h.push_back({i * 1e-3, 3.2, std::sin(2 * M_PI * 3.0 * i * 1e-3)});
+  const auto st = strouhalFromLift(h, 0.1, 1.0);
+  ASSERT_TRUE(st.has_value());
+  EXPECT_NEAR(*st, 0.3, 1e-4);
+}
+
+TEST(Results, FatalMessageIsExtracted) {
+  const std::string log = "Create time\n\n--> FOAM FATAL ERROR:\ncannot find file \"0/U\"\n\n    From function x\n\n\nFOAM exiting\n";
+  EXPECT_THAT(fatalMessage(log), HasSubstr("cannot find file \"0/U\""));
+}
+
+}  // namespace
+}  // namespace mmval::openfoam
