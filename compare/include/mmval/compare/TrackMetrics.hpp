@@ -1,0 +1,56 @@
+// Statistics of one set of tracks (experiment or simulation), as the paper
+// measures them: velocities of mobile particles (immobile ones left out),
+// dispersion sigma_x(t), sigma_y(t) (population std of positions, Eq. 18),
+// retention (particles that moved and then stopped), and the streamline
+// occupancy map (every position of every frame composited).
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "mmval/core/Tracks.hpp"
+
+namespace mmval::compare {
+
+struct TrackOptions {
+  double immobile_distance = 2e-6;  ///< m: a particle that never gets farther than this from its start is immobile
+  double stuck_window = 2.0;        ///< s: a mobile particle that moved less than stuck_distance over its last window is retained
+  double stuck_distance = 1e-6;     ///< m
+  int time_bins = 20;               ///< bins for velocity and dispersion against time
+};
+
+struct Step {
+  std::int64_t particle = 0;
+  double t = 0;          ///< mid-step time, s
+  double x = 0, y = 0;   ///< mid-step position, m
+  double vx = 0, vy = 0; ///< m/s
+  double speed = 0;      ///< m/s
+};
+
+struct TimeSeries {
+  std::vector<double> t;          ///< bin centres, s
+  std::vector<double> mean_speed, median_speed;  ///< m/s, NaN in empty bins
+  std::vector<double> sigma_x, sigma_y;           ///< m
+  std::vector<int> count;
+};
+
+struct TrackStats {
+  std::vector<Step> steps;  ///< of mobile particles
+  TimeSeries series;
+  int particles = 0, immobile = 0, mobile = 0, retained = 0;
+  double retained_fraction = 0;          ///< retained / mobile
+  double mean_speed = 0, median_speed = 0;  ///< m/s over all steps
+  double sigma_x = 0, sigma_y = 0;          ///< m, time-averaged dispersion
+  double t_begin = 0, t_end = 0;
+};
+
+TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& options);
+
+/// Occupancy of positions on a grid of `cell` metres over [x0, x1] x [y0, y1].
+cv::Mat occupancyMap(const Tracks& tracks, double cell, double x0, double y0, double x1, double y1);
+
+/// Intersection over union of two binary maps of the same size.
+double intersectionOverUnion(const cv::Mat& a, const cv::Mat& b);
+
+}  // namespace mmval::compare

@@ -1,0 +1,172 @@
+#include "mmval/compare/Compare.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "mmval/compare/Statistics.hpp"
+#include "mmval/core/AtomicFile.hpp"
+
+namespace mmval::compare {
+
+namespace {
+
+MetricResult against(const std::string& name, double sim, double exp, const std::string& unit, Tolerance tol,
+                     const std::string& reason) {
+  Acceptance a;
+  a.metric = name;
+  a.reference.value = exp * parseUnit(unit).to_si;
+  a.reference.unit = unit;
+  a.reference.dim = parseUnit(unit).dim;
+  a.reference.source = "experiment tracks";
+  a.tolerance = tol;
+  a.reason = reason;
+  return evaluateMetric(a, sim * parseUnit(unit).to_si);
+}
+
+MetricResult info(const std::string& name, double value, const std::string& unit, const std::string& reason) {
+  MetricResult m;
+  m.name = name;
+  m.value = value;
+  m.unit = unit;
+  m.reason = reason;
+  return m;
+}
+
+Tolerance relative(double f) { return {Tolerance::Kind::relative, f, fmt::format("{:g} %", 100 * f)}; }
+
+}  // namespace
+
+Comparison compareTracks(const Tracks& experiment, const Tracks& simulation, const CompareOptions& o) {
+  Comparison c;
+  c.experiment = analyseTracks(experiment, o.tracks);
+  c.simulation = analyseTracks(simulation, o.tracks);
+  std::vector<double> se, ss;
+  for (const auto& s : c.experiment.steps) se.push_back(s.speed);
+  for (const auto& s : c.simulation.steps) ss.push_back(s.speed);
+  if (!se.empty() && !ss.empty()) {
+    c.wasserstein = wasserstein1(se, ss);
+    const KsResult ks = kolmogorovSmirnov(se, ss);
+    c.ks_statistic = ks.statistic;
+    c.ks_p_value = ks.p_value;
+  }
+  // Occupancy on the union bounding box.
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  for (const auto* t : {&experiment, &simulation})
+    for (const auto& p : t->points) {
+      x0 = std::min(x0, p.x);
+      y0 = std::min(y0, p.y);
+      x1 = std::max(x1, p.x);
+      y1 = std::max(y1, p.y);
+    }
+  if (x1 > x0 && y1 > y0) {
+    c.occupancy_experiment = occupancyMap(experiment, o.occupancy_cell, x0, y0, x1 + o.occupancy_cell, y1 + o.occupancy_cell);
+    c.occupancy_simulation = occupancyMap(simulation, o.occupancy_cell, x0, y0, x1 + o.occupancy_cell, y1 + o.occupancy_cell);
+    c.iou = intersectionOverUnion(c.occupancy_experiment, c.occupancy_simulation);
+  }
+  const auto& e = c.experiment;
+  const auto& s = c.simulation;
+  c.metrics.push_back(against("mean_speed", s.mean_speed * 1e6, e.mean_speed * 1e6, "um/s", relative(o.speed_tolerance),
+                              "mean particle speed, paper Fig. 15"));
+  c.metrics.push_back(against("median_speed", s.median_speed * 1e6, e.median_speed * 1e6, "um/s", relative(o.speed_tolerance),
+                              "median particle speed, paper Fig. 15"));
+  c.metrics.push_back(against("sigma_x", s.sigma_x * 1e6, e.sigma_x * 1e6, "um", relative(o.dispersion_tolerance),
+                              "time-averaged dispersion along x, paper Eq. 18 / Fig. 16"));
+  c.metrics.push_back(against("sigma_y", s.sigma_y * 1e6, e.sigma_y * 1e6, "um", relative(o.dispersion_tolerance),
+                              "time-averaged dispersion along y, paper Eq. 18 / Fig. 16"));
+  c.metrics.push_back(against("retention_fraction", s.retained_fraction, e.retained_fraction, "1",
+                              {Tolerance::Kind::absolute, o.retention_tolerance, fmt::format("{:g}", o.retention_tolerance)},
+                              "retained / mobile particles; paper: 42.3 % measured vs 44.1 % simulated"));
+  {
+    Acceptance a;
+    a.metric = "streamline_iou";
+    a.reference.low = o.iou_minimum;
+    a.reference.high = 1.0;
+    a.reference.value = 0.5 * (1 + o.iou_minimum);
+    a.reference.unit = "1";
+    a.reference.source = "overlap of the occupancy maps (paper Fig. 14 composite)";
+    a.tolerance = {Tolerance::Kind::interval, 0, "interval"};
+    a.reason = "the simulated particles visit the pores the experiment's did";
+    c.metrics.push_back(evaluateMetric(a, c.iou));
+  }
+  c.metrics.push_back(info("speed_wasserstein1", c.wasserstein * 1e6, "um/s", "W1 distance between the speed distributions"));
+  c.metrics.push_back(info("speed_ks_statistic", c.ks_statistic, "1", "two-sample Kolmogorov-Smirnov D of the speeds"));
+  c.metrics.push_back(info("speed_ks_p_value", c.ks_p_value, "1", "asymptotic p-value of D"));
+  return c;
+}
+
+nlohmann::json Comparison::toJson() const {
+  nlohmann::json m = nlohmann::json::array();
+  bool all = true;
+  for (const auto& r : metrics) {
+    m.push_back(r.toJson());
+    if (r.pass.has_value() && !*r.pass) all = false;
+  }
+  auto counts = [](const TrackStats& s) {
+    return nlohmann::json{{"particles", s.particles}, {"immobile", s.immobile}, {"mobile", s.mobile}, {"retained", s.retained},
+                          {"steps", s.steps.size()}, {"t_begin_s", s.t_begin}, {"t_end_s", s.t_end}};
+  };
+  return {{"schema", "mmval-compare/1"}, {"metrics", m}, {"all_pass", all}, {"experiment", counts(experiment)}, {"simulation", counts(simulation)}};
+}
+
+std::vector<std::string> writeComparison(const Comparison& c, const std::filesystem::path& dir) {
+  std::filesystem::create_directories(dir);
+  std::vector<std::string> files;
+  writeFileAtomic(dir / "metrics.json", c.toJson().dump(2) + "\n");
+  files.push_back("metrics.json");
+  auto series = [&](const char* name, auto column) {
+    std::string out = std::string("t_s,experiment,simulation\n");
+    const auto& a = c.experiment.series;
+    const auto& b = c.simulation.series;
+    for (std::size_t i = 0; i < std::max(a.t.size(), b.t.size()); ++i) {
+      const double t = i < a.t.size() ? a.t[i] : b.t[i];
+      auto val = [&](const TimeSeries& s) { return i < s.t.size() ? fmt::format("{:.6g}", column(s)[i] * 1e6) : std::string("nan"); };
+      out += fmt::format("{:.6g},{},{}\n", t, val(a), val(b));
+    }
+    writeFileAtomic(dir / name, out);
+    files.push_back(name);
+  };
+  series("mean_speed_time_um_per_s.csv", [](const TimeSeries& s) -> const std::vector<double>& { return s.mean_speed; });
+  series("median_speed_time_um_per_s.csv", [](const TimeSeries& s) -> const std::vector<double>& { return s.median_speed; });
+  series("sigma_x_time_um.csv", [](const TimeSeries& s) -> const std::vector<double>& { return s.sigma_x; });
+  series("sigma_y_time_um.csv", [](const TimeSeries& s) -> const std::vector<double>& { return s.sigma_y; });
+  // Speed histograms on common bins.
+  double vmax = 0;
+  for (const auto* s : {&c.experiment, &c.simulation})
+    for (const auto& st : s->steps) vmax = std::max(vmax, st.speed);
+  const int nb = 30;
+  std::vector<double> he(nb, 0), hs(nb, 0);
+  auto fill = [&](const TrackStats& s, std::vector<double>& h) {
+    for (const auto& st : s.steps) h[std::min(nb - 1, static_cast<int>(st.speed / std::max(vmax, 1e-300) * nb))] += 1;
+    for (auto& x : h) x /= std::max<std::size_t>(1, s.steps.size());
+  };
+  fill(c.experiment, he);
+  fill(c.simulation, hs);
+  std::string hist = "speed_um_per_s,experiment_fraction,simulation_fraction\n";
+  for (int i = 0; i < nb; ++i) hist += fmt::format("{:.6g},{:.6g},{:.6g}\n", (i + 0.5) * vmax / nb * 1e6, he[i], hs[i]);
+  writeFileAtomic(dir / "speed_histogram.csv", hist);
+  files.push_back("speed_histogram.csv");
+  if (!c.occupancy_experiment.empty()) {
+    // Experiment | simulation | overlay (experiment magenta, simulation green, both white).
+    const cv::Mat& a = c.occupancy_experiment;
+    const cv::Mat& b = c.occupancy_simulation;
+    cv::Mat overlay;
+    cv::merge(std::vector<cv::Mat>{a, b, a}, overlay);  // B, G, R
+    cv::Mat ga, gb;
+    cv::cvtColor(a, ga, cv::COLOR_GRAY2BGR);
+    cv::cvtColor(b, gb, cv::COLOR_GRAY2BGR);
+    cv::Mat sep(a.rows, 2, CV_8UC3, cv::Scalar(128, 128, 128));
+    cv::Mat row;
+    cv::hconcat(std::vector<cv::Mat>{ga, sep, gb, sep, overlay}, row);
+    const auto tmp = temporaryPathFor(dir / "streamlines.png");
+    if (!cv::imwrite(tmp.string(), row)) throw std::runtime_error("cannot write " + tmp.string());
+    commitTemporary(tmp, dir / "streamlines.png");
+    files.push_back("streamlines.png");
+  }
+  return files;
+}
+
+}  // namespace mmval::compare

@@ -1,0 +1,153 @@
+// Comparator statistics against hand-computed and tabulated values.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "mmval/compare/Compare.hpp"
+#include "mmval/compare/Statistics.hpp"
+#include "mmval/core/Error.hpp"
+
+namespace mmval::compare {
+namespace {
+
+TEST(Statistics, PopulationStdOfTheTextbookSample) {
+  // {2,4,4,4,5,5,7,9}: mean 5, population variance 4.
+  EXPECT_DOUBLE_EQ(populationStd({2, 4, 4, 4, 5, 5, 7, 9}), 2.0);
+  EXPECT_DOUBLE_EQ(median({5, 1, 3}), 3.0);
+  EXPECT_DOUBLE_EQ(median({4, 1, 3, 2}), 2.5);
+}
+
+TEST(Statistics, WassersteinOfAShiftIsTheShift) {
+  std::vector<double> a, b;
+  for (int i = 0; i < 1000; ++i) {
+    const double x = std::sin(i * 12.9898) * 43758.5453;
+    a.push_back(x - std::floor(x));
+    b.push_back(a.back() + 0.37);
+  }
+  EXPECT_NEAR(wasserstein1(a, b), 0.37, 1e-12);
+  // Unequal sizes: {0} vs {0, 1}: |F_a - F_b| = 1/2 on [0, 1).
+  EXPECT_NEAR(wasserstein1({0.0}, {0.0, 1.0}), 0.5, 1e-15);
+}
+
+TEST(Statistics, KolmogorovSeriesMatchesTabulatedValues) {
+  // Q_KS(lambda) tabulated: Q(1.0) = 0.2700, Q(0.5) = 0.9639; the classic critical
+  // values 1.3581 (5 %) and 1.6276 (1 %).
+  EXPECT_NEAR(kolmogorovQ(1.0), 0.26999967, 1e-6);
+  EXPECT_NEAR(kolmogorovQ(1.3581), 0.05, 1e-4);
+  EXPECT_NEAR(kolmogorovQ(1.6276), 0.01, 1e-4);
+  EXPECT_NEAR(kolmogorovQ(0.5), 0.96394, 1e-4);
+}
+
+TEST(Statistics, KsStatisticOfSeparatedAndIdenticalSamples) {
+  const KsResult apart = kolmogorovSmirnov({1, 2, 3, 4}, {5, 6, 7, 8});
+  EXPECT_DOUBLE_EQ(apart.statistic, 1.0);
+  EXPECT_LT(apart.p_value, 0.05);
+  const KsResult same = kolmogorovSmirnov({1, 2, 3, 4}, {1, 2, 3, 4});
+  EXPECT_DOUBLE_EQ(same.statistic, 0.0);
+  EXPECT_DOUBLE_EQ(same.p_value, 1.0);
+  // {1,2,3} vs {2,3,4}: largest CDF gap is 1/3.
+  EXPECT_NEAR(kolmogorovSmirnov({1, 2, 3}, {2, 3, 4}).statistic, 1.0 / 3.0, 1e-15);
+}
+
+/// Particle 1 moves at 10 um/s along x for 10 s, then stops for 5 s;
+/// particle 2 never moves (stuck to the glass); particle 3 moves at 20 um/s along y.
+Tracks scene(double speed_scale = 1.0) {
+  Tracks t;
+  for (int f = 0; f <= 15; ++f) {
+    const double time = f;
+    const double x1 = std::min(f, 10) * 10e-6 * speed_scale;
+    t.points.push_back({f, 1, time, 100e-6 + x1, 50e-6});
+    t.points.push_back({f, 2, time, 20e-6, 20e-6});
+    t.points.push_back({f, 3, time, 60e-6, 10e-6 + f * 20e-6 * speed_scale});
+  }
+  std::stable_sort(t.points.begin(), t.points.end(), [](const TrackPoint& a, const TrackPoint& b) {
+    return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
+  });
+  return t;
+}
+
+TEST(TrackMetrics, ImmobileExcludedRetainedCountedSpeedsExact) {
+  const TrackStats s = analyseTracks(scene(), TrackOptions{});
+  EXPECT_EQ(s.particles, 3);
+  EXPECT_EQ(s.immobile, 1);
+  EXPECT_EQ(s.mobile, 2);
+  EXPECT_EQ(s.retained, 1);  // particle 1 stopped for the last 5 s (> 2 s window)
+  EXPECT_DOUBLE_EQ(s.retained_fraction, 0.5);
+  // 30 steps: particle 1 has 10 at 10 um/s and 5 at 0; particle 3 has 15 at 20 um/s.
+  EXPECT_EQ(s.steps.size(), 30u);
+  EXPECT_NEAR(s.mean_speed, (10 * 10e-6 + 15 * 20e-6) / 30, 1e-15);
+  EXPECT_NEAR(s.median_speed, 15e-6, 1e-15);  // between the 15th (10) and 16th (20) sorted speeds
+}
+
+TEST(TrackMetrics, DispersionIsThePopulationStdPerFrame) {
+  Tracks t;
+  // Two particles 2 um apart in x at every frame: sigma_x = 1 um, sigma_y = 0.
+  for (int f = 0; f < 5; ++f) {
+    t.points.push_back({f, 1, f * 0.1, 0.0 + f * 5e-6, 0.0});
+    t.points.push_back({f, 2, f * 0.1, 2e-6 + f * 5e-6, 0.0});
+  }
+  std::stable_sort(t.points.begin(), t.points.end(), [](const TrackPoint& a, const TrackPoint& b) {
+    return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
+  });
+  const TrackStats s = analyseTracks(t, TrackOptions{});
+  EXPECT_NEAR(s.sigma_x, 1e-6, 1e-18);
+  EXPECT_NEAR(s.sigma_y, 0.0, 1e-18);
+}
+
+TEST(Compare, IdenticalTracksAgreeOnEveryMetric) {
+  const Comparison c = compareTracks(scene(), scene(), CompareOptions{});
+  for (const auto& m : c.metrics)
+    if (m.pass) EXPECT_TRUE(*m.pass) << m.name;
+  EXPECT_DOUBLE_EQ(c.iou, 1.0);
+  EXPECT_DOUBLE_EQ(c.ks_statistic, 0.0);
+  EXPECT_DOUBLE_EQ(c.wasserstein, 0.0);
+}
+
+TEST(Compare, FasterSimulationFailsSpeedWithTheRightError) {
+  const Comparison c = compareTracks(scene(), scene(1.5), CompareOptions{});
+  const auto it = std::find_if(c.metrics.begin(), c.metrics.end(), [](const MetricResult& m) { return m.name == "mean_speed"; });
+  ASSERT_NE(it, c.metrics.end());
+  EXPECT_NEAR(it->error, 0.5, 1e-9);  // every moving step is 1.5 times faster
+  EXPECT_FALSE(*it->pass);
+  EXPECT_EQ(it->unit, "um/s");
+}
+
+TEST(Compare, WritesFilesAndReadsBackTheSchema) {
+  const auto dir = std::filesystem::path(MMVAL_BINARY_DIR) / "test-output" / "compare";
+  std::filesystem::remove_all(dir);
+  const auto files = writeComparison(compareTracks(scene(), scene(1.2), CompareOptions{}), dir);
+  EXPECT_THAT(files, ::testing::Contains("streamlines.png"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "metrics.json"));
+  writeTracksCsv(dir / "tracks.csv", scene(), 0.5e-6);
+  const Tracks back = readTracksCsv(dir / "tracks.csv");
+  ASSERT_EQ(back.points.size(), scene().points.size());
+  EXPECT_NEAR(back.points[5].x, scene().points[5].x, 1e-11);
+  EXPECT_NEAR(back.points[5].x_px, scene().points[5].x / 0.5e-6, 1e-3);
+}
+
+TEST(TracksCsv, BadInputNamesFileLineAndColumn) {
+  const auto dir = std::filesystem::path(MMVAL_BINARY_DIR) / "test-output" / "compare";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "bad1.csv") << "frame,particle,t_s,x_um\n0,1,0.0,5\n";
+  try {
+    readTracksCsv(dir / "bad1.csv");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_THAT(std::string(e.what()), ::testing::HasSubstr("bad1.csv:1"));
+    EXPECT_THAT(std::string(e.what()), ::testing::HasSubstr("y_um"));
+  }
+  std::ofstream(dir / "bad2.csv") << "frame,particle,t_s,x_um,y_um\n0,1,0.0,5,6\n1,1,0.1,abc,6\n";
+  try {
+    readTracksCsv(dir / "bad2.csv");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_THAT(std::string(e.what()), ::testing::HasSubstr("bad2.csv:3:4"));
+    EXPECT_THAT(std::string(e.what()), ::testing::HasSubstr("x_um"));
+  }
+}
+
+}  // namespace
+}  // namespace mmval::compare
