@@ -13,6 +13,7 @@
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Run.hpp"
+#include "mmval/reports/Report.hpp"
 #include "mmval/reports/Summary.hpp"
 
 namespace fs = std::filesystem;
@@ -152,7 +153,13 @@ void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
       summary.total_wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       writeSummary(out, summary);  // partial summaries survive an interrupted validation
     }
+    // The full report over every run folder.
+    const reports::ReportInput input = reports::collect({out});
+    reports::ReportInput with_time = input;
+    with_time.summary.total_wall_seconds = summary.total_wall_seconds;
+    const int figures = reports::writeReport(with_time, out);
     std::fputs(summary.text().c_str(), stdout);
+    std::printf("report: %d figure(s)\n", figures);
     std::printf("validation: %zu case(s), %d failing metric(s), %.1f s; summary in %s\n", files.size(), summary.failures(),
                 summary.total_wall_seconds, (out / "index.html").string().c_str());
     if (summary.failures() > 0) throw MetricsFailed(fmt::format("{} metric(s) outside tolerance (see {})", summary.failures(), (out / "index.md").string()));

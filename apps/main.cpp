@@ -8,6 +8,7 @@
 
 #include "CaseCommands.hpp"
 #include "Registry.hpp"
+#include "ReportCommands.hpp"
 #include "mmval/core/BuildInfo.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Units.hpp"
@@ -27,6 +28,7 @@ int main(int argc, char** argv) {
   mmval::CaseKindRegistry registry;
   mmval::app::registerAllKinds(registry);
   mmval::app::registerCaseCommands(app, registry);
+  mmval::app::registerReportCommands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

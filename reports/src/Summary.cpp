@@ -46,7 +46,8 @@ std::string errorText(const nlohmann::json& m) {
   if (m["error"].is_null()) return "-";
   const double e = m["error"].get<double>();
   if (m.value("error_kind", "relative") == "relative") return fmt::format("{:.3g} %", 100.0 * e);
-  return fmt::format("{:.3g} {}", e, m.value("unit", ""));
+  const std::string unit = m.value("unit", "");
+  return unit == "1" || unit.empty() ? fmt::format("{:.3g}", e) : fmt::format("{:.3g} {}", e, unit);
 }
 
 nlohmann::json Summary::metricsJson() const {

@@ -1,0 +1,95 @@
+#include "ReportCommands.hpp"
+
+#include <cstdio>
+#include <fstream>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "mmval/compare/Compare.hpp"
+#include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/Error.hpp"
+#include "mmval/core/Tracks.hpp"
+#include "mmval/reports/Report.hpp"
+
+namespace fs = std::filesystem;
+
+namespace mmval::app {
+
+namespace {
+
+struct CompareCli {
+  std::string experiment, simulation, out;
+  double pixel_size_um = 0;
+  double immobile_um = 2, stuck_um = 1, stuck_window_s = 2, cell_um = 5;
+  int time_bins = 20;
+};
+
+struct ReportCli {
+  std::vector<std::string> dirs;
+  std::string out = "out/report";
+  std::vector<std::string> diff;
+};
+
+}  // namespace
+
+void registerReportCommands(CLI::App& app) {
+  auto c = std::make_shared<CompareCli>();
+  CLI::App* cmp = app.add_subcommand("compare", "Compare experiment tracks with simulated trajectories (shared tracks CSV schema)");
+  cmp->add_option("--experiment", c->experiment, "Tracks CSV from `mmval track`")->required();
+  cmp->add_option("--simulation", c->simulation, "Trajectories CSV from a simulation")->required();
+  cmp->add_option("--out", c->out, "Output folder")->required();
+  cmp->add_option("--pixel-size-um", c->pixel_size_um, "Pixel size when a file has positions in pixels only");
+  cmp->add_option("--immobile-um", c->immobile_um, "Particles that never move farther than this are immobile (left out)")->capture_default_str();
+  cmp->add_option("--stuck-um", c->stuck_um, "A particle moving less than this over its last window is retained")->capture_default_str();
+  cmp->add_option("--stuck-window-s", c->stuck_window_s, "Length of that final window")->capture_default_str();
+  cmp->add_option("--cell-um", c->cell_um, "Grid cell of the streamline occupancy maps")->capture_default_str();
+  cmp->add_option("--time-bins", c->time_bins, "Bins of the time series")->capture_default_str();
+  cmp->callback([c] {
+    const Tracks e = readTracksCsv(c->experiment, c->pixel_size_um * 1e-6);
+    const Tracks s = readTracksCsv(c->simulation, c->pixel_size_um * 1e-6);
+    compare::CompareOptions o;
+    o.tracks.immobile_distance = c->immobile_um * 1e-6;
+    o.tracks.stuck_distance = c->stuck_um * 1e-6;
+    o.tracks.stuck_window = c->stuck_window_s;
+    o.tracks.time_bins = c->time_bins;
+    o.occupancy_cell = c->cell_um * 1e-6;
+    StagedDirectory staged(c->out);
+    const compare::Comparison result = compare::compareTracks(e, s, o);
+    compare::writeComparison(result, staged.path());
+    staged.commit();
+    for (const auto& m : result.metrics)
+      std::printf("%-20s %12.5g %-6s %s\n", m.name.c_str(), m.value, m.unit.c_str(),
+                  m.pass.has_value() ? (*m.pass ? "pass" : "FAIL") : "info");
+    std::printf("compare: %s\n", (fs::path(c->out) / "metrics.json").string().c_str());
+  });
+
+  auto r = std::make_shared<ReportCli>();
+  CLI::App* rep = app.add_subcommand("report", "Build the HTML/Markdown report from run and compare folders, or diff two metrics.json");
+  rep->add_option("dirs", r->dirs, "Folders written by run, compare or validate");
+  rep->add_option("--out", r->out, "Report folder")->capture_default_str();
+  rep->add_option("--diff", r->diff, "Two metrics.json files: list metrics that changed beyond tolerance")->expected(2);
+  rep->callback([r] {
+    if (!r->diff.empty()) {
+      auto load = [](const std::string& p) {
+        std::ifstream in(p);
+        if (!in) throw InputError({p, 0, 0, {}}, "cannot open", {}, "a metrics.json written by mmval");
+        try {
+          return nlohmann::json::parse(in);
+        } catch (const std::exception& e) {
+          throw InputError({p, 0, 0, {}}, std::string("not valid JSON: ") + e.what());
+        }
+      };
+      std::fputs(reports::diffMetrics(load(r->diff[0]), load(r->diff[1])).c_str(), stdout);
+      return;
+    }
+    if (r->dirs.empty()) throw CLI::RequiredError("dirs");
+    std::vector<fs::path> dirs(r->dirs.begin(), r->dirs.end());
+    const reports::ReportInput input = reports::collect(dirs);
+    const int figures = reports::writeReport(input, r->out);
+    std::printf("report: %zu run(s), %zu comparison(s), %d figure(s) -> %s\n", input.summary.results.size(), input.comparisons.size(),
+                figures, (fs::path(r->out) / "index.html").string().c_str());
+  });
+}
+
+}  // namespace mmval::app

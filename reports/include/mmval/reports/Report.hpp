@@ -1,0 +1,43 @@
+// The validation report: a self-contained HTML page (inline SVG plots from
+// gnuplot, inline PNG images, no network), the same content as Markdown, and
+// metrics.json so two runs can be diffed.
+#pragma once
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "mmval/reports/Summary.hpp"
+
+namespace mmval::reports {
+
+/// An experiment-vs-simulation comparison folder written by `mmval compare`.
+struct ComparisonInput {
+  std::string name;
+  std::filesystem::path dir;
+  nlohmann::json metrics;  ///< its metrics.json
+};
+
+struct ReportInput {
+  Summary summary;                          ///< result.json of every run
+  std::vector<ComparisonInput> comparisons;
+};
+
+/// Finds runs (folders with result.json) and comparisons (metrics.json of
+/// schema mmval-compare/1) in the given folders and their runs/ subfolders.
+/// Throws InputError naming a folder that holds neither.
+ReportInput collect(const std::vector<std::filesystem::path>& dirs);
+
+/// Writes index.html, report.md, metrics.json and figures/*.svg into `out`.
+/// Returns the number of figures.
+int writeReport(const ReportInput& input, const std::filesystem::path& out);
+
+/// Metrics of `b` whose value moved beyond its tolerance relative to `a`
+/// (or whose pass/fail changed), as a Markdown table.
+std::string diffMetrics(const nlohmann::json& a, const nlohmann::json& b);
+
+/// Base64 for inlining images.
+std::string base64(const std::string& bytes);
+
+}  // namespace mmval::reports

@@ -1,0 +1,79 @@
+#include "mmval/reports/Plot.hpp"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace mmval::reports {
+
+namespace {
+
+std::string quote(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) out += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
+  return out + "\"";
+}
+
+}  // namespace
+
+bool gnuplotAvailable() { return std::system("command -v gnuplot >/dev/null 2>&1") == 0; }
+
+std::string renderSvg(const Plot& plot) {
+  namespace fs = std::filesystem;
+  char tmpl[] = "/tmp/mmval-plot-XXXXXX";
+  if (mkdtemp(tmpl) == nullptr) throw std::runtime_error("cannot create a temporary folder for gnuplot");
+  const fs::path dir = tmpl;
+  std::string script = fmt::format(
+      "set terminal svg size {},{} dynamic enhanced font 'sans,11' background rgb 'white'\n"
+      "set output {}\nset title {} noenhanced\nset xlabel {}\nset ylabel {}\nset grid\nset key outside bottom center horizontal noenhanced\n",
+      plot.width, plot.height, quote((dir / "plot.svg").string()), quote(plot.title), quote(plot.xlabel), quote(plot.ylabel));
+  if (plot.logx) script += "set logscale x\nset format x '10^{%L}'\n";
+  if (plot.logy) script += "set logscale y\nset format y '10^{%L}'\n";
+  std::vector<std::string> parts;
+  int k = 0;
+  for (const auto& s : plot.series) {
+    const fs::path data = dir / fmt::format("s{}.dat", k++);
+    std::ofstream out(data);
+    int rows = 0;
+    for (std::size_t i = 0; i < std::min(s.x.size(), s.y.size()); ++i) {
+      if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) {
+        out << "\n";  // gap
+        continue;
+      }
+      if ((plot.logx && s.x[i] <= 0) || (plot.logy && s.y[i] <= 0)) continue;
+      out << fmt::format("{:.10g} {:.10g}\n", s.x[i], s.y[i]);
+      ++rows;
+    }
+    if (rows == 0) continue;
+    parts.push_back(fmt::format("{} using 1:2 with {} lw 2 title {}", quote(data.string()), s.style, quote(s.name)));
+  }
+  if (parts.empty()) {
+    fs::remove_all(dir);
+    throw std::runtime_error("plot '" + plot.title + "' has no finite data");
+  }
+  script += "plot ";
+  for (std::size_t i = 0; i < parts.size(); ++i) script += (i ? ", \\\n     " : "") + parts[i];
+  script += "\n";
+  std::ofstream(dir / "plot.gp") << script;
+  const std::string cmd = fmt::format("gnuplot {} > {} 2>&1", quote((dir / "plot.gp").string()), quote((dir / "gnuplot.log").string()));
+  const int status = std::system(cmd.c_str());
+  std::stringstream svg, log;
+  svg << std::ifstream(dir / "plot.svg").rdbuf();
+  log << std::ifstream(dir / "gnuplot.log").rdbuf();
+  fs::remove_all(dir);
+  if (status != 0 || svg.str().find("<svg") == std::string::npos)
+    throw std::runtime_error("gnuplot failed for plot '" + plot.title + "': " + log.str());
+  // Drop the XML prolog so the SVG can be inlined in HTML.
+  std::string text = svg.str();
+  const auto start = text.find("<svg");
+  return text.substr(start);
+}
+
+}  // namespace mmval::reports

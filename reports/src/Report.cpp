@@ -1,0 +1,274 @@
+#include "mmval/reports/Report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/Error.hpp"
+#include "mmval/reports/Plot.hpp"
+
+namespace fs = std::filesystem;
+
+namespace mmval::reports {
+
+std::string base64(const std::string& in) {
+  static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  std::size_t i = 0;
+  for (; i + 2 < in.size(); i += 3) {
+    const unsigned v = (static_cast<unsigned char>(in[i]) << 16) | (static_cast<unsigned char>(in[i + 1]) << 8) | static_cast<unsigned char>(in[i + 2]);
+    out += {t[v >> 18], t[(v >> 12) & 63], t[(v >> 6) & 63], t[v & 63]};
+  }
+  if (i + 1 == in.size()) {
+    const unsigned v = static_cast<unsigned char>(in[i]) << 16;
+    out += {t[v >> 18], t[(v >> 12) & 63], '=', '='};
+  } else if (i + 2 == in.size()) {
+    const unsigned v = (static_cast<unsigned char>(in[i]) << 16) | (static_cast<unsigned char>(in[i + 1]) << 8);
+    out += {t[v >> 18], t[(v >> 12) & 63], t[(v >> 6) & 63], '='};
+  }
+  return out;
+}
+
+namespace {
+
+nlohmann::json readJson(const fs::path& p) {
+  std::ifstream in(p);
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError({p.string(), 0, 0, {}}, std::string("not valid JSON: ") + e.what(), {}, "a file written by mmval");
+  }
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream b;
+  b << in.rdbuf();
+  return b.str();
+}
+
+/// Reads "t_s,experiment,simulation" style CSVs written by compare.
+std::vector<std::vector<double>> readColumns(const fs::path& p) {
+  std::ifstream in(p);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::vector<double>> cols;
+  while (std::getline(in, line)) {
+    std::stringstream row(line);
+    std::string cell;
+    std::size_t c = 0;
+    while (std::getline(row, cell, ',')) {
+      if (cols.size() <= c) cols.resize(c + 1);
+      try {
+        cols[c].push_back(std::stod(cell));
+      } catch (const std::exception&) {
+        cols[c].push_back(std::nan(""));
+      }
+      ++c;
+    }
+  }
+  return cols;
+}
+
+std::string escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    if (c == '&') out += "&amp;";
+    else if (c == '<') out += "&lt;";
+    else if (c == '>') out += "&gt;";
+    else out += c;
+  }
+  return out;
+}
+
+struct Figure {
+  std::string id, caption, svg, png_base64;
+};
+
+}  // namespace
+
+ReportInput collect(const std::vector<fs::path>& dirs) {
+  ReportInput input;
+  std::function<bool(const fs::path&)> visit = [&](const fs::path& d) {
+    bool found = false;
+    if (fs::exists(d / "result.json")) {
+      input.summary.results.push_back(readJson(d / "result.json"));
+      input.summary.results.back()["run_dir"] = d.string();
+      input.summary.total_wall_seconds += input.summary.results.back()["cost"]["wall_seconds"].get<double>();
+      found = true;
+    }
+    if (fs::exists(d / "metrics.json")) {
+      const auto j = readJson(d / "metrics.json");
+      if (j.value("schema", "") == "mmval-compare/1") {
+        input.comparisons.push_back({d.filename().string(), d, j});
+        found = true;
+      }
+    }
+    for (const char* sub : {"runs", "compare"})
+      if (fs::is_directory(d / sub)) {
+        std::vector<fs::path> children;
+        for (const auto& e : fs::directory_iterator(d / sub))
+          if (e.is_directory() && e.path().extension() != ".partial") children.push_back(e.path());
+        std::sort(children.begin(), children.end());
+        for (const auto& c : children) found = visit(c) || found;
+      }
+    return found;
+  };
+  for (const auto& d : dirs)
+    if (!visit(d)) throw InputError({d.string(), 0, 0, {}}, "no result.json, compare metrics.json or runs/ found", {}, "a folder written by `mmval run`, `mmval compare` or `mmval validate`");
+  return input;
+}
+
+int writeReport(const ReportInput& input, const fs::path& out) {
+  fs::create_directories(out / "figures");
+  std::vector<Figure> figures;
+  const bool plots = gnuplotAvailable();
+  auto addPlot = [&](const std::string& id, const std::string& caption, const Plot& p) {
+    if (!plots) return;
+    Figure f{id, caption, renderSvg(p), {}};
+    writeFileAtomic(out / "figures" / (id + ".svg"), f.svg);
+    figures.push_back(std::move(f));
+  };
+
+  // Speed against error: every run that recorded a resolution ladder.
+  {
+    Plot p{"Speed against error", "wall time (s)", "relative error", true, true, {}, 640, 420};
+    for (const auto& r : input.summary.results) {
+      const auto& d = r["details"];
+      if (!d.is_object() || !d.contains("ladder")) continue;
+      Series s{r["case"]["name"].get<std::string>() + " (" + d.value("solver", std::string("mmval")) + ")", {}, {}, "linespoints"};
+      for (const auto& level : d["ladder"])
+        if (level.contains("wall_seconds") && level.contains("error") && level["error"].is_number()) {
+          s.x.push_back(level["wall_seconds"].get<double>());
+          s.y.push_back(std::abs(level["error"].get<double>()));
+        }
+      if (!s.x.empty()) p.series.push_back(s);
+    }
+    if (!p.series.empty()) addPlot("speed-vs-error", "Wall time against relative error over each case's resolution ladder (log-log).", p);
+  }
+
+  // Experiment vs simulation figures.
+  for (const auto& c : input.comparisons) {
+    auto timePlot = [&](const std::string& file, const std::string& title, const std::string& ylabel, const std::string& id) {
+      if (!fs::exists(c.dir / file)) return;
+      const auto cols = readColumns(c.dir / file);
+      if (cols.size() < 3) return;
+      Plot p{title, "t (s)", ylabel, false, false, {{"experiment", cols[0], cols[1], "linespoints"}, {"simulation", cols[0], cols[2], "linespoints"}}};
+      addPlot(c.name + "-" + id, title + " (" + c.name + ")", p);
+    };
+    timePlot("mean_speed_time_um_per_s.csv", "Mean particle speed against time", "speed (um/s)", "speed");
+    timePlot("sigma_x_time_um.csv", "Dispersion sigma_x against time", "sigma_x (um)", "sigma-x");
+    timePlot("sigma_y_time_um.csv", "Dispersion sigma_y against time", "sigma_y (um)", "sigma-y");
+    if (fs::exists(c.dir / "speed_histogram.csv")) {
+      const auto cols = readColumns(c.dir / "speed_histogram.csv");
+      if (cols.size() >= 3)
+        addPlot(c.name + "-histogram", "Speed distributions (" + c.name + ")",
+                Plot{"Speed distribution", "speed (um/s)", "fraction of steps", false, false,
+                     {{"experiment", cols[0], cols[1], "steps"}, {"simulation", cols[0], cols[2], "steps"}}});
+    }
+    if (fs::exists(c.dir / "streamlines.png"))
+      figures.push_back({c.name + "-streamlines", "Streamline occupancy: experiment | simulation | overlay (magenta experiment, green simulation, white both) (" + c.name + ")", {}, base64(slurp(c.dir / "streamlines.png"))});
+  }
+  // Images produced by runs (PNG files listed in result.json).
+  for (const auto& r : input.summary.results)
+    for (const auto& f : r.value("files", nlohmann::json::array())) {
+      const std::string name = f.get<std::string>();
+      if (name.size() > 4 && name.substr(name.size() - 4) == ".png" && r.contains("run_dir")) {
+        const fs::path p = fs::path(r["run_dir"].get<std::string>()) / name;
+        if (fs::exists(p)) figures.push_back({r["case"]["name"].get<std::string>() + "-" + name, r["case"]["name"].get<std::string>() + ": " + name, {}, base64(slurp(p))});
+      }
+    }
+
+  // metrics.json: runs and comparisons together.
+  nlohmann::json metrics = input.summary.metricsJson();
+  for (const auto& c : input.comparisons)
+    for (auto m : c.metrics["metrics"]) {
+      m["case"] = "compare:" + c.name;
+      metrics["metrics"].push_back(m);
+      if (m["pass"].is_boolean() && !m["pass"].get<bool>()) metrics["all_pass"] = false;
+    }
+  writeFileAtomic(out / "metrics.json", metrics.dump(2) + "\n");
+
+  // Markdown.
+  std::string md = input.summary.markdown();
+  for (const auto& c : input.comparisons) {
+    md += fmt::format("\n## Experiment vs simulation: {}\n\n| metric | simulation | experiment | error | tolerance | result |\n|---|---|---|---|---|---|\n", c.name);
+    for (const auto& m : c.metrics["metrics"])
+      md += fmt::format("| {} | {:.4g} {} | {} | {} | {} | {} |\n", m["name"].get<std::string>(), m["value"].is_number() ? m["value"].get<double>() : std::nan(""),
+                        m.value("unit", ""), referenceText(m), errorText(m), m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>(),
+                        m["pass"].is_null() ? "info" : (m["pass"].get<bool>() ? "pass" : "FAIL"));
+  }
+  md += "\n## Figures\n\n";
+  for (const auto& f : figures) md += fmt::format("- {} (`figures/{}.svg`)\n", f.caption, f.id);
+  writeFileAtomic(out / "report.md", md);
+
+  // HTML: the summary page with figures appended before the closing tags.
+  std::string html = input.summary.html();
+  std::string extra;
+  for (const auto& c : input.comparisons) {
+    extra += fmt::format("<h2>Experiment vs simulation: {}</h2>\n<table class=\"compare\"><tr><th>metric</th><th>simulation</th><th>experiment</th><th>error</th><th>tolerance</th><th>result</th></tr>\n", escape(c.name));
+    for (const auto& m : c.metrics["metrics"]) {
+      const std::string pass = m["pass"].is_null() ? "info" : (m["pass"].get<bool>() ? "pass" : "FAIL");
+      extra += fmt::format("<tr class=\"{}\"><td>{}</td><td>{:.4g} {}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n", pass,
+                           escape(m["name"].get<std::string>()), m["value"].is_number() ? m["value"].get<double>() : std::nan(""),
+                           escape(m.value("unit", "")), escape(referenceText(m)), escape(errorText(m)),
+                           escape(m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>()), pass);
+    }
+    extra += "</table>\n";
+  }
+  if (!figures.empty()) extra += "<h2>Figures</h2>\n";
+  for (const auto& f : figures) {
+    extra += fmt::format("<figure id=\"fig-{}\">\n", escape(f.id));
+    if (!f.svg.empty())
+      extra += f.svg;
+    else
+      extra += fmt::format("<img alt=\"{}\" style=\"max-width:100%;image-rendering:pixelated\" src=\"data:image/png;base64,{}\">", escape(f.caption), f.png_base64);
+    extra += fmt::format("\n<figcaption>{}</figcaption></figure>\n", escape(f.caption));
+  }
+  if (!plots) extra += "<p><b>gnuplot was not found: plots were left out.</b></p>\n";
+  // A check the headless-browser test reads: how many images decoded.
+  extra += "<p id=\"image-status\"></p>\n<script>window.addEventListener('load',function(){var im=document.images,ok=0;"
+           "for(var i=0;i<im.length;i++){if(im[i].complete&&im[i].naturalWidth>0)ok++;}"
+           "document.getElementById('image-status').textContent='images loaded: '+ok+' of '+im.length;});</script>\n";
+  html.insert(html.rfind("</body>"), extra);
+  writeFileAtomic(out / "index.html", html);
+  return static_cast<int>(figures.size());
+}
+
+std::string diffMetrics(const nlohmann::json& a, const nlohmann::json& b) {
+  std::map<std::string, nlohmann::json> before;
+  for (const auto& m : a["metrics"]) before[m["case"].get<std::string>() + "/" + m["name"].get<std::string>()] = m;
+  std::string out = "| case/metric | before | after | change | tolerance | before result | after result |\n|---|---|---|---|---|---|---|\n";
+  int n = 0;
+  for (const auto& m : b["metrics"]) {
+    const std::string key = m["case"].get<std::string>() + "/" + m["name"].get<std::string>();
+    auto it = before.find(key);
+    auto result = [](const nlohmann::json& x) { return x["pass"].is_null() ? std::string("info") : (x["pass"].get<bool>() ? "pass" : "FAIL"); };
+    if (it == before.end()) {
+      out += fmt::format("| {} | (new) | {} | | | | {} |\n", key, m["value"].dump(), result(m));
+      ++n;
+      continue;
+    }
+    const auto& o = it->second;
+    if (!m["value"].is_number() || !o["value"].is_number()) continue;
+    const double va = o["value"].get<double>(), vb = m["value"].get<double>();
+    const double rel = va != 0 ? std::abs(vb - va) / std::abs(va) : std::abs(vb);
+    // "Beyond tolerance": the change is larger than the metric's own tolerance (1e-9 for informational ones).
+    double tol = 1e-9;
+    const std::string t = m["tolerance"].is_string() ? m["tolerance"].get<std::string>() : "";
+    if (!t.empty() && t.back() == '%') tol = std::stod(t) / 100;
+    if (rel > tol || result(o) != result(m)) {
+      out += fmt::format("| {} | {:.6g} | {:.6g} | {:+.3g} % | {} | {} | {} |\n", key, va, vb, 100 * (vb - va) / (va != 0 ? va : 1), t.empty() ? "-" : t, result(o), result(m));
+      ++n;
+    }
+  }
+  return n == 0 ? std::string("No metric changed beyond its tolerance.\n") : out;
+}
+
+}  // namespace mmval::reports
