@@ -1,9 +1,11 @@
 #include "Registry.hpp"
 
+#include "mmval/compare/Kinds.hpp"
+
 namespace mmval::app {
 
 void registerAllKinds(CaseKindRegistry& registry) {
-  (void)registry;
+  compare::registerCompareKinds(registry);
 }
 
 }  // namespace mmval::app

@@ -56,6 +56,7 @@ std::vector<MetricResult> evaluateMetrics(const Case& c, const RunOutput& output
       out.push_back(evaluateMetric(a, it->second));
     }
   }
+  for (const auto& m : output.evaluated) out.push_back(m);
   for (const auto& [name, value] : output.metrics) {
     if (c.acceptanceFor(name) != nullptr) continue;
     MetricResult m;

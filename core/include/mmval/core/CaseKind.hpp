@@ -35,6 +35,9 @@ struct RunOutput {
   std::map<std::string, std::string> units;          ///< display unit per metric ("1" default)
   nlohmann::json details = nlohmann::json::object(); ///< kind-specific (cells, iterations, ...)
   std::vector<std::string> files;                    ///< files written into out_dir
+  /// Metrics the runner judged itself (e.g. simulation against an experiment
+  /// measured in the same run); reported as they are.
+  std::vector<MetricResult> evaluated;
 };
 
 struct CaseKind {

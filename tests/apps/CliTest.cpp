@@ -1,0 +1,107 @@
+// The `mmval` command as a user meets it: help, exit statuses, messages that
+// name the file and line, and run folders that appear only when complete.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "mmval/core/Tracks.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+struct Outcome {
+  int status = -1;
+  std::string output;  // stdout and stderr together
+};
+
+Outcome mmval(const std::string& args) {
+  const std::string cmd = std::string(MMVAL_BINARY_DIR) + "/bin/mmval " + args + " 2>&1";
+  Outcome o;
+  FILE* pipe = popen(cmd.c_str(), "r");
+  char buf[4096];
+  while (std::fgets(buf, sizeof buf, pipe) != nullptr) o.output += buf;
+  const int raw = pclose(pipe);
+  o.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  return o;
+}
+
+fs::path scratch(const std::string& name) {
+  const fs::path d = fs::path(MMVAL_BINARY_DIR) / "test-output" / "cli" / name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+TEST(Cli, HelpListsSubcommands) {
+  const Outcome o = mmval("--help");
+  EXPECT_EQ(o.status, 0);
+  for (const char* sub : {"case-check", "case-doc", "run", "validate", "compare", "report"}) EXPECT_THAT(o.output, HasSubstr(sub));
+  EXPECT_EQ(mmval("run --help").status, 0);
+}
+
+TEST(Cli, UsageErrorsExitWithOne) {
+  EXPECT_EQ(mmval("").status, 1);
+  EXPECT_EQ(mmval("run").status, 1);
+  EXPECT_EQ(mmval("no-such-command").status, 1);
+}
+
+TEST(Cli, BadCaseFileExitsWithTwoAndNamesFileLineAndKey) {
+  const fs::path d = scratch("bad-case");
+  std::ofstream(d / "bad.toml") << "[case]\nname = \"x\"\nkind = \"compare-tracks\"\n[inputs]\nexperiment = \"a.csv\"\nsimulaton = \"b.csv\"\n";
+  const Outcome o = mmval("case-check " + (d / "bad.toml").string());
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("bad.toml:6"));
+  EXPECT_THAT(o.output, HasSubstr("inputs.simulaton"));
+  EXPECT_THAT(o.output, HasSubstr("did you mean 'inputs.simulation'"));
+}
+
+TEST(Cli, MissingTracksFileExitsWithTwo) {
+  const Outcome o = mmval("compare --experiment /nonexistent/a.csv --simulation /nonexistent/b.csv --out " + scratch("missing").string() + "/out");
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("/nonexistent/a.csv"));
+}
+
+TEST(Cli, RunWritesResultJsonAndCaseDocDescribesTheKind) {
+  const fs::path d = scratch("run");
+  mmval::Tracks t;
+  for (int p = 0; p < 5; ++p)
+    for (int f = 0; f < 20; ++f) t.points.push_back({f, p, 0.1 * f, 1e-6 * (10 + 3 * f), 1e-6 * (5 + 10 * p)});
+  mmval::writeTracksCsv(d / "exp.csv", t);
+  mmval::writeTracksCsv(d / "sim.csv", t);
+  std::ofstream(d / "case.toml") << "[case]\nname = \"self\"\nkind = \"compare-tracks\"\n[inputs]\nexperiment = \"exp.csv\"\nsimulation = \"sim.csv\"\n";
+  const Outcome o = mmval("run " + (d / "case.toml").string() + " --quiet --out " + (d / "out").string());
+  EXPECT_EQ(o.status, 0) << o.output;
+  ASSERT_TRUE(fs::exists(d / "out" / "result.json"));
+  EXPECT_FALSE(fs::exists(d / "out.partial"));
+  std::ifstream in(d / "out" / "result.json");
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["case"]["name"], "self");
+  EXPECT_TRUE(j["all_pass"].get<bool>());
+  // Identical inputs: the mean speed is 30 um/s in both, error 0.
+  bool found = false;
+  for (const auto& m : j["metrics"])
+    if (m["name"] == "mean_speed") {
+      found = true;
+      EXPECT_NEAR(m["value"].get<double>(), 30.0, 1e-6);
+      EXPECT_NEAR(m["error"].get<double>(), 0.0, 1e-12);
+    }
+  EXPECT_TRUE(found);
+  const Outcome doc = mmval("case-doc compare-tracks");
+  EXPECT_EQ(doc.status, 0);
+  EXPECT_THAT(doc.output, HasSubstr("`analysis.stuck_window`"));
+  // The report over the run folder renders.
+  const Outcome rep = mmval("report " + (d / "out").string() + " --out " + (d / "report").string());
+  EXPECT_EQ(rep.status, 0) << rep.output;
+  EXPECT_TRUE(fs::exists(d / "report" / "index.html"));
+}
+
+}  // namespace
