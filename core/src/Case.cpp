@@ -246,7 +246,7 @@ class CaseReader {
           else fail(lineOf(av), key + ".at." + std::string(ak.str()), "wrong type", tomlTypeName(av), "a number or a string");
         }
       }
-      const std::filesystem::path ref_path = m_file.parent_path() / std::string(*file->value<std::string>());
+      const std::filesystem::path ref_path = (m_file.parent_path() / std::string(*file->value<std::string>())).lexically_normal();
       ref = lookupReference(ref_path, *quantity->value<std::string>(), at, {m_file.string(), line, 0, key});
       if (!unit_override.empty()) ref.unit = unit_override;
     } else {
