@@ -106,7 +106,7 @@ class Builder {
 
 }  // namespace
 
-BlockMeshDict channelMesh(double length, double height, double depth, int nx, int ny) {
+BlockMeshDict channelMesh(double length, double height, double depth, int nx, int ny, const std::string& side_type) {
   if (nx < 1 || ny < 1 || length <= 0 || height <= 0) throw std::invalid_argument("channelMesh: bad size or resolution");
   Builder b(depth);
   const int v0 = b.vertex(0, 0), v1 = b.vertex(length, 0), v2 = b.vertex(length, height), v3 = b.vertex(0, height);
@@ -115,7 +115,7 @@ BlockMeshDict channelMesh(double length, double height, double depth, int nx, in
   b.face("outlet", v1, v2);
   b.face("walls", v0, v1);
   b.face("walls", v2, v3);
-  return b.finish({{"inlet", "patch", {}, {}}, {"outlet", "patch", {}, {}}, {"walls", "wall", {}, {}}, {"frontAndBack", "empty", {}, {}}});
+  return b.finish({{"inlet", "patch", {}, {}}, {"outlet", "patch", {}, {}}, {"walls", side_type, {}, {}}, {"frontAndBack", "empty", {}, {}}});
 }
 
 BlockMeshDict cylinderChannelMesh(const CylinderChannel& g, int n, double radial_grading) {

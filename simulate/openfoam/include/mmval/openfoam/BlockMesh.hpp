@@ -41,8 +41,8 @@ struct BlockMeshDict {
 };
 
 /// Channel [0, length] x [0, height], one cell deep; patches inlet, outlet,
-/// walls (or top/bottom pairs as given), frontAndBack.
-BlockMeshDict channelMesh(double length, double height, double depth, int nx, int ny);
+/// walls (top and bottom, of `side_type`: wall or symmetryPlane), frontAndBack.
+BlockMeshDict channelMesh(double length, double height, double depth, int nx, int ny, const std::string& side_type = "wall");
 
 struct CylinderChannel {
   double length = 2.2, height = 0.41;     ///< channel

@@ -8,6 +8,11 @@
 // must point at /usr/share/openfoam; mpirun needs --allow-run-as-root as
 // root; scotch/metis are stubs, so decomposition is "simple"; nothing
 // compiled at run time works, so inlet profiles use exprFixedValue.
+//
+// Image geometries are solved 2D only. A depth-averaged (Hele-Shaw) friction
+// as a vectorSemiImplicitSource made simpleFoam diverge on snapped meshes
+// (SIMPLEC) or stall without converging (SIMPLE, relaxed); the explicit
+// porosity model needs a cellZone. Quasi-2D chip permeability is ours alone.
 #pragma once
 #include <filesystem>
 #include <optional>
@@ -30,7 +35,7 @@ Installation detect();
 
 /// One scene, in SI units, as the peer needs it.
 struct Scene {
-  enum class Kind { channel, cylinder_channel, periodic_array } kind = Kind::cylinder_channel;
+  enum class Kind { channel, cylinder_channel, periodic_array, image } kind = Kind::cylinder_channel;
   double rho = 1.0, nu = 1e-3;
   // channel and cylinder channel
   double length = 2.2, height = 0.41, depth = 0.1;
@@ -42,6 +47,11 @@ struct Scene {
   // periodic array
   double cell = 1.0, radius = 0.25;
   double mean_velocity = 1e-3;      ///< interstitial mean velocity the source enforces
+  // image geometry (pressure-driven left to right, slip sides, the paper's set-up)
+  std::filesystem::path mask;
+  double pixel = 1e-6;              ///< m per pixel
+  bool grain_dark = true;
+  double cells_per_pixel = 0.5;     ///< background mesh resolution
   // numerics
   int cells_around = 64;            ///< resolution (cylinder: cells around it; channel: cells across)
   bool unsteady = false;
@@ -65,6 +75,7 @@ struct Result {
   std::vector<StepTiming> steps;
   int iterations = 0;
   // outputs (SI, kinematic pressures multiplied by rho)
+  double porosity_total = 0, porosity_connected = 0, porosity_mesh = 0;
   std::optional<double> c_d, c_l, c_d_max, c_l_max, strouhal, dp, flow_rate, permeability, drag_per_length, f_star;
 };
 
