@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "CaseCommands.hpp"
+#include "PeerCommands.hpp"
 #include "Registry.hpp"
 #include "ReportCommands.hpp"
 #include "mmval/core/BuildInfo.hpp"
@@ -29,6 +30,7 @@ int main(int argc, char** argv) {
   mmval::app::registerAllKinds(registry);
   mmval::app::registerCaseCommands(app, registry);
   mmval::app::registerReportCommands(app);
+  mmval::app::registerPeerCommands(app, registry);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

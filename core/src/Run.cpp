@@ -73,13 +73,18 @@ RunSummary runCase(const Case& c, const CaseKindRegistry& registry, const std::f
                    const RunOptions& options) {
   const CaseKind* kind = registry.find(c.kind());
   if (kind == nullptr) throw std::logic_error("no runner for kind '" + c.kind() + "'");
+  return runCaseWith(c, kind->run, out_dir, options);
+}
+
+RunSummary runCaseWith(const Case& c, const std::function<RunOutput(const Case&, const RunContext&)>& runner,
+                       const std::filesystem::path& out_dir, const RunOptions& options) {
   StagedDirectory staged(out_dir, options.resume);
   RunContext ctx;
   ctx.out_dir = staged.path();
   ctx.quiet = options.quiet;
   ctx.resume = options.resume;
   const auto start = std::chrono::steady_clock::now();
-  const RunOutput output = kind->run(c, ctx);
+  const RunOutput output = runner(c, ctx);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   RunSummary s;

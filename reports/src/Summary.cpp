@@ -12,6 +12,12 @@ std::string number(const nlohmann::json& v) {
   return v.dump();
 }
 
+/// Who computed the case's numbers (details.solver), "mmval" by default.
+std::string solverOf(const nlohmann::json& r) {
+  if (r.contains("details") && r["details"].is_object() && r["details"].contains("solver")) return r["details"]["solver"].get<std::string>();
+  return "mmval";
+}
+
 std::string passText(const nlohmann::json& m) {
   if (m["pass"].is_null()) return "info";
   return m["pass"].get<bool>() ? "pass" : "FAIL";
@@ -80,10 +86,10 @@ std::string Summary::markdown() const {
   std::string out = "# mmval validation summary\n\n";
   out += fmt::format("{} case(s), {} failing metric(s), total wall time {:.1f} s.\n\n", results.size(), failures(),
                      total_wall_seconds);
-  out += "| case | metric | ours | reference | error | tolerance | result |\n|---|---|---|---|---|---|---|\n";
+  out += "| case | solver | metric | value | reference | error | tolerance | result |\n|---|---|---|---|---|---|---|---|\n";
   for (const auto& r : results)
     for (const auto& m : r["metrics"])
-      out += fmt::format("| {} | {} | {} {} | {} | {} | {} | {} |\n", r["case"]["name"].get<std::string>(),
+      out += fmt::format("| {} | {} | {} | {} {} | {} | {} | {} | {} |\n", r["case"]["name"].get<std::string>(), solverOf(r),
                          m["name"].get<std::string>(), number(m["value"]), m.value("unit", ""), referenceText(m),
                          errorText(m), m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>(), passText(m));
   out += "\n## Cost and provenance\n\n| case | kind | wall time (s) | peak memory (MiB) | case hash |\n|---|---|---|---|---|\n";
@@ -108,16 +114,16 @@ std::string Summary::html() const {
   std::string out =
       "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>mmval validation summary</title>\n"
       "<style>body{font-family:sans-serif;margin:2em;max-width:70em}table{border-collapse:collapse}"
-      "td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}td:first-child,td:nth-child(2){text-align:left}"
+      "td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}td:first-child,td:nth-child(2),td:nth-child(3){text-align:left}"
       ".pass{background:#dfd}.FAIL{background:#fcc}.info{color:#666}</style></head><body>\n";
   out += fmt::format("<h1>mmval validation summary</h1>\n<p>{} case(s), <b>{}</b> failing metric(s), total wall time {:.1f} s.</p>\n",
                      results.size(), failures(), total_wall_seconds);
-  out += "<table id=\"summary\"><tr><th>case</th><th>metric</th><th>ours</th><th>unit</th><th>reference</th><th>error</th><th>tolerance</th><th>result</th></tr>\n";
+  out += "<table id=\"summary\"><tr><th>case</th><th>solver</th><th>metric</th><th>value</th><th>unit</th><th>reference</th><th>error</th><th>tolerance</th><th>result</th></tr>\n";
   for (const auto& r : results)
     for (const auto& m : r["metrics"]) {
       const std::string pass = passText(m);
-      out += fmt::format("<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
-                         pass, htmlEscape(r["case"]["name"].get<std::string>()), htmlEscape(m["name"].get<std::string>()),
+      out += fmt::format("<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+                         pass, htmlEscape(r["case"]["name"].get<std::string>()), htmlEscape(solverOf(r)), htmlEscape(m["name"].get<std::string>()),
                          number(m["value"]), htmlEscape(m.value("unit", "")), htmlEscape(referenceText(m)),
                          htmlEscape(errorText(m)),
                          htmlEscape(m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>()), pass);
@@ -139,11 +145,11 @@ std::string Summary::html() const {
 }
 
 std::string Summary::text() const {
-  std::string out = fmt::format("{:<28} {:<22} {:>14} {:>24} {:>10} {:>10} {}\n", "case", "metric", "ours", "reference",
-                                "error", "tolerance", "result");
+  std::string out = fmt::format("{:<24} {:<16} {:<20} {:>18} {:>22} {:>10} {:>10} {}\n", "case", "solver", "metric", "value",
+                                "reference", "error", "tolerance", "result");
   for (const auto& r : results)
     for (const auto& m : r["metrics"])
-      out += fmt::format("{:<28} {:<22} {:>14} {:>24} {:>10} {:>10} {}\n", r["case"]["name"].get<std::string>(),
+      out += fmt::format("{:<24} {:<16} {:<20} {:>18} {:>22} {:>10} {:>10} {}\n", r["case"]["name"].get<std::string>(), solverOf(r),
                          m["name"].get<std::string>(), number(m["value"]) + " " + m.value("unit", ""), referenceText(m),
                          errorText(m), m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>(), passText(m));
   return out;

@@ -44,7 +44,7 @@ fs::path scratch(const std::string& name) {
 TEST(Cli, HelpListsSubcommands) {
   const Outcome o = mmval("--help");
   EXPECT_EQ(o.status, 0);
-  for (const char* sub : {"case-check", "case-doc", "run", "validate", "compare", "report"}) EXPECT_THAT(o.output, HasSubstr(sub));
+  for (const char* sub : {"case-check", "case-doc", "run", "validate", "compare", "report", "peer"}) EXPECT_THAT(o.output, HasSubstr(sub));
   EXPECT_EQ(mmval("run --help").status, 0);
 }
 
@@ -102,6 +102,28 @@ TEST(Cli, RunWritesResultJsonAndCaseDocDescribesTheKind) {
   const Outcome rep = mmval("report " + (d / "out").string() + " --out " + (d / "report").string());
   EXPECT_EQ(rep.status, 0) << rep.output;
   EXPECT_TRUE(fs::exists(d / "report" / "index.html"));
+}
+
+TEST(Cli, EveryBundledCaseFilePassesCaseCheck) {
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(fs::path(MMVAL_SOURCE_DIR) / "cases")) {
+    if (e.path().extension() != ".toml") continue;
+    ++n;
+    const Outcome o = mmval("case-check " + e.path().string());
+    EXPECT_EQ(o.status, 0) << o.output;
+  }
+  EXPECT_GE(n, 3);
+}
+
+TEST(Cli, PeerRejectsAKindItCannotRun) {
+  const fs::path d = scratch("peer-kind");
+  mmval::Tracks t;
+  t.points.push_back({0, 0, 0.0, 1e-6, 1e-6});
+  mmval::writeTracksCsv(d / "a.csv", t);
+  std::ofstream(d / "case.toml") << "[case]\nname = \"x\"\nkind = \"compare-tracks\"\n[inputs]\nexperiment = \"a.csv\"\nsimulation = \"a.csv\"\n";
+  const Outcome o = mmval("peer openfoam " + (d / "case.toml").string() + " --out " + (d / "out").string());
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("does not run this kind"));
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 // that only appears under its final name when the run is complete.
 #pragma once
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,10 @@ struct RunOptions {
 /// Runs `c` with its kind's runner into `out_dir` (staged as `out_dir.partial`).
 RunSummary runCase(const Case& c, const CaseKindRegistry& registry, const std::filesystem::path& out_dir,
                    const RunOptions& options = {});
+
+/// Same with an explicit runner (e.g. a peer solver for the same case).
+RunSummary runCaseWith(const Case& c, const std::function<RunOutput(const Case&, const RunContext&)>& runner,
+                       const std::filesystem::path& out_dir, const RunOptions& options = {});
 
 /// Combines a runner's output with the case's acceptance entries: one result
 /// per acceptance entry (a missing metric fails), then the informational ones.

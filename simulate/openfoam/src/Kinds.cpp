@@ -1,0 +1,235 @@
+#include "mmval/openfoam/Kinds.hpp"
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "mmval/core/Error.hpp"
+#include "mmval/core/Progress.hpp"
+#include "mmval/openfoam/Peer.hpp"
+
+namespace mmval::openfoam {
+
+namespace {
+
+void declareNumerics(Schema& s, int cells_default) {
+  s.integer("numerics.cells_around", "Resolution: cells around the cylinder (multiple of 4)").def(cells_default).min(8).max(4096);
+  s.integerList("numerics.levels", "Resolution ladder (cells_around per level); absent: one run at cells_around").optional();
+  s.integer("numerics.max_iterations", "Steady solver iteration limit").def(4000).min(10).max(1000000);
+  s.real("numerics.residual", "Steady convergence target of the initial residuals").def(1e-7).min(0.0, true).max(1e-2);
+}
+
+void declareFluid(Schema& s, const char* density, const char* viscosity) {
+  s.quantity("fluid.density", "kg/m3", "Fluid density").def(density).positive();
+  s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def(viscosity).positive();
+}
+
+Scene cylinderScene(const Case& c) {
+  Scene s;
+  s.kind = Scene::Kind::cylinder_channel;
+  s.length = c.quantity("geometry.length");
+  s.height = c.quantity("geometry.height");
+  s.cx = c.quantity("geometry.cylinder_x");
+  s.cy = c.quantity("geometry.cylinder_y");
+  s.diameter = c.quantity("geometry.diameter");
+  s.depth = c.quantity("geometry.depth");
+  s.rho = c.quantity("fluid.density");
+  s.nu = c.quantity("fluid.viscosity") / s.rho;
+  s.inflow_max = c.quantity("inflow.max_velocity");
+  s.u_ref = c.has("forces.reference_velocity") ? c.quantity("forces.reference_velocity") : 2.0 / 3.0 * s.inflow_max;
+  s.l_ref = c.has("forces.reference_length") ? c.quantity("forces.reference_length") : s.diameter;
+  if (c.has("probes.pressure_a") && c.has("probes.pressure_b")) {
+    const auto& a = c.reals("probes.pressure_a");
+    const auto& b = c.reals("probes.pressure_b");
+    if (a.size() != 2 || b.size() != 2) throw InputError(c.where("probes.pressure_a"), "a probe needs two coordinates", {}, "[\"x\", \"y\"]");
+    s.pressure_probes = {{a[0], a[1]}, {b[0], b[1]}};
+  }
+  if (s.cx - 0.5 * s.diameter <= 0 || s.cy - 0.5 * s.diameter <= 0 || s.cy + 0.5 * s.diameter >= s.height || s.cx + 0.5 * s.diameter >= s.length)
+    throw InputError(c.where("geometry.cylinder_x"), "the cylinder does not fit inside the channel", {}, "0 < x - d/2, x + d/2 < length, 0 < y - d/2, y + d/2 < height");
+  s.unsteady = c.text("numerics.mode") == "unsteady";
+  if (s.unsteady) {
+    s.end_time = c.quantity("numerics.end_time");
+    s.dt = c.quantity("numerics.time_step");
+  }
+  s.max_iterations = static_cast<int>(c.integer("numerics.max_iterations"));
+  s.residual = c.real("numerics.residual");
+  return s;
+}
+
+Scene arrayScene(const Case& c) {
+  Scene s;
+  s.kind = Scene::Kind::periodic_array;
+  s.cell = c.quantity("geometry.cell");
+  const double phi = c.quantity("geometry.solid_fraction");
+  s.radius = s.cell * std::sqrt(phi / M_PI);
+  s.depth = s.cell / 10;
+  s.rho = c.quantity("fluid.density");
+  s.nu = c.quantity("fluid.viscosity") / s.rho;
+  s.mean_velocity = c.quantity("flow.mean_velocity");
+  s.max_iterations = static_cast<int>(c.integer("numerics.max_iterations"));
+  s.residual = c.real("numerics.residual");
+  return s;
+}
+
+Scene imageScene(const Case& c) {
+  Scene s;
+  s.kind = Scene::Kind::image;
+  s.mask = c.path("geometry.mask");
+  s.pixel = c.quantity("geometry.pixel_size");
+  s.grain_dark = c.text("geometry.grains") == "dark";
+  s.cells_per_pixel = c.real("numerics.cells_per_pixel");
+  s.rho = c.quantity("fluid.density");
+  s.nu = c.quantity("fluid.viscosity") / s.rho;
+  s.pressure_drop = c.quantity("flow.pressure_drop") / s.rho;
+  s.max_iterations = static_cast<int>(c.integer("numerics.max_iterations"));
+  s.residual = c.real("numerics.residual");
+  return s;
+}
+
+/// The primary metric of a kind: the one whose error the ladder records.
+const char* primaryMetric(const std::string& kind) {
+  if (kind == "cylinder-channel") return "c_D";
+  if (kind == "periodic-array") return "F_star";
+  return "permeability";
+}
+
+void addMetrics(const Scene& s, const Result& r, RunOutput& out) {
+  auto put = [&](const char* name, const std::optional<double>& v, const char* unit = "1") {
+    if (v) {
+      out.metrics[name] = *v;
+      out.units[name] = unit;
+    }
+  };
+  put("c_D", r.c_d);
+  put("c_L", r.c_l);
+  put("dp", r.dp, "Pa");
+  put("c_D_max", r.c_d_max);
+  put("c_L_max", r.c_l_max);
+  put("St", r.strouhal);
+  put("F_star", r.f_star);
+  if (s.kind == Scene::Kind::periodic_array && r.permeability) {
+    put("k_over_L2", *r.permeability / (s.cell * s.cell));
+    put("permeability", r.permeability, "m2");
+  }
+  if (s.kind == Scene::Kind::image) {
+    put("permeability", r.permeability, "D");
+    put("porosity_total", r.porosity_total);
+    put("porosity_connected", r.porosity_connected);
+    put("porosity_mesh", r.porosity_mesh);
+  }
+}
+
+}  // namespace
+
+RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& options) {
+  const Installation inst = detect();
+  if (!inst.available) throw InputError({c.file().string(), 0, 0, "case.kind"}, "cannot run this case: " + inst.reason, {}, "OpenFOAM v1912 installed");
+  Scene scene = c.kind() == "cylinder-channel" ? cylinderScene(c) : c.kind() == "periodic-array" ? arrayScene(c) : imageScene(c);
+  std::vector<int> levels;
+  if (options.levels) {
+    levels = *options.levels;
+  } else if (c.kind() != "image-permeability" && c.has("numerics.levels")) {
+    for (auto v : c.integers("numerics.levels")) levels.push_back(static_cast<int>(v));
+  }
+  if (levels.empty()) levels.push_back(c.kind() == "image-permeability" ? 0 : static_cast<int>(c.integer("numerics.cells_around")));
+  for (int l : levels)
+    if (c.kind() != "image-permeability" && (l < 8 || l % 4 != 0))
+      throw InputError(c.where("numerics.levels"), "a resolution level must be a multiple of 4 and at least 8", std::to_string(l), "8, 12, 16, ...");
+  const Acceptance* primary = c.acceptanceFor(primaryMetric(c.kind()));
+  RunOutput out;
+  out.details["solver"] = "openfoam " + inst.version;
+  out.details["ranks"] = options.ranks;
+  nlohmann::json ladder = nlohmann::json::array();
+  Progress progress("openfoam " + c.name(), levels.size(), ctx.quiet);
+  Result last;
+  for (std::size_t i = 0; i < levels.size(); ++i) {
+    if (c.kind() != "image-permeability") scene.cells_around = levels[i];
+    const std::string sub = levels.size() > 1 ? fmt::format("openfoam-level{}", i) : "openfoam";
+    last = runCase(scene, ctx.out_dir / sub, options.ranks);
+    if (!last.ok) throw std::runtime_error(fmt::format("OpenFOAM run of '{}' failed (case kept in {}): {}", c.name(), (ctx.out_dir / sub).string(), last.failure));
+    RunOutput level_out;
+    addMetrics(scene, last, level_out);
+    nlohmann::json row = {{"level", i}, {"cells_around", levels[i]}, {"cells", last.cells}, {"ranks", last.ranks},
+                          {"mesh_seconds", last.mesh_seconds}, {"solve_seconds", last.solve_seconds},
+                          {"wall_seconds", last.mesh_seconds + last.solve_seconds}, {"iterations", last.iterations}, {"case_dir", sub}};
+    auto it = level_out.metrics.find(primaryMetric(c.kind()));
+    if (it != level_out.metrics.end()) {
+      row["value"] = it->second;
+      if (primary != nullptr && !primary->reference.isInterval() && primary->reference.value != 0)
+        row["error"] = (it->second - primary->reference.value) / primary->reference.value;
+    }
+    ladder.push_back(row);
+    progress.update(i + 1);
+  }
+  progress.finish();
+  // Observed order of convergence between successive levels (error ~ h^p, h ~ 1 / cells_around).
+  for (std::size_t i = 2; i < ladder.size(); ++i)
+    if (ladder[i].contains("value") && ladder[i - 1].contains("value") && ladder[i - 2].contains("value")) {
+      const double f1 = ladder[i - 2]["value"], f2 = ladder[i - 1]["value"], f3 = ladder[i]["value"];
+      const double r = static_cast<double>(levels[i]) / levels[i - 1];
+      if (std::abs(f3 - f2) > 0 && (f2 - f1) / (f3 - f2) > 0) ladder[i]["observed_order"] = std::log((f2 - f1) / (f3 - f2)) / std::log(r);
+    }
+  out.details["ladder"] = ladder;
+  out.details["cells"] = last.cells;
+  addMetrics(scene, last, out);
+  out.files.push_back(levels.size() > 1 ? fmt::format("openfoam-level{}", levels.size() - 1) : "openfoam");
+  return out;
+}
+
+void registerPeerKinds(CaseKindRegistry& registry) {
+  CaseKind cyl;
+  cyl.name = "cylinder-channel";
+  cyl.summary = "Flow around a circular cylinder in a channel with a parabolic inflow (Schaefer-Turek and the paper's set-up): drag, lift, pressure difference";
+  cyl.declare = [](Schema& s) {
+    s.quantity("geometry.length", "m", "Channel length (x)").def("2.2 m").positive();
+    s.quantity("geometry.height", "m", "Channel height (y)").def("0.41 m").positive();
+    s.quantity("geometry.cylinder_x", "m", "Cylinder centre x").def("0.2 m").positive();
+    s.quantity("geometry.cylinder_y", "m", "Cylinder centre y").def("0.2 m").positive();
+    s.quantity("geometry.diameter", "m", "Cylinder diameter").def("0.1 m").positive();
+    s.quantity("geometry.depth", "m", "Extrusion depth of the 2D domain; force coefficients use diameter x depth").def("0.1 m").positive();
+    declareFluid(s, "1 kg/m3", "1e-3 Pa s");
+    s.quantity("inflow.max_velocity", "m/s", "Peak of the parabolic inflow 4 U y (H - y) / H^2").positive();
+    s.quantity("forces.reference_velocity", "m/s", "Velocity of the coefficients c = 2 F / (rho U^2 D); default: mean inflow 2/3 U_max").optional().positive();
+    s.quantity("forces.reference_length", "m", "Length of the coefficients; default: the diameter").optional().positive();
+    s.quantityList("probes.pressure_a", "m", "First pressure point (x, y); dp = p(a) - p(b)").optional();
+    s.quantityList("probes.pressure_b", "m", "Second pressure point (x, y)").optional();
+    s.choice("numerics.mode", {"steady", "unsteady"}, "Steady (SIMPLE) or unsteady (PIMPLE) solution").def("steady");
+    s.quantity("numerics.end_time", "s", "Unsteady: simulated time").def("8 s").positive();
+    s.quantity("numerics.time_step", "s", "Unsteady: initial time step (adjusted to Courant 0.5)").def("1e-3 s").positive();
+    declareNumerics(s, 64);
+  };
+  cyl.run = [](const Case& c, const RunContext& ctx) { return runPeer(c, ctx, {}); };
+  registry.add(cyl);
+
+  CaseKind arr;
+  arr.name = "periodic-array";
+  arr.summary = "Periodic square array of cylinders in creeping flow: dimensionless drag F* = F / (mu U) and permeability";
+  arr.declare = [](Schema& s) {
+    s.quantity("geometry.cell", "um", "Side L of the square unit cell").def("100 um").positive();
+    s.quantity("geometry.solid_fraction", "1", "Solid area fraction phi = pi a^2 / L^2").min(0.0, true).max(0.75);
+    declareFluid(s, "1000 kg/m3", "1e-3 Pa s");
+    s.quantity("flow.mean_velocity", "m/s", "Mean interstitial velocity imposed by the driving force (keep Re << 1)").def("1e-4 m/s").positive();
+    declareNumerics(s, 64);
+  };
+  arr.run = [](const Case& c, const RunContext& ctx) { return runPeer(c, ctx, {}); };
+  registry.add(arr);
+
+  CaseKind img;
+  img.name = "image-permeability";
+  img.summary = "Permeability and porosity of a pore geometry given as a binary image, pressure-driven left to right";
+  img.declare = [](Schema& s) {
+    s.path("geometry.mask", "Binary image of the geometry (PNG, TIFF), relative to the case file");
+    s.quantity("geometry.pixel_size", "um", "Size of one pixel (the image carries no scale)").positive();
+    s.choice("geometry.grains", {"dark", "bright"}, "Which pixels are grains").def("dark");
+    s.quantity("geometry.depth", "um", "Chip depth (for quasi-2D models; the OpenFOAM peer solves 2D)").def("20 um").positive();
+    declareFluid(s, "1000 kg/m3", "1e-3 Pa s");
+    s.quantity("flow.pressure_drop", "Pa", "Inlet minus outlet pressure (keep Re << 1)").def("1 Pa").positive();
+    s.real("numerics.cells_per_pixel", "Background mesh cells per image pixel").def(0.5).min(0.05).max(4);
+    s.integer("numerics.max_iterations", "Steady solver iteration limit").def(4000).min(10).max(1000000);
+    s.real("numerics.residual", "Steady convergence target of the initial residuals").def(1e-6).min(0.0, true).max(1e-2);
+  };
+  img.run = [](const Case& c, const RunContext& ctx) { return runPeer(c, ctx, {}); };
+  registry.add(img);
+}
+
+}  // namespace mmval::openfoam
