@@ -258,7 +258,7 @@ class CaseReader {
   Acceptance readAcceptance(const toml::table& t, std::size_t index) const {
     const std::string prefix = fmt::format("acceptance[{}]", index);
     const int line = lineOf(t);
-    static const std::vector<std::string> allowed = {"metric", "reference", "tolerance", "reason", "unit"};
+    static const std::vector<std::string> allowed = {"metric", "reference", "tolerance", "reason", "unit", "label"};
     for (auto&& [k, v] : t) {
       const std::string key(k.str());
       if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
@@ -275,6 +275,7 @@ class CaseReader {
     Acceptance a;
     a.where = {m_file.string(), line, 0, prefix};
     a.metric = requireString("metric");
+    if (t.contains("label")) a.label = requireString("label");
     const std::string unit = t.contains("unit") ? requireString("unit") : std::string();
     const toml::node* ref = t.get("reference");
     if (ref == nullptr) fail(line, prefix + ".reference", "missing required key", {}, "a number, a quantity string, or { file, quantity, at }");
@@ -407,9 +408,9 @@ Case Case::parse(std::string_view toml_text, const std::filesystem::path& file, 
       if (t == nullptr) reader.fail(lineOf((*arr)[i]), fmt::format("acceptance[{}]", i), "not a table", {}, "[[acceptance]] tables");
       c.m_acceptance.push_back(reader.readAcceptance(*t, i));
       for (std::size_t j = 0; j + 1 < c.m_acceptance.size(); ++j)
-        if (c.m_acceptance[j].metric == c.m_acceptance.back().metric)
-          reader.fail(c.m_acceptance.back().where.line, fmt::format("acceptance[{}].metric", i), "metric listed twice",
-                      c.m_acceptance.back().metric, "one [[acceptance]] entry per metric");
+        if (c.m_acceptance[j].metric == c.m_acceptance.back().metric && c.m_acceptance[j].label == c.m_acceptance.back().label)
+          reader.fail(c.m_acceptance.back().where.line, fmt::format("acceptance[{}].metric", i), "metric listed twice with the same label",
+                      c.m_acceptance.back().metric, "a distinct 'label' for each reference of the same metric");
     }
   }
   return c;
@@ -522,7 +523,7 @@ nlohmann::json Case::resolvedJson() const {
   }
   nlohmann::json acc = nlohmann::json::array();
   for (const auto& a : m_acceptance)
-    acc.push_back({{"metric", a.metric}, {"reference", referenceJson(a.reference)}, {"tolerance", a.tolerance.text}, {"reason", a.reason}});
+    acc.push_back({{"metric", a.metric}, {"label", a.label}, {"reference", referenceJson(a.reference)}, {"tolerance", a.tolerance.text}, {"reason", a.reason}});
   j["acceptance"] = acc;
   return j;
 }
@@ -575,7 +576,7 @@ ReferenceValue lookupReference(const std::filesystem::path& file, std::string_vi
 
 MetricResult evaluateMetric(const Acceptance& a, double value_si) {
   MetricResult m;
-  m.name = a.metric;
+  m.name = a.label.empty() ? a.metric : a.metric + " (" + a.label + ")";
   m.unit = a.reference.unit;
   const double f = parseUnit(m.unit).to_si;
   m.value = value_si / f;

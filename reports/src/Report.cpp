@@ -153,6 +153,42 @@ int writeReport(const ReportInput& input, const fs::path& out) {
     if (!p.series.empty()) addPlot("speed-vs-error", "Wall time against relative error over each case's resolution ladder (log-log).", p);
   }
 
+  // Drag coefficient against Reynolds number: every cylinder run, with the references its
+  // acceptance entries name (the paper's Table 1 as a figure).
+  {
+    std::map<std::string, Series> by_label;
+    for (const auto& r : input.summary.results) {
+      const auto& d = r["details"];
+      if (!d.is_object() || !d.contains("Re")) continue;
+      const double re = d["Re"].get<double>();
+      for (const auto& m : r["metrics"]) {
+        const std::string name = m["name"].get<std::string>();
+        if (name.rfind("c_D", 0) != 0 || name.rfind("c_D_max", 0) == 0 || !m["value"].is_number()) continue;
+        const std::string solver = d.value("solver", std::string("mmval"));
+        auto& ours = by_label[solver];
+        ours.name = solver;
+        ours.style = "points pt 7 ps 1.2";
+        if (ours.x.empty() || ours.x.back() != re) {
+          ours.x.push_back(re);
+          ours.y.push_back(m["value"].get<double>());
+        }
+        const auto open = name.find(" (");
+        if (open != std::string::npos && m["reference"].is_number()) {
+          const std::string label = name.substr(open + 2, name.size() - open - 3);
+          auto& ref = by_label[label];
+          ref.name = label;
+          ref.style = "points pt 6 ps 1.5";
+          ref.x.push_back(re);
+          ref.y.push_back(m["reference"].get<double>());
+        }
+      }
+    }
+    Plot p{"Drag coefficient against Reynolds number", "Re", "C_d", true, false, {}, 640, 420};
+    for (auto& [label, series] : by_label) p.series.push_back(series);
+    if (!p.series.empty() && by_label.begin()->second.x.size() + by_label.rbegin()->second.x.size() >= 2)
+      addPlot("cd-vs-re", "Drag coefficient against Re: our runs (filled) and their references (open).", p);
+  }
+
   // Experiment vs simulation figures.
   for (const auto& c : input.comparisons) {
     auto timePlot = [&](const std::string& file, const std::string& title, const std::string& ylabel, const std::string& id) {

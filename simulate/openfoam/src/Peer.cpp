@@ -182,7 +182,12 @@ long long writeCase(const Scene& s, const fs::path& dir, int ranks) {
           "        type exprFixedValue;\n        value uniform (0 0 0);\n"
           "        valueExpr \"vector(4*{0:.12g}*pos().y()*({1:.12g}-pos().y())/({1:.12g}*{1:.12g}), 0, 0)\";\n",
           s.inflow_max, s.height);
-      u_file += boundaryField({{"inlet", inlet}, {"outlet", kZeroGradient}, {"walls", kNoSlip}, {"cylinder", kNoSlip}, {"frontAndBack", kEmpty}});
+      const std::string uniform = fmt::format("        type fixedValue;\n        value uniform ({:.12g} 0 0);\n", s.inflow_max);
+      u_file += boundaryField({{"inlet", s.uniform_inflow ? uniform : inlet},
+                               {"outlet", kZeroGradient},
+                               {"walls", s.slip_walls ? std::string("        type slip;\n") : kNoSlip},
+                               {"cylinder", kNoSlip},
+                               {"frontAndBack", kEmpty}});
       p_file += boundaryField({{"inlet", kZeroGradient}, {"outlet", "        type fixedValue;\n        value uniform 0;\n"},
                                {"walls", kZeroGradient}, {"cylinder", kZeroGradient}, {"frontAndBack", kEmpty}});
       break;
@@ -474,6 +479,9 @@ Result runWrittenCase(const Scene& s, const fs::path& dir, int ranks) {
           clmax = std::max(clmax, hist[i].cl);
         }
         r.c_d_max = cdmax;
+        double sum = 0;
+        for (std::size_t i = hist.size() / 2; i < hist.size(); ++i) sum += hist[i].cd;
+        r.c_d_mean = sum / static_cast<double>(hist.size() - hist.size() / 2);
         r.c_l_max = clmax;
         r.strouhal = strouhalFromLift(hist, s.l_ref, s.u_ref);
       }

@@ -55,6 +55,7 @@ struct ReferenceValue {
 /// One [[acceptance]] entry of a case.
 struct Acceptance {
   std::string metric;
+  std::string label;  ///< distinguishes several references of one metric ("Dennis & Chang")
   ReferenceValue reference;
   Tolerance tolerance;
   std::string reason;

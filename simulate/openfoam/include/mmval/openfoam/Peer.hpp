@@ -39,7 +39,9 @@ struct Scene {
   double rho = 1.0, nu = 1e-3;
   // channel and cylinder channel
   double length = 2.2, height = 0.41, depth = 0.1;
-  double inflow_max = 0.3;          ///< peak of the parabolic inflow (cylinder channel)
+  double inflow_max = 0.3;          ///< peak of the parabolic inflow (cylinder channel), or the uniform inflow
+  bool uniform_inflow = false;      ///< uniform instead of parabolic inflow
+  bool slip_walls = false;          ///< slip (free-stream) instead of no-slip channel walls
   double pressure_drop = 0.0;       ///< inlet - outlet, kinematic (channel)
   double cx = 0.2, cy = 0.2, diameter = 0.1;
   double u_ref = 0.2, l_ref = 0.1;  ///< for force coefficients: c = 2F / (rho u_ref^2 l_ref depth)
@@ -76,6 +78,7 @@ struct Result {
   int iterations = 0;
   // outputs (SI, kinematic pressures multiplied by rho)
   double porosity_total = 0, porosity_connected = 0, porosity_mesh = 0;
+  std::optional<double> c_d_mean;  ///< unsteady: mean over the second half
   std::optional<double> c_d, c_l, c_d_max, c_l_max, strouhal, dp, flow_rate, permeability, drag_per_length, f_star;
 };
 
