@@ -7,10 +7,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "mmval/compare/Statistics.hpp"
+#include "mmval/tracking/Statistics.hpp"
 #include "mmval/core/AtomicFile.hpp"
 
 namespace mmval::compare {
+
+using namespace mmval::tracking;
 
 namespace {
 

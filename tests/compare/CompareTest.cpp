@@ -7,11 +7,13 @@
 #include <fstream>
 
 #include "mmval/compare/Compare.hpp"
-#include "mmval/compare/Statistics.hpp"
+#include "mmval/tracking/Statistics.hpp"
 #include "mmval/core/Error.hpp"
 
 namespace mmval::compare {
 namespace {
+
+using namespace mmval::tracking;
 
 TEST(Statistics, PopulationStdOfTheTextbookSample) {
   // {2,4,4,4,5,5,7,9}: mean 5, population variance 4.

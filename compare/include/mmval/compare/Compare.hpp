@@ -6,11 +6,15 @@
 
 #include <nlohmann/json.hpp>
 
-#include "mmval/compare/TrackMetrics.hpp"
+#include "mmval/tracking/TrackMetrics.hpp"
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Tracks.hpp"
 
 namespace mmval::compare {
+
+using tracking::TrackOptions;
+using tracking::TrackStats;
+using tracking::TimeSeries;
 
 struct CompareOptions {
   TrackOptions tracks;

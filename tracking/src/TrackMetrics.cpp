@@ -1,13 +1,13 @@
-#include "mmval/compare/TrackMetrics.hpp"
+#include "mmval/tracking/TrackMetrics.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
 
-#include "mmval/compare/Statistics.hpp"
+#include "mmval/tracking/Statistics.hpp"
 
-namespace mmval::compare {
+namespace mmval::tracking {
 
 TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& o) {
   TrackStats s;
@@ -117,4 +117,4 @@ double intersectionOverUnion(const cv::Mat& a, const cv::Mat& b) {
   return u == 0 ? 0.0 : static_cast<double>(cv::countNonZero(inter)) / u;
 }
 
-}  // namespace mmval::compare
+}  // namespace mmval::tracking

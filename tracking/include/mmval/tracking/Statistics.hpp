@@ -2,7 +2,7 @@
 #pragma once
 #include <vector>
 
-namespace mmval::compare {
+namespace mmval::tracking {
 
 /// Wasserstein-1 (earth mover's) distance between two empirical
 /// distributions: the integral of |F_a(x) - F_b(x)| dx.
@@ -26,4 +26,4 @@ double median(std::vector<double> v);
 /// Population standard deviation, sqrt(sum (x - mean)^2 / N) (the paper's Eq. 18).
 double populationStd(const std::vector<double>& v);
 
-}  // namespace mmval::compare
+}  // namespace mmval::tracking

@@ -1,4 +1,4 @@
-#include "mmval/compare/Statistics.hpp"
+#include "mmval/tracking/Statistics.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 #include <numeric>
 #include <stdexcept>
 
-namespace mmval::compare {
+namespace mmval::tracking {
 
 double mean(const std::vector<double>& v) {
   if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
@@ -77,4 +77,4 @@ KsResult kolmogorovSmirnov(std::vector<double> a, std::vector<double> b) {
   return {d, kolmogorovQ((ne + 0.12 + 0.11 / ne) * d)};
 }
 
-}  // namespace mmval::compare
+}  // namespace mmval::tracking

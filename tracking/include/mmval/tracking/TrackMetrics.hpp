@@ -11,7 +11,7 @@
 
 #include "mmval/core/Tracks.hpp"
 
-namespace mmval::compare {
+namespace mmval::tracking {
 
 struct TrackOptions {
   double immobile_distance = 2e-6;  ///< m: a particle that never gets farther than this from its start is immobile
@@ -53,4 +53,4 @@ cv::Mat occupancyMap(const Tracks& tracks, double cell, double x0, double y0, do
 /// Intersection over union of two binary maps of the same size.
 double intersectionOverUnion(const cv::Mat& a, const cv::Mat& b);
 
-}  // namespace mmval::compare
+}  // namespace mmval::tracking

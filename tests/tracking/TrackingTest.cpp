@@ -1,0 +1,218 @@
+// The tracker against references it cannot bend: brute-force assignment,
+// spots rendered at known sub-pixel positions, and a synthetic micromodel
+// video with ground truth.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <numeric>
+#include <random>
+
+#include <opencv2/imgproc.hpp>
+
+#include "mmval/tracking/Assignment.hpp"
+#include "mmval/tracking/Detect.hpp"
+#include "mmval/tracking/Link.hpp"
+#include "mmval/tracking/Pipeline.hpp"
+#include "mmval/tracking/Score.hpp"
+#include "mmval/tracking/Synth.hpp"
+
+namespace mmval::tracking {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(Assignment, MatchesBruteForceOnRandomMatrices) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> U(0, 10);
+  for (int trial = 0; trial < 50; ++trial) {
+    const int n = 1 + trial % 5, m = n + trial % 3;
+    std::vector<std::vector<double>> c(n, std::vector<double>(m));
+    for (auto& row : c)
+      for (auto& x : row) x = U(rng);
+    const auto a = solveAssignment(c);
+    double got = 0;
+    for (int i = 0; i < n; ++i) got += c[i][a[i]];
+    // Brute force over all injective maps rows -> columns.
+    std::vector<int> cols(m);
+    std::iota(cols.begin(), cols.end(), 0);
+    double best = 1e300;
+    do {
+      double s = 0;
+      for (int i = 0; i < n; ++i) s += c[i][cols[i]];
+      best = std::min(best, s);
+    } while (std::next_permutation(cols.begin(), cols.end()));
+    EXPECT_NEAR(got, best, 1e-9) << "trial " << trial;
+  }
+}
+
+/// Clean Gaussian spots at known sub-pixel positions on a flat background.
+cv::Mat spots(const std::vector<cv::Point2d>& at, double sigma, double amplitude, double noise, unsigned seed) {
+  cv::Mat img(120, 160, CV_32F, cv::Scalar(0.8));
+  for (const auto& p : at)
+    for (int y = 0; y < img.rows; ++y)
+      for (int x = 0; x < img.cols; ++x)
+        img.at<float>(y, x) -= static_cast<float>(amplitude * std::exp(-((x - p.x) * (x - p.x) + (y - p.y) * (y - p.y)) / (2 * sigma * sigma)));
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> N(0, noise);
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x) img.at<float>(y, x) += static_cast<float>(N(rng));
+  return img;
+}
+
+double rmseOf(const std::vector<cv::Point2d>& truth, const std::vector<Detection>& found, int& matched) {
+  double se = 0;
+  matched = 0;
+  for (const auto& t : truth) {
+    double best = 1e9;
+    for (const auto& d : found) best = std::min(best, std::hypot(d.x - t.x, d.y - t.y));
+    if (best < 2) {
+      se += best * best;
+      ++matched;
+    }
+  }
+  return matched ? std::sqrt(se / matched) : 1e9;
+}
+
+TEST(Detect, SubPixelLocalisationOnCleanSpots) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> U(0, 1);
+  std::vector<cv::Point2d> truth;
+  for (int gy = 0; gy < 5; ++gy)
+    for (int gx = 0; gx < 7; ++gx) truth.push_back({15 + gx * 20 + U(rng), 15 + gy * 20 + U(rng)});
+  const cv::Mat background(120, 160, CV_32F, cv::Scalar(0.8));
+  DetectOptions o;
+  o.blur_sigma = 1.0;
+  int matched = 0;
+  // Noise-free: the intensity-weighted centroid recovers sub-pixel positions to
+  // far better than Crocker & Grier's ~0.05 px (reference-data/tracking-accuracy.toml).
+  o.refinement = Refinement::intensity;
+  const double intensity = rmseOf(truth, detect(spots(truth, 1.5, 0.4, 0.0, 1), background, Polarity::dark, o), matched);
+  EXPECT_EQ(matched, 35);
+  EXPECT_LT(intensity, 0.01);
+  // The contour centroid of the thresholded blob is pixel-quantised: worse.
+  o.refinement = Refinement::moments;
+  const double moments = rmseOf(truth, detect(spots(truth, 1.5, 0.4, 0.0, 1), background, Polarity::dark, o), matched);
+  EXPECT_EQ(matched, 35);
+  EXPECT_GT(moments, intensity);
+  // With 2 % camera noise the refined centroid still stays within 0.1 px.
+  o.refinement = Refinement::intensity;
+  const double noisy = rmseOf(truth, detect(spots(truth, 1.5, 0.4, 0.02, 2), background, Polarity::dark, o), matched);
+  EXPECT_EQ(matched, 35);
+  EXPECT_LT(noisy, 0.1);
+  std::printf("localisation RMSE: intensity %.4f px, moments %.4f px, intensity with noise %.4f px\n", intensity, moments, noisy);
+}
+
+TEST(Detect, PolarityIsGuessedAndBrightParticlesFound) {
+  const std::vector<cv::Point2d> truth = {{40.3, 50.7}, {100.2, 30.1}};
+  cv::Mat dark = spots(truth, 1.5, 0.4, 0.0, 1);
+  const cv::Mat background(120, 160, CV_32F, cv::Scalar(0.8));
+  EXPECT_EQ(guessPolarity(dark, background), Polarity::dark);
+  cv::Mat bright = 1.6 - dark;  // bright spots on a 0.8 background
+  EXPECT_EQ(guessPolarity(bright, background), Polarity::bright);
+  int matched = 0;
+  rmseOf(truth, detect(bright, background, Polarity::automatic, DetectOptions{}), matched);
+  EXPECT_EQ(matched, 2);
+}
+
+fs::path synthetic(const char* name, const SynthOptions& o, SynthResult& r) {
+  const fs::path dir = fs::path(MMVAL_BINARY_DIR) / "test-output" / name;
+  fs::remove_all(dir);
+  r = writeSyntheticVideo(o, dir);
+  return dir;
+}
+
+Tracks withoutImmobile(const SynthResult& r) {
+  Tracks t = r.truth;
+  std::erase_if(t.points, [&](const TrackPoint& p) { return std::find(r.immobile_ids.begin(), r.immobile_ids.end(), p.particle) != r.immobile_ids.end(); });
+  return t;
+}
+
+TEST(Pipeline, BothLinkersTrackTheSyntheticVideo) {
+  SynthOptions o;
+  o.frames = 40;
+  o.seed = 5;
+  SynthResult truth;
+  const fs::path dir = synthetic("synth-link", o, truth);
+  for (Linker method : {Linker::global, Linker::paper}) {
+    TrackConfig c;
+    c.link.method = method;
+    FrameSource src((dir / "frames").string());
+    const TrackRun run = runTracker(src, c, true);
+    const Scores s = scoreTracks(withoutImmobile(truth), run.tracks);
+    std::printf("%s linker: JSC %.3f alpha %.3f beta %.3f JSC_tracks %.3f RMSE %.3f px\n", method == Linker::global ? "global" : "paper",
+                s.jaccard_points, s.alpha, s.beta, s.jaccard_tracks, s.rmse_px);
+    EXPECT_GT(s.jaccard_points, method == Linker::global ? 0.9 : 0.85);
+    EXPECT_GT(s.alpha, method == Linker::global ? 0.88 : 0.8);
+    EXPECT_LT(s.rmse_px, 0.4);
+  }
+}
+
+TEST(Link, GapClosingBridgesMissedFrames) {
+  // One particle moving 2 px per frame, missing in frames 3 and 4.
+  TrackLinker with({Linker::global, 5.0, 2, true});
+  TrackLinker without({Linker::global, 5.0, 0, true});
+  for (int f = 0; f < 8; ++f) {
+    std::vector<Detection> d;
+    if (f != 3 && f != 4) d.push_back({10.0 + 2 * f, 20.0, 5, 1, 1});
+    with.push(f, d);
+    without.push(f, d);
+  }
+  auto ids = [](const std::vector<LinkedPoint>& pts) {
+    std::vector<std::int64_t> v;
+    for (const auto& p : pts) v.push_back(p.particle);
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+    return v.size();
+  };
+  EXPECT_EQ(ids(with.points()), 1u);
+  EXPECT_EQ(with.stats().gap_closures, 1);
+  EXPECT_EQ(ids(without.points()), 2u);
+}
+
+TEST(Link, DenseFieldStaysLinear) {
+  // 2,500 particles per frame on a lattice drifting 1 px per frame: every one linked,
+  // components stay small (no combinatorial blow-up).
+  TrackLinker linker({Linker::global, 3.0, 0, true});
+  for (int f = 0; f < 5; ++f) {
+    std::vector<Detection> d;
+    for (int i = 0; i < 50; ++i)
+      for (int j = 0; j < 50; ++j) d.push_back({i * 8.0 + f, j * 8.0, 5, 1, 1});
+    linker.push(f, d);
+  }
+  EXPECT_EQ(linker.stats().new_tracks, 2500);
+  EXPECT_EQ(linker.stats().links, 4 * 2500);
+  EXPECT_LE(linker.stats().largest_component, 4);
+}
+
+TEST(Score, PerfectAndShiftedTracks) {
+  Tracks t;
+  for (int p = 0; p < 3; ++p)
+    for (int f = 0; f < 10; ++f) {
+      TrackPoint q;
+      q.frame = f;
+      q.particle = p;
+      q.x_px = 10 + 3 * f;
+      q.y_px = 10 + 20 * p;
+      t.points.push_back(q);
+    }
+  const Scores same = scoreTracks(t, t);
+  EXPECT_DOUBLE_EQ(same.alpha, 1.0);
+  EXPECT_DOUBLE_EQ(same.jaccard_points, 1.0);
+  EXPECT_DOUBLE_EQ(same.jaccard_tracks, 1.0);
+  Tracks shifted = t;
+  for (auto& p : shifted.points) p.x_px += 1.0;  // 1 px off everywhere, gate 5: alpha = 1 - 1/5
+  const Scores s = scoreTracks(t, shifted);
+  EXPECT_NEAR(s.alpha, 0.8, 1e-12);
+  EXPECT_NEAR(s.rmse_px, 1.0, 1e-12);
+  EXPECT_DOUBLE_EQ(s.jaccard_points, 1.0);
+  Tracks half = t;
+  std::erase_if(half.points, [](const TrackPoint& p) { return p.particle == 2; });
+  const Scores h = scoreTracks(t, half);
+  EXPECT_NEAR(h.jaccard_points, 20.0 / 30.0, 1e-12);
+  EXPECT_NEAR(h.jaccard_tracks, 2.0 / 3.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace mmval::tracking

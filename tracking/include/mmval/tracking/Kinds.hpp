@@ -1,0 +1,17 @@
+// Case kinds of the tracker.
+#pragma once
+#include "mmval/core/CaseKind.hpp"
+#include "mmval/core/Schema.hpp"
+#include "mmval/tracking/Pipeline.hpp"
+
+namespace mmval::tracking {
+
+/// "tracking-synthetic": renders a synthetic micromodel video with ground
+/// truth, tracks it, and scores the tracks (Chenouard et al. 2014).
+void registerTrackingKinds(CaseKindRegistry& registry);
+
+/// The detection / linking keys ([detect], [link]) shared by every tracking case.
+void declareTrackerKeys(Schema& s);
+TrackConfig trackerConfig(const Case& c);
+
+}  // namespace mmval::tracking

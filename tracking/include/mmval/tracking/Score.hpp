@@ -1,0 +1,24 @@
+// Tracking accuracy against ground truth, after Chenouard et al. (2014),
+// Nature Methods 11:281 (the particle tracking challenge): tracks are paired
+// by optimal assignment under a gate; the track distance sums, over the union
+// of time points, min(|x - y|, gate) with a missing position counting as the
+// gate. Reported: alpha (1 - d(X,Y) / d(X,0)), beta (also penalising
+// spurious tracks), Jaccard of points and of whole tracks, and the RMSE of
+// matched points.
+#pragma once
+#include "mmval/core/Tracks.hpp"
+
+namespace mmval::tracking {
+
+struct Scores {
+  double alpha = 0, beta = 0;
+  double jaccard_points = 0, jaccard_tracks = 0;
+  double rmse_px = 0;
+  long long tp = 0, fp = 0, fn = 0;
+  int truth_tracks = 0, estimated_tracks = 0, paired_tracks = 0;
+};
+
+/// Both track sets in pixels (x_px, y_px). `gate` in px (5 in the challenge).
+Scores scoreTracks(const Tracks& truth, const Tracks& estimated, double gate = 5.0);
+
+}  // namespace mmval::tracking

@@ -1,0 +1,149 @@
+#include "mmval/tracking/Frames.hpp"
+
+#include <algorithm>
+#include <regex>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "mmval/core/Error.hpp"
+
+namespace fs = std::filesystem;
+
+namespace mmval::tracking {
+
+cv::Mat toFloatGrey(const cv::Mat& image) {
+  cv::Mat grey = image;
+  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  if (image.channels() == 4) cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
+  cv::Mat out;
+  const double scale = grey.depth() == CV_16U ? 1.0 / 65535.0 : grey.depth() == CV_8U ? 1.0 / 255.0 : 1.0;
+  grey.convertTo(out, CV_32F, scale);
+  return out;
+}
+
+namespace {
+
+bool isImage(const fs::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+  return ext == ".png" || ext == ".tif" || ext == ".tiff" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp";
+}
+
+std::regex globToRegex(const std::string& glob) {
+  std::string re;
+  for (char c : glob) {
+    if (c == '*') re += "[^/]*";
+    else if (c == '?') re += "[^/]";
+    else if (std::string(".()[]{}+^$|\\").find(c) != std::string::npos) re += std::string("\\") + c;
+    else re += c;
+  }
+  return std::regex(re);
+}
+
+}  // namespace
+
+FrameSource::FrameSource(const std::string& input, std::optional<cv::Rect> roi, FrameRange range)
+    : m_input(input), m_roi(roi), m_range(range) {
+  const fs::path p(input);
+  if (m_range.step < 1) throw InputError({input, 0, 0, "frame step"}, "frame step must be at least 1", std::to_string(m_range.step), ">= 1");
+  if (fs::is_directory(p)) {
+    for (const auto& e : fs::directory_iterator(p))
+      if (e.is_regular_file() && isImage(e.path())) m_files.push_back(e.path().string());
+    std::sort(m_files.begin(), m_files.end());
+    if (m_files.empty()) throw InputError({input, 0, 0, {}}, "folder holds no images", {}, "PNG, TIFF or JPEG files");
+    m_kind = Kind::images;
+    m_total = static_cast<int>(m_files.size());
+  } else if (input.find_first_of("*?") != std::string::npos) {
+    const fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+    const std::regex re = globToRegex(p.filename().string());
+    if (fs::is_directory(dir))
+      for (const auto& e : fs::directory_iterator(dir))
+        if (std::regex_match(e.path().filename().string(), re) && isImage(e.path())) m_files.push_back(e.path().string());
+    std::sort(m_files.begin(), m_files.end());
+    if (m_files.empty()) throw InputError({input, 0, 0, {}}, "no image matches the pattern", {}, "a glob such as frames/*.png");
+    m_kind = Kind::images;
+    m_total = static_cast<int>(m_files.size());
+  } else {
+    if (!fs::exists(p)) throw InputError({input, 0, 0, {}}, "input not found", {}, "a video, an image folder, a glob or a multi-page TIFF");
+    std::string ext = p.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+    if (ext == ".tif" || ext == ".tiff") {
+      m_kind = Kind::tiff;
+      m_total = static_cast<int>(cv::imcount(input, cv::IMREAD_UNCHANGED));
+      if (m_total <= 0) throw InputError({input, 0, 0, {}}, "cannot read the TIFF", {}, "a readable single- or multi-page TIFF");
+    } else if (isImage(p)) {
+      m_kind = Kind::images;
+      m_files = {input};
+      m_total = 1;
+    } else {
+      m_kind = Kind::video;
+      if (!m_video.open(input)) throw InputError({input, 0, 0, {}}, "cannot open the video", {}, "a video OpenCV/FFmpeg reads (avi, mp4, mov, mkv)");
+      m_total = static_cast<int>(m_video.get(cv::CAP_PROP_FRAME_COUNT));
+    }
+  }
+  const int last = m_range.last < 0 ? m_total - 1 : std::min(m_range.last, m_total - 1);
+  m_count = m_total > 0 && last >= m_range.first ? (last - m_range.first) / m_range.step + 1 : 0;
+  rewind();
+}
+
+void FrameSource::rewind() {
+  m_pos = 0;
+  if (m_kind == Kind::video) m_video.set(cv::CAP_PROP_POS_FRAMES, m_range.first);
+}
+
+bool FrameSource::readRaw(int index, cv::Mat& out) {
+  switch (m_kind) {
+    case Kind::images:
+      if (index >= static_cast<int>(m_files.size())) return false;
+      out = cv::imread(m_files[index], cv::IMREAD_UNCHANGED);
+      if (out.empty()) throw InputError({m_files[index], 0, 0, {}}, "cannot read the image", {}, "PNG, TIFF or JPEG, 8 or 16 bit");
+      return true;
+    case Kind::tiff: {
+      if (index >= m_total) return false;
+      std::vector<cv::Mat> pages;
+      if (!cv::imreadmulti(m_input, pages, index, 1, cv::IMREAD_UNCHANGED) || pages.empty())
+        throw InputError({m_input, 0, 0, {}}, "cannot read TIFF page " + std::to_string(index));
+      out = pages.front();
+      return true;
+    }
+    case Kind::video:
+      return m_video.read(out) && !out.empty();
+  }
+  return false;
+}
+
+bool FrameSource::next(cv::Mat& frame, int& index) {
+  if (m_pos >= m_count) return false;
+  index = m_range.first + m_pos * m_range.step;
+  cv::Mat raw;
+  if (m_kind == Kind::video) {
+    // Sequential read; skip frames between steps.
+    for (int k = 0; k < (m_pos == 0 ? 1 : m_range.step); ++k)
+      if (!readRaw(index, raw)) return false;
+  } else if (!readRaw(index, raw)) {
+    return false;
+  }
+  ++m_pos;
+  if (raw.depth() == CV_16U) {
+    // Scientific cameras put 10-14 bit data (often a narrow band of it) in 16-bit
+    // containers: stretch by the first frame's range, the same for every frame.
+    cv::Mat grey = raw;
+    if (raw.channels() != 1) cv::cvtColor(raw, grey, cv::COLOR_BGR2GRAY);
+    if (m_range16[1] <= m_range16[0]) {
+      cv::minMaxLoc(grey, &m_range16[0], &m_range16[1]);
+      if (m_range16[1] <= m_range16[0]) m_range16[1] = m_range16[0] + 1;
+    }
+    grey.convertTo(frame, CV_32F, 1.0 / (m_range16[1] - m_range16[0]), -m_range16[0] / (m_range16[1] - m_range16[0]));
+  } else {
+    frame = toFloatGrey(raw);
+  }
+  if (m_roi) {
+    const cv::Rect r = *m_roi & cv::Rect(0, 0, frame.cols, frame.rows);
+    if (r.area() == 0) throw InputError({m_input, 0, 0, "roi"}, "region of interest lies outside the frame");
+    frame = frame(r).clone();
+  }
+  return true;
+}
+
+}  // namespace mmval::tracking

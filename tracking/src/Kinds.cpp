@@ -1,0 +1,135 @@
+#include "mmval/tracking/Kinds.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "mmval/tracking/Score.hpp"
+#include "mmval/tracking/Synth.hpp"
+
+namespace mmval::tracking {
+
+void declareTrackerKeys(Schema& s) {
+  s.boolean("detect.subtract_background", "Remove the temporal median background (grains, stuck particles)").def(true);
+  s.choice("detect.polarity", {"auto", "dark", "bright"}, "Particles darker or brighter than the background").def("auto");
+  s.real("detect.blur_sigma", "Gaussian blur, px (0: none)").def(1.0).min(0).max(20);
+  s.choice("detect.threshold", {"otsu", "manual", "adaptive"}, "Threshold method").def("otsu");
+  s.real("detect.threshold_value", "Manual threshold, fraction of full scale of the background-removed signal").def(0.08).min(0).max(1);
+  s.choice("detect.morphology", {"none", "erode", "dilate", "open", "close"}, "Morphological operation after the threshold").def("open");
+  s.integer("detect.kernel", "Morphology kernel, px (odd)").def(3).min(1).max(51);
+  s.integer("detect.iterations", "Morphology iterations").def(1).min(0).max(20);
+  s.real("detect.min_area", "Smallest blob, px^2").def(3).min(0);
+  s.real("detect.max_area", "Largest blob, px^2").def(2000).min(1);
+  s.real("detect.min_circularity", "Smallest 4 pi A / P^2").def(0.2).min(0).max(1);
+  s.choice("detect.refinement", {"intensity", "moments"}, "Centroid: contour moments or intensity-weighted sub-pixel refinement").def("intensity");
+  s.choice("link.method", {"global", "paper"}, "Linker: optimal assignment with gap closing, or the paper's distance + angle rule").def("global");
+  s.real("link.search_radius", "Search radius, px per frame").def(8).min(0.1);
+  s.integer("link.memory", "Frames a particle may be missed (gap closing)").def(2).min(0).max(100);
+  s.quantity("analysis.immobile_distance", "um", "Particles that never move farther are immobile (left out of velocities)").def("2 um").nonNegative();
+  s.quantity("analysis.stuck_distance", "um", "Moving less than this over the final window counts as deposited").def("1 um").nonNegative();
+  s.quantity("analysis.stuck_window", "s", "That final window").def("2 s").positive();
+}
+
+TrackConfig trackerConfig(const Case& c) {
+  TrackConfig t;
+  t.detect.subtract_background = c.flag("detect.subtract_background");
+  t.detect.polarity = parsePolarity(c.text("detect.polarity"));
+  t.detect.blur_sigma = c.real("detect.blur_sigma");
+  t.detect.threshold = parseThreshold(c.text("detect.threshold"));
+  t.detect.threshold_value = c.real("detect.threshold_value");
+  t.detect.morphology = parseMorphology(c.text("detect.morphology"));
+  t.detect.kernel = static_cast<int>(c.integer("detect.kernel"));
+  t.detect.iterations = static_cast<int>(c.integer("detect.iterations"));
+  t.detect.min_area = c.real("detect.min_area");
+  t.detect.max_area = c.real("detect.max_area");
+  t.detect.min_circularity = c.real("detect.min_circularity");
+  t.detect.refinement = parseRefinement(c.text("detect.refinement"));
+  t.link.method = c.text("link.method") == "paper" ? Linker::paper : Linker::global;
+  t.link.search_radius = c.real("link.search_radius");
+  t.link.memory = static_cast<int>(c.integer("link.memory"));
+  t.analysis.immobile_distance = c.quantity("analysis.immobile_distance");
+  t.analysis.stuck_distance = c.quantity("analysis.stuck_distance");
+  t.analysis.stuck_window = c.quantity("analysis.stuck_window");
+  return t;
+}
+
+void registerTrackingKinds(CaseKindRegistry& registry) {
+  CaseKind k;
+  k.name = "tracking-synthetic";
+  k.summary = "Track a synthetic micromodel video with known ground truth and score the tracks (Chenouard et al. 2014)";
+  k.declare = [](Schema& s) {
+    s.integer("synth.width", "Frame width, px").def(320).min(32).max(8192);
+    s.integer("synth.height", "Frame height, px").def(240).min(32).max(8192);
+    s.integer("synth.frames", "Number of frames").def(60).min(3).max(100000);
+    s.quantity("synth.frame_rate", "Hz", "Frames per second").def("10 Hz").positive();
+    s.quantity("synth.pixel_size", "um", "Pixel size").def("1 um").positive();
+    s.integer("synth.particles", "Moving particles in view").def(40).min(0).max(100000);
+    s.integer("synth.immobile", "Particles stuck from the start").def(4).min(0).max(100000);
+    s.quantity("synth.deposit_fraction", "1", "Share of moving particles that stop during the video").def(0.15).fraction();
+    s.integer("synth.grains", "Grains in view").def(10).min(0).max(1000);
+    s.real("synth.grain_radius", "Grain radius, px").def(14).min(2);
+    s.real("synth.speed", "Mean flow speed, px per frame").def(3).min(0);
+    s.real("synth.spot_sigma", "Particle spot sigma, px").def(1.3).min(0.3);
+    s.real("synth.noise", "Camera noise, fraction of full scale").def(0.015).min(0).max(0.5);
+    s.integer("synth.seed", "Random seed").def(1).min(0);
+    s.real("score.gate", "Gate of the scores, px (5 in the tracking challenge)").def(5).min(0.1);
+    declareTrackerKeys(s);
+  };
+  k.run = [](const Case& c, const RunContext& ctx) {
+    SynthOptions o;
+    o.width = static_cast<int>(c.integer("synth.width"));
+    o.height = static_cast<int>(c.integer("synth.height"));
+    o.frames = static_cast<int>(c.integer("synth.frames"));
+    o.fps = c.quantity("synth.frame_rate");
+    o.pixel_size = c.quantity("synth.pixel_size");
+    o.particles = static_cast<int>(c.integer("synth.particles"));
+    o.immobile = static_cast<int>(c.integer("synth.immobile"));
+    o.deposit_fraction = c.quantity("synth.deposit_fraction");
+    o.grains = static_cast<int>(c.integer("synth.grains"));
+    o.grain_radius = c.real("synth.grain_radius");
+    o.speed = c.real("synth.speed");
+    o.spot_sigma = c.real("synth.spot_sigma");
+    o.noise = c.real("synth.noise");
+    o.seed = static_cast<std::uint64_t>(c.integer("synth.seed"));
+    const SynthResult synth = writeSyntheticVideo(o, ctx.out_dir / "synthetic");
+    TrackConfig cfg = trackerConfig(c);
+    cfg.pixel_size = o.pixel_size;
+    cfg.fps = o.fps;
+    FrameSource source((ctx.out_dir / "synthetic" / "frames").string());
+    const TrackRun run = runTracker(source, cfg, ctx.quiet);
+    // With background removal the tracker is meant not to see particles stuck from the
+    // start (they are part of the static scene), so they leave the scored truth.
+    Tracks scored = synth.truth;
+    if (cfg.detect.subtract_background)
+      std::erase_if(scored.points, [&](const TrackPoint& p) {
+        return std::find(synth.immobile_ids.begin(), synth.immobile_ids.end(), p.particle) != synth.immobile_ids.end();
+      });
+    const Scores sc = scoreTracks(scored, run.tracks, c.real("score.gate"));
+    const TrackStats truth_stats = analyseTracks(scored, cfg.analysis);
+    const TrackStats ours = analyseTracks(run.tracks, cfg.analysis);
+    nlohmann::json extra = {{"scores", {{"alpha", sc.alpha}, {"beta", sc.beta}, {"jaccard_points", sc.jaccard_points},
+                                        {"jaccard_tracks", sc.jaccard_tracks}, {"rmse_px", sc.rmse_px}, {"tp", sc.tp}, {"fp", sc.fp},
+                                        {"fn", sc.fn}, {"truth_tracks", sc.truth_tracks}, {"estimated_tracks", sc.estimated_tracks}}}};
+    RunOutput out;
+    out.files = writeTrackOutputs(run, cfg, ctx.out_dir / "tracks", extra);
+    for (auto& f : out.files) f = "tracks/" + f;
+    out.metrics["alpha"] = sc.alpha;
+    out.metrics["beta"] = sc.beta;
+    out.metrics["jaccard_points"] = sc.jaccard_points;
+    out.metrics["jaccard_tracks"] = sc.jaccard_tracks;
+    out.metrics["rmse"] = sc.rmse_px;
+    out.units["rmse"] = "1";
+    out.metrics["mean_speed_relative_error"] = std::abs(ours.mean_speed - truth_stats.mean_speed) / truth_stats.mean_speed;
+    out.metrics["immobile_found"] = ours.immobile;
+    out.metrics["frames_per_second"] = run.frame_index.size() / std::max(run.seconds, 1e-9);
+    out.units["frames_per_second"] = "Hz";
+    out.details = extra;
+    out.details["truth"] = {{"moving", synth.moving}, {"deposited", synth.deposited}, {"immobile", synth.immobile},
+                            {"mean_speed_um_per_s", truth_stats.mean_speed * 1e6}};
+    out.details["tracked_mean_speed_um_per_s"] = ours.mean_speed * 1e6;
+    out.details["link"] = {{"links", run.link.links}, {"gap_closures", run.link.gap_closures}, {"largest_component", run.link.largest_component}};
+    return out;
+  };
+  registry.add(k);
+}
+
+}  // namespace mmval::tracking

@@ -1,0 +1,167 @@
+#include "mmval/tracking/Link.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <unordered_map>
+
+#include "mmval/tracking/Assignment.hpp"
+
+namespace mmval::tracking {
+
+namespace {
+
+/// Uniform grid over detections for radius queries.
+class Grid {
+ public:
+  Grid(const std::vector<Detection>& d, double cell) : m_d(d), m_cell(std::max(cell, 1e-9)) {
+    for (std::size_t i = 0; i < d.size(); ++i) m_bins[key(cx(d[i].x), cx(d[i].y))].push_back(static_cast<int>(i));
+  }
+  template <class F>
+  void near(double x, double y, double r, F&& f) const {
+    const long x0 = cx(x - r), x1 = cx(x + r), y0 = cx(y - r), y1 = cx(y + r);
+    for (long gx = x0; gx <= x1; ++gx)
+      for (long gy = y0; gy <= y1; ++gy) {
+        auto it = m_bins.find(key(gx, gy));
+        if (it == m_bins.end()) continue;
+        for (int i : it->second) {
+          const double dx = m_d[i].x - x, dy = m_d[i].y - y;
+          if (dx * dx + dy * dy <= r * r) f(i, std::sqrt(dx * dx + dy * dy));
+        }
+      }
+  }
+
+ private:
+  long cx(double v) const { return static_cast<long>(std::floor(v / m_cell)); }
+  static long long key(long a, long b) { return (static_cast<long long>(a) << 32) ^ static_cast<long long>(b & 0xffffffff); }
+  const std::vector<Detection>& m_d;
+  double m_cell;
+  std::unordered_map<long long, std::vector<int>> m_bins;
+};
+
+struct Candidate {
+  int track, det;
+  double cost;
+};
+
+}  // namespace
+
+void TrackLinker::push(int frame, const std::vector<Detection>& dets) {
+  // Forget tracks beyond memory.
+  m_active.erase(std::remove_if(m_active.begin(), m_active.end(), [&](const Track& t) { return frame - t.last_frame > m_o.memory + 1; }),
+                 m_active.end());
+  const Grid grid(dets, m_o.search_radius);
+  std::vector<Candidate> cands;
+  for (int ti = 0; ti < static_cast<int>(m_active.size()); ++ti) {
+    const Track& t = m_active[ti];
+    const int gap = frame - t.last_frame;
+    const double px = t.x + (m_o.predict && t.has_velocity ? t.vx * gap : 0.0);
+    const double py = t.y + (m_o.predict && t.has_velocity ? t.vy * gap : 0.0);
+    const double radius = m_o.search_radius * (m_o.predict && t.has_velocity ? 1.0 : static_cast<double>(gap));
+    grid.near(px, py, radius, [&](int di, double dist) {
+      double cost;
+      if (m_o.method == Linker::paper) {
+        // Linear displacement relative to the radius plus the turning angle.
+        double angle = 0;
+        const double dx = dets[di].x - t.x, dy = dets[di].y - t.y;
+        if (t.has_velocity && std::hypot(t.vx, t.vy) > 1e-9 && std::hypot(dx, dy) > 1e-9) {
+          const double c = (dx * t.vx + dy * t.vy) / (std::hypot(dx, dy) * std::hypot(t.vx, t.vy));
+          angle = std::acos(std::clamp(c, -1.0, 1.0));
+        }
+        cost = dist / radius + m_o.angle_weight * angle / M_PI;
+      } else {
+        cost = dist * dist;
+      }
+      cands.push_back({ti, di, cost});
+    });
+  }
+  std::vector<int> det_to_track(dets.size(), -1);
+  if (m_o.method == Linker::paper) {
+    std::sort(cands.begin(), cands.end(), [](const Candidate& a, const Candidate& b) { return a.cost < b.cost; });
+    std::vector<char> track_used(m_active.size(), 0);
+    for (const auto& c : cands)
+      if (!track_used[c.track] && det_to_track[c.det] < 0) {
+        track_used[c.track] = 1;
+        det_to_track[c.det] = c.track;
+      }
+  } else {
+    // Connected components of the bipartite candidate graph (union-find).
+    const int nt = static_cast<int>(m_active.size()), nd = static_cast<int>(dets.size());
+    std::vector<int> parent(nt + nd);
+    std::iota(parent.begin(), parent.end(), 0);
+    auto find = [&](int a) {
+      while (parent[a] != a) a = parent[a] = parent[parent[a]];
+      return a;
+    };
+    for (const auto& c : cands) parent[find(c.track)] = find(nt + c.det);
+    std::unordered_map<int, std::vector<const Candidate*>> comps;
+    for (const auto& c : cands) comps[find(c.track)].push_back(&c);
+    const double no_link = m_o.search_radius * m_o.search_radius;
+    for (auto& [root, list] : comps) {
+      std::vector<int> tracks, ds;
+      for (const auto* c : list) {
+        tracks.push_back(c->track);
+        ds.push_back(c->det);
+      }
+      std::sort(tracks.begin(), tracks.end());
+      tracks.erase(std::unique(tracks.begin(), tracks.end()), tracks.end());
+      std::sort(ds.begin(), ds.end());
+      ds.erase(std::unique(ds.begin(), ds.end()), ds.end());
+      m_stats.largest_component = std::max<long long>(m_stats.largest_component, static_cast<long long>(tracks.size() + ds.size()));
+      if (static_cast<int>(tracks.size()) > m_o.max_component) {
+        ++m_stats.greedy_components;
+        std::vector<const Candidate*> sorted = list;
+        std::sort(sorted.begin(), sorted.end(), [](auto* a, auto* b) { return a->cost < b->cost; });
+        std::unordered_map<int, char> used;
+        for (const auto* c : sorted)
+          if (!used[c->track] && det_to_track[c->det] < 0) {
+            used[c->track] = 1;
+            det_to_track[c->det] = c->track;
+          }
+        continue;
+      }
+      // Rows: tracks; columns: detections, then one "no link" column per track.
+      const int r = static_cast<int>(tracks.size()), cnum = static_cast<int>(ds.size()) + r;
+      std::vector<std::vector<double>> cost(r, std::vector<double>(cnum, kForbidden));
+      std::unordered_map<int, int> ti, di;
+      for (int i = 0; i < r; ++i) ti[tracks[i]] = i;
+      for (int j = 0; j < static_cast<int>(ds.size()); ++j) di[ds[j]] = j;
+      for (const auto* c : list) cost[ti[c->track]][di[c->det]] = std::min(cost[ti[c->track]][di[c->det]], c->cost);
+      for (int i = 0; i < r; ++i) cost[i][ds.size() + i] = no_link;
+      const auto assign = solveAssignment(cost);
+      for (int i = 0; i < r; ++i)
+        if (assign[i] >= 0 && assign[i] < static_cast<int>(ds.size()) && cost[i][assign[i]] < kForbidden) det_to_track[ds[assign[i]]] = tracks[i];
+    }
+  }
+  // Apply links, start new tracks.
+  for (int di = 0; di < static_cast<int>(dets.size()); ++di) {
+    const Detection& d = dets[di];
+    if (det_to_track[di] >= 0) {
+      Track& t = m_active[det_to_track[di]];
+      const int gap = frame - t.last_frame;
+      if (gap > 1) ++m_stats.gap_closures;
+      t.vx = (d.x - t.x) / gap;
+      t.vy = (d.y - t.y) / gap;
+      t.has_velocity = true;
+      t.x = d.x;
+      t.y = d.y;
+      t.last_frame = frame;
+      ++m_stats.links;
+      m_points.push_back({frame, t.id, d.x, d.y, d});
+    } else {
+      m_active.push_back({m_next_id, frame, d.x, d.y});
+      ++m_stats.new_tracks;
+      m_points.push_back({frame, m_next_id++, d.x, d.y, d});
+    }
+  }
+}
+
+std::vector<LinkedPoint> TrackLinker::points() const {
+  std::vector<LinkedPoint> out = m_points;
+  std::stable_sort(out.begin(), out.end(), [](const LinkedPoint& a, const LinkedPoint& b) {
+    return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
+  });
+  return out;
+}
+
+}  // namespace mmval::tracking

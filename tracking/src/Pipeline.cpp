@@ -1,0 +1,131 @@
+#include "mmval/tracking/Pipeline.hpp"
+
+#include <chrono>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/Progress.hpp"
+
+namespace mmval::tracking {
+
+TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
+  const auto t0 = std::chrono::steady_clock::now();
+  TrackRun run;
+  if (c.detect.subtract_background) run.background = medianBackground(source, c.detect.background_samples);
+  TrackLinker linker(c.link);
+  Progress progress("tracking", static_cast<std::size_t>(std::max(0, source.count())), quiet);
+  cv::Mat frame;
+  int index = 0;
+  bool first = true;
+  Polarity polarity = c.detect.polarity;
+  while (source.next(frame, index)) {
+    if (first && polarity == Polarity::automatic) polarity = guessPolarity(frame, run.background);
+    first = false;
+    auto dets = detect(frame, run.background, polarity, c.detect);
+    linker.push(index, dets);
+    run.detections.push_back(std::move(dets));
+    run.frame_index.push_back(index);
+    progress.advance();
+  }
+  progress.finish();
+  run.polarity = polarity;
+  run.link = linker.stats();
+  for (const auto& p : linker.points()) {
+    TrackPoint t;
+    t.frame = p.frame;
+    t.particle = p.particle;
+    t.t = p.frame / c.fps;
+    t.x_px = p.x;
+    t.y_px = p.y;
+    t.x = p.x * c.pixel_size;
+    t.y = p.y * c.pixel_size;
+    run.tracks.points.push_back(t);
+  }
+  run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return run;
+}
+
+std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfig& c, const std::filesystem::path& dir,
+                                           const nlohmann::json& extra) {
+  std::filesystem::create_directories(dir);
+  std::vector<std::string> files;
+  auto put = [&](const std::string& name, const std::string& text) {
+    writeFileAtomic(dir / name, text);
+    files.push_back(name);
+  };
+  std::string det = "frame,t_s,x_px,y_px,x_um,y_um,area_px2,mass,peak\n";
+  for (std::size_t k = 0; k < run.detections.size(); ++k)
+    for (const auto& d : run.detections[k])
+      det += fmt::format("{},{:.6g},{:.4f},{:.4f},{:.4f},{:.4f},{:.1f},{:.4g},{:.4g}\n", run.frame_index[k], run.frame_index[k] / c.fps, d.x, d.y,
+                         d.x * c.pixel_size * 1e6, d.y * c.pixel_size * 1e6, d.area, d.mass, d.peak);
+  put("detections.csv", det);
+  writeTracksCsv(dir / "tracks.csv", run.tracks, c.pixel_size);
+  files.push_back("tracks.csv");
+  const TrackStats s = analyseTracks(run.tracks, c.analysis);
+  std::string vel = "particle,t_s,x_um,y_um,vx_um_per_s,vy_um_per_s,speed_um_per_s\n";
+  for (const auto& st : s.steps)
+    vel += fmt::format("{},{:.6g},{:.4f},{:.4f},{:.5g},{:.5g},{:.5g}\n", st.particle, st.t, st.x * 1e6, st.y * 1e6, st.vx * 1e6, st.vy * 1e6,
+                       st.speed * 1e6);
+  put("velocities.csv", vel);
+  std::string disp = "t_s,mean_speed_um_per_s,median_speed_um_per_s,sigma_x_um,sigma_y_um,steps\n";
+  for (std::size_t i = 0; i < s.series.t.size(); ++i)
+    disp += fmt::format("{:.6g},{:.5g},{:.5g},{:.5g},{:.5g},{}\n", s.series.t[i], s.series.mean_speed[i] * 1e6, s.series.median_speed[i] * 1e6,
+                        s.series.sigma_x[i] * 1e6, s.series.sigma_y[i] * 1e6, s.series.count[i]);
+  put("dispersion.csv", disp);
+  // Deposited over time: mobile particles whose track has ended in a stop by time t.
+  std::string ret = "quantity,value\n";
+  ret += fmt::format("particles,{}\nimmobile,{}\nmobile,{}\nretained,{}\nretained_fraction,{:.5g}\n", s.particles, s.immobile, s.mobile, s.retained,
+                     s.retained_fraction);
+  put("retention.csv", ret);
+  // Streamline composite: every position of every frame, over the background.
+  if (!run.detections.empty()) {
+    cv::Mat base;
+    if (!run.background.empty()) {
+      run.background.convertTo(base, CV_8U, 255.0);
+    } else {
+      int w = 1, h = 1;
+      for (const auto& p : run.tracks.points) {
+        w = std::max(w, static_cast<int>(p.x_px) + 2);
+        h = std::max(h, static_cast<int>(p.y_px) + 2);
+      }
+      base = cv::Mat(h, w, CV_8U, cv::Scalar(255));
+    }
+    cv::Mat img;
+    cv::cvtColor(base, img, cv::COLOR_GRAY2BGR);
+    img = img * 0.6;
+    for (std::size_t i = 1; i < run.tracks.points.size(); ++i) {
+      const auto& a = run.tracks.points[i - 1];
+      const auto& b = run.tracks.points[i];
+      if (a.particle != b.particle) continue;
+      const cv::Scalar colour((a.particle * 67) % 200 + 55, (a.particle * 131) % 200 + 55, (a.particle * 29) % 200 + 55);
+      cv::line(img, cv::Point2d(a.x_px, a.y_px), cv::Point2d(b.x_px, b.y_px), colour, 1, cv::LINE_AA);
+    }
+    const auto tmp = temporaryPathFor(dir / "streamlines.png");
+    cv::imwrite(tmp.string(), img);
+    commitTemporary(tmp, dir / "streamlines.png");
+    files.push_back("streamlines.png");
+  }
+  nlohmann::json summary = extra;
+  summary["frames"] = run.frame_index.size();
+  summary["tracks"] = s.particles;
+  summary["immobile"] = s.immobile;
+  summary["retained"] = s.retained;
+  summary["retained_fraction"] = s.retained_fraction;
+  summary["mean_speed_um_per_s"] = s.mean_speed * 1e6;
+  summary["median_speed_um_per_s"] = s.median_speed * 1e6;
+  summary["polarity"] = run.polarity == Polarity::dark ? "dark" : "bright";
+  summary["links"] = run.link.links;
+  summary["gap_closures"] = run.link.gap_closures;
+  summary["largest_component"] = run.link.largest_component;
+  summary["greedy_components"] = run.link.greedy_components;
+  summary["seconds"] = run.seconds;
+  summary["frames_per_second"] = run.seconds > 0 ? run.frame_index.size() / run.seconds : 0.0;
+  put("summary.json", summary.dump(2) + "\n");
+  return files;
+}
+
+}  // namespace mmval::tracking
