@@ -10,6 +10,7 @@
 #include "PeerCommands.hpp"
 #include "Registry.hpp"
 #include "ReportCommands.hpp"
+#include "TrackCommands.hpp"
 #include "mmval/core/BuildInfo.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Units.hpp"
@@ -31,6 +32,7 @@ int main(int argc, char** argv) {
   mmval::app::registerCaseCommands(app, registry);
   mmval::app::registerReportCommands(app);
   mmval::app::registerPeerCommands(app, registry);
+  mmval::app::registerTrackCommands(app, registry);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

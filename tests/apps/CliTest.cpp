@@ -44,7 +44,7 @@ fs::path scratch(const std::string& name) {
 TEST(Cli, HelpListsSubcommands) {
   const Outcome o = mmval("--help");
   EXPECT_EQ(o.status, 0);
-  for (const char* sub : {"case-check", "case-doc", "run", "validate", "compare", "report", "peer"}) EXPECT_THAT(o.output, HasSubstr(sub));
+  for (const char* sub : {"case-check", "case-doc", "run", "validate", "compare", "report", "peer", "track", "synth"}) EXPECT_THAT(o.output, HasSubstr(sub));
   EXPECT_EQ(mmval("run --help").status, 0);
 }
 
@@ -102,6 +102,28 @@ TEST(Cli, RunWritesResultJsonAndCaseDocDescribesTheKind) {
   const Outcome rep = mmval("report " + (d / "out").string() + " --out " + (d / "report").string());
   EXPECT_EQ(rep.status, 0) << rep.output;
   EXPECT_TRUE(fs::exists(d / "report" / "index.html"));
+}
+
+TEST(Cli, SynthThenTrackWritesEveryOutput) {
+  const fs::path d = scratch("track");
+  ASSERT_EQ(mmval("synth --out " + (d / "video").string() + " --frames 20 --particles 15 --immobile 0 --seed 3").status, 0);
+  const Outcome o = mmval("track " + (d / "video" / "frames").string() + " --pixel-size-um 0.5 --fps 20 --quiet --truth " +
+                          (d / "video" / "truth.csv").string() + " --out " + (d / "out").string());
+  EXPECT_EQ(o.status, 0) << o.output;
+  for (const char* f : {"detections.csv", "tracks.csv", "velocities.csv", "dispersion.csv", "retention.csv", "streamlines.png", "summary.json", "result.json"})
+    EXPECT_TRUE(fs::exists(d / "out" / f)) << f;
+  std::ifstream in(d / "out" / "summary.json");
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_GT(j["scores"]["jaccard_points"].get<double>(), 0.8);
+  // Headers carry units.
+  std::ifstream v(d / "out" / "velocities.csv");
+  std::string header;
+  std::getline(v, header);
+  EXPECT_THAT(header, HasSubstr("speed_um_per_s"));
+  // Missing frame rate: exit 2 naming the key.
+  const Outcome bad = mmval("track " + (d / "video" / "frames").string() + " --pixel-size-um 0.5 --out " + (d / "bad").string());
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_THAT(bad.output, HasSubstr("inputs.frame_rate"));
 }
 
 TEST(Cli, EveryBundledCaseFilePassesCaseCheck) {

@@ -9,7 +9,9 @@
 #include <numeric>
 #include <random>
 
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "mmval/tracking/Assignment.hpp"
 #include "mmval/tracking/Detect.hpp"
@@ -147,6 +149,38 @@ TEST(Pipeline, BothLinkersTrackTheSyntheticVideo) {
     EXPECT_GT(s.alpha, method == Linker::global ? 0.88 : 0.8);
     EXPECT_LT(s.rmse_px, 0.4);
   }
+}
+
+TEST(Frames, VideoFileAndRangeAndRoi) {
+  SynthOptions o;
+  o.frames = 12;
+  SynthResult truth;
+  const fs::path dir = synthetic("synth-video", o, truth);
+  const fs::path avi = dir / "video.avi";
+  {
+    cv::VideoWriter w(avi.string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 10, cv::Size(o.width, o.height), false);
+    ASSERT_TRUE(w.isOpened());
+    for (const auto& f : truth.frames) w.write(cv::imread(f, cv::IMREAD_GRAYSCALE));
+  }
+  FrameSource all(avi.string());
+  cv::Mat f;
+  int index = 0, n = 0;
+  while (all.next(f, index)) ++n;
+  EXPECT_EQ(n, 12);
+  FrameSource part(avi.string(), cv::Rect(10, 20, 100, 50), FrameRange{2, 9, 3});
+  std::vector<int> seen;
+  while (part.next(f, index)) {
+    seen.push_back(index);
+    EXPECT_EQ(f.cols, 100);
+    EXPECT_EQ(f.rows, 50);
+  }
+  EXPECT_EQ(seen, (std::vector<int>{2, 5, 8}));
+  // The same frames from the PNG folder and from the video agree up to JPEG loss.
+  FrameSource png((dir / "frames").string()), vid(avi.string());
+  cv::Mat a, b;
+  png.next(a, index);
+  vid.next(b, index);
+  EXPECT_LT(cv::norm(a, b, cv::NORM_L1) / a.total(), 0.02);
 }
 
 TEST(Link, GapClosingBridgesMissedFrames) {

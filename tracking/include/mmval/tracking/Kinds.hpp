@@ -10,6 +10,9 @@ namespace mmval::tracking {
 /// truth, tracks it, and scores the tracks (Chenouard et al. 2014).
 void registerTrackingKinds(CaseKindRegistry& registry);
 
+/// Runs a "tracking-video" case (also what `mmval track` does).
+RunOutput runTrackingVideo(const Case& c, const RunContext& ctx);
+
 /// The detection / linking keys ([detect], [link]) shared by every tracking case.
 void declareTrackerKeys(Schema& s);
 TrackConfig trackerConfig(const Case& c);

@@ -1,0 +1,101 @@
+#include "TrackCommands.hpp"
+
+#include <cstdio>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/Case.hpp"
+#include "mmval/core/Error.hpp"
+#include "mmval/core/Run.hpp"
+#include "mmval/tracking/Kinds.hpp"
+#include "mmval/tracking/Synth.hpp"
+
+namespace fs = std::filesystem;
+
+namespace mmval::app {
+
+namespace {
+
+struct TrackCli {
+  std::string input, config, out, truth, linker;
+  double pixel_um = 0, fps = 0;
+  std::vector<int> roi;
+  int first = 0, last = -1;
+  bool quiet = false, no_background = false;
+};
+
+struct SynthCli {
+  std::string out;
+  tracking::SynthOptions o;
+  double pixel_um = 1;
+};
+
+}  // namespace
+
+void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
+  auto t = std::make_shared<TrackCli>();
+  CLI::App* track = app.add_subcommand("track", "Track particles in a microscope video: tracks, velocities, dispersion, retention, streamlines");
+  track->add_option("input", t->input, "Video, image folder, glob (quoted) or multi-page TIFF")->required();
+  track->add_option("--out", t->out, "Output folder")->required();
+  track->add_option("--pixel-size-um", t->pixel_um, "Pixel size in micrometres (or inputs.pixel_size in --config)");
+  track->add_option("--fps", t->fps, "Frames per second (or inputs.frame_rate in --config)");
+  track->add_option("--config", t->config, "A tracking-video case file with [detect], [link], [analysis] settings (see `mmval case-doc tracking-video`)");
+  track->add_option("--truth", t->truth, "Ground-truth tracks CSV: adds the scores to summary.json");
+  track->add_option("--roi", t->roi, "Region of interest x,y,width,height in px")->delimiter(',')->expected(4);
+  track->add_option("--first", t->first, "First frame")->capture_default_str();
+  track->add_option("--last", t->last, "Last frame (-1: to the end)")->capture_default_str();
+  track->add_option("--linker", t->linker, "global or paper (overrides the config)")->check(CLI::IsMember({"global", "paper"}));
+  track->add_flag("--no-background", t->no_background, "Do not subtract the median background (to count stuck particles)");
+  track->add_flag("--quiet", t->quiet, "No progress bar");
+  track->callback([t, &registry] {
+    // The settings are a tracking-video case: from --config, or the defaults.
+    std::string text;
+    fs::path file = "(command line)";
+    if (!t->config.empty()) {
+      file = t->config;
+      const Case probe = Case::load(file, registry);
+      if (probe.kind() != "tracking-video")
+        throw InputError(probe.where("case.kind"), "a --config file must be a tracking-video case", probe.kind(), "kind = \"tracking-video\"");
+    }
+    Case c = t->config.empty() ? Case::parse("[case]\nname = \"track\"\nkind = \"tracking-video\"\n", file, registry) : Case::load(file, registry);
+    c.set("inputs.video", fs::absolute(t->input).string());
+    if (t->pixel_um > 0) c.set("inputs.pixel_size", t->pixel_um * 1e-6);
+    if (t->fps > 0) c.set("inputs.frame_rate", t->fps);
+    if (!t->truth.empty()) c.set("inputs.truth", fs::absolute(t->truth).string());
+    if (!t->roi.empty()) c.set("inputs.roi", std::vector<std::int64_t>(t->roi.begin(), t->roi.end()));
+    c.set("inputs.first_frame", static_cast<std::int64_t>(t->first));
+    c.set("inputs.last_frame", static_cast<std::int64_t>(t->last));
+    if (!t->linker.empty()) c.set("link.method", t->linker);
+    if (t->no_background) c.set("detect.subtract_background", false);
+    const RunSummary s = runCaseWith(c, tracking::runTrackingVideo, t->out, {t->quiet, false});
+    for (const auto& m : s.metrics) std::printf("%-20s %12.5g %s\n", m.name.c_str(), m.value, m.unit.c_str());
+    std::printf("track: %s in %.1f s\n", t->out.c_str(), s.wall_seconds);
+  });
+
+  auto sy = std::make_shared<SynthCli>();
+  CLI::App* synth = app.add_subcommand("synth", "Write a synthetic micromodel video (PNG frames) with its ground truth (truth.csv)");
+  synth->add_option("--out", sy->out, "Output folder")->required();
+  synth->add_option("--width", sy->o.width, "px")->capture_default_str()->check(CLI::Range(32, 8192));
+  synth->add_option("--height", sy->o.height, "px")->capture_default_str()->check(CLI::Range(32, 8192));
+  synth->add_option("--frames", sy->o.frames, "Frames")->capture_default_str()->check(CLI::Range(2, 1000000));
+  synth->add_option("--fps", sy->o.fps, "Frames per second")->capture_default_str()->check(CLI::PositiveNumber);
+  synth->add_option("--pixel-size-um", sy->pixel_um, "Pixel size")->capture_default_str()->check(CLI::PositiveNumber);
+  synth->add_option("--particles", sy->o.particles, "Moving particles")->capture_default_str()->check(CLI::Range(0, 1000000));
+  synth->add_option("--immobile", sy->o.immobile, "Particles stuck from the start")->capture_default_str()->check(CLI::Range(0, 1000000));
+  synth->add_option("--grains", sy->o.grains, "Grains")->capture_default_str()->check(CLI::Range(0, 10000));
+  synth->add_option("--speed", sy->o.speed, "Flow speed, px per frame")->capture_default_str()->check(CLI::NonNegativeNumber);
+  synth->add_option("--noise", sy->o.noise, "Camera noise, fraction of full scale")->capture_default_str()->check(CLI::Range(0.0, 0.5));
+  synth->add_option("--seed", sy->o.seed, "Random seed")->capture_default_str();
+  synth->callback([sy] {
+    sy->o.pixel_size = sy->pixel_um * 1e-6;
+    StagedDirectory staged(sy->out);
+    const auto r = tracking::writeSyntheticVideo(sy->o, staged.path());
+    staged.commit();
+    std::printf("synth: %zu frames, %d moving, %d depositing, %d immobile -> %s/frames, truth.csv\n", r.frames.size(), r.moving, r.deposited,
+                r.immobile, sy->out.c_str());
+  });
+}
+
+}  // namespace mmval::app
