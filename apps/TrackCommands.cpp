@@ -71,6 +71,9 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
     if (t->no_background) c.set("detect.subtract_background", false);
     const RunSummary s = runCaseWith(c, tracking::runTrackingVideo, t->out, {t->quiet, false});
     for (const auto& m : s.metrics) std::printf("%-20s %12.5g %s\n", m.name.c_str(), m.value, m.unit.c_str());
+    if (s.result["details"].value("detections", 1) == 0)
+      std::fprintf(stderr, "mmval: warning: no particles found in %s; check the polarity (--config detect.polarity), "
+                           "the threshold and the background removal (--no-background)\n", t->input.c_str());
     std::printf("track: %s in %.1f s\n", t->out.c_str(), s.wall_seconds);
   });
 

@@ -60,6 +60,9 @@ Tracks readTracksCsv(const std::filesystem::path& file, double pixel_size) {
     return col[name];
   };
   const int c_frame = need("frame"), c_particle = need("particle"), c_t = need("t_s");
+  // trackpy's x, y (pixels) are synonyms of x_px, y_px.
+  if (!col.count("x_px") && col.count("x")) col["x_px"] = col["x"];
+  if (!col.count("y_px") && col.count("y")) col["y_px"] = col["y"];
   const bool have_um = col.count("x_um") && col.count("y_um");
   const bool have_px = col.count("x_px") && col.count("y_px");
   if (!have_um && !(have_px && pixel_size > 0)) {
@@ -68,6 +71,7 @@ Tracks readTracksCsv(const std::filesystem::path& file, double pixel_size) {
     need("y_um");
   }
   const int c_x = have_um ? col["x_um"] : col["x_px"], c_y = have_um ? col["y_um"] : col["y_px"];
+  const int c_state = col.count("state") ? col["state"] : -1;
   const double scale = have_um ? 1e-6 : pixel_size;
   const int c_z = col.count("z_um") ? col["z_um"] : -1;
   const int c_xp = have_px ? col["x_px"] : -1, c_yp = have_px ? col["y_px"] : -1;
@@ -97,6 +101,7 @@ Tracks readTracksCsv(const std::filesystem::path& file, double pixel_size) {
       p.x_px = number(f, c_xp, "x_px");
       p.y_px = number(f, c_yp, "y_px");
     }
+    if (c_state >= 0 && c_state < static_cast<int>(f.size())) p.state = f[c_state];
     tracks.points.push_back(p);
   }
   std::stable_sort(tracks.points.begin(), tracks.points.end(), [](const TrackPoint& a, const TrackPoint& b) {
@@ -106,21 +111,23 @@ Tracks readTracksCsv(const std::filesystem::path& file, double pixel_size) {
 }
 
 void writeTracksCsv(const std::filesystem::path& file, const Tracks& tracks, double pixel_size) {
-  bool px = pixel_size > 0, z = false;
+  bool px = pixel_size > 0, z = false, state = false;
   for (const auto& p : tracks.points) {
     px = px || std::isfinite(p.x_px);
     z = z || std::isfinite(p.z);
+    state = state || !p.state.empty();
   }
-  std::string out = std::string("frame,particle,t_s") + (px ? ",x_px,y_px" : "") + ",x_um,y_um" + (z ? ",z_um" : "") + "\n";
+  std::string out = std::string("frame,particle") + (px ? ",x,y" : "") + ",x_um,y_um,t_s" + (z ? ",z_um" : "") + (state ? ",state" : "") + "\n";
   for (const auto& p : tracks.points) {
-    out += fmt::format("{},{},{:.9g}", p.frame, p.particle, p.t);
+    out += fmt::format("{},{}", p.frame, p.particle);
     if (px) {
       const double xp = std::isfinite(p.x_px) ? p.x_px : p.x / pixel_size;
       const double yp = std::isfinite(p.y_px) ? p.y_px : p.y / pixel_size;
       out += fmt::format(",{:.4f},{:.4f}", xp, yp);
     }
-    out += fmt::format(",{:.5f},{:.5f}", p.x * 1e6, p.y * 1e6);
+    out += fmt::format(",{:.5f},{:.5f},{:.9g}", p.x * 1e6, p.y * 1e6, p.t);
     if (z) out += fmt::format(",{:.5f}", std::isfinite(p.z) ? p.z * 1e6 : 0.0);
+    if (state) out += "," + (p.state.empty() ? std::string("mobile") : p.state);
     out += "\n";
   }
   writeFileAtomic(file, out);

@@ -7,7 +7,10 @@
 #include <cmath>
 #include <filesystem>
 #include <numeric>
+#include <fstream>
 #include <random>
+
+#include "mmval/core/Error.hpp"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -181,6 +184,82 @@ TEST(Frames, VideoFileAndRangeAndRoi) {
   png.next(a, index);
   vid.next(b, index);
   EXPECT_LT(cv::norm(a, b, cv::NORM_L1) / a.total(), 0.02);
+}
+
+TEST(Statistics, BrownianDiffusionFromTheMsd) {
+  // 300 free Brownian particles, D = 0.5 um^2/s, dt = 0.1 s, 100 steps: MSD = 4 D t.
+  std::mt19937_64 rng(9);
+  const double D = 0.5e-12, dt = 0.1;
+  std::normal_distribution<double> step(0, std::sqrt(2 * D * dt));
+  Tracks t;
+  for (int p = 0; p < 300; ++p) {
+    double x = 1e-4, y = 1e-4;
+    for (int f = 0; f < 100; ++f) {
+      t.points.push_back({f, p, f * dt, x, y});
+      x += step(rng);
+      y += step(rng);
+    }
+  }
+  TrackOptions o;
+  o.immobile_distance = 0;  // every particle counts
+  const TrackStats s = analyseTracks(t, o);
+  std::printf("Brownian: D linear %.4g, D power %.4g um^2/s, alpha %.3f\n", s.msd.d_linear * 1e12, s.msd.d_power * 1e12, s.msd.alpha);
+  EXPECT_NEAR(s.msd.d_linear, D, 0.05 * D);
+  EXPECT_NEAR(s.msd.alpha, 1.0, 0.05);
+}
+
+TEST(Pipeline, UniformFlowVelocityWithinOnePercent) {
+  SynthOptions o;
+  o.grains = 0;  // no grains: the flow is uniform, 3 px per frame
+  o.frames = 30;
+  o.immobile = 0;
+  o.deposit_fraction = 0;
+  o.speed = 3.0;
+  o.fps = 10;
+  SynthResult truth;
+  const fs::path dir = synthetic("synth-uniform", o, truth);
+  TrackConfig c;
+  c.fps = o.fps;
+  c.pixel_size = o.pixel_size;
+  FrameSource src((dir / "frames").string());
+  const TrackRun run = runTracker(src, c, true);
+  const TrackStats s = analyseTracks(run.tracks, c.analysis);
+  double vx = 0;
+  for (const auto& st : s.steps) vx += st.vx;
+  vx /= static_cast<double>(s.steps.size());
+  EXPECT_NEAR(vx, 30e-6, 0.01 * 30e-6);  // 3 px/frame x 10 frames/s x 1 um/px
+  // Dispersion against the truth's, frame by frame (Eq. 18).
+  const TrackStats ts = analyseTracks(truth.truth, c.analysis);
+  EXPECT_NEAR(s.sigma_y, ts.sigma_y, 0.05 * ts.sigma_y);
+}
+
+TEST(Frames, BadInputsAreNamed) {
+  const fs::path d = fs::path(MMVAL_BINARY_DIR) / "test-output" / "bad-frames";
+  fs::remove_all(d);
+  fs::create_directories(d / "empty");
+  EXPECT_THROW(FrameSource((d / "empty").string()), InputError);
+  fs::create_directories(d / "sizes");
+  cv::imwrite((d / "sizes" / "a.png").string(), cv::Mat(20, 30, CV_8U, cv::Scalar(100)));
+  cv::imwrite((d / "sizes" / "b.png").string(), cv::Mat(25, 30, CV_8U, cv::Scalar(100)));
+  FrameSource sizes((d / "sizes").string());
+  cv::Mat f;
+  int i = 0;
+  EXPECT_TRUE(sizes.next(f, i));
+  try {
+    sizes.next(f, i);
+    FAIL() << "expected a size error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("b.png"), std::string::npos) << e.what();
+  }
+  std::ofstream(d / "broken.avi") << "not a video at all";
+  EXPECT_THROW(FrameSource((d / "broken.avi").string()), InputError);
+  EXPECT_THROW(FrameSource((d / "none*.png").string()), InputError);
+  // Blank frames: no particles, no crash, no NaN.
+  fs::create_directories(d / "blank");
+  for (int k = 0; k < 3; ++k) cv::imwrite((d / "blank" / ("f" + std::to_string(k) + ".png")).string(), cv::Mat(40, 40, CV_8U, cv::Scalar(128)));
+  FrameSource blank((d / "blank").string());
+  const TrackRun run = runTracker(blank, TrackConfig{}, true);
+  EXPECT_TRUE(run.tracks.points.empty());
 }
 
 TEST(Link, GapClosingBridgesMissedFrames) {

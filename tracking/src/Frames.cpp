@@ -138,6 +138,10 @@ bool FrameSource::next(cv::Mat& frame, int& index) {
   } else {
     frame = toFloatGrey(raw);
   }
+  if (m_size.area() == 0) m_size = frame.size();
+  if (frame.size() != m_size)
+    throw InputError({m_kind == Kind::images ? m_files[index] : m_input, 0, 0, {}}, "frame size differs from the first frame",
+                     std::to_string(frame.cols) + " x " + std::to_string(frame.rows), std::to_string(m_size.width) + " x " + std::to_string(m_size.height));
   if (m_roi) {
     const cv::Rect r = *m_roi & cv::Rect(0, 0, frame.cols, frame.rows);
     if (r.area() == 0) throw InputError({m_input, 0, 0, "roi"}, "region of interest lies outside the frame");

@@ -108,6 +108,9 @@ RunOutput runTrackingVideo(const Case& c, const RunContext& ctx) {
   out.metrics["immobile"] = stats.immobile;
   out.details = extra;
   out.details["frames"] = run.frame_index.size();
+  std::size_t detections = 0;
+  for (const auto& d : run.detections) detections += d.size();
+  out.details["detections"] = detections;
   out.details["seconds"] = run.seconds;
   return out;
 }

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <map>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
@@ -63,19 +64,38 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
       det += fmt::format("{},{:.6g},{:.4f},{:.4f},{:.4f},{:.4f},{:.1f},{:.4g},{:.4g}\n", run.frame_index[k], run.frame_index[k] / c.fps, d.x, d.y,
                          d.x * c.pixel_size * 1e6, d.y * c.pixel_size * 1e6, d.area, d.mass, d.peak);
   put("detections.csv", det);
-  writeTracksCsv(dir / "tracks.csv", run.tracks, c.pixel_size);
-  files.push_back("tracks.csv");
   const TrackStats s = analyseTracks(run.tracks, c.analysis);
+  {
+    std::map<std::int64_t, std::string> state;
+    for (const auto& t : s.tracks) state[t.particle] = t.state;
+    Tracks labelled = run.tracks;
+    for (auto& p : labelled.points) p.state = state[p.particle];
+    writeTracksCsv(dir / "tracks.csv", labelled, c.pixel_size);
+    files.push_back("tracks.csv");
+  }
+  std::string summ = "particle,points,duration_s,mean_speed_um_per_s,path_length_um,net_displacement_um,straightness,state\n";
+  for (const auto& t : s.tracks)
+    summ += fmt::format("{},{},{:.6g},{:.5g},{:.5g},{:.5g},{:.4f},{}\n", t.particle, t.points, t.duration, t.mean_speed * 1e6, t.path_length * 1e6,
+                        t.net_displacement * 1e6, t.straightness, t.state);
+  put("track_summary.csv", summ);
   std::string vel = "particle,t_s,x_um,y_um,vx_um_per_s,vy_um_per_s,speed_um_per_s\n";
   for (const auto& st : s.steps)
     vel += fmt::format("{},{:.6g},{:.4f},{:.4f},{:.5g},{:.5g},{:.5g}\n", st.particle, st.t, st.x * 1e6, st.y * 1e6, st.vx * 1e6, st.vy * 1e6,
                        st.speed * 1e6);
   put("velocities.csv", vel);
-  std::string disp = "t_s,mean_speed_um_per_s,median_speed_um_per_s,sigma_x_um,sigma_y_um,steps\n";
-  for (std::size_t i = 0; i < s.series.t.size(); ++i)
-    disp += fmt::format("{:.6g},{:.5g},{:.5g},{:.5g},{:.5g},{}\n", s.series.t[i], s.series.mean_speed[i] * 1e6, s.series.median_speed[i] * 1e6,
-                        s.series.sigma_x[i] * 1e6, s.series.sigma_y[i] * 1e6, s.series.count[i]);
+  std::string disp = "frame,t_s,count,mean_x_um,mean_y_um,sigma_x_um,sigma_y_um\n";
+  for (const auto& f : s.frames)
+    disp += fmt::format("{},{:.6g},{},{:.5g},{:.5g},{:.5g},{:.5g}\n", f.frame, f.t, f.count, f.mean_x * 1e6, f.mean_y * 1e6, f.sigma_x * 1e6,
+                        f.sigma_y * 1e6);
   put("dispersion.csv", disp);
+  std::string msd = "lag_s,msd_um2,samples\n";
+  for (std::size_t i = 0; i < s.msd.lag.size(); ++i) msd += fmt::format("{:.6g},{:.6g},{}\n", s.msd.lag[i], s.msd.msd[i] * 1e12, s.msd.samples[i]);
+  put("msd.csv", msd);
+  std::string speed = "t_s,mean_speed_um_per_s,median_speed_um_per_s,sigma_x_um,sigma_y_um,steps\n";
+  for (std::size_t i = 0; i < s.series.t.size(); ++i)
+    speed += fmt::format("{:.6g},{:.5g},{:.5g},{:.5g},{:.5g},{}\n", s.series.t[i], s.series.mean_speed[i] * 1e6, s.series.median_speed[i] * 1e6,
+                         s.series.sigma_x[i] * 1e6, s.series.sigma_y[i] * 1e6, s.series.count[i]);
+  put("speed_time.csv", speed);
   // Deposited over time: mobile particles whose track has ended in a stop by time t.
   std::string ret = "quantity,value\n";
   ret += fmt::format("particles,{}\nimmobile,{}\nmobile,{}\nretained,{}\nretained_fraction,{:.5g}\n", s.particles, s.immobile, s.mobile, s.retained,
@@ -122,6 +142,12 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
   summary["gap_closures"] = run.link.gap_closures;
   summary["largest_component"] = run.link.largest_component;
   summary["greedy_components"] = run.link.greedy_components;
+  summary["msd_exponent"] = s.msd.alpha;
+  summary["msd_D_power_um2_per_s"] = s.msd.d_power * 1e12;
+  summary["msd_D_linear_um2_per_s"] = s.msd.d_linear * 1e12;
+  summary["parameters"] = {{"pixel_size_um", c.pixel_size * 1e6}, {"fps", c.fps}, {"blur_sigma", c.detect.blur_sigma},
+                           {"subtract_background", c.detect.subtract_background}, {"search_radius_px", c.link.search_radius},
+                           {"memory", c.link.memory}, {"linker", c.link.method == Linker::global ? "global" : "paper"}};
   summary["seconds"] = run.seconds;
   summary["frames_per_second"] = run.seconds > 0 ? run.frame_index.size() / run.seconds : 0.0;
   put("summary.json", summary.dump(2) + "\n");

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <string>
 
 #include "mmval/tracking/Statistics.hpp"
 
@@ -26,8 +27,18 @@ TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& o) {
     ++s.particles;
     double reach = 0;
     for (std::size_t k = i; k < j; ++k) reach = std::max(reach, std::hypot(pts[k].x - pts[i].x, pts[k].y - pts[i].y));
+    TrackSummary ts;
+    ts.particle = pts[i].particle;
+    ts.points = static_cast<int>(j - i);
+    ts.duration = pts[j - 1].t - pts[i].t;
+    for (std::size_t k = i + 1; k < j; ++k) ts.path_length += std::hypot(pts[k].x - pts[k - 1].x, pts[k].y - pts[k - 1].y);
+    ts.net_displacement = std::hypot(pts[j - 1].x - pts[i].x, pts[j - 1].y - pts[i].y);
+    ts.straightness = ts.path_length > 0 ? ts.net_displacement / ts.path_length : 0;
+    ts.mean_speed = ts.duration > 0 ? ts.path_length / ts.duration : 0;
+    const int retained_before = s.retained;
     if (reach < o.immobile_distance) {
       ++s.immobile;
+      ts.state = "immobile";
     } else {
       ++s.mobile;
       for (std::size_t k = i; k < j; ++k) mobile_points.push_back(&pts[k]);
@@ -52,7 +63,9 @@ TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& o) {
           if (pts[k].t >= t_last - o.stuck_window) moved = std::max(moved, std::hypot(pts[k].x - pts[j - 1].x, pts[k].y - pts[j - 1].y));
         if (moved < o.stuck_distance) ++s.retained;
       }
+      ts.state = s.retained > retained_before ? "deposited" : "mobile";
     }
+    s.tracks.push_back(ts);
     i = j;
   }
   s.retained_fraction = s.mobile > 0 ? static_cast<double>(s.retained) / s.mobile : 0.0;
@@ -77,8 +90,17 @@ TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& o) {
   }
   std::vector<double> all_sx, all_sy;
   for (const auto& [f, xy] : frames) {
+    FrameDispersion fd;
+    fd.frame = f;
+    fd.t = frame_time[f];
+    fd.count = static_cast<int>(xy.first.size());
+    fd.mean_x = mean(xy.first);
+    fd.mean_y = mean(xy.second);
+    fd.sigma_x = populationStd(xy.first);
+    fd.sigma_y = populationStd(xy.second);
+    s.frames.push_back(fd);
     if (xy.first.size() < 2) continue;
-    const double sx = populationStd(xy.first), sy = populationStd(xy.second);
+    const double sx = fd.sigma_x, sy = fd.sigma_y;
     bin_x[bin(frame_time[f])].push_back(sx);
     bin_y[bin(frame_time[f])].push_back(sy);
     all_sx.push_back(sx);
@@ -94,7 +116,61 @@ TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& o) {
     s.series.sigma_y.push_back(mean(bin_y[b]));
     s.series.count.push_back(static_cast<int>(bin_speed[b].size()));
   }
+  s.msd = ensembleMsd(tracks, s, o);
   return s;
+}
+
+Msd ensembleMsd(const Tracks& tracks, const TrackStats& stats, const TrackOptions& o) {
+  Msd out;
+  std::map<std::int64_t, const TrackSummary*> state;
+  for (const auto& t : stats.tracks) state[t.particle] = &t;
+  // Lags in frames up to a quarter of the longest track (the usual reliability limit).
+  std::map<std::int64_t, std::vector<const TrackPoint*>> by_particle;
+  for (const auto& p : tracks.points)
+    if (state.count(p.particle) && state[p.particle]->state != "immobile") by_particle[p.particle].push_back(&p);
+  std::size_t longest = 0;
+  for (const auto& [id, v] : by_particle) longest = std::max(longest, v.size());
+  const int max_lag = std::max(1, static_cast<int>(longest / 4));
+  std::vector<double> sum(max_lag + 1, 0), dt(max_lag + 1, 0);
+  std::vector<long long> n(max_lag + 1, 0);
+  for (const auto& [id, v] : by_particle) {
+    std::map<std::int64_t, const TrackPoint*> at;
+    for (const auto* p : v) at[p->frame] = p;
+    for (const auto& [f, p] : at)
+      for (int lag = 1; lag <= max_lag; ++lag) {
+        auto it = at.find(f + lag);
+        if (it == at.end()) continue;
+        const double dx = it->second->x - p->x, dy = it->second->y - p->y;
+        sum[lag] += dx * dx + dy * dy;
+        dt[lag] += it->second->t - p->t;
+        ++n[lag];
+      }
+  }
+  double sxy = 0, sxx = 0, lx = 0, ly = 0, lxx = 0, lxy = 0;
+  int m = 0;
+  for (int lag = 1; lag <= max_lag; ++lag) {
+    if (n[lag] == 0) continue;
+    const double t = dt[lag] / n[lag], msd = sum[lag] / n[lag];
+    out.lag.push_back(t);
+    out.msd.push_back(msd);
+    out.samples.push_back(n[lag]);
+    sxy += t * msd;
+    sxx += t * t;
+    if (msd > 0 && t > 0) {
+      lx += std::log(t);
+      ly += std::log(msd);
+      lxx += std::log(t) * std::log(t);
+      lxy += std::log(t) * std::log(msd);
+      ++m;
+    }
+  }
+  (void)o;
+  if (sxx > 0) out.d_linear = sxy / sxx / 4.0;
+  if (m >= 2) {
+    out.alpha = (m * lxy - lx * ly) / (m * lxx - lx * lx);
+    out.d_power = std::exp((ly - out.alpha * lx) / m) / 4.0;
+  }
+  return out;
 }
 
 cv::Mat occupancyMap(const Tracks& tracks, double cell, double x0, double y0, double x1, double y1) {

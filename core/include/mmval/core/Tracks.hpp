@@ -2,9 +2,11 @@
 // (trajectories), so that `compare` never cares where a trajectory came from.
 //
 // CSV, one row per particle per frame, header names carry units:
-//   frame, particle, t_s, x_px, y_px, x_um, y_um [, z_um] [, state]
-// x/y in micrometres are required (or pixels plus a pixel size given by the
-// caller); pixel columns are optional for simulated trajectories.
+//   frame, particle, x, y, x_um, y_um, t_s [, z_um] [, state]
+// trackpy's column names come first (x, y in pixels), so trackpy users load
+// the file as it is. x_um/y_um are required (or pixels plus a pixel size
+// given by the caller); pixel columns are optional for simulated
+// trajectories. x_px/y_px are read as synonyms of x/y.
 #pragma once
 #include <cstdint>
 #include <filesystem>
@@ -21,6 +23,7 @@ struct TrackPoint {
   double x = 0, y = 0;  ///< m
   double z = std::numeric_limits<double>::quiet_NaN();  ///< m, NaN when absent
   double x_px = std::numeric_limits<double>::quiet_NaN(), y_px = std::numeric_limits<double>::quiet_NaN();
+  std::string state;  ///< optional: mobile, immobile, deposited
 };
 
 struct Tracks {

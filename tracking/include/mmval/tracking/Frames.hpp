@@ -43,7 +43,8 @@ class FrameSource {
   std::vector<std::string> m_files;  // images
   cv::VideoCapture m_video;
   int m_total = 0, m_count = 0, m_pos = 0;
-  double m_range16[2] = {0, 0};  // 16-bit inputs: [min, max] of the first frame
+  double m_range16[2] = {0, 0};
+  cv::Size m_size;  // of the first frame: every frame must match  // 16-bit inputs: [min, max] of the first frame
 };
 
 /// Converts any grey or colour image, 8 or 16 bit, to float grey in [0, 1].

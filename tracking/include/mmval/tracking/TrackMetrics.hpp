@@ -5,6 +5,7 @@
 // occupancy map (every position of every frame composited).
 #pragma once
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -35,6 +36,32 @@ struct TimeSeries {
   std::vector<int> count;
 };
 
+struct TrackSummary {
+  std::int64_t particle = 0;
+  int points = 0;
+  double duration = 0;          ///< s
+  double mean_speed = 0;        ///< m/s
+  double path_length = 0;       ///< m
+  double net_displacement = 0;  ///< m, first to last
+  double straightness = 0;      ///< net / path (1: straight line)
+  std::string state;            ///< mobile, immobile, deposited
+};
+
+struct FrameDispersion {
+  std::int64_t frame = 0;
+  double t = 0;
+  int count = 0;
+  double mean_x = 0, mean_y = 0, sigma_x = 0, sigma_y = 0;  ///< m
+};
+
+/// Ensemble mean-square displacement of mobile particles against lag, and its
+/// power-law fit MSD = 4 D t^alpha (2D), plus D from a line through the origin.
+struct Msd {
+  std::vector<double> lag, msd;  ///< s, m^2
+  std::vector<long long> samples;
+  double alpha = 0, d_power = 0, d_linear = 0;  ///< exponent; D (m^2/s) of the two fits
+};
+
 struct TrackStats {
   std::vector<Step> steps;  ///< of mobile particles
   TimeSeries series;
@@ -43,9 +70,15 @@ struct TrackStats {
   double mean_speed = 0, median_speed = 0;  ///< m/s over all steps
   double sigma_x = 0, sigma_y = 0;          ///< m, time-averaged dispersion
   double t_begin = 0, t_end = 0;
+  std::vector<TrackSummary> tracks;
+  std::vector<FrameDispersion> frames;
+  Msd msd;
 };
 
 TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& options);
+
+/// The ensemble MSD of the mobile tracks of `stats` (called by analyseTracks).
+Msd ensembleMsd(const Tracks& tracks, const TrackStats& stats, const TrackOptions& options);
 
 /// Occupancy of positions on a grid of `cell` metres over [x0, x1] x [y0, y1].
 cv::Mat occupancyMap(const Tracks& tracks, double cell, double x0, double y0, double x1, double y1);
