@@ -13,6 +13,8 @@
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Run.hpp"
+#include "mmval/openfoam/Kinds.hpp"
+#include "mmval/openfoam/Peer.hpp"
 #include "mmval/reports/Report.hpp"
 #include "mmval/reports/Summary.hpp"
 
@@ -150,6 +152,20 @@ void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
       std::fprintf(stderr, "[%zu/%zu] %s (%s)\n", i + 1, files.size(), c.name().c_str(), c.kind().c_str());
       const RunSummary s = runCase(c, registry, out / "runs" / c.name(), {val_opts->quiet, false});
       summary.results.push_back(s.result);
+      // Cases tagged "peer" also run through OpenFOAM, side by side; a missing
+      // OpenFOAM marks the peer "not run" instead of failing the validation.
+      const auto& tags = c.strings("case.tags");
+      if (std::find(tags.begin(), tags.end(), "peer") != tags.end()) {
+        if (openfoam::detect().available) {
+          std::fprintf(stderr, "      %s through the OpenFOAM peer\n", c.name().c_str());
+          const RunSummary ps = runCaseWith(
+              c, [](const Case& cc, const RunContext& ctx) { return openfoam::runPeer(cc, ctx, {}); }, out / "runs" / (c.name() + "-openfoam"),
+              {val_opts->quiet, false});
+          summary.results.push_back(ps.result);
+        } else {
+          std::fprintf(stderr, "      OpenFOAM peer not run for %s: %s\n", c.name().c_str(), openfoam::detect().reason.c_str());
+        }
+      }
       summary.total_wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       writeSummary(out, summary);  // partial summaries survive an interrupted validation
     }

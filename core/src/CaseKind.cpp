@@ -19,6 +19,12 @@ void CaseKindRegistry::add(CaseKind kind) {
   }
 }
 
+void CaseKindRegistry::replaceRunner(std::string_view name, std::function<RunOutput(const Case&, const RunContext&)> run) {
+  auto it = m_kinds.find(name);
+  if (it == m_kinds.end()) throw std::logic_error("no case kind '" + std::string(name) + "' to give a runner");
+  it->second.run = std::move(run);
+}
+
 const CaseKind* CaseKindRegistry::find(std::string_view name) const {
   auto it = m_kinds.find(name);
   return it == m_kinds.end() ? nullptr : &it->second;

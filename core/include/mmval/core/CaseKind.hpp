@@ -51,6 +51,9 @@ class CaseKindRegistry {
  public:
   void add(CaseKind kind);
   const CaseKind* find(std::string_view name) const;
+  /// Gives an existing kind another runner (e.g. mmval's own solver for a kind
+  /// whose schema a peer declared), keeping its schema.
+  void replaceRunner(std::string_view name, std::function<RunOutput(const Case&, const RunContext&)> run);
   /// The kind's full schema (common [case] keys + the kind's keys).
   const Schema& schema(std::string_view name) const;
   std::vector<std::string> names() const;
