@@ -14,6 +14,15 @@
 
 namespace mmval {
 
+void addObservedOrder(nlohmann::json& ladder, const std::vector<int>& levels) {
+  for (std::size_t i = 2; i < ladder.size() && i < levels.size(); ++i) {
+    if (!ladder[i].contains("value") || !ladder[i - 1].contains("value") || !ladder[i - 2].contains("value")) continue;
+    const double f1 = ladder[i - 2]["value"], f2 = ladder[i - 1]["value"], f3 = ladder[i]["value"];
+    const double r = static_cast<double>(levels[i]) / levels[i - 1];
+    if (std::abs(f3 - f2) > 0 && (f2 - f1) / (f3 - f2) > 0 && r > 1) ladder[i]["observed_order"] = std::log((f2 - f1) / (f3 - f2)) / std::log(r);
+  }
+}
+
 long long peakMemoryBytes() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);

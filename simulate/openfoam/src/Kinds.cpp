@@ -6,6 +6,7 @@
 
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Progress.hpp"
+#include "mmval/core/Run.hpp"
 #include "mmval/openfoam/Peer.hpp"
 
 namespace mmval::openfoam {
@@ -167,13 +168,7 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
     progress.update(i + 1);
   }
   progress.finish();
-  // Observed order of convergence between successive levels (error ~ h^p, h ~ 1 / cells_around).
-  for (std::size_t i = 2; i < ladder.size(); ++i)
-    if (ladder[i].contains("value") && ladder[i - 1].contains("value") && ladder[i - 2].contains("value")) {
-      const double f1 = ladder[i - 2]["value"], f2 = ladder[i - 1]["value"], f3 = ladder[i]["value"];
-      const double r = static_cast<double>(levels[i]) / levels[i - 1];
-      if (std::abs(f3 - f2) > 0 && (f2 - f1) / (f3 - f2) > 0) ladder[i]["observed_order"] = std::log((f2 - f1) / (f3 - f2)) / std::log(r);
-    }
+  addObservedOrder(ladder, levels);
   out.details["ladder"] = ladder;
   out.details["cells"] = last.cells;
   addMetrics(scene, last, out);

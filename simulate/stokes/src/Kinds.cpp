@@ -6,6 +6,7 @@
 
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Progress.hpp"
+#include "mmval/core/Run.hpp"
 #include "mmval/stokes/Stokes.hpp"
 
 namespace mmval::stokes {
@@ -13,15 +14,6 @@ namespace mmval::stokes {
 namespace {
 
 const char* kSolverName = "mmval stokes";
-
-/// Ladder bookkeeping shared by the kinds: one row per level, observed order.
-void addOrder(nlohmann::json& ladder, const std::vector<int>& levels) {
-  for (std::size_t i = 2; i < ladder.size(); ++i) {
-    const double f1 = ladder[i - 2]["value"], f2 = ladder[i - 1]["value"], f3 = ladder[i]["value"];
-    const double r = static_cast<double>(levels[i]) / levels[i - 1];
-    if (std::abs(f3 - f2) > 0 && (f2 - f1) / (f3 - f2) > 0) ladder[i]["observed_order"] = std::log((f2 - f1) / (f3 - f2)) / std::log(r);
-  }
-}
 
 std::vector<int> levelsOf(const Case& c, const char* single) {
   std::vector<int> levels;
@@ -65,7 +57,7 @@ RunOutput runPeriodicArray(const Case& c, const RunContext& ctx) {
     progress.update(k + 1);
   }
   progress.finish();
-  addOrder(ladder, levels);
+  addObservedOrder(ladder, levels);
   out.details["ladder"] = ladder;
   out.details["cells"] = ladder.back()["cells"];
   out.metrics["F_star"] = fstar;
@@ -114,7 +106,7 @@ void registerStokesKinds(CaseKindRegistry& registry) {
       ladder.push_back({{"level", k}, {"cells_across", levels[k]}, {"unknowns", s.unknowns}, {"wall_seconds", s.assemble_seconds + s.solve_seconds},
                         {"value", q}, {"error", (q - exact) / exact}});
     }
-    addOrder(ladder, levels);
+    addObservedOrder(ladder, levels);
     out.details["ladder"] = ladder;
     out.details["model_exact_flow_rate"] = exact;
     if (hd > 0) {

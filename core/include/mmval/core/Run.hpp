@@ -40,6 +40,11 @@ RunSummary runCaseWith(const Case& c, const std::function<RunOutput(const Case&,
 /// per acceptance entry (a missing metric fails), then the informational ones.
 std::vector<MetricResult> evaluateMetrics(const Case& c, const RunOutput& output);
 
+/// Adds "observed_order" to each row of a resolution ladder (rows hold
+/// "value"; levels are the resolutions, e.g. cells across): from three
+/// successive levels, p = log((f2 - f1) / (f3 - f2)) / log(r).
+void addObservedOrder(nlohmann::json& ladder, const std::vector<int>& levels);
+
 /// Peak resident memory of this process so far, bytes (getrusage).
 long long peakMemoryBytes();
 
