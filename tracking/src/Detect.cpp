@@ -164,6 +164,23 @@ std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, P
   return out;
 }
 
+std::vector<Detection> detectStuck(const cv::Mat& background, Polarity polarity, const DetectOptions& o) {
+  if (background.empty()) return {};
+  const cv::Mat k = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(o.stuck_kernel | 1, o.stuck_kernel | 1));
+  cv::Mat hat;
+  cv::morphologyEx(background, hat, polarity == Polarity::bright ? cv::MORPH_TOPHAT : cv::MORPH_BLACKHAT, k);
+  // `hat` is the small-scale signal of the background; detect on it against a flat zero.
+  DetectOptions d = o;
+  d.threshold = ThresholdMode::otsu;
+  d.find_stuck = false;
+  // A stuck particle is a round spot no larger than the hat kernel; narrow grain
+  // tips and corners also survive the hat but are elongated or larger.
+  d.max_area = std::min(o.max_area, 0.6 * M_PI * 0.25 * o.stuck_kernel * o.stuck_kernel);
+  d.min_circularity = std::max(o.min_circularity, 0.7);
+  const cv::Mat flat = cv::Mat::zeros(background.size(), CV_32F);
+  return detect(flat + hat, flat, Polarity::bright, d);
+}
+
 Polarity parsePolarity(const std::string& s) {
   if (s == "dark") return Polarity::dark;
   if (s == "bright") return Polarity::bright;

@@ -22,6 +22,7 @@ void declareTrackerKeys(Schema& s) {
   s.real("detect.max_area", "Largest blob, px^2").def(2000).min(1);
   s.real("detect.min_circularity", "Smallest 4 pi A / P^2").def(0.2).min(0).max(1);
   s.choice("detect.refinement", {"intensity", "moments"}, "Centroid: contour moments or intensity-weighted sub-pixel refinement").def("intensity");
+  s.boolean("detect.find_stuck", "Find particles stuck all video long in the median background (black/top-hat spots the size of moving ones)").def(false);
   s.choice("link.method", {"global", "paper"}, "Linker: optimal assignment with gap closing, or the paper's distance + angle rule").def("global");
   s.real("link.search_radius", "Search radius, px per frame").def(8).min(0.1);
   s.integer("link.memory", "Frames a particle may be missed (gap closing)").def(2).min(0).max(100);
@@ -44,6 +45,7 @@ TrackConfig trackerConfig(const Case& c) {
   t.detect.max_area = c.real("detect.max_area");
   t.detect.min_circularity = c.real("detect.min_circularity");
   t.detect.refinement = parseRefinement(c.text("detect.refinement"));
+  t.detect.find_stuck = c.flag("detect.find_stuck");
   t.link.method = c.text("link.method") == "paper" ? Linker::paper : Linker::global;
   t.link.search_radius = c.real("link.search_radius");
   t.link.memory = static_cast<int>(c.integer("link.memory"));
@@ -176,10 +178,10 @@ void registerTrackingKinds(CaseKindRegistry& registry) {
     cfg.fps = o.fps;
     FrameSource source((ctx.out_dir / "synthetic" / "frames").string());
     const TrackRun run = runTracker(source, cfg, ctx.quiet);
-    // With background removal the tracker is meant not to see particles stuck from the
-    // start (they are part of the static scene), so they leave the scored truth.
+    // With background removal and no search of the background for stuck particles the
+    // tracker is meant not to see particles stuck from the start: they leave the scored truth.
     Tracks scored = synth.truth;
-    if (cfg.detect.subtract_background)
+    if (cfg.detect.subtract_background && !cfg.detect.find_stuck)
       std::erase_if(scored.points, [&](const TrackPoint& p) {
         return std::find(synth.immobile_ids.begin(), synth.immobile_ids.end(), p.particle) != synth.immobile_ids.end();
       });
@@ -200,6 +202,23 @@ void registerTrackingKinds(CaseKindRegistry& registry) {
     out.units["rmse"] = "1";
     out.metrics["mean_speed_relative_error"] = std::abs(ours.mean_speed - truth_stats.mean_speed) / truth_stats.mean_speed;
     out.metrics["immobile_found"] = ours.immobile;
+    // Immobile recall: truth particles stuck from the start that an immobile track of ours
+    // sits on (within the gate in the first frame).
+    {
+      int hit = 0;
+      for (auto id : synth.immobile_ids) {
+        const auto tp = std::find_if(synth.truth.points.begin(), synth.truth.points.end(), [&](const TrackPoint& p) { return p.particle == id; });
+        for (const auto& t : ours.tracks) {
+          if (t.state != "immobile") continue;
+          const auto op = std::find_if(run.tracks.points.begin(), run.tracks.points.end(), [&](const TrackPoint& p) { return p.particle == t.particle; });
+          if (op != run.tracks.points.end() && std::hypot(op->x_px - tp->x_px, op->y_px - tp->y_px) < c.real("score.gate")) {
+            ++hit;
+            break;
+          }
+        }
+      }
+      if (!synth.immobile_ids.empty()) out.metrics["immobile_recall"] = static_cast<double>(hit) / synth.immobile_ids.size();
+    }
     out.metrics["frames_per_second"] = run.frame_index.size() / std::max(run.seconds, 1e-9);
     out.units["frames_per_second"] = "Hz";
     out.details = extra;

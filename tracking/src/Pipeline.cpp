@@ -1,6 +1,7 @@
 #include "mmval/tracking/Pipeline.hpp"
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -35,6 +36,47 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   progress.finish();
   run.polarity = polarity;
   run.link = linker.stats();
+  std::int64_t next_id = 0;
+  for (const auto& p : linker.points()) next_id = std::max(next_id, p.particle + 1);
+  if (c.detect.find_stuck && !run.background.empty() && !run.frame_index.empty()) {
+    // Stuck for the whole video: invisible after background removal, found in the background.
+    // Stuck particles look like the moving ones: keep background spots whose blob area
+    // is within a factor 2 of the median area of the moving detections.
+    std::vector<double> areas;
+    for (const auto& frame : run.detections)
+      for (const auto& m : frame) areas.push_back(m.area);
+    double typical = 0;
+    if (!areas.empty()) {
+      std::nth_element(areas.begin(), areas.begin() + areas.size() / 2, areas.end());
+      typical = areas[areas.size() / 2];
+    }
+    for (const auto& d : detectStuck(run.background, polarity, c.detect)) {
+      if (typical > 0 && (d.area < 0.5 * typical || d.area > 2.0 * typical)) continue;
+      // A particle that only lingers (stationary for most, not all, of the video) also
+      // shows in the median; it is then detected near the same place in some frames.
+      std::size_t near = 0;
+      for (const auto& frame : run.detections)
+        for (const auto& m : frame)
+          if (std::hypot(m.x - d.x, m.y - d.y) < 3.0) {
+            ++near;
+            break;
+          }
+      if (near > run.detections.size() / 10) continue;
+      for (int f : run.frame_index) {
+        TrackPoint t;
+        t.frame = f;
+        t.particle = next_id;
+        t.t = f / c.fps;
+        t.x_px = d.x;
+        t.y_px = d.y;
+        t.x = d.x * c.pixel_size;
+        t.y = d.y * c.pixel_size;
+        run.tracks.points.push_back(t);
+      }
+      ++next_id;
+      ++run.stuck_found;
+    }
+  }
   for (const auto& p : linker.points()) {
     TrackPoint t;
     t.frame = p.frame;
@@ -46,6 +88,9 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
     t.y = p.y * c.pixel_size;
     run.tracks.points.push_back(t);
   }
+  std::stable_sort(run.tracks.points.begin(), run.tracks.points.end(), [](const TrackPoint& a, const TrackPoint& b) {
+    return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
+  });
   run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return run;
 }
@@ -148,6 +193,7 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
   summary["parameters"] = {{"pixel_size_um", c.pixel_size * 1e6}, {"fps", c.fps}, {"blur_sigma", c.detect.blur_sigma},
                            {"subtract_background", c.detect.subtract_background}, {"search_radius_px", c.link.search_radius},
                            {"memory", c.link.memory}, {"linker", c.link.method == Linker::global ? "global" : "paper"}};
+  summary["stuck_found_in_background"] = run.stuck_found;
   summary["seconds"] = run.seconds;
   summary["frames_per_second"] = run.seconds > 0 ? run.frame_index.size() / run.seconds : 0.0;
   put("summary.json", summary.dump(2) + "\n");

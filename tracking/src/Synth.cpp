@@ -1,6 +1,7 @@
 #include "mmval/tracking/Synth.hpp"
 
 #include <cmath>
+#include <algorithm>
 #include <random>
 
 #include <fmt/format.h>
@@ -39,7 +40,19 @@ bool inGrain(const std::vector<Grain>& grains, double x, double y, double margin
 
 }  // namespace
 
-SynthResult writeSyntheticVideo(const SynthOptions& o, const std::filesystem::path& dir) {
+SynthResult writeSyntheticVideo(const SynthOptions& options, const std::filesystem::path& dir) {
+  SynthOptions o = options;
+  if (!o.geometry.empty()) {
+    o.width = o.geometry.cols;
+    o.height = o.geometry.rows;
+    o.grains = 0;
+  }
+  // Distance to the nearest grain pixel, for geometry masks.
+  cv::Mat to_grain;
+  if (!o.geometry.empty()) {
+    cv::Mat pore = o.geometry == 0;
+    cv::distanceTransform(pore, to_grain, cv::DIST_L2, 3);
+  }
   std::mt19937_64 rng(o.seed);
   std::uniform_real_distribution<double> U01(0, 1);
   std::normal_distribution<double> N01(0, 1);
@@ -56,13 +69,19 @@ SynthResult writeSyntheticVideo(const SynthOptions& o, const std::filesystem::pa
     int stop_frame;  // -1: never
     bool immobile;
   };
+  auto solid = [&](double x, double y, double margin) {
+    if (to_grain.empty()) return inGrain(grains, x, y, margin);
+    const int xi = std::clamp(static_cast<int>(x), 0, o.width - 1), yi = std::clamp(static_cast<int>(y), 0, o.height - 1);
+    return to_grain.at<float>(yi, xi) < margin + 0.5;
+  };
+  auto flow = [&](double x, double y) { return o.flow ? o.flow(x, y) : velocity(grains, o.speed, x, y); };
   std::int64_t next_id = 0;
   auto spawn = [&](bool at_inlet) {
     Particle p{next_id++, 0, 0, -1, false};
     do {
       p.x = at_inlet ? U01(rng) * 2 * o.speed : U01(rng) * o.width;
       p.y = 4 + U01(rng) * (o.height - 8);
-    } while (inGrain(grains, p.x, p.y, 3));
+    } while (solid(p.x, p.y, 3));
     // Deposition late in the video, so a median background does not absorb the deposit.
     if (U01(rng) < o.deposit_fraction) p.stop_frame = static_cast<int>((0.6 + 0.3 * U01(rng)) * o.frames);
     return p;
@@ -78,6 +97,7 @@ SynthResult writeSyntheticVideo(const SynthOptions& o, const std::filesystem::pa
   // Static scene: bright glass, darker grains.
   cv::Mat scene(o.height, o.width, CV_32F, cv::Scalar(0.8));
   for (const auto& g : grains) cv::circle(scene, cv::Point2d(g.x, g.y), static_cast<int>(g.r), cv::Scalar(0.3), -1, cv::LINE_AA);
+  if (!o.geometry.empty()) scene.setTo(cv::Scalar(0.3), o.geometry != 0);
   cv::GaussianBlur(scene, scene, cv::Size(0, 0), 1.0);
 
   SynthResult result;
@@ -114,10 +134,15 @@ SynthResult writeSyntheticVideo(const SynthOptions& o, const std::filesystem::pa
     // Advance: RK2 in the flow field; particles leaving at the right re-enter as new ones.
     for (auto& p : ps) {
       if (p.immobile || (p.stop_frame >= 0 && f >= p.stop_frame)) continue;
-      const cv::Point2d v1 = velocity(grains, o.speed, p.x, p.y);
-      const cv::Point2d v2 = velocity(grains, o.speed, p.x + 0.5 * v1.x, p.y + 0.5 * v1.y);
+      const cv::Point2d v1 = flow(p.x, p.y);
+      const cv::Point2d v2 = flow(p.x + 0.5 * v1.x, p.y + 0.5 * v1.y);
+      const double ox = p.x, oy = p.y;
       p.x += v2.x;
       p.y += v2.y;
+      if (!to_grain.empty() && solid(p.x, p.y, 1.5)) {  // never into a grain: stay put this frame
+        p.x = ox;
+        p.y = oy;
+      }
       // Near a grain surface the doublet superposition is not exact: push the particle back out.
       for (const auto& g : grains) {
         const double dx = p.x - g.x, dy = p.y - g.y, r = std::hypot(dx, dy);

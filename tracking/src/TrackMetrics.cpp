@@ -36,7 +36,10 @@ TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& o) {
     ts.straightness = ts.path_length > 0 ? ts.net_displacement / ts.path_length : 0;
     ts.mean_speed = ts.duration > 0 ? ts.path_length / ts.duration : 0;
     const int retained_before = s.retained;
-    if (reach < o.immobile_distance) {
+    if (static_cast<int>(j - i) < o.min_points) {
+      ++s.short_tracks;
+      ts.state = "short";
+    } else if (reach < o.immobile_distance) {
       ++s.immobile;
       ts.state = "immobile";
     } else {

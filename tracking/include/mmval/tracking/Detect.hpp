@@ -35,6 +35,8 @@ struct DetectOptions {
   double min_contrast = 0.02;       ///< peak signal, fraction of full scale
   double min_snr = 5.0;             ///< peak above the frame's noise floor (robust std of the smoothed signal); 0 disables
   Refinement refinement = Refinement::intensity;
+  bool find_stuck = false;          ///< also find particles stuck for the whole video in the median background (off: grain features can pass for particles)
+  int stuck_kernel = 9;             ///< px: black/top-hat size, larger than a particle, smaller than a grain
   int refine_radius = 4;            ///< px, half window of the intensity-weighted centroid
 };
 
@@ -53,6 +55,11 @@ Polarity guessPolarity(const cv::Mat& frame, const cv::Mat& background);
 
 /// Particles in one frame (float grey in [0, 1]); `background` may be empty.
 std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, Polarity polarity, const DetectOptions& options);
+
+/// Particles that sit still for the whole video are part of the median
+/// background: find them there as spots smaller than `stuck_kernel`
+/// (morphological black-hat for dark particles, top-hat for bright ones).
+std::vector<Detection> detectStuck(const cv::Mat& background, Polarity polarity, const DetectOptions& options);
 
 Polarity parsePolarity(const std::string& s);
 ThresholdMode parseThreshold(const std::string& s);

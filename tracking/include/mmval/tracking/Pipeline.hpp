@@ -30,6 +30,7 @@ struct TrackRun {
   Polarity polarity = Polarity::dark;
   cv::Mat background;
   double seconds = 0;
+  int stuck_found = 0;  ///< particles found in the background (stuck all along)
 };
 
 /// Runs the tracker over the whole source; a progress bar unless quiet.

@@ -5,8 +5,11 @@
 #pragma once
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "mmval/core/Tracks.hpp"
 
@@ -27,6 +30,12 @@ struct SynthOptions {
   double noise = 0.015;        ///< std of the camera noise, fraction of full scale
   bool dark_particles = true;
   std::uint64_t seed = 1;
+  /// Optional pore geometry (CV_8U, non-zero = grain); sets the frame size and
+  /// replaces the random disc grains.
+  cv::Mat geometry;
+  /// Optional flow (px per frame at (x, y) in px); default: potential flow of
+  /// `speed` past the disc grains.
+  std::function<cv::Point2d(double, double)> flow;
 };
 
 struct SynthResult {

@@ -19,6 +19,7 @@ struct TrackOptions {
   double stuck_window = 2.0;        ///< s: a mobile particle that moved less than stuck_distance over its last window is retained
   double stuck_distance = 1e-6;     ///< m
   int time_bins = 20;               ///< bins for velocity and dispersion against time
+  int min_points = 3;               ///< shorter tracks are "short" (likely noise): in no statistic
 };
 
 struct Step {
@@ -44,7 +45,7 @@ struct TrackSummary {
   double path_length = 0;       ///< m
   double net_displacement = 0;  ///< m, first to last
   double straightness = 0;      ///< net / path (1: straight line)
-  std::string state;            ///< mobile, immobile, deposited
+  std::string state;            ///< mobile, immobile, deposited, short
 };
 
 struct FrameDispersion {
@@ -65,7 +66,7 @@ struct Msd {
 struct TrackStats {
   std::vector<Step> steps;  ///< of mobile particles
   TimeSeries series;
-  int particles = 0, immobile = 0, mobile = 0, retained = 0;
+  int particles = 0, immobile = 0, mobile = 0, retained = 0, short_tracks = 0;
   double retained_fraction = 0;          ///< retained / mobile
   double mean_speed = 0, median_speed = 0;  ///< m/s over all steps
   double sigma_x = 0, sigma_y = 0;          ///< m, time-averaged dispersion
