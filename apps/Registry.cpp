@@ -2,6 +2,7 @@
 
 #include "mmval/compare/Kinds.hpp"
 #include "mmval/openfoam/Kinds.hpp"
+#include "mmval/particles/Kinds.hpp"
 #include "mmval/stokes/Kinds.hpp"
 #include "mmval/tracking/Kinds.hpp"
 
@@ -14,6 +15,7 @@ void registerAllKinds(CaseKindRegistry& registry) {
   stokes::registerStokesKinds(registry);
   registry.replaceRunner("periodic-array", stokes::runPeriodicArray);
   tracking::registerTrackingKinds(registry);
+  particles::registerParticleKinds(registry);
 }
 
 }  // namespace mmval::app

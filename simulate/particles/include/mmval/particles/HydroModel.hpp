@@ -1,0 +1,48 @@
+// Forces and mobilities of one particle in the chip, shared by both engines so
+// that their comparison measures the engines (inertia, contacts), not two
+// different force models.
+//   fluid velocity   u_f = u_mean(x, y) [6 z (h - z) / h^2 - 2 a^2 / h^2]
+//                    (Hele-Shaw depth profile + Faxen's a^2/6 lap u term; Faxen 1922)
+//   drag factors     lambda_par (Faxen, one wall) and lambda_perp (Brenner 1961),
+//                    the two plates superposed (Physics.hpp)
+//   body force       -(rho_p - rho_f) V g e_z
+//   attraction       sphere-plate van der Waals A a / (6 gap^2) towards sticky
+//                    surfaces within `attraction_range` (AttachmentModel)
+//   capture          gap to a sticky surface <= capture distance
+#pragma once
+#include <memory>
+#include <utility>
+#include <vector>
+
+#include "mmval/particles/Scene.hpp"
+
+namespace mmval::particles {
+
+class HydroModel {
+ public:
+  HydroModel(std::shared_ptr<const FlowField> flow, const SceneConfig& config);
+
+  const FlowField& flow() const { return *m_flow; }
+  double radius() const { return m_radius; }
+  double drag0() const { return m_drag0; }            ///< 6 pi mu a, N s/m
+  double diffusivity() const { return m_diffusivity; }  ///< k_B T / (6 pi mu a), m2/s
+
+  /// Fluid velocity the particle centre sees at x (with Faxen's curvature term when enabled), m/s.
+  Vec3 fluidVelocity(const Vec3& x) const;
+  /// Drag factors (lambda_par, lambda_perp) at centre height z in depth h (1, 1 when hindrance is off).
+  std::pair<double, double> hindrance(double z, double h) const;
+  /// Gravity-buoyancy + attraction at x, N.
+  Vec3 force(const Vec3& x) const;
+  /// True when x is within the capture distance of a sticky plate, grain or side wall.
+  bool captured(const Vec3& x) const;
+  /// Single-wall Brenner factor at surface gap `gap` (tabulated, log-interpolated; exact series in Physics.hpp).
+  double perpendicularFactor(double gap) const;
+
+ private:
+  std::shared_ptr<const FlowField> m_flow;
+  SceneConfig m_cfg;
+  double m_radius, m_drag0, m_diffusivity;
+  std::vector<double> m_perp_table;
+};
+
+}  // namespace mmval::particles

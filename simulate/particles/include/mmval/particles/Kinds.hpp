@@ -1,0 +1,12 @@
+// Case kinds of the particle engines.
+#pragma once
+#include "mmval/core/CaseKind.hpp"
+
+namespace mmval::particles {
+
+/// "particles-channel": particles injected into an analytic Hele-Shaw channel,
+/// moved by the engine the scene's numbers pick (or the case forces), with
+/// deposition; writes trajectories.csv (shared tracks schema), retention.csv.
+void registerParticleKinds(CaseKindRegistry& registry);
+
+}  // namespace mmval::particles

@@ -1,0 +1,44 @@
+// The LIGGGHTS input we generate, validated before a single command is sent
+// (every LIGGGHTS input error ends the process: liggghts-notes.md). Pure
+// functions, built and tested without LIGGGHTS.
+#pragma once
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "mmval/particles/FlowField.hpp"
+#include "mmval/particles/Scene.hpp"
+
+namespace mmval::particles {
+
+struct LiggghtsSetup {
+  double x0 = 0, x1 = 0, y0 = 0, y1 = 0, z0 = 0, z1 = 0;  ///< simulation box, m
+  double depth = 0;                ///< plates at z = 0 and z = depth, m
+  bool side_walls = false;         ///< plane walls at y = wall_y0 and y = wall_y1
+  double wall_y0 = 0, wall_y1 = 0;
+  ParticleMaterial particle;
+  double cohesion_energy_density = 0;  ///< J/m3, sjkr; 0: no cohesion
+  double dt = 0;                   ///< DEM step, s
+  double skin = 0;                 ///< neighbour skin, m
+  std::filesystem::path log_file, screen_file;
+};
+
+/// DEM step: `rayleigh_fraction` of the Rayleigh time, and no more than a
+/// twentieth of the Hertz contact time (paper Eq. 14) at `impact_speed`.
+double liggghtsTimeStep(const ParticleMaterial& p, double rayleigh_fraction, double impact_speed);
+
+/// Box, walls and step for a scene: the flow must be a UniformFlow (plates
+/// only) or a HeleShawChannel (plates + side walls) of constant depth; grain
+/// walls need STL meshes, not implemented yet (InputError says so).
+LiggghtsSetup liggghtsSetupFor(const FlowField& flow, const SceneConfig& cfg, double outlet_x);
+
+/// The setup commands, from `units si` to the wall fixes (not the integrator
+/// and coupling fixes, which the engine adds). Throws InputError naming the bad
+/// value; nothing is generated from unvalidated numbers.
+std::vector<std::string> liggghtsSetupCommands(const LiggghtsSetup& s);
+
+/// `create_atoms` + `set` commands for particles `first_id ..` at `positions`;
+/// each position must be strictly inside the box (InputError otherwise).
+std::vector<std::string> liggghtsInsertCommands(const LiggghtsSetup& s, const std::vector<Vec3>& positions, long first_id);
+
+}  // namespace mmval::particles

@@ -1,0 +1,126 @@
+// What both particle engines share: the scene description (fluid, particles,
+// forces, sticky surfaces), the particle state and counts, and the engine
+// interface. An engine is told where particles are inserted and advanced to a
+// time; it moves them with the flow given by a FlowField (FlowField.hpp).
+#pragma once
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "mmval/core/Error.hpp"
+#include "mmval/particles/FlowField.hpp"
+#include "mmval/particles/Physics.hpp"
+
+namespace mmval::particles {
+
+/// How particles stick. A particle attaches (and stays) when its surface gap
+/// to a sticky surface falls below `capture_distance` - a colloid-filtration
+/// capture rule (Yao, Habibian & O'Melia 1971) standing in for the secondary
+/// minimum / cohesion the experiment's sticky particles show. Optionally a
+/// sphere-plate van der Waals attraction F = A a / (6 gap^2) (Hamaker 1937;
+/// Israelachvili, Intermolecular and Surface Forces, 3rd ed., Table 13.1) pulls
+/// them in from a distance; it is evaluated at gap >= capture_distance only.
+struct AttachmentModel {
+  double capture_distance = 0.1e-6;  ///< m; <= 0 switches attachment off
+  bool bottom = true;                ///< the chip's bottom plate (z = 0) is sticky
+  bool top = false;                  ///< the top plate (z = h)
+  bool grains = true;                ///< grain and side walls
+  bool deposited = true;             ///< already deposited particles (ripening, bridging)
+  double hamaker = 0.0;              ///< J (1e-20 typical polystyrene-water-glass); 0: no attraction
+  double attraction_range = 1e-6;    ///< m; vdW is cut off beyond this gap
+};
+
+struct SceneConfig {
+  Fluid fluid;
+  ParticleMaterial particle;
+  double gravity = 9.81;            ///< m/s2 along -z (the depth); 0: no settling
+  bool brownian = true;             ///< overdamped engine: Brownian displacements (Stokes-Einstein)
+  bool wall_hindrance = true;       ///< Faxen / Brenner corrections from the two plates
+  bool faxen_curvature = true;      ///< Faxen's a^2/6 lap(u) term of the depth profile
+  AttachmentModel attachment;
+  double outlet_x = std::numeric_limits<double>::quiet_NaN();  ///< m; NaN: the field's x1
+  std::uint64_t seed = 1;
+  /// Overdamped engine: largest displacement per step, as a fraction of the radius.
+  double max_step_fraction = 0.1;
+  double max_dt = std::numeric_limits<double>::infinity();  ///< s
+  /// LIGGGHTS engine: DEM step as a fraction of the Rayleigh time (<= 0.2 usual).
+  double rayleigh_fraction = 0.1;
+  /// LIGGGHTS engine: sjkr cohesion energy density, J/m3 (0: off).
+  double cohesion_energy_density = 0.0;
+  /// LIGGGHTS engine: log and screen files go here (created).
+  std::filesystem::path work_dir = std::filesystem::temp_directory_path() / "mmval-liggghts";
+};
+
+/// An InputLocation naming only a key (engine-level errors have no file).
+inline InputLocation keyLocation(std::string key) {
+  InputLocation l;
+  l.key = std::move(key);
+  return l;
+}
+
+enum class ParticleStatus : std::uint8_t { mobile = 0, deposited = 1, left = 2 };
+const char* statusName(ParticleStatus s);
+
+struct ParticleState {
+  std::int64_t id = 0;  ///< 1-based, in insertion order
+  Vec3 x = Vec3::Zero();  ///< m
+  Vec3 v = Vec3::Zero();  ///< m/s (last step's mean velocity for the overdamped engine)
+  ParticleStatus status = ParticleStatus::mobile;
+  double t_event = std::numeric_limits<double>::quiet_NaN();  ///< s: time it deposited or left
+};
+
+/// Particle bookkeeping; injected == inside + deposited + left always holds.
+struct Counts {
+  std::int64_t injected = 0, inside = 0, deposited = 0, left = 0;
+  bool balanced() const { return injected == inside + deposited + left; }
+};
+
+struct EngineStats {
+  std::int64_t steps = 0;
+  std::int64_t particle_steps = 0;
+  double last_dt = 0.0;   ///< s
+  double min_dt = std::numeric_limits<double>::infinity(), max_dt = 0.0;
+  double wall_seconds = 0.0;
+};
+
+class ParticleEngine {
+ public:
+  virtual ~ParticleEngine() = default;
+  virtual std::string name() const = 0;
+  /// Adds particles at rest at `positions` (m). Throws InputError (key
+  /// "particles.insert") if one is in solid, outside the depth, or overlaps a
+  /// wall or another particle; nothing is inserted then.
+  virtual void insert(const std::vector<Vec3>& positions) = 0;
+  /// Advances to time `t_end` (s) >= time().
+  virtual void advance(double t_end) = 0;
+  virtual double time() const = 0;
+  /// Every particle ever inserted, in id order.
+  virtual std::vector<ParticleState> particles() const = 0;
+  virtual Counts counts() const = 0;
+  virtual EngineStats stats() const = 0;
+  /// Scene and numerical settings (for result.json).
+  virtual nlohmann::json describe() const = 0;
+};
+
+/// Counts of a particle list.
+Counts countParticles(const std::vector<ParticleState>& ps);
+
+/// Why a position cannot take a particle ("" when it can): solid, outside
+/// [a, h - a], closer than a radius to a wall, overlapping one of `others`.
+std::string insertionProblem(const FlowField& flow, double radius, const Vec3& x, const std::vector<ParticleState>& others);
+
+/// Samples `n` insertion positions as if carried in through x = x_in during the
+/// last interval: z weighted by the flux profile, y uniform over the fluid, and
+/// x in [x_in + a, x_in + a + strip u(z) / u_max] (strip: the centre-line travel
+/// of one interval), so the number density is uniform across the depth.
+/// Overlaps are rejected. Deterministic for a given seed.
+/// Throws InputError (key "particles") when the strip cannot take them.
+std::vector<Vec3> sampleInlet(const FlowField& flow, double radius, double x_in, double strip, int n, std::uint64_t seed,
+                              const std::vector<ParticleState>& others);
+
+}  // namespace mmval::particles

@@ -1,0 +1,239 @@
+#include "mmval/particles/Kinds.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/Case.hpp"
+#include "mmval/core/Error.hpp"
+#include "mmval/core/Tracks.hpp"
+#include "mmval/particles/EngineFactory.hpp"
+#include "mmval/particles/SceneSelection.hpp"
+
+namespace mmval::particles {
+
+namespace {
+
+void declareChannel(Schema& s) {
+  s.quantity("channel.length", "um", "Channel length along the flow (inlet x = 0, outlet x = length)").def("1000 um").positive();
+  s.quantity("channel.width", "um", "Channel width (side walls at y = 0 and y = width)").def("200 um").positive();
+  s.quantity("channel.depth", "um", "Chip depth between the plates").def("20 um").positive();
+  s.quantity("channel.mean_velocity", "mm/s", "Depth-averaged fluid speed (5 uL/min through the paper's chip: 0.72 mm/s)").def("0.72 mm/s").nonNegative();
+  s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def("1e-3 Pa s").positive();
+  s.quantity("fluid.density", "kg/m3", "Fluid density").def("998.2 kg/m3").positive();
+  s.quantity("fluid.temperature", "K", "Temperature (Brownian motion)").def("293.15 K").positive();
+  s.quantity("particles.diameter", "um", "Particle diameter").def("5 um").positive();
+  s.quantity("particles.density", "g/cm3", "Particle density (polystyrene 1.05)").def("1.05 g/cm3").positive();
+  s.integer("particles.count", "Particles injected at the inlet").def(100).min(0).max(10000000);
+  s.quantity("particles.injection_time", "s", "Particles are injected evenly over [0, injection_time]").def("1 s").positive();
+  s.choice("particles.engine", {"auto", "overdamped", "liggghts"}, "Particle engine; auto picks from the scene's dimensionless numbers").def("auto");
+  s.quantity("particles.youngs_modulus", "Pa", "Young's modulus (LIGGGHTS engine; softened)").def("1e6 Pa").min(1e3).max(1e12);
+  s.real("particles.poisson_ratio", "Poisson's ratio (LIGGGHTS engine)").def(0.3).min(0.01).max(0.49);
+  s.real("particles.restitution", "Coefficient of restitution (LIGGGHTS engine)").def(0.5).min(0.02).max(1);
+  s.real("particles.friction", "Coefficient of friction (LIGGGHTS engine)").def(0.5).min(0).max(10);
+  s.quantity("particles.cohesion_energy_density", "J/m3", "sjkr cohesion (LIGGGHTS engine; 0: off)").def(0.0).nonNegative();
+  s.quantity("physics.gravity", "m/s2", "Gravity along -z (the depth); 0: no settling").def("9.81 m/s2").nonNegative();
+  s.choice("physics.brownian", {"auto", "on", "off"}, "Brownian motion (overdamped engine); auto follows the Peclet numbers").def("auto");
+  s.boolean("physics.wall_hindrance", "Faxen / Brenner drag corrections from the plates").def(true);
+  s.boolean("physics.faxen_curvature", "Faxen's a^2/6 lap(u) term of the depth profile").def(true);
+  s.quantity("deposition.capture_distance", "um", "Surface gap at which a particle attaches to a sticky surface (0: never)").def("0.1 um").nonNegative();
+  s.boolean("deposition.bottom", "The bottom plate is sticky").def(true);
+  s.boolean("deposition.top", "The top plate is sticky").def(false);
+  s.boolean("deposition.walls", "Side walls and grains are sticky").def(true);
+  s.boolean("deposition.deposited", "Deposited particles are sticky (ripening)").def(true);
+  s.quantity("deposition.hamaker", "J", "Hamaker constant of the van der Waals attraction (0: none)").def(0.0).nonNegative();
+  s.quantity("deposition.attraction_range", "um", "van der Waals cut-off gap").def("1 um").positive();
+  s.quantity("run.duration", "s", "Physical time simulated").def("2 s").positive();
+  s.quantity("run.output_interval", "s", "Output (frame) interval").def("0.05 s").positive();
+  s.integer("run.seed", "Random seed (Brownian motion, injection)").def(1).min(0);
+  s.real("numerics.max_step_fraction", "Overdamped engine: largest displacement per step, in radii").def(0.1).min(1e-4).max(1);
+  s.real("numerics.rayleigh_fraction", "LIGGGHTS engine: DEM step as a fraction of the Rayleigh time").def(0.1).min(1e-3).max(0.3);
+  s.quantity("output.pixel_size", "um", "Pixel size for the pixel columns of trajectories.csv (0: none)").def(0.0).nonNegative();
+}
+
+SceneConfig sceneFromCase(const Case& c, const EngineChoice& choice, const std::filesystem::path& work_dir) {
+  SceneConfig s;
+  s.fluid.viscosity = c.quantity("fluid.viscosity");
+  s.fluid.density = c.quantity("fluid.density");
+  s.fluid.temperature = c.quantity("fluid.temperature");
+  s.particle.diameter = c.quantity("particles.diameter");
+  s.particle.density = c.quantity("particles.density");
+  s.particle.youngs_modulus = c.quantity("particles.youngs_modulus");
+  s.particle.poisson_ratio = c.real("particles.poisson_ratio");
+  s.particle.restitution = c.real("particles.restitution");
+  s.particle.friction = c.real("particles.friction");
+  s.cohesion_energy_density = c.quantity("particles.cohesion_energy_density");
+  s.gravity = c.quantity("physics.gravity");
+  const std::string& b = c.text("physics.brownian");
+  s.brownian = b == "auto" ? choice.brownian : b == "on";
+  s.wall_hindrance = c.flag("physics.wall_hindrance");
+  s.faxen_curvature = c.flag("physics.faxen_curvature");
+  s.attachment.capture_distance = c.quantity("deposition.capture_distance");
+  s.attachment.bottom = c.flag("deposition.bottom");
+  s.attachment.top = c.flag("deposition.top");
+  s.attachment.grains = c.flag("deposition.walls");
+  s.attachment.deposited = c.flag("deposition.deposited");
+  s.attachment.hamaker = c.quantity("deposition.hamaker");
+  s.attachment.attraction_range = c.quantity("deposition.attraction_range");
+  s.seed = static_cast<std::uint64_t>(c.integer("run.seed"));
+  s.max_step_fraction = c.real("numerics.max_step_fraction");
+  s.rayleigh_fraction = c.real("numerics.rayleigh_fraction");
+  s.work_dir = work_dir;
+  return s;
+}
+
+/// Mean of 6 s (1 - s) over s in [a/h, 1 - a/h], minus Faxen's 2 a^2/h^2: the mean
+/// speed (in units of u_mean) of particles spread evenly across the accessible depth.
+double uniformDepthSpeedFactor(double a, double h, bool faxen) {
+  const double s0 = a / h, s1 = 1 - a / h;
+  const auto F = [](double s) { return 3 * s * s - 2 * s * s * s; };
+  return (F(s1) - F(s0)) / (s1 - s0) - (faxen ? 2 * s0 * s0 : 0.0);
+}
+
+RunOutput runChannel(const Case& c, const RunContext& ctx) {
+  const double L = c.quantity("channel.length"), W = c.quantity("channel.width"), h = c.quantity("channel.depth");
+  const double U = c.quantity("channel.mean_velocity");
+  const double d = c.quantity("particles.diameter");
+  if (!(h > d)) throw InputError(c.where("particles.diameter"), "particles do not fit in the chip depth", fmt::format("{:.3g} um", d * 1e6), fmt::format("< depth {:.3g} um", h * 1e6));
+  if (!(W > d)) throw InputError(c.where("channel.width"), "particles do not fit across the channel", fmt::format("{:.3g} um", W * 1e6), fmt::format("> diameter {:.3g} um", d * 1e6));
+  const auto count = c.integer("particles.count");
+  const double t_inj = c.quantity("particles.injection_time"), duration = c.quantity("run.duration"), dt_out = c.quantity("run.output_interval");
+  if (dt_out > duration) throw InputError(c.where("run.output_interval"), "longer than the run", fmt::format("{:g} s", dt_out), fmt::format("<= run.duration ({:g} s)", duration));
+
+  SceneScales scales;
+  scales.fluid = {c.quantity("fluid.viscosity"), c.quantity("fluid.density"), c.quantity("fluid.temperature")};
+  scales.particle.diameter = d;
+  scales.particle.density = c.quantity("particles.density");
+  scales.velocity = U;
+  scales.length = h;
+  scales.depth = h;
+  scales.gravity = c.quantity("physics.gravity");
+  const double flow_rate = U * W * h;
+  scales.volume_fraction = flow_rate > 0 ? static_cast<double>(count) / t_inj * scales.particle.volume() / flow_rate : 0.0;
+  EngineChoice choice = chooseEngine(scales);
+  const std::string& forced = c.text("particles.engine");
+  std::string reason = choice.reason;
+  if (forced != "auto") {
+    choice.engine = forced == "overdamped" ? EngineKind::overdamped : EngineKind::liggghts;
+    reason = fmt::format("forced by the case (particles.engine = \"{}\"); the automatic choice would be: {}", forced, choice.reason);
+  }
+  if (choice.engine == EngineKind::liggghts && !liggghtsAvailable())
+    throw InputError(c.where("particles.engine"), "the scene needs the LIGGGHTS engine, which this build lacks", reason,
+                     "particles.engine = \"overdamped\" to force the cheaper model, or a build with libliggghts-dev");
+
+  auto flow = std::make_shared<HeleShawChannel>(L, W, h, U);
+  const SceneConfig scene = sceneFromCase(c, choice, ctx.out_dir / "liggghts");
+  auto engine = makeEngine(choice.engine, flow, scene);
+
+  const double pixel = c.quantity("output.pixel_size");
+  Tracks traj;
+  std::ostringstream retention;
+  retention << "t_s,injected,inside,deposited,left,retained_fraction\n";
+  std::int64_t injected = 0, frame = 0;
+  double speed_sum = 0;
+  std::int64_t speed_n = 0;
+  std::map<std::int64_t, Vec3> last;  // previous frame's position of mobile particles
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto frames = static_cast<std::int64_t>(std::llround(duration / dt_out));
+  for (std::int64_t k = 0; k <= frames; ++k) {
+    const double t = k * dt_out;
+    if (k > 0) engine->advance(t);
+    // Injection: particles due by t (evenly spread over the injection time),
+    // placed in the inlet strip the flow covers in one interval.
+    const auto due = t_inj > 0 ? std::min<std::int64_t>(count, static_cast<std::int64_t>(std::floor(count * std::min(t / t_inj, 1.0) + 1e-9))) : count;
+    if (due > injected) {
+      const double strip = std::max(1.5 * U * dt_out, d);  // centre-line travel of one interval
+      const auto pos = sampleInlet(*flow, 0.5 * d, 0.0, std::min(strip, 0.5 * L), static_cast<int>(due - injected),
+                                   scene.seed * 1000003ULL + static_cast<std::uint64_t>(k), engine->particles());
+      engine->insert(pos);
+      injected = due;
+    }
+    const auto ps = engine->particles();
+    std::map<std::int64_t, Vec3> now;
+    for (const auto& p : ps) {
+      if (p.status == ParticleStatus::left) continue;
+      TrackPoint tp;
+      tp.frame = frame;
+      tp.particle = p.id;
+      tp.t = t;
+      tp.x = p.x.x();
+      tp.y = p.x.y();
+      tp.z = p.x.z();
+      tp.state = p.status == ParticleStatus::mobile ? "mobile" : "deposited";
+      traj.points.push_back(tp);
+      if (p.status == ParticleStatus::mobile) {
+        now[p.id] = p.x;
+        if (auto it = last.find(p.id); it != last.end()) {
+          speed_sum += (p.x.x() - it->second.x()) / dt_out;
+          ++speed_n;
+        }
+      }
+    }
+    last = std::move(now);
+    const Counts n = countParticles(ps);
+    retention << fmt::format("{:.9g},{},{},{},{},{:.6g}\n", t, n.injected, n.inside, n.deposited, n.left,
+                             n.injected ? static_cast<double>(n.deposited) / n.injected : 0.0);
+    ++frame;
+  }
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::sort(traj.points.begin(), traj.points.end(), [](const TrackPoint& a, const TrackPoint& b) {
+    return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
+  });
+  writeTracksCsv(ctx.out_dir / "trajectories.csv", traj, pixel);
+  writeFileAtomic(ctx.out_dir / "retention.csv", retention.str());
+
+  const Counts n = engine->counts();
+  if (!n.balanced()) throw std::logic_error(fmt::format("particle counts do not balance: {} != {} + {} + {}", n.injected, n.inside, n.deposited, n.left));
+  const EngineStats st = engine->stats();
+  RunOutput out;
+  out.files = {"trajectories.csv", "retention.csv"};
+  out.metrics["retained_fraction"] = n.injected ? static_cast<double>(n.deposited) / n.injected : 0.0;
+  out.metrics["left_fraction"] = n.injected ? static_cast<double>(n.left) / n.injected : 0.0;
+  out.metrics["injected"] = static_cast<double>(n.injected);
+  out.metrics["deposited"] = static_cast<double>(n.deposited);
+  out.metrics["left"] = static_cast<double>(n.left);
+  out.metrics["inside"] = static_cast<double>(n.inside);
+  out.metrics["count_balance_error"] = static_cast<double>(n.injected - n.inside - n.deposited - n.left);
+  const double mean_speed = speed_n ? speed_sum / speed_n : 0.0;
+  out.metrics["mean_speed"] = mean_speed;
+  out.units["mean_speed"] = "um/s";
+  const double factor = uniformDepthSpeedFactor(0.5 * d, h, scene.faxen_curvature);
+  out.metrics["mean_speed_ratio"] = U > 0 ? mean_speed / (U * factor) : 0.0;
+  out.metrics["particle_steps_per_second"] = wall > 0 ? static_cast<double>(st.particle_steps) / wall : 0.0;
+  out.units["particle_steps_per_second"] = "Hz";
+  out.metrics["engine_wall_time"] = st.wall_seconds;
+  out.units["engine_wall_time"] = "s";
+  out.details["engine"] = engineName(choice.engine);
+  out.details["engine_reason"] = reason;
+  out.details["selection"] = choice.toJson();
+  out.details["engine_settings"] = engine->describe();
+  out.details["counts"] = {{"injected", n.injected}, {"inside", n.inside}, {"deposited", n.deposited}, {"left", n.left}};
+  out.details["steps"] = st.steps;
+  out.details["particle_steps"] = st.particle_steps;
+  out.details["dt_min_s"] = std::isfinite(st.min_dt) ? st.min_dt : 0.0;
+  out.details["dt_max_s"] = st.max_dt;
+  out.details["mean_speed_reference"] = {
+      {"u_mean_m_s", U},
+      {"depth_factor", factor},
+      {"meaning", "mean_speed_ratio = measured mean x-speed of mobile particles / (u_mean x mean of the depth profile over the "
+                  "accessible heights [a, h - a], minus Faxen 2 a^2/h^2): 1 for particles spread evenly across the depth"}};
+  return out;
+}
+
+}  // namespace
+
+void registerParticleKinds(CaseKindRegistry& registry) {
+  CaseKind k;
+  k.name = "particles-channel";
+  k.summary = "Particles injected into an analytic Hele-Shaw channel, moved by the engine the scene's numbers pick, with deposition: "
+              "trajectories (shared tracks schema), retention over time";
+  k.declare = declareChannel;
+  k.run = runChannel;
+  registry.add(k);
+}
+
+}  // namespace mmval::particles

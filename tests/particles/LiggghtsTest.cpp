@@ -1,0 +1,138 @@
+// LIGGGHTS driven in-process, 1 rank (singleton MPI). Each test runs a few
+// thousand to ~2e5 DEM steps of one or two particles.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include <iostream>
+
+#include "mmval/particles/EngineComparison.hpp"
+#include "mmval/particles/LiggghtsEngine.hpp"
+#include "mmval/particles/OverdampedEngine.hpp"
+
+namespace mmval::particles {
+namespace {
+
+SceneConfig quietScene(const std::string& name) {
+  SceneConfig c;
+  c.gravity = 0;
+  c.brownian = false;
+  c.wall_hindrance = false;
+  c.faxen_curvature = false;
+  c.attachment.capture_distance = 0;
+  c.work_dir = std::filesystem::temp_directory_path() / ("mmval-liggghts-test-" + name);
+  return c;
+}
+
+// A sphere released at rest in a uniform flow relaxes as v = U (1 - exp(-t / tau_p)).
+// The drag integrator is exact for constant flow, so the tolerance is round-off of
+// the ~100 steps plus the half step the run setup adds (O((dt/tau)^2) ~ 1e-3).
+TEST(Liggghts, SphereRelaxesToFlowVelocityWithTauP) {
+  const double u_mean = 1e-3, h = 100e-6;
+  auto flow = std::make_shared<UniformFlow>(Vec2(u_mean, 0), h, Bounds2{0, 200e-6, 0, 100e-6});
+  SceneConfig c = quietScene("relax");
+  LiggghtsEngine e(flow, c);
+  e.insert({Vec3(50e-6, 50e-6, 0.5 * h)});
+  const double tau = relaxationTime(c.fluid, c.particle), uf = 1.5 * u_mean;  // centre line of the profile
+  ASSERT_GT(tau / e.dt(), 5.0) << "test meant for several steps per tau";
+  for (double k : {0.5, 1.0, 2.0, 5.0}) {
+    e.advance(k * tau);
+    const double t = e.time();
+    const double expected = uf * (1 - std::exp(-t / tau));
+    const double got = e.particles()[0].v.x();
+    EXPECT_NEAR(got, expected, 2e-3 * uf) << "t/tau = " << t / tau << " dt/tau = " << e.dt() / tau;
+  }
+}
+
+// Stokes settling onto the bottom plate: the speed far from the walls is the
+// Stokes speed (wall hindrance off), and the sphere comes to rest on the plate
+// with a Hertz overlap of ~1e-9 m. Gravity is raised 100x so that the fall
+// takes ~1e5 DEM steps instead of ~1e8.
+TEST(Liggghts, SphereSettlesOntoBottomWall) {
+  const double h = 40e-6;
+  auto flow = std::make_shared<UniformFlow>(Vec2(0, 0), h, Bounds2{0, 60e-6, 0, 60e-6});
+  SceneConfig c = quietScene("settle");
+  c.gravity = 981;
+  c.particle.density = 2000;
+  LiggghtsEngine e(flow, c);
+  const double a = c.particle.radius(), z0 = a + 10e-6;
+  e.insert({Vec3(30e-6, 30e-6, z0)});
+  const double vs = settlingSpeed(c.fluid, c.particle, c.gravity);
+  e.advance(0.3 * 10e-6 / vs);  // fallen ~3 um, far from either plate (hindrance off anyway)
+  const auto p = e.particles()[0];
+  EXPECT_NEAR(p.v.z(), -vs, 1e-3 * vs) << "Stokes settling speed " << vs << " m/s";
+  EXPECT_NEAR(p.x.z(), z0 - vs * e.time(), 0.01 * 3e-6) << "position after free fall (tau_p transient is 1e-6 s)";
+  e.advance(1.5 * 10e-6 / vs);
+  const auto q = e.particles()[0];
+  EXPECT_NEAR(q.x.z(), a, 1e-8) << "rests on the plate (Hertz overlap ~1e-9 m)";
+  EXPECT_LT(std::abs(q.v.z()), 1e-3 * vs);
+}
+
+// Hertz head-on collision: two spheres approaching at +-v/2 stay in contact for
+// t_c = 2.868 (m*^2 / (R* E*^2 v))^(1/5) (benchmarks.md). Nearly elastic, no fluid
+// (viscosity 1e-12 Pa s), the contact time measured from the centre distance.
+TEST(Liggghts, HeadOnCollisionLastsHertzContactTime) {
+  const double h = 100e-6;
+  auto flow = std::make_shared<UniformFlow>(Vec2(0, 0), h, Bounds2{0, 100e-6, 0, 60e-6});
+  SceneConfig c = quietScene("hertz");
+  c.fluid.viscosity = 1e-12;
+  c.particle.restitution = 0.99;
+  c.rayleigh_fraction = 0.02;  // ~180 steps per contact: the measurement resolves 1 %
+  LiggghtsEngine e(flow, c);
+  const double d = c.particle.diameter, v = 0.05, gap = 0.01e-6;
+  e.insert({Vec3(50e-6 - 0.5 * d - 0.5 * gap, 30e-6, 50e-6), Vec3(50e-6 + 0.5 * d + 0.5 * gap, 30e-6, 50e-6)});
+  e.setVelocity(1, Vec3(0.5 * v, 0, 0));
+  e.setVelocity(2, Vec3(-0.5 * v, 0, 0));
+  const double tc = hertzContactTimeEqual(c.particle, v);
+  double t_in = -1, t_out = -1;
+  const double dt = e.dt();
+  for (int k = 1; k < 4 * static_cast<int>(tc / dt) && t_out < 0; ++k) {
+    e.advance(k * dt);
+    const auto ps = e.particles();
+    const double dist = (ps[0].x - ps[1].x).norm();
+    if (t_in < 0 && dist < d) t_in = e.time();
+    if (t_in >= 0 && dist >= d) t_out = e.time();
+  }
+  ASSERT_GT(t_out, 0) << "no separation seen";
+  EXPECT_NEAR(t_out - t_in, tc, 0.03 * tc) << "dt = " << dt << " s, t_c = " << tc << " s (restitution 0.99: damping lengthens it < 1 %)";
+}
+
+}  // namespace
+}  // namespace mmval::particles
+
+namespace mmval::particles {
+namespace {
+
+// The overdamped engine against LIGGGHTS on a shared window: 30 particles in a
+// Hele-Shaw channel with a sticky bottom, same forces (HydroModel), no Brownian
+// motion (LIGGGHTS has none), gravity x400 so that captures happen within
+// 0.03 s. Particles that touch nothing differ by the inertial lag u tau_p
+// ~ 1e-9 m plus the overdamped step's explicit error (measured < 30 nm at
+// max_step_fraction 0.01): the median particle must agree within 30 nm. The
+// few that collide differ after contact (Hertz with friction against
+// frictionless hard spheres, measured up to 0.54 um): RMS over all particles
+// and times within 0.2 um (4 % of d); captures matched within one particle.
+TEST(EngineComparison, OverdampedMatchesLiggghtsOnSharedWindow) {
+  SceneConfig c;
+  c.brownian = false;
+  c.gravity = 9.81 * 400;
+  c.attachment.grains = false;
+  c.particle.youngs_modulus = 1e5;  // softened: the DEM step is 1.4e-7 s
+  c.work_dir = std::filesystem::temp_directory_path() / "mmval-liggghts-test-compare";
+  auto flow = std::make_shared<HeleShawChannel>(400e-6, 100e-6, 20e-6, 7e-4);
+  const auto pos = sampleInlet(*flow, c.particle.radius(), 20e-6, 60e-6, 30, 17, {});
+  LiggghtsEngine lg(flow, c);
+  SceneConfig fine = c;
+  fine.max_step_fraction = 0.01;
+  OverdampedEngine od(flow, fine);
+  const EngineComparison r = compareEngines(lg, od, pos, 0.03, 0.003);
+  std::cout << r.toJson().dump(2) << "\n";
+  EXPECT_LT(r.median_final_difference, 30e-9);
+  EXPECT_LT(r.rms_position_difference, 0.2e-6);
+  EXPECT_GT(r.captured_reference, 0);
+  EXPECT_LE(std::abs(r.captured_reference - r.captured_candidate), 1);
+  EXPECT_GE(r.captured_both, r.captured_reference - 1);
+}
+
+}  // namespace
+}  // namespace mmval::particles

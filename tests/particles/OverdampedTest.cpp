@@ -1,0 +1,223 @@
+// The overdamped engine against exact answers (settling, Poiseuille advection,
+// wall factors), statistics (MSD vs Stokes-Einstein) and self-consistency
+// (particle counts balance, determinism, insertion checks).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+
+#include "mmval/core/Error.hpp"
+#include "mmval/particles/OverdampedEngine.hpp"
+
+namespace mmval::particles {
+namespace {
+
+SceneConfig still() {
+  SceneConfig c;
+  c.brownian = false;
+  c.wall_hindrance = false;
+  c.faxen_curvature = false;
+  c.gravity = 0;
+  c.attachment.capture_distance = 0;
+  return c;
+}
+
+// Free Stokes settling of 5 um polystyrene through 20 um: 28 s (benchmarks.md,
+// 2 digits: +-0.5 s). The capture time resolves it to one step (0.01 a / v_s = 0.035 s).
+TEST(Overdamped, SettlesThrough20umInStokesTime) {
+  SceneConfig c = still();
+  c.gravity = 9.81;
+  c.attachment.capture_distance = 1e-12;
+  c.attachment.grains = false;
+  c.max_step_fraction = 0.01;
+  const double a = c.particle.radius(), h = 20e-6 + 2 * a;
+  auto flow = std::make_shared<UniformFlow>(Vec2(0, 0), h);
+  OverdampedEngine e(flow, c);
+  e.insert({Vec3(0, 0, h - a)});
+  EXPECT_NEAR(e.driftVelocity(Vec3(0, 0, 0.5 * h)).z(), -settlingSpeed(c.fluid, c.particle), 1e-12 * 7e-7);
+  e.advance(40.0);
+  const auto p = e.particles()[0];
+  ASSERT_EQ(p.status, ParticleStatus::deposited);
+  EXPECT_NEAR(p.t_event, 28.0, 0.5);
+  EXPECT_NEAR(p.t_event, 20e-6 / settlingSpeed(c.fluid, c.particle), 0.04);
+}
+
+// With the plates' Brenner correction the fall is slower: t = int lambda_perp(z) dz / v_s.
+// Reference by the midpoint rule on 20000 intervals of the same hindrance function;
+// the engine integrates it with steps of 0.01 a, so 1 % is its discretisation error.
+TEST(Overdamped, HinderedSettlingFollowsBrennerIntegral) {
+  SceneConfig c = still();
+  c.gravity = 9.81;
+  c.wall_hindrance = true;
+  c.attachment.capture_distance = 0.05e-6;
+  c.attachment.grains = false;
+  c.max_step_fraction = 0.01;
+  const double a = c.particle.radius(), h = 20e-6 + 2 * a;
+  auto flow = std::make_shared<UniformFlow>(Vec2(0, 0), h);
+  OverdampedEngine e(flow, c);
+  const double z0 = h - a - 1e-6, z1 = a + c.attachment.capture_distance;
+  e.insert({Vec3(0, 0, z0)});
+  double t_ref = 0;
+  const int n = 20000;
+  for (int i = 0; i < n; ++i) {
+    const double z = z1 + (i + 0.5) * (z0 - z1) / n;
+    t_ref += e.model().hindrance(z, h).second * (z0 - z1) / n / settlingSpeed(c.fluid, c.particle);
+  }
+  e.advance(3 * t_ref);
+  const auto p = e.particles()[0];
+  ASSERT_EQ(p.status, ParticleStatus::deposited);
+  std::cout << "hindered settling: engine " << p.t_event << " s, integral " << t_ref << " s\n";
+  EXPECT_NEAR(p.t_event, t_ref, 0.01 * t_ref) << "free fall would take " << (z0 - z1) / settlingSpeed(c.fluid, c.particle) << " s";
+  EXPECT_GT(t_ref, 1.2 * (z0 - z1) / settlingSpeed(c.fluid, c.particle));
+}
+
+// The hindrance the engine uses reproduces the tabulated single-wall factors
+// (other plate far away): table interpolation error < 1e-3.
+TEST(Overdamped, WallFactorsMatchFaxenAndBrenner) {
+  SceneConfig c = still();
+  c.wall_hindrance = true;
+  const double a = c.particle.radius(), far = 1.0;
+  auto flow = std::make_shared<UniformFlow>(Vec2(0, 0), far);
+  OverdampedEngine e(flow, c);
+  const auto at = [&](double centre) { return e.model().hindrance(centre, far); };
+  EXPECT_NEAR(at(10 * a).first, 1.060, 2e-3);   // Faxen x = 0.1 (+ far plate ~1e-6)
+  EXPECT_NEAR(at(5 * a).first, 1.126, 2e-3);    // x = 0.2
+  EXPECT_NEAR(at(2 * a).first, 1.386, 2e-3);    // x = 0.5
+  EXPECT_NEAR(at(1.1 * a).second, 11.46, 0.01 * 11.46);
+  EXPECT_NEAR(at(2 * a).second, 2.126, 1e-3 * 2.126);
+  EXPECT_NEAR(at(10 * a).second, 1.126, 1e-3 * 1.126);
+}
+
+// Free Brownian particles: MSD in the plane = 4 D t. With N particles the MSD
+// estimate has standard error 4 D t / sqrt(N) (r^2 = 2 D t chi^2_2); the test
+// allows 2 standard errors (house style rule 11), seed fixed.
+TEST(Overdamped, MeanSquareDisplacementIsFourDt) {
+  SceneConfig c = still();
+  c.brownian = true;
+  c.seed = 20240611;
+  auto flow = std::make_shared<UniformFlow>(Vec2(0, 0), 1.0, Bounds2{-1, 1, -1, 1});
+  OverdampedEngine e(flow, c);
+  std::vector<Vec3> start;
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 50; ++j) start.emplace_back(i * 50e-6, j * 50e-6, 0.5);
+  e.insert(start);
+  const double t = 10.0, D = stokesEinstein(c.fluid, c.particle.diameter);
+  e.advance(t);
+  const auto ps = e.particles();
+  double msd = 0;
+  for (std::size_t k = 0; k < ps.size(); ++k) msd += (ps[k].x - start[k]).head<2>().squaredNorm();
+  msd /= ps.size();
+  const double ref = 4 * D * t, se = ref / std::sqrt(static_cast<double>(ps.size()));
+  EXPECT_NEAR(msd, ref, 2 * se) << "MSD " << msd << " m2 vs 4Dt " << ref << " m2, 2 SE = " << 2 * se;
+  EXPECT_GE(e.stats().steps, 20);  // Brownian step (0.1 a)^2 / (2 D) = 0.36 s
+}
+
+// A particle in the Hele-Shaw profile moves at u(z) = 6 U z (h - z) / h^2
+// (+ Faxen's -2 U a^2 / h^2 when on); deterministic, so round-off tolerance.
+TEST(Overdamped, PoiseuilleParticleFollowsAnalyticVelocity) {
+  for (bool faxen : {false, true}) {
+    SceneConfig c = still();
+    c.faxen_curvature = faxen;
+    const double U = 7e-4, h = 20e-6, a = c.particle.radius();
+    auto flow = std::make_shared<HeleShawChannel>(1.0, 1e-3, h, U);
+    OverdampedEngine e(flow, c);
+    const std::vector<double> zs = {a, 5e-6, 10e-6, 14e-6, h - a};
+    std::vector<Vec3> start;
+    for (std::size_t k = 0; k < zs.size(); ++k) start.emplace_back(1e-4, 1e-4 + 100e-6 * k, zs[k]);
+    e.insert(start);
+    e.advance(0.5);
+    const auto ps = e.particles();
+    for (std::size_t k = 0; k < zs.size(); ++k) {
+      const double z = zs[k];
+      const double u = U * (6 * z * (h - z) / (h * h) - (faxen ? 2 * a * a / (h * h) : 0.0));
+      EXPECT_NEAR((ps[k].x.x() - start[k].x()) / 0.5, u, 1e-9 * U) << "z = " << z << " faxen " << faxen;
+      EXPECT_NEAR(ps[k].x.z(), z, 1e-15);
+    }
+  }
+}
+
+// Mass conservation of particle counts in a sticky channel with an outlet:
+// injected == inside + deposited + left after every interval, and all three
+// sinks are exercised.
+TEST(Overdamped, ParticleCountsBalanceWithDepositionAndOutlet) {
+  SceneConfig c;
+  c.seed = 5;
+  c.gravity = 9.81 * 20;  // some settle within the short channel, others leave
+  const double L = 300e-6, W = 100e-6, h = 20e-6;
+  auto flow = std::make_shared<HeleShawChannel>(L, W, h, 7e-4);
+  OverdampedEngine e(flow, c);
+  std::int64_t injected = 0;
+  for (int k = 1; k <= 20; ++k) {
+    const auto pos = sampleInlet(*flow, c.particle.radius(), 0.0, 20e-6, 5, 1000 + k, e.particles());
+    e.insert(pos);
+    injected += 5;
+    e.advance(k * 0.05);
+    const Counts n = e.counts();
+    ASSERT_TRUE(n.balanced()) << n.injected << " != " << n.inside << " + " << n.deposited << " + " << n.left;
+    ASSERT_EQ(n.injected, injected);
+  }
+  e.advance(3.0);
+  const Counts n = e.counts();
+  EXPECT_TRUE(n.balanced());
+  EXPECT_GT(n.deposited, 0);
+  EXPECT_GT(n.left, 0);
+  for (const auto& p : e.particles()) {
+    if (p.status == ParticleStatus::left) continue;
+    EXPECT_GE(p.x.z(), c.particle.radius() - 1e-15);
+    EXPECT_LE(p.x.z(), h - c.particle.radius() + 1e-15);
+  }
+}
+
+TEST(Overdamped, SameSeedSameTrajectories) {
+  SceneConfig c;
+  c.seed = 11;
+  auto flow = std::make_shared<HeleShawChannel>(300e-6, 100e-6, 20e-6, 7e-4);
+  const auto run = [&] {
+    OverdampedEngine e(flow, c);
+    e.insert(sampleInlet(*flow, c.particle.radius(), 0.0, 50e-6, 20, 3, {}));
+    e.advance(0.2);
+    return e.particles();
+  };
+  const auto a = run(), b = run();
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) EXPECT_EQ((a[k].x - b[k].x).norm(), 0.0);
+}
+
+TEST(Overdamped, InsertionIntoSolidOrOverlapIsAClearError) {
+  SceneConfig c;
+  auto flow = std::make_shared<HeleShawChannel>(300e-6, 100e-6, 20e-6, 7e-4);
+  OverdampedEngine e(flow, c);
+  e.insert({Vec3(50e-6, 50e-6, 10e-6)});
+  EXPECT_THROW(e.insert({Vec3(50e-6, -5e-6, 10e-6)}), InputError);     // in a side wall
+  EXPECT_THROW(e.insert({Vec3(52e-6, 50e-6, 10e-6)}), InputError);     // overlaps particle 1
+  EXPECT_THROW(e.insert({Vec3(80e-6, 50e-6, 1e-6)}), InputError);      // crosses the bottom plate
+  try {
+    e.insert({Vec3(52e-6, 50e-6, 10e-6)});
+  } catch (const InputError& err) {
+    EXPECT_NE(std::string(err.what()).find("overlaps particle 1"), std::string::npos) << err.what();
+  }
+  EXPECT_EQ(e.counts().injected, 1);
+  // Particles larger than the depth cannot be placed anywhere.
+  EXPECT_THROW(sampleInlet(HeleShawChannel(300e-6, 100e-6, 4e-6, 7e-4), 2.5e-6, 0.0, 20e-6, 1, 1, {}), InputError);
+}
+
+// Hard contacts: a particle advected onto a deposited one stops there (ripening)
+// and no pair ends up overlapping.
+TEST(Overdamped, ContactWithDepositedParticleAttachesWithoutOverlap) {
+  SceneConfig c = still();
+  c.attachment.capture_distance = 0.1e-6;
+  c.attachment.grains = false;
+  const double a = c.particle.radius();
+  auto flow = std::make_shared<HeleShawChannel>(300e-6, 100e-6, 20e-6, 7e-4);
+  OverdampedEngine e(flow, c);
+  e.insert({Vec3(100e-6, 50e-6, a), Vec3(80e-6, 50e-6, a + 1e-6)});
+  e.advance(0.001);
+  ASSERT_EQ(e.particles()[0].status, ParticleStatus::deposited);
+  e.advance(0.5);
+  const auto ps = e.particles();
+  EXPECT_EQ(ps[1].status, ParticleStatus::deposited);
+  EXPECT_GE((ps[0].x - ps[1].x).norm(), 2 * a * (1 - 1e-9));
+}
+
+}  // namespace
+}  // namespace mmval::particles
