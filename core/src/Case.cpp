@@ -591,18 +591,19 @@ MetricResult evaluateMetric(const Acceptance& a, double value_si) {
   const double ref = a.reference.value;
   switch (a.tolerance.kind) {
     case Tolerance::Kind::relative:
-      m.error = ref != 0.0 ? std::abs(value_si - ref) / std::abs(ref) : std::abs(value_si);
-      m.pass = std::isfinite(value_si) && m.error <= a.tolerance.value * (1 + 1e-12);
+      // Signed: negative when the value is below the reference.
+      m.error = ref != 0.0 ? (value_si - ref) / std::abs(ref) : value_si;
+      m.pass = std::isfinite(value_si) && std::abs(m.error) <= a.tolerance.value * (1 + 1e-12);
       break;
     case Tolerance::Kind::absolute:
-      m.error = std::abs(value_si - ref) / f;
+      m.error = (value_si - ref) / f;
       m.pass = std::isfinite(value_si) && std::abs(value_si - ref) <= a.tolerance.value * (1 + 1e-12);
       break;
     case Tolerance::Kind::interval: {
       const double lo = *a.reference.low, hi = *a.reference.high;
       const bool inside = value_si >= lo && value_si <= hi;
       const double bound = value_si < lo ? lo : hi;
-      m.error = inside ? 0.0 : std::abs(value_si - bound) / std::max(std::abs(bound), 1e-300);
+      m.error = inside ? 0.0 : (value_si - bound) / std::max(std::abs(bound), 1e-300);
       m.pass = std::isfinite(value_si) && inside;
       break;
     }

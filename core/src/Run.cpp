@@ -4,6 +4,8 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
+#include <string>
 #include <cmath>
 #include <ctime>
 
@@ -115,8 +117,13 @@ RunSummary runCaseWith(const Case& c, const std::function<RunOutput(const Case&,
               {"details", output.details},
               {"files", output.files},
               {"provenance", provenanceJson()}};
-  writeFileAtomic(staged.path() / "result.json", s.result.dump(2) + "\n");
-  staged.commit();
+  // Under mpirun only rank 0 writes (Open MPI and MPICH/PMI name the rank in the environment).
+  const char* rank = std::getenv("OMPI_COMM_WORLD_RANK");
+  if (rank == nullptr) rank = std::getenv("PMI_RANK");
+  if (rank == nullptr || std::string(rank) == "0") {
+    writeFileAtomic(staged.path() / "result.json", s.result.dump(2) + "\n");
+    staged.commit();
+  }
   s.result_file = out_dir / "result.json";
   return s;
 }

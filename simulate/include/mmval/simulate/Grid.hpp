@@ -1,0 +1,42 @@
+// Tensor-product Cartesian grids for the staggered (MAC) fluid solver.
+//
+// An Axis holds the n + 1 face coordinates of one direction (metres). Cells
+// may be stretched: the solver's finite-volume stencils use the actual face
+// and centre spacings, so a smoothly stretched axis keeps second order
+// (ratios <= ~1.15 between neighbouring cells are used by the kinds).
+#pragma once
+#include <vector>
+
+namespace mmval::simulate {
+
+class Axis {
+ public:
+  Axis() = default;
+  explicit Axis(std::vector<double> faces);  ///< strictly increasing, >= 2 entries; throws std::invalid_argument
+  int cells() const { return static_cast<int>(m_faces.size()) - 1; }
+  double face(int i) const { return m_faces[static_cast<std::size_t>(i)]; }
+  double width(int i) const { return m_faces[static_cast<std::size_t>(i) + 1] - m_faces[static_cast<std::size_t>(i)]; }
+  double centre(int i) const { return 0.5 * (face(i) + face(i + 1)); }
+  double lo() const { return m_faces.front(); }
+  double hi() const { return m_faces.back(); }
+  double length() const { return hi() - lo(); }
+  double minWidth() const;
+  double maxWidth() const;
+  /// Index of the cell holding coordinate x (clamped to [0, cells - 1]).
+  int cellOf(double x) const;
+  const std::vector<double>& faces() const { return m_faces; }
+
+ private:
+  std::vector<double> m_faces;
+};
+
+/// n equal cells on [lo, hi].
+Axis uniformAxis(double lo, double hi, int n);
+
+/// Cells of size ~h_fine on [a, b] (rounded so they fit exactly), growing
+/// geometrically by at most `ratio` per cell outside it, up to h_max, and
+/// rescaled so the outer parts end exactly at lo and hi.
+/// Needs lo <= a < b <= hi, 0 < h_fine <= h_max, ratio >= 1.
+Axis refinedAxis(double lo, double hi, double a, double b, double h_fine, double ratio, double h_max);
+
+}  // namespace mmval::simulate

@@ -1,0 +1,73 @@
+#include "mmval/simulate/FieldOutput.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "mmval/core/AtomicFile.hpp"
+
+namespace mmval::simulate {
+
+namespace {
+
+void axisArray(std::ostringstream& o, const Axis& a, const char* name) {
+  o << "<DataArray type=\"Float64\" Name=\"" << name << "\" format=\"ascii\">";
+  for (double f : a.faces()) o << f << ' ';
+  o << "</DataArray>\n";
+}
+
+}  // namespace
+
+void writeVtr(const SteadyFlowSolver& s, const std::filesystem::path& file) {
+  const FlowProblem& pr = s.problem();
+  const int nx = s.nx(), ny = s.ny();
+  const Eigen::ArrayXXd ux = s.cellVelocity(0), uy = s.cellVelocity(1), chi = s.cellSolidFraction();
+  std::ostringstream o;
+  o.precision(10);
+  o << "<?xml version=\"1.0\"?>\n<VTKFile type=\"RectilinearGrid\" version=\"0.1\" byte_order=\"LittleEndian\">\n";
+  o << "<RectilinearGrid WholeExtent=\"0 " << nx << " 0 " << ny << " 0 0\">\n<Piece Extent=\"0 " << nx << " 0 " << ny << " 0 0\">\n";
+  o << "<CellData Scalars=\"p\" Vectors=\"U\">\n<DataArray type=\"Float64\" Name=\"p\" format=\"ascii\">";
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) o << s.p()(j, i) << ' ';
+  o << "</DataArray>\n<DataArray type=\"Float64\" Name=\"U\" NumberOfComponents=\"3\" format=\"ascii\">";
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) o << ux(j, i) << ' ' << uy(j, i) << " 0 ";
+  o << "</DataArray>\n<DataArray type=\"Float64\" Name=\"solid_fraction\" format=\"ascii\">";
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) o << chi(j, i) << ' ';
+  o << "</DataArray>\n</CellData>\n<Coordinates>\n";
+  axisArray(o, pr.x, "x");
+  axisArray(o, pr.y, "y");
+  o << "<DataArray type=\"Float64\" Name=\"z\" format=\"ascii\">0</DataArray>\n</Coordinates>\n</Piece>\n</RectilinearGrid>\n</VTKFile>\n";
+  writeFileAtomic(file, o.str());
+}
+
+void writeSpeedPng(const SteadyFlowSolver& s, const std::filesystem::path& file, int max_pixels) {
+  const FlowProblem& pr = s.problem();
+  const Eigen::ArrayXXd ux = s.cellVelocity(0), uy = s.cellVelocity(1), chi = s.cellSolidFraction();
+  const Eigen::ArrayXXd speed = (ux.square() + uy.square()).sqrt();
+  const double vmax = std::max(speed.maxCoeff(), 1e-300);
+  const double lx = pr.x.length(), ly = pr.y.length();
+  const int w = lx >= ly ? max_pixels : std::max(1, static_cast<int>(max_pixels * lx / ly));
+  const int h = lx >= ly ? std::max(1, static_cast<int>(max_pixels * ly / lx)) : max_pixels;
+  cv::Mat gray(h, w, CV_8UC1), solid(h, w, CV_8UC1);
+  for (int r = 0; r < h; ++r)
+    for (int c = 0; c < w; ++c) {
+      const int i = pr.x.cellOf(pr.x.lo() + (c + 0.5) * lx / w);
+      const int j = pr.y.cellOf(pr.y.hi() - (r + 0.5) * ly / h);  // image rows go down
+      gray.at<unsigned char>(r, c) = static_cast<unsigned char>(std::clamp(255.0 * speed(j, i) / vmax, 0.0, 255.0));
+      solid.at<unsigned char>(r, c) = chi(j, i) >= 0.5 ? 255 : 0;
+    }
+  cv::Mat color;
+  cv::applyColorMap(gray, color, cv::COLORMAP_VIRIDIS);
+  color.setTo(cv::Scalar(128, 128, 128), solid);
+  std::vector<unsigned char> buf;
+  if (!cv::imencode(".png", color, buf)) throw std::runtime_error("PNG encoding failed for " + file.string());
+  writeFileAtomic(file, std::string_view(reinterpret_cast<const char*>(buf.data()), buf.size()));
+}
+
+}  // namespace mmval::simulate

@@ -1,0 +1,484 @@
+#include "FlowOperator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace mmval::simulate {
+
+namespace {
+constexpr double kMinTheta = 1e-2;  // cut fraction floor: keeps the stencil bounded when a node sits on the surface
+}
+
+FlowOperator::FlowOperator(FlowProblem problem) : m_p(std::move(problem)) {
+  m_N = {m_p.x.cells(), m_p.y.cells()};
+  if (m_N[0] < 1 || m_N[1] < 1) throw std::invalid_argument("the flow grid has no cells");
+  for (int a = 0; a < 2; ++a) {
+    const bool lo = side(a, false).type == BoundaryType::periodic, hi = side(a, true).type == BoundaryType::periodic;
+    if (lo != hi) throw std::invalid_argument("periodic boundaries must come in pairs (west-east, south-north)");
+    m_per[a] = lo;
+    if (m_per[a] && m_N[a] < 2) throw std::invalid_argument("a periodic axis needs at least 2 cells");
+  }
+  for (const auto& b : m_p.boundary)
+    if (b.type == BoundaryType::velocity && !b.velocity) throw std::invalid_argument("a velocity boundary needs a velocity profile");
+  if (!(m_p.viscosity > 0) || !(m_p.density > 0)) throw std::invalid_argument("viscosity and density must be positive");
+  if (m_p.method == ImmersedMethod::penalized && !(m_p.penalty > 0)) throw std::invalid_argument("the penalty must be positive");
+  m_nn = {m_per[0] ? m_N[0] : m_N[0] + 1, m_per[1] ? m_N[1] : m_N[1] + 1};
+  m_off = {0, m_nn[0] * m_N[1], m_nn[0] * m_N[1] + m_nn[1] * m_N[0]};
+  const Shape* shape = m_p.shape.get();
+  const bool sharp = shape != nullptr && m_p.method == ImmersedMethod::sharp;
+  const bool pen = shape != nullptr && m_p.method == ImmersedMethod::penalized;
+  const int ss = std::max(1, m_p.supersample);
+
+  for (int d = 0; d < 2; ++d) {
+    const int b = 1 - d, count = m_nn[d] * m_N[b];
+    m_kind[d].assign(static_cast<std::size_t>(count), kFluid);
+    m_base[d].assign(static_cast<std::size_t>(count), kFluid);
+    m_value[d].assign(static_cast<std::size_t>(count), 0.0);
+    m_chi[d].assign(static_cast<std::size_t>(count), 0.0);
+    m_body[d].assign(static_cast<std::size_t>(count), -1);
+    m_cut[d].assign(static_cast<std::size_t>(count), {0, 0, 0, 0});
+    for (int t = 0; t < m_N[b]; ++t)
+      for (int n = 0; n < m_nn[d]; ++n) {
+        const std::size_t q = static_cast<std::size_t>(local(d, n, t));
+        const Eigen::Vector2d P = position(d, n, t);
+        const int body = shape != nullptr ? shape->bodyAt(P.x(), P.y()) : -1;
+        const bool blo = !m_per[d] && n == 0, bhi = !m_per[d] && n == m_N[d];
+        char base = kFluid;
+        if (blo || bhi) {
+          const Boundary& B = side(d, bhi);
+          switch (B.type) {
+            case BoundaryType::no_slip:
+            case BoundaryType::slip: base = kDirichlet; break;
+            case BoundaryType::velocity:
+              base = kDirichlet;
+              m_value[d][q] = body >= 0 ? 0.0 : B.velocity(C(b, t));
+              break;
+            case BoundaryType::pressure: base = bhi ? kPressureHi : kPressureLo; break;
+            case BoundaryType::periodic: break;
+          }
+        }
+        m_base[d][q] = base;
+        m_kind[d][q] = (sharp && body >= 0 && base != kDirichlet) ? static_cast<char>(kSolid) : base;
+        if (sharp && body >= 0) m_body[d][q] = body;
+        if (pen && base != kDirichlet) {
+          // Supersample the node's control volume.
+          const double lo_n = base == kPressureLo ? F(d, n) : C(d, n - 1), hi_n = base == kPressureHi ? F(d, n) : C(d, n);
+          const double lo_t = F(b, t), hi_t = F(b, t + 1);
+          int hits = 0, first = -1;
+          for (int a1 = 0; a1 < ss; ++a1)
+            for (int a2 = 0; a2 < ss; ++a2) {
+              const double sn = lo_n + (hi_n - lo_n) * (a1 + 0.5) / ss, st = lo_t + (hi_t - lo_t) * (a2 + 0.5) / ss;
+              const int bb = d == 0 ? shape->bodyAt(sn, st) : shape->bodyAt(st, sn);
+              if (bb >= 0) {
+                ++hits;
+                if (first < 0) first = bb;
+              }
+            }
+          m_chi[d][q] = static_cast<double>(hits) / (ss * ss);
+          m_body[d][q] = first;
+        }
+      }
+  }
+  if (sharp) {
+    for (int d = 0; d < 2; ++d) {
+      const int b = 1 - d;
+      for (int t = 0; t < m_N[b]; ++t)
+        for (int n = 0; n < m_nn[d]; ++n) {
+          const std::size_t q = static_cast<std::size_t>(local(d, n, t));
+          const char k = m_kind[d][q];
+          if (k == kSolid || k == kDirichlet) continue;
+          const Eigen::Vector2d P = position(d, n, t);
+          const int nb[4][2] = {{n - 1, t}, {n + 1, t}, {n, t - 1}, {n, t + 1}};
+          for (int s = 0; s < 4; ++s) {
+            if ((s == 0 && k == kPressureLo) || (s == 1 && k == kPressureHi)) continue;
+            const int qn = unknown(d, nb[s][0], nb[s][1]);
+            if (qn < 0) continue;
+            const std::size_t ql = static_cast<std::size_t>(qn - m_off[d]);
+            if (m_kind[d][ql] != kSolid) continue;
+            const int axis = s < 2 ? d : b, sign = (s % 2 == 0) ? -1 : 1;
+            const double dist = s == 0 ? W(d, n - 1) : s == 1 ? W(d, n) : std::abs(C(b, nb[s][1]) - C(b, t));
+            const double hit = shape->distanceAlong(P.x(), P.y(), axis, sign, dist);
+            m_cut[d][q][static_cast<std::size_t>(s)] = std::clamp(hit / dist, kMinTheta, 1.0);
+            if (m_body[d][q] < 0) m_body[d][q] = m_body[d][ql];
+          }
+        }
+    }
+  }
+  // Cells whose faces are all prescribed carry no pressure information: pin them.
+  m_pinned.assign(static_cast<std::size_t>(m_N[0] * m_N[1]), 0);
+  bool has_pressure = false;
+  for (const auto& B : m_p.boundary) has_pressure = has_pressure || B.type == BoundaryType::pressure;
+  int ref = -1;
+  auto fixed = [&](int d, int n, int t) {
+    const int qn = unknown(d, n, t);
+    const char k = m_kind[d][static_cast<std::size_t>(qn - m_off[d])];
+    return k == kDirichlet || k == kSolid;
+  };
+  for (int j = 0; j < m_N[1]; ++j)
+    for (int i = 0; i < m_N[0]; ++i) {
+      const bool all = fixed(0, i, j) && fixed(0, i + 1, j) && fixed(1, j, i) && fixed(1, j + 1, i);
+      if (all) m_pinned[static_cast<std::size_t>(j * m_N[0] + i)] = 1;
+      else if (ref < 0) ref = j * m_N[0] + i;
+    }
+  if (!has_pressure && ref >= 0) m_pinned[static_cast<std::size_t>(ref)] = 2;
+  // Cell solid fractions (output, pressure probes).
+  m_cellChi = Eigen::ArrayXXd::Zero(m_N[1], m_N[0]);
+  if (shape != nullptr)
+    for (int j = 0; j < m_N[1]; ++j)
+      for (int i = 0; i < m_N[0]; ++i) {
+        if (sharp) {
+          m_cellChi(j, i) = shape->solid(C(0, i), C(1, j)) ? 1.0 : 0.0;
+          continue;
+        }
+        int hits = 0;
+        for (int a1 = 0; a1 < ss; ++a1)
+          for (int a2 = 0; a2 < ss; ++a2)
+            hits += shape->solid(F(0, i) + W(0, i) * (a1 + 0.5) / ss, F(1, j) + W(1, j) * (a2 + 0.5) / ss) ? 1 : 0;
+        m_cellChi(j, i) = static_cast<double>(hits) / (ss * ss);
+      }
+}
+
+double FlowOperator::W(int a, int k) const {
+  const int N = m_N[a];
+  if (k >= 0 && k < N) return ax(a).width(k);
+  if (m_per[a]) return ax(a).width(wrapIndex(a, k));
+  return ax(a).width(k < 0 ? 0 : N - 1);
+}
+
+double FlowOperator::C(int a, int k) const {
+  const int N = m_N[a];
+  if (k >= 0 && k < N) return ax(a).centre(k);
+  if (m_per[a]) {
+    const int kk = wrapIndex(a, k);
+    const int periods = (k - kk) / N;
+    return ax(a).centre(kk) + periods * ax(a).length();
+  }
+  // Mirror ghosts beyond a non-periodic side.
+  return k < 0 ? ax(a).lo() - (0.5 - k - 1) * W(a, 0) : ax(a).hi() + (0.5 + k - N) * W(a, N - 1);
+}
+
+double FlowOperator::F(int a, int n) const {
+  const int N = m_N[a];
+  if (n >= 0 && n <= N) return ax(a).face(n);
+  if (m_per[a]) {
+    const int kk = ((n % N) + N) % N;
+    const int periods = (n - kk) / N;
+    return ax(a).face(kk) + periods * ax(a).length();
+  }
+  return n < 0 ? ax(a).lo() : ax(a).hi();
+}
+
+Eigen::Vector2d FlowOperator::position(int d, int n, int t) const {
+  return d == 0 ? Eigen::Vector2d(F(0, n), C(1, t)) : Eigen::Vector2d(C(0, t), F(1, n));
+}
+
+int FlowOperator::unknown(int d, int n, int t) const {
+  const int b = 1 - d;
+  if (m_per[d]) n = wrapIndex(d, n);
+  else if (n < 0 || n > m_N[d]) return -1;
+  if (m_per[b]) t = wrapIndex(b, t);
+  else if (t < 0 || t >= m_N[b]) return -1;
+  return m_off[d] + local(d, n, t);
+}
+
+bool FlowOperator::isMomentumRow(int r) const { return r < m_off[2]; }
+
+double FlowOperator::controlVolume(int d, int n, int t) const {
+  const std::size_t q = static_cast<std::size_t>(local(d, n, t));
+  const char base = m_base[d][q];
+  const double lo_n = base == kPressureLo ? F(d, n) : C(d, n - 1), hi_n = base == kPressureHi ? F(d, n) : C(d, n);
+  return (hi_n - lo_n) * W(1 - d, t);
+}
+
+Lin FlowOperator::advecting(int d, int n, int face_t, Kind base) const {
+  // Component b = 1 - d at (axis-d coordinate F(d, n), axis-b face face_t):
+  // interpolate the b-nodes (normal index face_t, transverse cells n - 1 and n).
+  const int b = 1 - d;
+  Lin L;
+  if (base == kPressureLo) {
+    L.add(unknown(b, face_t, n), 1.0);
+  } else if (base == kPressureHi) {
+    L.add(unknown(b, face_t, n - 1), 1.0);
+  } else {
+    const double w1 = (F(d, n) - C(d, n - 1)) / (C(d, n) - C(d, n - 1));
+    L.add(unknown(b, face_t, n - 1), 1.0 - w1);
+    L.add(unknown(b, face_t, n), w1);
+  }
+  return L;
+}
+
+Lin FlowOperator::advected(int d, int n, int t, int t2) const {
+  // Component d between transverse indices t and t2 = t +- 1, at the face between them.
+  const int b = 1 - d;
+  const int P = unknown(d, n, t);
+  Lin L;
+  const int Q = unknown(d, n, t2);
+  if (Q < 0) {
+    const BoundaryType bt = side(b, t2 > t).type;
+    if (bt == BoundaryType::slip || bt == BoundaryType::pressure) L.add(P, 1.0);  // zero gradient; no-slip: zero
+    return L;
+  }
+  const double face = t2 > t ? F(b, t + 1) : F(b, t);
+  const double w = (face - C(b, t)) / (C(b, t2) - C(b, t));
+  L.add(P, 1.0 - w);
+  L.add(Q, w);
+  return L;
+}
+
+void FlowOperator::momentumRow(int d, int n, int t, bool standard, RowTerms& R) const {
+  const int b = 1 - d;
+  const std::size_t q = static_cast<std::size_t>(local(d, n, t));
+  const Kind base = static_cast<Kind>(m_base[d][q]);
+  const bool lo_b = base == kPressureLo, hi_b = base == kPressureHi;
+  const int P = m_off[d] + static_cast<int>(q);
+  const double lo_n = lo_b ? F(d, n) : C(d, n - 1), hi_n = hi_b ? F(d, n) : C(d, n);
+  const double wn = hi_n - lo_n, wt = W(b, t), vol = wn * wt;
+  const double mu = m_p.viscosity, rho = m_p.density;
+  double diag = 0;
+  // Pressure force (outward normal times p on the two normal faces).
+  if (hi_b) R.rhs -= side(d, true).pressure * wt;
+  else R.lin.emplace_back(pcell(d, n, t), wt);
+  if (lo_b) R.rhs += side(d, false).pressure * wt;
+  else R.lin.emplace_back(pcell(d, n - 1, t), -wt);
+  // Viscous fluxes mu A (u_P - u_Q) / dist.
+  const auto& cut = m_cut[d][q];
+  for (int s = 0; s < 4; ++s) {
+    if ((s == 0 && lo_b) || (s == 1 && hi_b)) continue;  // zero normal gradient at an open boundary
+    const int nn = s == 0 ? n - 1 : s == 1 ? n + 1 : n, tt = s == 2 ? t - 1 : s == 3 ? t + 1 : t;
+    const double A = s < 2 ? wt : wn;
+    const int Q = unknown(d, nn, tt);
+    if (Q < 0) {  // ghost beyond a wall along the transverse axis (mirror)
+      const BoundaryType bt = side(b, s == 3).type;
+      if (bt == BoundaryType::no_slip || bt == BoundaryType::velocity) diag += 2 * mu * A / W(b, t);
+      continue;
+    }
+    const double dist = s == 0 ? W(d, n - 1) : s == 1 ? W(d, n) : std::abs(C(b, tt) - C(b, t));
+    const double theta = standard ? 0.0 : cut[static_cast<std::size_t>(s)];
+    if (theta > 0) {
+      diag += mu * A / (theta * dist);  // wall (body velocity zero) at theta * dist
+    } else {
+      diag += mu * A / dist;
+      R.lin.emplace_back(Q, -mu * A / dist);
+    }
+  }
+  if (m_p.inertia) {
+    // Normal faces.
+    if (hi_b) {
+      Lin a;
+      a.add(P, 1.0);
+      R.bil.push_back({rho * wt, a, a});
+    } else {
+      Lin a;
+      a.add(P, 0.5);
+      a.add(unknown(d, n + 1, t), 0.5);
+      R.bil.push_back({rho * wt, a, a});
+    }
+    if (lo_b) {
+      Lin a;
+      a.add(P, 1.0);
+      R.bil.push_back({-rho * wt, a, a});
+    } else {
+      Lin a;
+      a.add(P, 0.5);
+      a.add(unknown(d, n - 1, t), 0.5);
+      R.bil.push_back({-rho * wt, a, a});
+    }
+    // Transverse faces: advecting b-velocity times advected d-velocity.
+    R.bil.push_back({rho * wn, advecting(d, n, t + 1, base), advected(d, n, t, t + 1)});
+    R.bil.push_back({-rho * wn, advecting(d, n, t, base), advected(d, n, t, t - 1)});
+  }
+  if (m_p.depth > 0) diag += 12 * mu / (m_p.depth * m_p.depth) * vol;  // Hele-Shaw friction
+  if (!standard && m_chi[d][q] > 0) {
+    // Volume-fraction forcing u = M u* + (1 - M) v (M = 1 - chi, v = 0): the row
+    // becomes (1 - chi) [momentum] + chi a_P u = 0 with a_P the row's own
+    // diagonal, i.e. a penalty a_P chi / (1 - chi) (capped where chi -> 1).
+    const double chi = m_chi[d][q];
+    diag += diag * chi / std::max(1.0 - chi, m_p.penalty);
+  }
+  if (m_tcoef > 0) {
+    diag += m_tcoef * vol;
+    R.rhs += vol * (*m_told)[static_cast<std::size_t>(P)];
+  }
+  R.rhs += m_p.body_force[d] * vol;
+  R.lin.emplace_back(P, diag);
+}
+
+void FlowOperator::continuityRow(int i, int j, RowTerms& R) const {
+  const std::size_t c = static_cast<std::size_t>(j * m_N[0] + i);
+  if (m_pinned[c] != 0) {
+    R.lin.emplace_back(cellUnknown(i, j), W(0, i));
+    return;
+  }
+  const double dx = W(0, i), dy = W(1, j);
+  R.lin.emplace_back(unknown(0, i, j), dy);
+  R.lin.emplace_back(unknown(0, i + 1, j), -dy);
+  R.lin.emplace_back(unknown(1, j, i), dx);
+  R.lin.emplace_back(unknown(1, j + 1, i), -dx);
+}
+
+double FlowOperator::linearRow(int r, Linearisation mode, const std::vector<double>& state, RowTerms& R,
+                               std::vector<std::pair<int, double>>& entries) const {
+  R.clear();
+  entries.clear();
+  if (r >= m_off[2]) {
+    const int cell = r - m_off[2];
+    continuityRow(cell % m_N[0], cell / m_N[0], R);
+  } else {
+    const int d = r < m_off[1] ? 0 : 1;
+    const int loc = r - m_off[d];
+    const int n = loc % m_nn[d], t = loc / m_nn[d];
+    const char k = m_kind[d][static_cast<std::size_t>(loc)];
+    if (k == kDirichlet || k == kSolid) {
+      const double mu = m_p.viscosity;
+      entries.emplace_back(r, mu);
+      return mu * (k == kDirichlet ? m_value[d][static_cast<std::size_t>(loc)] : 0.0);
+    }
+    momentumRow(d, n, t, false, R);
+  }
+  entries = R.lin;
+  double rhs = R.rhs;
+  for (const auto& bt : R.bil) {
+    const double A0 = mode == Linearisation::stokes ? 0.0 : bt.a.eval(state);
+    const double B0 = mode == Linearisation::newton ? bt.b.eval(state) : 0.0;
+    // Newton: c (A0 b + B0 a) x = rhs - c (-A0 B0 + A0 kb + B0 ka); Picard: c A0 b x = rhs - c A0 kb.
+    for (int q = 0; q < bt.b.n; ++q) entries.emplace_back(bt.b.idx[static_cast<std::size_t>(q)], bt.c * A0 * bt.b.c[static_cast<std::size_t>(q)]);
+    for (int q = 0; q < bt.a.n; ++q) entries.emplace_back(bt.a.idx[static_cast<std::size_t>(q)], bt.c * B0 * bt.a.c[static_cast<std::size_t>(q)]);
+    if (mode == Linearisation::newton) rhs -= bt.c * (-A0 * B0 + A0 * bt.b.k + B0 * bt.a.k);
+    else if (mode == Linearisation::picard) rhs -= bt.c * A0 * bt.b.k;
+  }
+  std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::size_t w = 0;
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    if (w > 0 && entries[w - 1].first == entries[i].first) entries[w - 1].second += entries[i].second;
+    else entries[w++] = entries[i];
+  }
+  entries.resize(w);
+  return rhs;
+}
+
+std::vector<BodyLoad> FlowOperator::bodyLoads(const std::vector<double>& s) const {
+  std::vector<BodyLoad> loads;
+  const Shape* shape = m_p.shape.get();
+  if (shape == nullptr) return loads;
+  loads.resize(static_cast<std::size_t>(shape->bodies()));
+  RowTerms R;
+  for (int d = 0; d < 2; ++d) {
+    const int b = 1 - d;
+    for (int t = 0; t < m_N[b]; ++t)
+      for (int n = 0; n < m_nn[d]; ++n) {
+        const std::size_t q = static_cast<std::size_t>(local(d, n, t));
+        const int body = m_body[d][q];
+        if (body < 0 || m_base[d][q] == kDirichlet) continue;
+        const bool touched = m_kind[d][q] == kSolid || m_chi[d][q] > 0 ||
+                             std::any_of(m_cut[d][q].begin(), m_cut[d][q].end(), [](double th) { return th > 0; });
+        if (!touched) continue;
+        R.clear();
+        momentumRow(d, n, t, true, R);
+        double res = -R.rhs;
+        for (const auto& [idx, c] : R.lin) res += c * s[static_cast<std::size_t>(idx)];
+        for (const auto& bt : R.bil) res += bt.c * bt.a.eval(s) * bt.b.eval(s);
+        const double f = -res;  // the body's reaction on the fluid is R; the fluid pushes the body with -R
+        auto& L = loads[static_cast<std::size_t>(body)];
+        L.force[d] += f;
+        Eigen::Vector2d r = position(d, n, t) - shape->centre(body);
+        for (int a = 0; a < 2; ++a)
+          if (m_per[a]) r[a] -= ax(a).length() * std::round(r[a] / ax(a).length());
+        L.torque += d == 0 ? -r.y() * f : r.x() * f;
+      }
+  }
+  return loads;
+}
+
+bool FlowOperator::bilinearPressure(const std::vector<double>& s, double x, double y, double& out) const {
+  int i0 = ax(0).cellOf(x), j0 = ax(1).cellOf(y);
+  if (x < C(0, i0)) --i0;
+  if (y < C(1, j0)) --j0;
+  i0 = std::clamp(i0, 0, std::max(0, m_N[0] - 2));
+  j0 = std::clamp(j0, 0, std::max(0, m_N[1] - 2));
+  const int i1 = std::min(i0 + 1, m_N[0] - 1), j1 = std::min(j0 + 1, m_N[1] - 1);
+  const double wx = i1 == i0 ? 0.0 : std::clamp((x - C(0, i0)) / (C(0, i1) - C(0, i0)), 0.0, 1.0);
+  const double wy = j1 == j0 ? 0.0 : std::clamp((y - C(1, j0)) / (C(1, j1) - C(1, j0)), 0.0, 1.0);
+  const int is[2] = {i0, i1}, js[2] = {j0, j1};
+  double v = 0;
+  for (int a = 0; a < 2; ++a)
+    for (int c = 0; c < 2; ++c) {
+      if (m_cellChi(js[c], is[a]) >= 0.5) return false;
+      v += (a ? wx : 1 - wx) * (c ? wy : 1 - wy) * s[static_cast<std::size_t>(cellUnknown(is[a], js[c]))];
+    }
+  out = v;
+  return true;
+}
+
+double FlowOperator::pressureAt(const std::vector<double>& s, double x, double y) const {
+  double v = 0;
+  if (bilinearPressure(s, x, y, v)) return v;
+  const int i = ax(0).cellOf(x), j = ax(1).cellOf(y);
+  for (int axis = 0; axis < 2; ++axis) {
+    const double h = axis == 0 ? W(0, i) : W(1, j);
+    for (int sign : {-1, 1}) {
+      double p[3];
+      bool ok = true;
+      for (int k = 0; k < 3 && ok; ++k) {
+        const double dd = sign * h * (k + 1.5);
+        ok = bilinearPressure(s, axis == 0 ? x + dd : x, axis == 0 ? y : y + dd, p[k]);
+      }
+      // Quadratic through three equally spaced points, extrapolated 1.5 h back to the surface point.
+      if (ok) return p[0] + (p[0] - p[1]) * 1.5 + 0.5 * 1.5 * 2.5 * (p[0] - 2 * p[1] + p[2]);
+    }
+  }
+  return s[static_cast<std::size_t>(cellUnknown(i, j))];
+}
+
+double FlowOperator::flowRate(const std::vector<double>& s, Side sd) const {
+  const int d = (sd == Side::west || sd == Side::east) ? 0 : 1, b = 1 - d;
+  const int n = (sd == Side::east || sd == Side::north) ? (m_per[d] ? 0 : m_N[d]) : 0;
+  double q = 0;
+  for (int t = 0; t < m_N[b]; ++t) q += s[static_cast<std::size_t>(unknown(d, n, t))] * W(b, t);
+  return q;
+}
+
+double FlowOperator::superficialVelocity(const std::vector<double>& s) const {
+  double sum = 0;
+  for (int j = 0; j < m_N[1]; ++j)
+    for (int i = 0; i < m_N[0]; ++i)
+      sum += 0.5 * (s[static_cast<std::size_t>(unknown(0, i, j))] + s[static_cast<std::size_t>(unknown(0, i + 1, j))]) * W(0, i) * W(1, j);
+  return sum / (ax(0).length() * ax(1).length());
+}
+
+double FlowOperator::maxRelativeDivergence(const std::vector<double>& s) const {
+  double umax = 0, dmax = 0;
+  for (int r = 0; r < m_off[2]; ++r) umax = std::max(umax, std::abs(s[static_cast<std::size_t>(r)]));
+  for (int j = 0; j < m_N[1]; ++j)
+    for (int i = 0; i < m_N[0]; ++i) {
+      if (m_pinned[static_cast<std::size_t>(j * m_N[0] + i)] != 0) continue;
+      const double dx = W(0, i), dy = W(1, j);
+      const double div = (s[static_cast<std::size_t>(unknown(0, i + 1, j))] - s[static_cast<std::size_t>(unknown(0, i, j))]) / dx +
+                         (s[static_cast<std::size_t>(unknown(1, j + 1, i))] - s[static_cast<std::size_t>(unknown(1, j, i))]) / dy;
+      dmax = std::max(dmax, std::abs(div) * std::min(dx, dy));
+    }
+  return umax > 0 ? dmax / umax : dmax;
+}
+
+Eigen::ArrayXXd FlowOperator::cellVelocity(const std::vector<double>& s, int c) const {
+  Eigen::ArrayXXd out(m_N[1], m_N[0]);
+  for (int j = 0; j < m_N[1]; ++j)
+    for (int i = 0; i < m_N[0]; ++i)
+      out(j, i) = c == 0 ? 0.5 * (s[static_cast<std::size_t>(unknown(0, i, j))] + s[static_cast<std::size_t>(unknown(0, i + 1, j))])
+                         : 0.5 * (s[static_cast<std::size_t>(unknown(1, j, i))] + s[static_cast<std::size_t>(unknown(1, j + 1, i))]);
+  return out;
+}
+
+void FlowOperator::unpack(const std::vector<double>& s, Eigen::ArrayXXd& u, Eigen::ArrayXXd& v, Eigen::ArrayXXd& p) const {
+  u.resize(m_N[1], m_N[0] + 1);
+  v.resize(m_N[1] + 1, m_N[0]);
+  p.resize(m_N[1], m_N[0]);
+  for (int j = 0; j < m_N[1]; ++j)
+    for (int i = 0; i <= m_N[0]; ++i) u(j, i) = s[static_cast<std::size_t>(unknown(0, i, j))];
+  for (int j = 0; j <= m_N[1]; ++j)
+    for (int i = 0; i < m_N[0]; ++i) v(j, i) = s[static_cast<std::size_t>(unknown(1, j, i))];
+  for (int j = 0; j < m_N[1]; ++j)
+    for (int i = 0; i < m_N[0]; ++i) p(j, i) = s[static_cast<std::size_t>(cellUnknown(i, j))];
+}
+
+}  // namespace mmval::simulate

@@ -1,0 +1,122 @@
+// Internal: the discrete MAC operator behind SteadyFlowSolver (no PETSc here).
+// Unknowns: all u faces, then all v faces, then all cell pressures. Every
+// equation row is built as linear terms plus bilinear (convective) terms so
+// that the same code yields the Stokes matrix, the Picard and Newton
+// linearisations, and the residual of the unmodified balance used for forces.
+#pragma once
+#include <array>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mmval/simulate/FlowSolver.hpp"
+
+namespace mmval::simulate {
+
+enum class Linearisation { stokes, picard, newton };
+
+/// Affine expression sum c_k x[idx_k] + k of at most two unknowns.
+struct Lin {
+  std::array<int, 2> idx{};
+  std::array<double, 2> c{};
+  int n = 0;
+  double k = 0;
+  void add(int i, double coef) {
+    idx[static_cast<std::size_t>(n)] = i;
+    c[static_cast<std::size_t>(n)] = coef;
+    ++n;
+  }
+  double eval(const std::vector<double>& s) const {
+    double v = k;
+    for (int q = 0; q < n; ++q) v += c[static_cast<std::size_t>(q)] * s[static_cast<std::size_t>(idx[static_cast<std::size_t>(q)])];
+    return v;
+  }
+};
+
+struct RowTerms {
+  struct Bilinear {
+    double c;
+    Lin a, b;
+  };
+  std::vector<std::pair<int, double>> lin;
+  std::vector<Bilinear> bil;
+  double rhs = 0;
+  void clear() {
+    lin.clear();
+    bil.clear();
+    rhs = 0;
+  }
+};
+
+class FlowOperator {
+ public:
+  explicit FlowOperator(FlowProblem problem);
+
+  const FlowProblem& problem() const { return m_p; }
+  int nx() const { return m_N[0]; }
+  int ny() const { return m_N[1]; }
+  int unknowns() const { return m_off[2] + m_N[0] * m_N[1]; }
+  int pressureOffset() const { return m_off[2]; }
+
+  /// Row r of the system linearised at `state`: merged (column, value) entries, returns the right-hand side.
+  double linearRow(int r, Linearisation mode, const std::vector<double>& state, RowTerms& scratch,
+                   std::vector<std::pair<int, double>>& entries) const;
+
+  /// Unsteady hook: adds coef * vol * u (coef = rho a0 / dt) to every momentum
+  /// row and vol * old[r] to its right-hand side (old: rho times the history terms / dt per unknown).
+  void setTransient(double coef, const std::vector<double>* old) {
+    m_tcoef = coef;
+    m_told = old;
+  }
+
+  std::vector<BodyLoad> bodyLoads(const std::vector<double>& s) const;
+  double pressureAt(const std::vector<double>& s, double x, double y) const;
+  double flowRate(const std::vector<double>& s, Side side) const;
+  double superficialVelocity(const std::vector<double>& s) const;
+  double maxRelativeDivergence(const std::vector<double>& s) const;
+  Eigen::ArrayXXd cellVelocity(const std::vector<double>& s, int component) const;
+  Eigen::ArrayXXd cellSolidFraction() const { return m_cellChi; }
+  void unpack(const std::vector<double>& s, Eigen::ArrayXXd& u, Eigen::ArrayXXd& v, Eigen::ArrayXXd& p) const;
+  /// Position of the velocity node of component d (0: u, 1: v) with normal index n and transverse index t.
+  Eigen::Vector2d position(int d, int n, int t) const;
+  /// Unknown index of a velocity node (indices wrap on periodic axes; -1 outside the domain).
+  int unknown(int d, int n, int t) const;
+  int cellUnknown(int i, int j) const { return m_off[2] + wrapIndex(1, j) * m_N[0] + wrapIndex(0, i); }
+  /// Volume of the momentum control volume of a node (m2, per unit depth).
+  double controlVolume(int d, int n, int t) const;
+  /// Normal-index count of component d (faces along axis d: N or N + 1).
+  int normalCount(int d) const { return m_nn[d]; }
+  bool isMomentumRow(int r) const;
+
+ private:
+  enum Kind : char { kFluid, kDirichlet, kPressureLo, kPressureHi, kSolid };
+  const Axis& ax(int a) const { return a == 0 ? m_p.x : m_p.y; }
+  const Boundary& side(int a, bool hi) const { return m_p.boundary[static_cast<std::size_t>(a == 0 ? (hi ? 1 : 0) : (hi ? 3 : 2))]; }
+  int wrapIndex(int a, int k) const { return m_per[a] ? ((k % m_N[a]) + m_N[a]) % m_N[a] : k; }
+  double W(int a, int k) const;
+  double C(int a, int k) const;
+  double F(int a, int n) const;
+  int local(int d, int n, int t) const { return t * m_nn[d] + n; }
+  int pcell(int d, int k, int t) const { return d == 0 ? cellUnknown(k, t) : cellUnknown(t, k); }
+  void momentumRow(int d, int n, int t, bool standard, RowTerms& R) const;
+  void continuityRow(int i, int j, RowTerms& R) const;
+  Lin advecting(int d, int n, int face_t, Kind base) const;
+  Lin advected(int d, int n, int t, int t2) const;
+  bool bilinearPressure(const std::vector<double>& s, double x, double y, double& out) const;
+
+  FlowProblem m_p;
+  std::array<int, 2> m_N{}, m_nn{};
+  std::array<bool, 2> m_per{};
+  std::array<int, 3> m_off{};
+  std::array<std::vector<char>, 2> m_kind, m_base;
+  std::array<std::vector<double>, 2> m_value, m_chi;
+  std::array<std::vector<int>, 2> m_body;
+  std::array<std::vector<std::array<double, 4>>, 2> m_cut;  ///< theta per neighbour slot (n-1, n+1, t-1, t+1); 0: no cut
+  std::vector<char> m_pinned;
+  Eigen::ArrayXXd m_cellChi;  ///< ny x nx
+  double m_tcoef = 0;
+  const std::vector<double>* m_told = nullptr;
+};
+
+}  // namespace mmval::simulate

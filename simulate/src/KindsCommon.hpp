@@ -1,0 +1,33 @@
+// Internal helpers shared by the fluid case kinds.
+#pragma once
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "mmval/core/Case.hpp"
+#include "mmval/core/CaseKind.hpp"
+#include "mmval/simulate/FlowSolver.hpp"
+
+namespace mmval::simulate::detail {
+
+inline constexpr const char* kSolverName = "mmval simulate (MAC, immersed boundary, PETSc)";
+
+/// numerics.levels if present, else the single resolution key; each in [lo, hi].
+std::vector<int> levelsOf(const Case& c, const char* single_key, int lo, int hi);
+/// numerics.immersed, numerics.linear_solver (+ the peer's max_iterations / residual if absent).
+void declareSolverKeys(Schema& s, bool peer_keys);
+SolverOptions solverOptions(const Case& c);
+ImmersedMethod immersedMethod(const Case& c);
+/// One ladder row: cells, unknowns, timings, iterations, memory, value and error against `primary`.
+nlohmann::json ladderRow(std::size_t index, int resolution, const SteadyFlowSolver& s, double wall_seconds, double value,
+                         const Acceptance* primary);
+/// Writes fields.vtr and speed.png of `s` into ctx.out_dir (rank 0 only) and lists them in out.files.
+void writeFields(const SteadyFlowSolver& s, const RunContext& ctx, const std::string& stem, RunOutput& out);
+
+inline double secondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace mmval::simulate::detail

@@ -1,0 +1,128 @@
+// Flow around a cylinder in a channel (Schaefer & Turek 1996 DFG 2D-1; the
+// paper's Table 1 set-up). Grid: uniform cells h = pi D / cells_around in a
+// box around the cylinder and its near wake, stretched geometrically outside
+// (ratio numerics.stretch_ratio, cells at most numerics.max_cell_ratio x h).
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "KindsCommon.hpp"
+#include "mmval/core/Error.hpp"
+#include "mmval/core/Progress.hpp"
+#include "mmval/core/Run.hpp"
+#include "mmval/simulate/Kinds.hpp"
+
+namespace mmval::simulate {
+
+using namespace detail;
+
+CaseKind cylinderChannelKind() {
+  CaseKind k;
+  k.name = "cylinder-channel";
+  k.summary = "Flow around a circular cylinder in a channel (Schaefer-Turek and the paper's set-up): drag, lift, pressure difference";
+  k.declare = [](Schema& s) {
+    s.quantity("geometry.length", "m", "Channel length (x)").def("2.2 m").positive();
+    s.quantity("geometry.height", "m", "Channel height (y)").def("0.41 m").positive();
+    s.quantity("geometry.cylinder_x", "m", "Cylinder centre x").def("0.2 m").positive();
+    s.quantity("geometry.cylinder_y", "m", "Cylinder centre y").def("0.2 m").positive();
+    s.quantity("geometry.diameter", "m", "Cylinder diameter").def("0.1 m").positive();
+    s.quantity("geometry.depth", "m", "Extrusion depth (OpenFOAM; mmval's 2D coefficients are per unit depth)").def("0.1 m").positive();
+    s.quantity("fluid.density", "kg/m3", "Fluid density").def("1 kg/m3").positive();
+    s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def("1e-3 Pa s").positive();
+    s.choice("geometry.walls", {"no-slip", "slip"}, "Channel side walls: no-slip (Schaefer-Turek) or slip (free stream)").def("no-slip");
+    s.choice("inflow.profile", {"parabolic", "uniform"}, "Inflow profile").def("parabolic");
+    s.quantity("inflow.max_velocity", "m/s", "Peak of the parabolic inflow 4 U y (H - y) / H^2, or the uniform inflow velocity").positive();
+    s.quantity("forces.reference_velocity", "m/s", "Velocity of the coefficients c = 2 F / (rho U^2 D); default: mean inflow (2/3 U_max if parabolic)").optional().positive();
+    s.quantity("forces.reference_length", "m", "Length of the coefficients; default: the diameter").optional().positive();
+    s.quantityList("probes.pressure_a", "m", "First pressure point (x, y); dp = p(a) - p(b)").optional();
+    s.quantityList("probes.pressure_b", "m", "Second pressure point (x, y)").optional();
+    s.choice("numerics.mode", {"steady", "unsteady"}, "Steady or unsteady solution (mmval's solver: steady Navier-Stokes by Newton only, so far)").def("steady");
+    s.quantity("numerics.end_time", "s", "Unsteady: simulated time").def("8 s").positive();
+    s.quantity("numerics.time_step", "s", "Unsteady: initial time step (adjusted to Courant 0.5)").def("1e-3 s").positive();
+    s.integer("numerics.cells_around", "Resolution: cells around the cylinder (mmval: near-body spacing h = pi D / cells_around)").def(64).min(8).max(4096);
+    s.integerList("numerics.levels", "Resolution ladder (cells_around per level); absent: one run at cells_around").optional();
+    s.real("numerics.stretch_ratio", "mmval: growth ratio of neighbouring cells outside the refined box").def(1.05).min(1.0).max(1.3);
+    s.real("numerics.max_cell_ratio", "mmval: largest cell over the near-body spacing h").def(4.0).min(1.0).max(64);
+    declareSolverKeys(s, true);
+  };
+  k.run = [](const Case& c, const RunContext& ctx) {
+    const double Lx = c.quantity("geometry.length"), H = c.quantity("geometry.height");
+    const double cx = c.quantity("geometry.cylinder_x"), cy = c.quantity("geometry.cylinder_y"), D = c.quantity("geometry.diameter");
+    const double rho = c.quantity("fluid.density"), mu = c.quantity("fluid.viscosity");
+    const double Umax = c.quantity("inflow.max_velocity");
+    const bool uniform = c.text("inflow.profile") == "uniform", slip = c.text("geometry.walls") == "slip";
+    if (cx - 0.5 * D <= 0 || cy - 0.5 * D <= 0 || cy + 0.5 * D >= H || cx + 0.5 * D >= Lx)
+      throw InputError(c.where("geometry.cylinder_x"), "the cylinder does not fit inside the channel", {}, "0 < x - d/2, x + d/2 < length, 0 < y - d/2, y + d/2 < height");
+    if (c.text("numerics.mode") == "unsteady")
+      throw InputError(c.where("numerics.mode"), "mmval's own fluid solver runs steady cylinder flows only so far (unsteady shedding is issue 4's open tail)",
+                       "unsteady", "mode = \"steady\", or run this case with the OpenFOAM peer (mmval peer openfoam)");
+    const double Uref = c.has("forces.reference_velocity") ? c.quantity("forces.reference_velocity") : (uniform ? 1.0 : 2.0 / 3.0) * Umax;
+    const double Lref = c.has("forces.reference_length") ? c.quantity("forces.reference_length") : D;
+    const double coef = 2.0 / (rho * Uref * Uref * Lref);
+    const std::vector<int> levels = levelsOf(c, "numerics.cells_around", 8, 4096);
+    const Acceptance* primary = c.acceptanceFor("c_D");
+    const bool probes = c.has("probes.pressure_a") && c.has("probes.pressure_b");
+    if (probes && (c.reals("probes.pressure_a").size() != 2 || c.reals("probes.pressure_b").size() != 2))
+      throw InputError(c.where("probes.pressure_a"), "a probe needs two coordinates", {}, "[\"x\", \"y\"]");
+    RunOutput out;
+    out.details["solver"] = kSolverName;
+    out.details["immersed"] = c.text("numerics.immersed");
+    out.details["Re"] = rho * Uref * D / mu;
+    out.details["domain"] = {{"length_m", Lx}, {"height_m", H}, {"blockage", D / H}};
+    nlohmann::json ladder = nlohmann::json::array();
+    Progress progress("fluid " + c.name(), levels.size(), ctx.quiet);
+    std::unique_ptr<SteadyFlowSolver> last;
+    BodyLoad load;
+    double dp = 0;
+    for (std::size_t li = 0; li < levels.size(); ++li) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const double h = M_PI * D / levels[li];
+      const double ratio = c.real("numerics.stretch_ratio"), hmax = c.real("numerics.max_cell_ratio") * h;
+      FlowProblem p;
+      // Refined box: 0.75 D upstream and to the sides, 1.5 D downstream (the Re 20 recirculation is ~0.85 D).
+      p.x = refinedAxis(0, Lx, std::max(0.0, cx - 0.75 * D), std::min(Lx, cx + 1.5 * D), h, ratio, hmax);
+      p.y = refinedAxis(0, H, std::max(0.0, cy - 0.75 * D), std::min(H, cy + 0.75 * D), h, ratio, hmax);
+      p.boundary[0].type = BoundaryType::velocity;
+      if (uniform) p.boundary[0].velocity = [Umax](double) { return Umax; };
+      else p.boundary[0].velocity = [Umax, H](double y) { return 4 * Umax * y * (H - y) / (H * H); };
+      p.boundary[1].type = BoundaryType::pressure;
+      p.boundary[2].type = p.boundary[3].type = slip ? BoundaryType::slip : BoundaryType::no_slip;
+      p.density = rho;
+      p.viscosity = mu;
+      p.inertia = true;
+      p.shape = std::make_shared<Circles>(std::vector<Circle>{{cx, cy, 0.5 * D}});
+      p.method = immersedMethod(c);
+      last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c));
+      last->solve();
+      load = last->bodyLoads()[0];
+      if (probes) {
+        const auto& a = c.reals("probes.pressure_a");
+        const auto& b = c.reals("probes.pressure_b");
+        dp = last->pressureAt(a[0], a[1]) - last->pressureAt(b[0], b[1]);
+      }
+      auto row = ladderRow(li, levels[li], *last, secondsSince(t0), coef * load.force.x(), primary);
+      row["h_over_D"] = h / D;
+      row["c_L"] = coef * load.force.y();
+      if (probes) row["dp"] = dp;
+      row["newton_update"] = last->stats().update_norm;
+      ladder.push_back(row);
+      progress.update(li + 1);
+    }
+    progress.finish();
+    addObservedOrder(ladder, levels);
+    out.details["ladder"] = ladder;
+    out.details["cells"] = last->stats().cells;
+    out.metrics["c_D"] = coef * load.force.x();
+    out.metrics["c_L"] = coef * load.force.y();
+    out.metrics["torque_coefficient"] = coef * load.torque / Lref;
+    if (probes) {
+      out.metrics["dp"] = dp;
+      out.units["dp"] = "Pa";
+    }
+    writeFields(*last, ctx, "fields", out);
+    return out;
+  };
+  return k;
+}
+
+}  // namespace mmval::simulate
