@@ -221,7 +221,13 @@ TEST(Statistics, BrownianDiffusionFromTheMsd) {
   for (int p = 0; p < 300; ++p) {
     double x = 1e-4, y = 1e-4;
     for (int f = 0; f < 100; ++f) {
-      t.points.push_back({f, p, f * dt, x, y});
+      TrackPoint q;
+      q.frame = f;
+      q.particle = p;
+      q.t = f * dt;
+      q.x = x;
+      q.y = y;
+      t.points.push_back(q);
       x += step(rng);
       y += step(rng);
     }

@@ -3,6 +3,7 @@
 // within a stated tolerance, not ground truth.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -36,40 +37,79 @@ std::vector<std::vector<double>> readCsv(const fs::path& p) {
   return rows;
 }
 
-TEST(TrackpyPeer, DetectionsOnTheFirstFrame) {
-  ASSERT_TRUE(fs::exists(kData)) << "shared data missing: " << kData;
-  const auto ref = readCsv(kData / "reference" / "locate_first_frame_d9_minmass140.csv");  // (y, x)
-  ASSERT_EQ(ref.size(), 344u);
-  FrameSource src((kData / "frames" / "T76S3F00001.png").string());
-  cv::Mat frame;
-  int index = 0;
-  ASSERT_TRUE(src.next(frame, index));
-  DetectOptions o;  // no video to take a median from: a flat background
-  o.subtract_background = false;
-  o.blur_sigma = 1.0;
-  o.threshold = ThresholdMode::otsu;
-  o.min_area = 4;
-  o.min_snr = 0;  // a crowded frame without a median background: its MAD is texture, not noise
-  const auto found = detect(frame, {}, Polarity::dark, o);
-  // Pair each trackpy feature with our nearest detection within 2 px.
-  int matched = 0;
+struct PeerMatch {
+  std::size_t ours = 0;
+  int within_1px = 0, within_2px = 0;
+  double rms_px = 0;  ///< of the pairs within 1 px
+};
+
+/// Pairs each trackpy feature (y, x) with our nearest detection.
+PeerMatch matchFeatures(const std::vector<std::vector<double>>& ref, const std::vector<Detection>& found) {
+  PeerMatch m;
+  m.ours = found.size();
   double se = 0;
   for (const auto& r : ref) {
     double best = 1e9;
     for (const auto& d : found) best = std::min(best, std::hypot(d.x - r[1], d.y - r[0]));
-    if (best < 2) {
-      ++matched;
+    if (best < 2) ++m.within_2px;
+    if (best < 1) {
+      ++m.within_1px;
       se += best * best;
     }
   }
-  const double recall = static_cast<double>(matched) / ref.size();
-  const double rms = std::sqrt(se / std::max(1, matched));
-  std::printf("trackpy peer: %zu ours, %zu trackpy, matched %d (%.1f %%), RMS offset %.3f px\n", found.size(), ref.size(), matched,
-              100 * recall, rms);
-  // Tolerances: trackpy's minmass 140 keeps faint features a global threshold drops, so
-  // we ask for 80 % of its features; where both see a particle they agree to 0.5 px.
-  EXPECT_GT(recall, 0.8);
-  EXPECT_LT(rms, 0.5);
+  m.rms_px = std::sqrt(se / std::max(1, m.within_1px));
+  return m;
+}
+
+cv::Mat firstFrame() {
+  FrameSource src((kData / "frames" / "T76S3F00001.png").string());
+  cv::Mat frame;
+  int index = 0;
+  EXPECT_TRUE(src.next(frame, index));
+  return frame;
+}
+
+TEST(TrackpyPeer, DetectionsOnTheFirstFrame) {
+  ASSERT_TRUE(fs::exists(kData)) << "shared data missing: " << kData;
+  const auto ref = readCsv(kData / "reference" / "locate_first_frame_d9_minmass140.csv");  // (y, x)
+  ASSERT_EQ(ref.size(), 344u);
+  const cv::Mat frame = firstFrame();
+  // Settings that match trackpy's locate(diameter=9, minmass=140, invert=True): dark
+  // particles, no video to take a median from, a band pass of Gaussian sigma 1 px minus
+  // a 9 px boxcar, local maxima at least 4 px apart, the centroid over a disc of radius 4.
+  DetectOptions o;
+  o.subtract_background = false;
+  o.method = SeedMethod::peaks;
+  o.local_background = 4;
+  o.blur_sigma = 1.0;
+  o.refine_radius = 4;
+  o.refinement = Refinement::disc;
+  o.min_area = 1;
+  o.min_snr = 0;  // a crowded frame without a median background: its MAD is texture, not noise
+  o.min_contrast = 0.004;  // 1 grey level of 255
+  // trackpy's minmass is on its band-passed image rescaled to fill 0..255, ours on the
+  // signal in fractions of full scale: 0.42 keeps every feature trackpy keeps and ~25 %
+  // fainter ones (measured: 431 ours for 344 trackpy).
+  o.min_mass = 0.42;
+  const PeerMatch peaks = matchFeatures(ref, detect(frame, {}, Polarity::dark, o));
+  // The paper's pipeline (threshold, opening, contours) on the same frame, for the record:
+  // a global threshold merges touching particles and drops faint ones.
+  DetectOptions c;
+  c.subtract_background = false;
+  c.min_area = 4;
+  c.min_snr = 0;
+  const PeerMatch contours = matchFeatures(ref, detect(frame, {}, Polarity::dark, c));
+  std::printf("trackpy peer, %zu trackpy features: peaks %zu ours, %d within 1 px (%.1f %%), RMS %.3f px; "
+              "contours %zu ours, %d within 1 px (%.1f %%), RMS %.3f px\n",
+              ref.size(), peaks.ours, peaks.within_1px, 100.0 * peaks.within_1px / ref.size(), peaks.rms_px, contours.ours, contours.within_1px,
+              100.0 * contours.within_1px / ref.size(), contours.rms_px);
+  // Issue 3 asks for >= 90 % within 1 px; measured 343 / 344 (the one left is 1.0-2 px
+  // away: two touching particles whose centroid windows overlap). Where both find a
+  // particle the positions agree to the ~0.1 px localisation noise of either method.
+  EXPECT_GE(peaks.within_1px, static_cast<int>(0.97 * ref.size()));
+  EXPECT_LT(peaks.rms_px, 0.2);
+  EXPECT_LT(peaks.ours, 1.5 * ref.size());
+  EXPECT_GT(contours.within_1px, static_cast<int>(0.75 * ref.size()));
 }
 
 TEST(TrackpyPeer, LinkingPartitionsMatch) {
@@ -106,6 +146,9 @@ TEST(TrackpyPeer, StuckSpotsInAMultiPageTiffAreImmobile) {
   EXPECT_EQ(src.count(), 5);
   DetectOptions o;
   o.subtract_background = false;
+  // Contours with Otsu: the 44 spots are bright and well separated; local maxima would
+  // also pick up a few flickering noise bumps on this dark, noisy 16-bit background.
+  o.method = SeedMethod::contours;
   TrackLinker linker({Linker::global, 3.0, 0, false});
   cv::Mat f;
   int i = 0;
@@ -116,14 +159,23 @@ TEST(TrackpyPeer, StuckSpotsInAMultiPageTiffAreImmobile) {
     linker.push(i, d);
   }
   Tracks t;
-  for (const auto& p : linker.points()) t.points.push_back({p.frame, p.particle, p.frame * 1.0, p.x * 1e-6, p.y * 1e-6});
+  for (const auto& p : linker.points()) {
+    TrackPoint q;
+    q.frame = p.frame;
+    q.particle = p.particle;
+    q.t = p.frame * 1.0;
+    q.x = p.x * 1e-6;
+    q.y = p.y * 1e-6;
+    t.points.push_back(q);
+  }
   TrackOptions opt;
   opt.immobile_distance = 2e-6;  // 2 px at 1 um/px: the jitter is ~0.4 px rms
   const TrackStats s = analyseTracks(t, opt);
   std::printf("stuck.tif: %zu spots per frame, %d tracks, %d immobile\n", per_frame, s.particles, s.immobile);
-  // About 44 spots (PROVENANCE.md); all of them immobile.
+  // About 44 spots (PROVENANCE.md); every one of them one track over the 5 pages, immobile.
   EXPECT_NEAR(static_cast<double>(per_frame), 44.0, 5.0);
-  EXPECT_GE(s.immobile, s.particles - 2);
+  EXPECT_EQ(s.particles, static_cast<int>(per_frame));
+  EXPECT_EQ(s.immobile, s.particles);
 }
 
 }  // namespace

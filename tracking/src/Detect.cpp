@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 
 namespace mmval::tracking {
@@ -45,33 +46,142 @@ Polarity guessPolarity(const cv::Mat& frame, const cv::Mat& background) {
   return -lo > hi ? Polarity::dark : Polarity::bright;
 }
 
-std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, Polarity polarity, const DetectOptions& o) {
-  if (polarity == Polarity::automatic) polarity = guessPolarity(frame, background);
-  // Signal: how much darker (or brighter) than the background, >= 0.
-  cv::Mat signal;
-  if (!background.empty()) {
-    signal = polarity == Polarity::dark ? cv::Mat(background - frame) : cv::Mat(frame - background);
-  } else {
-    const double level = cv::mean(frame)[0];
-    signal = polarity == Polarity::dark ? cv::Mat(level - frame) : cv::Mat(frame - level);
+namespace {
+
+/// Least-squares fit of b + A exp(-|p - c|^2 / (2 s^2)) to `signal` in a window
+/// around `d` (Levenberg-Marquardt on x, y, A, s, b). Keeps `d` when the fit fails
+/// or wanders off: more than 1.5 px, a sigma outside [0.3, 4] x the start, A <= 0.
+void fitGaussian(const cv::Mat& signal, double sigma0, Detection& d) {
+  const int w = std::max(3, static_cast<int>(std::ceil(2.5 * sigma0)));
+  const int cx = static_cast<int>(std::lround(d.x)), cy = static_cast<int>(std::lround(d.y));
+  const int x0 = std::max(0, cx - w), x1 = std::min(signal.cols - 1, cx + w);
+  const int y0 = std::max(0, cy - w), y1 = std::min(signal.rows - 1, cy + w);
+  if (x1 - x0 < 4 || y1 - y0 < 4) return;
+  Eigen::Matrix<double, 5, 1> q;  // x, y, A, s, b
+  double amplitude = 0;
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) amplitude = std::max(amplitude, static_cast<double>(signal.at<float>(y, x)));
+  q << d.x, d.y, amplitude, sigma0, 0.0;
+  auto residuals = [&](const Eigen::Matrix<double, 5, 1>& p, Eigen::Matrix<double, 5, 5>* jtj, Eigen::Matrix<double, 5, 1>* jtr) {
+    double cost = 0;
+    if (jtj) jtj->setZero();
+    if (jtr) jtr->setZero();
+    const double inv2s2 = 1.0 / (2 * p(3) * p(3));
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        const double dx = x - p(0), dy = y - p(1), r2 = dx * dx + dy * dy;
+        const double g = std::exp(-r2 * inv2s2);
+        const double r = signal.at<float>(y, x) - (p(4) + p(2) * g);
+        cost += r * r;
+        if (!jtj) continue;
+        Eigen::Matrix<double, 5, 1> j;  // d model / d parameter
+        // Sigma and the constant stay fixed (the background is already removed, the
+        // spot size known): freeing them measured worse on noisy spots.
+        j << p(2) * g * dx / (p(3) * p(3)), p(2) * g * dy / (p(3) * p(3)), g, 0.0, 0.0;
+        *jtj += j * j.transpose();
+        *jtr += j * r;
+      }
+    return cost;
+  };
+  double lambda = 1e-3;
+  Eigen::Matrix<double, 5, 5> jtj;
+  Eigen::Matrix<double, 5, 1> jtr;
+  double cost = residuals(q, &jtj, &jtr);
+  for (int it = 0; it < 30; ++it) {
+    Eigen::Matrix<double, 5, 5> a = jtj;
+    a.diagonal() *= 1 + lambda;
+    a(3, 3) = a(4, 4) = 1.0;
+    const Eigen::Matrix<double, 5, 1> step = a.ldlt().solve(jtr);
+    if (!step.allFinite()) return;
+    const Eigen::Matrix<double, 5, 1> trial = q + step;
+    if (trial(3) <= 0.1) {
+      lambda *= 10;
+      continue;
+    }
+    const double c = residuals(trial, nullptr, nullptr);
+    if (c < cost) {
+      q = trial;
+      lambda = std::max(1e-7, lambda / 10);
+      const bool done = step.head<2>().norm() < 1e-4;
+      cost = residuals(q, &jtj, &jtr);
+      if (done) break;
+    } else {
+      lambda *= 10;
+      if (lambda > 1e8) break;
+    }
   }
-  cv::Mat smooth = signal;
-  if (o.blur_sigma > 0) cv::GaussianBlur(signal, smooth, cv::Size(0, 0), o.blur_sigma);
-  // Noise floor of the smoothed signal from its median absolute deviation (robust to the
-  // particles themselves): nothing fainter than min_snr times it counts as a particle.
-  double floor_level = 0;
-  if (o.min_snr > 0) {
-    std::vector<float> v;
-    const int step = std::max(1, static_cast<int>(smooth.total() / 20000));
-    for (std::size_t i = 0; i < smooth.total(); i += step) v.push_back(smooth.at<float>(static_cast<int>(i)));
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    const double med = v[v.size() / 2];
-    for (auto& x : v) x = static_cast<float>(std::abs(x - med));
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    floor_level = med + o.min_snr * 1.4826 * v[v.size() / 2];
+  if (std::hypot(q(0) - d.x, q(1) - d.y) > 1.5 || q(2) <= 0 || q(3) < 0.3 * sigma0 || q(3) > 4 * sigma0) return;
+  d.x = q(0);
+  d.y = q(1);
+}
+
+/// Sub-pixel centre by an iterated intensity-weighted centroid around `d`: of
+/// `zero_mean` (the signal before clipping at zero, whose noise averages out) under
+/// the Gaussian mask, of `signal` (clipped) under the disc.
+void refineCentre(const cv::Mat& signal, const cv::Mat& zero_mean, const DetectOptions& o, Detection& d) {
+  if (o.refinement == Refinement::intensity || o.refinement == Refinement::gaussian) {
+    // Gaussian-masked intensity centroid (Thompson, Larson & Webb 2002): the mask is
+    // re-centred on the current sub-pixel estimate each iteration, which removes the
+    // bias a fixed pixel window has for symmetric spots.
+    const double sm = o.refine_sigma > 0 ? o.refine_sigma : std::max(1.0, 0.5 * o.refine_radius);
+    const int r = std::max(o.refine_radius + 2, static_cast<int>(std::ceil(3 * sm)));
+    // The mask is separable: exp(-(dx^2 + dy^2) / 2 s^2) = ex(dx) ey(dy).
+    std::vector<double> ex(2 * r + 1), ey(2 * r + 1);
+    for (int it = 0; it < 20; ++it) {
+      const int cx = static_cast<int>(std::lround(d.x)), cy = static_cast<int>(std::lround(d.y));
+      for (int k = -r; k <= r; ++k) {
+        ex[k + r] = std::exp(-(cx + k - d.x) * (cx + k - d.x) / (2 * sm * sm));
+        ey[k + r] = std::exp(-(cy + k - d.y) * (cy + k - d.y) / (2 * sm * sm));
+      }
+      double sw = 0, sx = 0, sy = 0;
+      for (int y = std::max(0, cy - r); y <= std::min(zero_mean.rows - 1, cy + r); ++y) {
+        const float* row = zero_mean.ptr<float>(y);
+        double rw = 0, rx = 0;
+        for (int x = std::max(0, cx - r); x <= std::min(zero_mean.cols - 1, cx + r); ++x) {
+          const double w = row[x] * ex[x - cx + r];
+          rw += w;
+          rx += w * x;
+        }
+        sw += rw * ey[y - cy + r];
+        sx += rx * ey[y - cy + r];
+        sy += rw * ey[y - cy + r] * y;
+      }
+      if (sw <= 0) break;
+      const double nx = sx / sw, ny = sy / sw;
+      const bool done = std::hypot(nx - d.x, ny - d.y) < 1e-3;
+      d.x = nx;
+      d.y = ny;
+      if (done) break;
+    }
+    if (o.refinement == Refinement::gaussian) fitGaussian(zero_mean, sm, d);
+  } else if (o.refinement == Refinement::disc) {
+    // Flat disc of refine_radius on whole pixels (Crocker & Grier 1996): move the disc
+    // to the nearest pixel of the centroid until the centroid stays within it.
+    const int r = o.refine_radius;
+    int cx = static_cast<int>(std::lround(d.x)), cy = static_cast<int>(std::lround(d.y));
+    for (int it = 0; it < 10; ++it) {
+      double sw = 0, sx = 0, sy = 0;
+      for (int y = std::max(0, cy - r); y <= std::min(signal.rows - 1, cy + r); ++y)
+        for (int x = std::max(0, cx - r); x <= std::min(signal.cols - 1, cx + r); ++x) {
+          if ((x - cx) * (x - cx) + (y - cy) * (y - cy) > r * r) continue;
+          const double w = signal.at<float>(y, x);
+          sw += w;
+          sx += w * x;
+          sy += w * y;
+        }
+      if (sw <= 0) break;
+      d.x = sx / sw;
+      d.y = sy / sw;
+      const int nx = static_cast<int>(std::lround(d.x)), ny = static_cast<int>(std::lround(d.y));
+      if (nx == cx && ny == cy) break;
+      cx = nx;
+      cy = ny;
+    }
   }
-  cv::max(signal, 0.0, signal);
-  cv::max(smooth, 0.0, smooth);
+}
+
+/// Seeds from contours of the thresholded signal (the paper's pipeline).
+std::vector<Detection> contourSeeds(const cv::Mat& smooth, double floor_level, const DetectOptions& o) {
   cv::Mat bytes;
   smooth.convertTo(bytes, CV_8U, 255.0);
   cv::Mat mask;
@@ -125,31 +235,104 @@ std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, P
       d.y = b.y + 0.5 * (b.height - 1);
     }
     d.area = area;
-    if (o.refinement == Refinement::intensity) {
-      // Gaussian-masked intensity centroid (Thompson, Larson & Webb 2002): the mask is
-      // re-centred on the current sub-pixel estimate each iteration, which removes the
-      // bias a fixed pixel window has for symmetric spots.
-      const double sm = std::max(1.0, 0.5 * o.refine_radius);
-      const int r = o.refine_radius + 2;
-      for (int it = 0; it < 20; ++it) {
-        const int cx = static_cast<int>(std::lround(d.x)), cy = static_cast<int>(std::lround(d.y));
-        double sw = 0, sx = 0, sy = 0;
-        for (int y = std::max(0, cy - r); y <= std::min(signal.rows - 1, cy + r); ++y)
-          for (int x = std::max(0, cx - r); x <= std::min(signal.cols - 1, cx + r); ++x) {
-            const double g = std::exp(-((x - d.x) * (x - d.x) + (y - d.y) * (y - d.y)) / (2 * sm * sm));
-            const double w = signal.at<float>(y, x) * g;
-            sw += w;
-            sx += w * x;
-            sy += w * y;
-          }
-        if (sw <= 0) break;
-        const double nx = sx / sw, ny = sy / sw;
-        const bool done = std::hypot(nx - d.x, ny - d.y) < 1e-4;
-        d.x = nx;
-        d.y = ny;
-        if (done) break;
-      }
-    }
+    out.push_back(d);
+  }
+  return out;
+}
+
+/// Seeds at local maxima of the smoothed signal, at least `separation` apart.
+std::vector<Detection> peakSeeds(const cv::Mat& smooth, double floor_level, const DetectOptions& o) {
+  const int sep = o.separation > 0 ? o.separation : std::max(1, o.refine_radius);
+  double level = std::max(o.min_contrast, floor_level);
+  if (o.threshold == ThresholdMode::manual) level = std::max(level, o.threshold_value);
+  cv::Mat dil;
+  // Maxima of the square inscribed in the disc of radius `sep` (a square dilation is
+  // separable and fast); the greedy suppression below then enforces the round distance.
+  const int half = std::max(1, static_cast<int>(sep / std::sqrt(2.0)));
+  cv::dilate(smooth, dil, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * half + 1, 2 * half + 1)));
+  struct Peak {
+    int x, y;
+    float v;
+  };
+  std::vector<Peak> peaks;
+  for (int y = 0; y < smooth.rows; ++y) {
+    const float* s = smooth.ptr<float>(y);
+    const float* m = dil.ptr<float>(y);
+    for (int x = 0; x < smooth.cols; ++x)
+      if (s[x] > level && s[x] >= m[x]) peaks.push_back({x, y, s[x]});
+  }
+  // Flat tops give several equal maxima: keep the first of any group closer than `sep`.
+  std::sort(peaks.begin(), peaks.end(), [](const Peak& a, const Peak& b) { return a.v > b.v; });
+  cv::Mat taken = cv::Mat::zeros(smooth.size(), CV_8U);
+  std::vector<Detection> out;
+  for (const auto& p : peaks) {
+    if (taken.at<unsigned char>(p.y, p.x)) continue;
+    cv::circle(taken, {p.x, p.y}, sep, cv::Scalar(1), -1);
+    Detection d;
+    d.x = p.x;
+    d.y = p.y;
+    // Area: pixels within the separation above half the peak (the spot's FWHM area).
+    for (int y = std::max(0, p.y - sep); y <= std::min(smooth.rows - 1, p.y + sep); ++y)
+      for (int x = std::max(0, p.x - sep); x <= std::min(smooth.cols - 1, p.x + sep); ++x)
+        if (smooth.at<float>(y, x) >= 0.5f * p.v) d.area += 1;
+    if (d.area < o.min_area || d.area > o.max_area) continue;
+    out.push_back(d);
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, Polarity polarity, const DetectOptions& o) {
+  if (polarity == Polarity::automatic) polarity = guessPolarity(frame, background);
+  // Signal: how much darker (or brighter) than the background, >= 0.
+  cv::Mat signal;
+  if (!background.empty()) {
+    signal = polarity == Polarity::dark ? cv::Mat(background - frame) : cv::Mat(frame - background);
+  } else {
+    const double level = cv::mean(frame)[0];
+    signal = polarity == Polarity::dark ? cv::Mat(level - frame) : cv::Mat(frame - level);
+  }
+  if (o.local_background > 0) {
+    // Spatial high-pass: what is left of uneven illumination and slow background
+    // drift varies over more than a particle; a boxcar mean wider than the particle removes it.
+    cv::Mat local;
+    cv::blur(signal, local, cv::Size(2 * o.local_background + 1, 2 * o.local_background + 1), cv::Point(-1, -1), cv::BORDER_REFLECT);
+    signal = signal - local;
+  }
+  cv::Mat smooth = signal;
+  if (o.blur_sigma > 0) cv::GaussianBlur(signal, smooth, cv::Size(0, 0), o.blur_sigma);
+  // Noise floor of the smoothed signal from its median absolute deviation (robust to the
+  // particles themselves): nothing fainter than min_snr times it counts as a particle.
+  double floor_level = 0;
+  if (o.min_snr > 0) {
+    std::vector<float> v;
+    const int step = std::max(1, static_cast<int>(smooth.total() / 20000));
+    for (std::size_t i = 0; i < smooth.total(); i += step) v.push_back(smooth.at<float>(static_cast<int>(i)));
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    const double med = v[v.size() / 2];
+    for (auto& x : v) x = static_cast<float>(std::abs(x - med));
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    floor_level = med + o.min_snr * 1.4826 * v[v.size() / 2];
+  }
+  const cv::Mat zero_mean = signal.clone();
+  cv::max(signal, 0.0, signal);
+  cv::max(smooth, 0.0, smooth);
+  std::vector<Detection> seeds = o.method == SeedMethod::peaks ? peakSeeds(smooth, floor_level, o) : contourSeeds(smooth, floor_level, o);
+  DetectOptions refine = o;
+  if (o.refine_sigma <= 0 && o.method == SeedMethod::peaks && !seeds.empty()) {
+    // The spot's sigma from the median half-maximum area of the smoothed spots:
+    // area = 2 pi ln2 (sigma^2 + blur^2) for a Gaussian spot.
+    std::vector<double> areas;
+    for (const auto& d : seeds) areas.push_back(d.area);
+    std::nth_element(areas.begin(), areas.begin() + areas.size() / 2, areas.end());
+    const double s2 = areas[areas.size() / 2] / (2 * M_PI * std::log(2.0)) - o.blur_sigma * o.blur_sigma;
+    refine.refine_sigma = std::clamp(std::sqrt(std::max(s2, 0.0)), 0.8, std::max(1.0, 0.5 * o.refine_radius));
+  }
+  std::vector<Detection> out;
+  out.reserve(seeds.size());
+  for (Detection d : seeds) {
+    refineCentre(signal, zero_mean, refine, d);
     const int px = std::clamp(static_cast<int>(std::lround(d.x)), 0, signal.cols - 1);
     const int py = std::clamp(static_cast<int>(std::lround(d.y)), 0, signal.rows - 1);
     d.peak = smooth.at<float>(py, px);
@@ -157,8 +340,10 @@ std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, P
     double mass = 0;
     const int r = o.refine_radius;
     for (int y = std::max(0, py - r); y <= std::min(signal.rows - 1, py + r); ++y)
-      for (int x = std::max(0, px - r); x <= std::min(signal.cols - 1, px + r); ++x) mass += signal.at<float>(y, x);
+      for (int x = std::max(0, px - r); x <= std::min(signal.cols - 1, px + r); ++x)
+        if ((x - px) * (x - px) + (y - py) * (y - py) <= r * r) mass += signal.at<float>(y, x);
     d.mass = mass;
+    if (d.mass < o.min_mass) continue;
     out.push_back(d);
   }
   return out;
@@ -172,6 +357,8 @@ std::vector<Detection> detectStuck(const cv::Mat& background, Polarity polarity,
   // `hat` is the small-scale signal of the background; detect on it against a flat zero.
   DetectOptions d = o;
   d.threshold = ThresholdMode::otsu;
+  d.method = SeedMethod::contours;  // the area and circularity filters below tell spots from grain corners
+  d.local_background = 0;
   d.find_stuck = false;
   // A stuck particle is a round spot no larger than the hat kernel; narrow grain
   // tips and corners also survive the hat but are elongated or larger.
@@ -204,7 +391,14 @@ Morphology parseMorphology(const std::string& s) {
 Refinement parseRefinement(const std::string& s) {
   if (s == "moments") return Refinement::moments;
   if (s == "intensity") return Refinement::intensity;
+  if (s == "disc") return Refinement::disc;
+  if (s == "gaussian") return Refinement::gaussian;
   throw std::invalid_argument("refinement");
+}
+SeedMethod parseSeedMethod(const std::string& s) {
+  if (s == "contours") return SeedMethod::contours;
+  if (s == "peaks") return SeedMethod::peaks;
+  throw std::invalid_argument("detect.method");
 }
 
 }  // namespace mmval::tracking

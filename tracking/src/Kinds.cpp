@@ -21,8 +21,20 @@ void declareTrackerKeys(Schema& s) {
   s.real("detect.min_area", "Smallest blob, px^2").def(3).min(0);
   s.real("detect.max_area", "Largest blob, px^2").def(2000).min(1);
   s.real("detect.min_circularity", "Smallest 4 pi A / P^2").def(0.2).min(0).max(1);
-  s.choice("detect.refinement", {"intensity", "moments"}, "Centroid: contour moments or intensity-weighted sub-pixel refinement").def("intensity");
+  s.choice("detect.refinement", {"intensity", "disc", "moments"},
+           "Centroid: intensity-weighted under a Gaussian mask re-centred each iteration (intensity), over a flat disc of refine_radius "
+           "(disc, Crocker & Grier), or the contour's moments").def("intensity");
+  s.choice("detect.method", {"contours", "peaks"},
+           "Seeds: contours of the thresholded signal (the paper), or local maxima of the band-passed signal (splits touching particles)")
+      .def("peaks");
+  s.integer("detect.local_background", "Half-width of a boxcar local mean subtracted from the signal, px (0: none; ~ particle diameter)").def(0).min(0).max(200);
+  s.integer("detect.refine_radius", "Radius of the centroid window and of the mass, px").def(4).min(1).max(50);
+  s.integer("detect.separation", "peaks: smallest distance between two maxima, px (0: refine_radius)").def(0).min(0).max(100);
+  s.real("detect.refine_sigma", "Sigma of the Gaussian mask of the intensity centroid, px (0: from the spots' size)").def(0).min(0).max(20);
+  s.real("detect.min_mass", "Smallest integrated signal within refine_radius, fraction of full scale x px^2 (0: no filter)").def(0).min(0);
+  s.real("detect.min_snr", "Smallest peak over the frame's robust noise floor (0: no filter)").def(5).min(0);
   s.boolean("detect.find_stuck", "Find particles stuck all video long in the median background (black/top-hat spots the size of moving ones)").def(false);
+  s.integer("detect.threads", "Frames detected in parallel (linking stays in frame order)").def(1).min(1).max(256);
   s.choice("link.method", {"global", "paper"}, "Linker: optimal assignment with gap closing, or the paper's distance + angle rule").def("global");
   s.real("link.search_radius", "Search radius, px per frame").def(8).min(0.1);
   s.integer("link.memory", "Frames a particle may be missed (gap closing)").def(2).min(0).max(100);
@@ -46,6 +58,14 @@ TrackConfig trackerConfig(const Case& c) {
   t.detect.min_circularity = c.real("detect.min_circularity");
   t.detect.refinement = parseRefinement(c.text("detect.refinement"));
   t.detect.find_stuck = c.flag("detect.find_stuck");
+  t.detect.method = parseSeedMethod(c.text("detect.method"));
+  t.detect.local_background = static_cast<int>(c.integer("detect.local_background"));
+  t.detect.refine_radius = static_cast<int>(c.integer("detect.refine_radius"));
+  t.detect.separation = static_cast<int>(c.integer("detect.separation"));
+  t.detect.min_mass = c.real("detect.min_mass");
+  t.detect.refine_sigma = c.real("detect.refine_sigma");
+  t.detect.min_snr = c.real("detect.min_snr");
+  t.threads = static_cast<int>(c.integer("detect.threads"));
   t.link.method = c.text("link.method") == "paper" ? Linker::paper : Linker::global;
   t.link.search_radius = c.real("link.search_radius");
   t.link.memory = static_cast<int>(c.integer("link.memory"));
@@ -152,6 +172,11 @@ void registerTrackingKinds(CaseKindRegistry& registry) {
     s.real("synth.speed", "Mean flow speed, px per frame").def(3).min(0);
     s.real("synth.spot_sigma", "Particle spot sigma, px").def(1.3).min(0.3);
     s.real("synth.noise", "Camera noise, fraction of full scale").def(0.015).min(0).max(0.5);
+    s.real("synth.snr", "Spot amplitude over the noise std (0: use synth.noise)").def(0).min(0);
+    s.real("synth.photons", "Photons at full scale for Poisson shot noise (0: none)").def(0).min(0);
+    s.real("synth.illumination_gradient", "Brightness falls by this fraction from the left to the right edge").def(0).min(-0.9).max(0.9);
+    s.real("synth.brownian_d", "Brownian diffusion coefficient, px^2 per frame").def(0).min(0);
+    s.real("synth.defocus", "Spot sigma spread: [1, 1 + defocus] x spot_sigma at constant brightness").def(0).min(0).max(5);
     s.integer("synth.seed", "Random seed").def(1).min(0);
     s.real("score.gate", "Gate of the scores, px (5 in the tracking challenge)").def(5).min(0.1);
     declareTrackerKeys(s);
@@ -171,6 +196,11 @@ void registerTrackingKinds(CaseKindRegistry& registry) {
     o.speed = c.real("synth.speed");
     o.spot_sigma = c.real("synth.spot_sigma");
     o.noise = c.real("synth.noise");
+    o.snr = c.real("synth.snr");
+    o.photons = c.real("synth.photons");
+    o.illumination_gradient = c.real("synth.illumination_gradient");
+    o.brownian_d = c.real("synth.brownian_d");
+    o.defocus = c.real("synth.defocus");
     o.seed = static_cast<std::uint64_t>(c.integer("synth.seed"));
     const SynthResult synth = writeSyntheticVideo(o, ctx.out_dir / "synthetic");
     TrackConfig cfg = trackerConfig(c);
@@ -202,23 +232,9 @@ void registerTrackingKinds(CaseKindRegistry& registry) {
     out.units["rmse"] = "1";
     out.metrics["mean_speed_relative_error"] = std::abs(ours.mean_speed - truth_stats.mean_speed) / truth_stats.mean_speed;
     out.metrics["immobile_found"] = ours.immobile;
-    // Immobile recall: truth particles stuck from the start that an immobile track of ours
-    // sits on (within the gate in the first frame).
-    {
-      int hit = 0;
-      for (auto id : synth.immobile_ids) {
-        const auto tp = std::find_if(synth.truth.points.begin(), synth.truth.points.end(), [&](const TrackPoint& p) { return p.particle == id; });
-        for (const auto& t : ours.tracks) {
-          if (t.state != "immobile") continue;
-          const auto op = std::find_if(run.tracks.points.begin(), run.tracks.points.end(), [&](const TrackPoint& p) { return p.particle == t.particle; });
-          if (op != run.tracks.points.end() && std::hypot(op->x_px - tp->x_px, op->y_px - tp->y_px) < c.real("score.gate")) {
-            ++hit;
-            break;
-          }
-        }
-      }
-      if (!synth.immobile_ids.empty()) out.metrics["immobile_recall"] = static_cast<double>(hit) / synth.immobile_ids.size();
-    }
+    // Immobile recall: truth particles stuck from the start that an immobile track of ours sits on.
+    if (!synth.immobile_ids.empty())
+      out.metrics["immobile_recall"] = immobileRecall(synth.truth, synth.immobile_ids, run.tracks, ours, c.real("score.gate"));
     out.metrics["frames_per_second"] = run.frame_index.size() / std::max(run.seconds, 1e-9);
     out.units["frames_per_second"] = "Hz";
     out.details = extra;

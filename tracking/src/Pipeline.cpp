@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <thread>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
@@ -20,18 +21,34 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   if (c.detect.subtract_background) run.background = medianBackground(source, c.detect.background_samples);
   TrackLinker linker(c.link);
   Progress progress("tracking", static_cast<std::size_t>(std::max(0, source.count())), quiet);
-  cv::Mat frame;
-  int index = 0;
-  bool first = true;
   Polarity polarity = c.detect.polarity;
-  while (source.next(frame, index)) {
-    if (first && polarity == Polarity::automatic) polarity = guessPolarity(frame, run.background);
-    first = false;
-    auto dets = detect(frame, run.background, polarity, c.detect);
-    linker.push(index, dets);
-    run.detections.push_back(std::move(dets));
-    run.frame_index.push_back(index);
-    progress.advance();
+  const int threads = std::max(1, c.threads);
+  std::vector<cv::Mat> batch(static_cast<std::size_t>(2 * threads));
+  std::vector<int> batch_index(batch.size());
+  std::vector<std::vector<Detection>> found(batch.size());
+  for (bool more = true; more;) {
+    std::size_t n = 0;
+    while (n < batch.size() && (more = source.next(batch[n], batch_index[n]))) ++n;
+    if (n == 0) break;
+    if (polarity == Polarity::automatic) polarity = guessPolarity(batch[0], run.background);
+    // Frames are independent: detect them in parallel, then link in frame order.
+    auto work = [&](std::size_t first) {
+      for (std::size_t k = first; k < n; k += static_cast<std::size_t>(threads)) found[k] = detect(batch[k], run.background, polarity, c.detect);
+    };
+    if (threads == 1) {
+      work(0);
+    } else {
+      std::vector<std::thread> pool;
+      for (int t = 1; t < threads; ++t) pool.emplace_back(work, static_cast<std::size_t>(t));
+      work(0);
+      for (auto& t : pool) t.join();
+    }
+    for (std::size_t k = 0; k < n; ++k) {
+      linker.push(batch_index[k], found[k]);
+      run.detections.push_back(std::move(found[k]));
+      run.frame_index.push_back(batch_index[k]);
+      progress.advance();
+    }
   }
   progress.finish();
   run.polarity = polarity;
@@ -146,6 +163,33 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
   ret += fmt::format("particles,{}\nimmobile,{}\nmobile,{}\nretained,{}\nretained_fraction,{:.5g}\n", s.particles, s.immobile, s.mobile, s.retained,
                      s.retained_fraction);
   put("retention.csv", ret);
+  {
+    // Deposited over time: a deposited particle counts from the first frame after which
+    // it stays within stuck_distance of where it ends.
+    std::map<std::int64_t, std::string> state;
+    for (const auto& t : s.tracks) state[t.particle] = t.state;
+    std::vector<double> stop_times;
+    const auto& pts = run.tracks.points;
+    for (std::size_t i = 0; i < pts.size();) {
+      std::size_t j = i;
+      while (j < pts.size() && pts[j].particle == pts[i].particle) ++j;
+      if (state[pts[i].particle] == "deposited") {
+        std::size_t k = j - 1;
+        while (k > i && std::hypot(pts[k - 1].x - pts[j - 1].x, pts[k - 1].y - pts[j - 1].y) < c.analysis.stuck_distance) --k;
+        stop_times.push_back(pts[k].t);
+      }
+      i = j;
+    }
+    std::sort(stop_times.begin(), stop_times.end());
+    std::string rt = "frame,t_s,deposited\n";
+    std::size_t n = 0;
+    for (int f : run.frame_index) {
+      const double t = f / c.fps;
+      while (n < stop_times.size() && stop_times[n] <= t + 1e-12) ++n;
+      rt += fmt::format("{},{:.6g},{}\n", f, t, n);
+    }
+    put("retention_time.csv", rt);
+  }
   // Streamline composite: every position of every frame, over the background.
   if (!run.detections.empty()) {
     cv::Mat base;
@@ -192,7 +236,8 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
   summary["msd_D_linear_um2_per_s"] = s.msd.d_linear * 1e12;
   summary["parameters"] = {{"pixel_size_um", c.pixel_size * 1e6}, {"fps", c.fps}, {"blur_sigma", c.detect.blur_sigma},
                            {"subtract_background", c.detect.subtract_background}, {"search_radius_px", c.link.search_radius},
-                           {"memory", c.link.memory}, {"linker", c.link.method == Linker::global ? "global" : "paper"}};
+                           {"memory", c.link.memory}, {"linker", c.link.method == Linker::global ? "global" : "paper"},
+                           {"seeds", c.detect.method == SeedMethod::peaks ? "peaks" : "contours"}, {"threads", c.threads}};
   summary["stuck_found_in_background"] = run.stuck_found;
   summary["seconds"] = run.seconds;
   summary["frames_per_second"] = run.seconds > 0 ? run.frame_index.size() / run.seconds : 0.0;

@@ -134,4 +134,33 @@ Scores scoreTracks(const Tracks& truth, const Tracks& estimated, double gate) {
   return s;
 }
 
+double immobileRecall(const Tracks& truth, const std::vector<std::int64_t>& immobile_ids, const Tracks& estimated, const TrackStats& stats,
+                      double gate) {
+  if (immobile_ids.empty()) return 1.0;
+  // First point of every estimated immobile track.
+  std::unordered_map<std::int64_t, char> immobile;
+  for (const auto& t : stats.tracks)
+    if (t.state == "immobile") immobile[t.particle] = 1;
+  std::vector<std::pair<double, double>> starts;
+  std::int64_t last = -1;
+  bool first = true;
+  for (const auto& p : estimated.points) {
+    if (!first && p.particle == last) continue;
+    first = false;
+    last = p.particle;
+    if (immobile.count(p.particle)) starts.push_back({p.x_px, p.y_px});
+  }
+  int hit = 0;
+  for (auto id : immobile_ids) {
+    const auto tp = std::find_if(truth.points.begin(), truth.points.end(), [&](const TrackPoint& p) { return p.particle == id; });
+    if (tp == truth.points.end()) continue;
+    for (const auto& [x, y] : starts)
+      if (std::hypot(x - tp->x_px, y - tp->y_px) < gate) {
+        ++hit;
+        break;
+      }
+  }
+  return static_cast<double>(hit) / static_cast<double>(immobile_ids.size());
+}
+
 }  // namespace mmval::tracking

@@ -68,7 +68,10 @@ SynthResult writeSyntheticVideo(const SynthOptions& options, const std::filesyst
     double x, y;
     int stop_frame;  // -1: never
     bool immobile;
+    double sigma = 0, amplitude = 0;
   };
+  if (o.snr > 0) o.noise = o.spot_amplitude / o.snr;
+  std::normal_distribution<double> brownian(0, std::sqrt(2 * std::max(0.0, o.brownian_d)));
   auto solid = [&](double x, double y, double margin) {
     if (to_grain.empty()) return inGrain(grains, x, y, margin);
     const int xi = std::clamp(static_cast<int>(x), 0, o.width - 1), yi = std::clamp(static_cast<int>(y), 0, o.height - 1);
@@ -77,13 +80,18 @@ SynthResult writeSyntheticVideo(const SynthOptions& options, const std::filesyst
   auto flow = [&](double x, double y) { return o.flow ? o.flow(x, y) : velocity(grains, o.speed, x, y); };
   std::int64_t next_id = 0;
   auto spawn = [&](bool at_inlet) {
-    Particle p{next_id++, 0, 0, -1, false};
+    Particle p{next_id++, 0, 0, -1, false, o.spot_sigma, o.spot_amplitude};
     do {
-      p.x = at_inlet ? U01(rng) * 2 * o.speed : U01(rng) * o.width;
+      p.x = at_inlet ? U01(rng) * 2 * std::max(o.speed, 1.0) : U01(rng) * o.width;
       p.y = 4 + U01(rng) * (o.height - 8);
     } while (solid(p.x, p.y, 3));
     // Deposition late in the video, so a median background does not absorb the deposit.
     if (U01(rng) < o.deposit_fraction) p.stop_frame = static_cast<int>((0.6 + 0.3 * U01(rng)) * o.frames);
+    if (o.defocus > 0) {
+      // Out of focus: wider and dimmer, the same integrated brightness.
+      p.sigma = o.spot_sigma * (1 + o.defocus * U01(rng));
+      p.amplitude = o.spot_amplitude * (o.spot_sigma * o.spot_sigma) / (p.sigma * p.sigma);
+    }
     return p;
   };
   std::vector<Particle> ps;
@@ -99,17 +107,22 @@ SynthResult writeSyntheticVideo(const SynthOptions& options, const std::filesyst
   for (const auto& g : grains) cv::circle(scene, cv::Point2d(g.x, g.y), static_cast<int>(g.r), cv::Scalar(0.3), -1, cv::LINE_AA);
   if (!o.geometry.empty()) scene.setTo(cv::Scalar(0.3), o.geometry != 0);
   cv::GaussianBlur(scene, scene, cv::Size(0, 0), 1.0);
+  cv::Mat illumination;
+  if (o.illumination_gradient != 0) {
+    illumination = cv::Mat(o.height, o.width, CV_32F);
+    for (int x = 0; x < o.width; ++x) illumination.col(x).setTo(1.0 + o.illumination_gradient * (0.5 - x / std::max(1.0, o.width - 1.0)));
+  }
 
   SynthResult result;
   std::filesystem::create_directories(dir / "frames");
-  const int half = static_cast<int>(std::ceil(4 * o.spot_sigma));
   for (int f = 0; f < o.frames; ++f) {
     cv::Mat img = scene.clone();
     for (const auto& p : ps) {
       // Sub-pixel Gaussian spot.
+      const int half = static_cast<int>(std::ceil(4 * p.sigma));
       for (int y = std::max(0, static_cast<int>(p.y) - half); y <= std::min(o.height - 1, static_cast<int>(p.y) + half); ++y)
         for (int x = std::max(0, static_cast<int>(p.x) - half); x <= std::min(o.width - 1, static_cast<int>(p.x) + half); ++x) {
-          const double g = o.spot_amplitude * std::exp(-((x - p.x) * (x - p.x) + (y - p.y) * (y - p.y)) / (2 * o.spot_sigma * o.spot_sigma));
+          const double g = p.amplitude * std::exp(-((x - p.x) * (x - p.x) + (y - p.y) * (y - p.y)) / (2 * p.sigma * p.sigma));
           img.at<float>(y, x) += static_cast<float>(o.dark_particles ? -g : g);
         }
       TrackPoint t;
@@ -122,6 +135,14 @@ SynthResult writeSyntheticVideo(const SynthOptions& options, const std::filesyst
       t.y = p.y * o.pixel_size;
       result.truth.points.push_back(t);
     }
+    if (!illumination.empty()) img = img.mul(illumination);
+    if (o.photons > 0)
+      for (int y = 0; y < img.rows; ++y)
+        for (int x = 0; x < img.cols; ++x) {
+          float& v = img.at<float>(y, x);
+          std::poisson_distribution<long> shot(std::max(0.0, static_cast<double>(v)) * o.photons);
+          v = static_cast<float>(static_cast<double>(shot(rng)) / o.photons);
+        }
     for (int y = 0; y < img.rows; ++y)
       for (int x = 0; x < img.cols; ++x) img.at<float>(y, x) += static_cast<float>(o.noise * N01(rng));
     cv::Mat bytes;
@@ -139,6 +160,10 @@ SynthResult writeSyntheticVideo(const SynthOptions& options, const std::filesyst
       const double ox = p.x, oy = p.y;
       p.x += v2.x;
       p.y += v2.y;
+      if (o.brownian_d > 0) {
+        p.x += brownian(rng);
+        p.y += brownian(rng);
+      }
       if (!to_grain.empty() && solid(p.x, p.y, 1.5)) {  // never into a grain: stay put this frame
         p.x = ox;
         p.y = oy;
@@ -151,7 +176,7 @@ SynthResult writeSyntheticVideo(const SynthOptions& options, const std::filesyst
           p.y = g.y + dy / r * (g.r + 2);
         }
       }
-      if (p.x >= o.width - 1 || p.y < 1 || p.y > o.height - 2) p = spawn(true);
+      if (p.x >= o.width - 1 || p.x < 0 || p.y < 1 || p.y > o.height - 2) p = spawn(true);
     }
   }
   for (const auto& p : ps) {

@@ -3,6 +3,13 @@
 // (manual, Otsu or adaptive), morphology, contours with area / circularity
 // filters, centroid from moments, and sub-pixel refinement by an
 // intensity-weighted centroid on the unthresholded signal.
+//
+// A second seed finder, `peaks`, takes local maxima of the band-passed signal
+// (Gaussian blur minus a boxcar local mean, Crocker & Grier 1996, J. Colloid
+// Interface Sci. 179:298) instead of contours: touching particles that one
+// threshold merges into a single blob stay apart. Measured on trackpy's real
+// frames (tests/tracking/TrackpyPeerTest.cpp) it finds 98 % of trackpy's
+// features within 1 px where contours find 82 %.
 #pragma once
 #include <string>
 #include <vector>
@@ -16,7 +23,8 @@ namespace mmval::tracking {
 enum class Polarity { dark, bright, automatic };
 enum class ThresholdMode { manual, otsu, adaptive };
 enum class Morphology { none, erode, dilate, open, close };
-enum class Refinement { moments, intensity };
+enum class Refinement { moments, intensity, disc, gaussian };
+enum class SeedMethod { contours, peaks };
 
 struct DetectOptions {
   bool subtract_background = true;  ///< temporal median of the video (grains and stuck particles vanish)
@@ -34,10 +42,21 @@ struct DetectOptions {
   double min_circularity = 0.2;     ///< 4 pi A / P^2
   double min_contrast = 0.02;       ///< peak signal, fraction of full scale
   double min_snr = 5.0;             ///< peak above the frame's noise floor (robust std of the smoothed signal); 0 disables
+  /// intensity: Gaussian-masked centroid; disc: flat disc of refine_radius (Crocker & Grier);
+  /// gaussian: least-squares fit of a Gaussian spot plus a constant (Levenberg-Marquardt),
+  /// started from the Gaussian-masked centroid; near the Cramer-Rao bound on noisy spots.
   Refinement refinement = Refinement::intensity;
+  SeedMethod method = SeedMethod::peaks;          ///< local maxima of the band-passed signal, or contours (the paper)
+  int local_background = 0;         ///< px half-width of a boxcar local mean subtracted from the signal (spatial high-pass); 0: off
+  int separation = 0;               ///< peaks: minimum distance between maxima, px (0: refine_radius)
+  double min_mass = 0;              ///< smallest integrated signal inside refine_radius, fraction of full scale x px^2; 0: off
   bool find_stuck = false;          ///< also find particles stuck for the whole video in the median background (off: grain features can pass for particles)
   int stuck_kernel = 9;             ///< px: black/top-hat size, larger than a particle, smaller than a grain
   int refine_radius = 4;            ///< px, half window of the intensity-weighted centroid
+  /// px, sigma of the Gaussian mask of `intensity` refinement (best equal to the spot's:
+  /// then the centroid's fixed point is the least-squares position). 0: automatic, from
+  /// the frame's median half-maximum area with `peaks`, refine_radius / 2 with contours.
+  double refine_sigma = 0;
 };
 
 struct Detection {
@@ -65,5 +84,6 @@ Polarity parsePolarity(const std::string& s);
 ThresholdMode parseThreshold(const std::string& s);
 Morphology parseMorphology(const std::string& s);
 Refinement parseRefinement(const std::string& s);
+SeedMethod parseSeedMethod(const std::string& s);
 
 }  // namespace mmval::tracking

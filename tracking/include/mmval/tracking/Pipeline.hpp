@@ -20,6 +20,7 @@ struct TrackConfig {
   TrackOptions analysis;
   double pixel_size = 1e-6;  ///< m per px
   double fps = 10;
+  int threads = 1;  ///< detection threads (frames are detected in parallel, linked in order)
 };
 
 struct TrackRun {
@@ -33,11 +34,14 @@ struct TrackRun {
   int stuck_found = 0;  ///< particles found in the background (stuck all along)
 };
 
-/// Runs the tracker over the whole source; a progress bar unless quiet.
+/// Runs the tracker over the whole source; a progress bar unless quiet. Memory stays
+/// bounded: frames are read in batches of 2 x threads, only detections are kept.
 TrackRun runTracker(FrameSource& source, const TrackConfig& config, bool quiet);
 
-/// Writes detections.csv, tracks.csv, velocities.csv, dispersion.csv,
-/// retention.csv, streamlines.png and summary.json into `dir`; returns the file names.
+/// Writes detections.csv, tracks.csv, track_summary.csv, velocities.csv,
+/// dispersion.csv, msd.csv, speed_time.csv, retention.csv, retention_time.csv
+/// (deposited count per frame), streamlines.png and summary.json into `dir`;
+/// returns the file names.
 std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfig& config, const std::filesystem::path& dir,
                                            const nlohmann::json& extra_summary);
 

@@ -6,7 +6,11 @@
 // spurious tracks), Jaccard of points and of whole tracks, and the RMSE of
 // matched points.
 #pragma once
+#include <cstdint>
+#include <vector>
+
 #include "mmval/core/Tracks.hpp"
+#include "mmval/tracking/TrackMetrics.hpp"
 
 namespace mmval::tracking {
 
@@ -20,5 +24,11 @@ struct Scores {
 
 /// Both track sets in pixels (x_px, y_px). `gate` in px (5 in the challenge).
 Scores scoreTracks(const Tracks& truth, const Tracks& estimated, double gate = 5.0);
+
+/// Share of the truth particles `immobile_ids` (stuck all video long) on which an
+/// estimated track flagged immobile by `stats` sits: its first point within
+/// `gate` px of the truth particle's first point. 1 when there are none.
+double immobileRecall(const Tracks& truth, const std::vector<std::int64_t>& immobile_ids, const Tracks& estimated, const TrackStats& stats,
+                      double gate = 5.0);
 
 }  // namespace mmval::tracking

@@ -1,7 +1,12 @@
 // A synthetic micromodel video with ground truth, the tracker's independent
 // reference: static grains, Gaussian-spot particles carried by potential
-// flow around the grains, some particles stuck from the start, some that
-// deposit (stop) during the video, camera noise. Deterministic per seed.
+// flow around the grains (or a given flow), some particles stuck from the
+// start, some that deposit (stop) during the video, particles entering at the
+// inlet as others leave, optional Brownian motion, defocus (a spread of spot
+// sizes at constant integrated brightness), an illumination gradient, and
+// camera noise: Gaussian read noise at a chosen SNR plus optional Poisson shot
+// noise. Deterministic per seed; options left at their defaults draw no
+// random numbers, so older videos are reproduced exactly.
 #pragma once
 #include <cstdint>
 #include <filesystem>
@@ -28,6 +33,11 @@ struct SynthOptions {
   double spot_sigma = 1.3;     ///< px
   double spot_amplitude = 0.35;
   double noise = 0.015;        ///< std of the camera noise, fraction of full scale
+  double snr = 0;              ///< > 0: noise = spot_amplitude / snr (overrides `noise`)
+  double photons = 0;          ///< > 0: Poisson shot noise with this many photons at full scale
+  double illumination_gradient = 0;  ///< brightness falls linearly by this fraction from left to right edge
+  double brownian_d = 0;       ///< px^2 per frame: each step adds N(0, 2 D) per axis (2D Brownian motion)
+  double defocus = 0;          ///< spot sigma drawn in [1, 1 + defocus] x spot_sigma, amplitude scaled by 1/sigma^2
   bool dark_particles = true;
   std::uint64_t seed = 1;
   /// Optional pore geometry (CV_8U, non-zero = grain); sets the frame size and
