@@ -78,6 +78,26 @@ void writeSummary(const fs::path& out, const reports::Summary& summary) {
   writeFileAtomic(out / "index.html", summary.html());
 }
 
+/// The peer column of a case whose peer could not run: one informational
+/// row that says why, so the report shows "not run" instead of a gap.
+nlohmann::json peerNotRun(const Case& c, const std::string& reason, const fs::path& dir) {
+  const nlohmann::json row = {{"name", "openfoam_peer"}, {"value", nullptr},      {"unit", ""},
+                              {"reference", nullptr},    {"error", nullptr},      {"tolerance", nullptr},
+                              {"pass", nullptr},         {"status", "not run"},   {"note", "not run: " + reason}};
+  nlohmann::json doc = {{"schema", "mmval-result/1"},
+                        {"case", {{"name", c.name() + "-openfoam"}, {"kind", c.kind()}, {"file", c.file().string()}, {"hash", c.hash()},
+                                  {"description", c.description()}}},
+                        {"metrics", nlohmann::json::array({row})},
+                        {"all_pass", true},
+                        {"cost", {{"wall_seconds", 0.0}, {"peak_memory_bytes", 0}}},
+                        {"details", {{"solver", "OpenFOAM (not run)"}, {"status", "not run"}, {"reason", reason}}},
+                        {"files", nlohmann::json::array()},
+                        {"provenance", provenanceJson()}};
+  fs::create_directories(dir);
+  writeFileAtomic(dir / "result.json", doc.dump(2) + "\n");
+  return doc;
+}
+
 }  // namespace
 
 void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
@@ -163,7 +183,9 @@ void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
               {val_opts->quiet, false});
           summary.results.push_back(ps.result);
         } else {
-          std::fprintf(stderr, "      OpenFOAM peer not run for %s: %s\n", c.name().c_str(), openfoam::detect().reason.c_str());
+          const std::string reason = openfoam::detect().reason;
+          std::fprintf(stderr, "      OpenFOAM peer not run for %s: %s\n", c.name().c_str(), reason.c_str());
+          summary.results.push_back(peerNotRun(c, reason, out / "runs" / (c.name() + "-openfoam")));
         }
       }
       summary.total_wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

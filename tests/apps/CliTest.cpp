@@ -148,4 +148,32 @@ TEST(Cli, PeerRejectsAKindItCannotRun) {
   EXPECT_THAT(o.output, HasSubstr("does not run this kind"));
 }
 
+TEST(Cli, ValidateMarksAMissingOpenFoamPeerNotRun) {
+  // A peer-tagged case on a machine without OpenFOAM (WM_PROJECT_DIR pointing
+  // nowhere): our solver's numbers stand, the peer column says "not run", and
+  // the validation does not fail because of the peer.
+  const fs::path d = scratch("peer-missing");
+  fs::create_directories(d / "cases");
+  std::ofstream(d / "cases" / "array.toml")
+      << "[case]\nname = \"array\"\nkind = \"periodic-array\"\ntags = [\"default\", \"peer\"]\n"
+         "[geometry]\ncell = \"100 um\"\nsolid_fraction = 0.2\n[fluid]\ndensity = \"1000 kg/m3\"\nviscosity = \"1e-3 Pa s\"\n"
+         "[flow]\nmean_velocity = \"1e-4 m/s\"\n[numerics]\ncells_around = 32\n";
+  const std::string cmd = "WM_PROJECT_DIR=" + (d / "no-openfoam").string() + " " + std::string(MMVAL_BINARY_DIR) + "/bin/mmval validate --quiet --cases " +
+                          (d / "cases").string() + " --out " + (d / "out").string() + " 2>&1";
+  Outcome v;
+  FILE* pipe = popen(cmd.c_str(), "r");
+  char buf[4096];
+  while (std::fgets(buf, sizeof buf, pipe) != nullptr) v.output += buf;
+  const int raw = pclose(pipe);
+  v.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  EXPECT_EQ(v.status, 0) << v.output;
+  EXPECT_THAT(v.output, HasSubstr("OpenFOAM peer not run for array"));
+  std::ifstream in(d / "out" / "metrics.json");
+  const auto metrics = nlohmann::json::parse(in);
+  bool peer_row = false;
+  for (const auto& m : metrics["metrics"])
+    if (m["case"] == "array-openfoam" && m["status"] == "not run") peer_row = true;
+  EXPECT_TRUE(peer_row) << metrics.dump(1);
+}
+
 }  // namespace
