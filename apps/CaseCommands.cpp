@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -45,6 +46,8 @@ struct ValidateOptions {
   std::string out = "out/validate";
   std::string cases = "cases";
   std::string tag = "default";
+  bool full = false;
+  bool resume = false;
   bool quiet = false;
 };
 
@@ -57,19 +60,36 @@ void printMetrics(const RunSummary& s) {
 }
 
 /// Case files under `dir` whose case.tags contain `tag` ("all" selects every case).
-std::vector<fs::path> casesTagged(const fs::path& dir, const std::string& tag, const CaseKindRegistry& registry) {
+std::vector<fs::path> casesTagged(const fs::path& dir, const std::vector<std::string>& wanted, const CaseKindRegistry& registry) {
   if (!fs::is_directory(dir)) throw InputError({dir.string(), 0, 0, {}}, "cases folder not found", dir.string(), "a folder of *.toml case files (--cases)");
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(dir))
     if (e.path().extension() == ".toml") files.push_back(e.path());
   std::sort(files.begin(), files.end());
-  std::vector<fs::path> out;
+  // Comparisons read other cases' outputs, so they run after everything else.
+  std::vector<fs::path> out, last;
   for (const auto& f : files) {
     const Case c = Case::load(f, registry);
     const auto& tags = c.strings("case.tags");
-    if (tag == "all" || std::find(tags.begin(), tags.end(), tag) != tags.end()) out.push_back(f);
+    const bool chosen = std::any_of(wanted.begin(), wanted.end(), [&](const std::string& tag) {
+      return tag == "all" || std::find(tags.begin(), tags.end(), tag) != tags.end();
+    });
+    if (chosen) (c.kind() == "compare-tracks" ? last : out).push_back(f);
   }
+  out.insert(out.end(), last.begin(), last.end());
   return out;
+}
+
+/// A complete earlier run of the same case file (same hash) in `dir`, if any.
+std::optional<nlohmann::json> earlierRun(const Case& c, const fs::path& dir) {
+  std::ifstream in(dir / "result.json");
+  if (!in) return std::nullopt;
+  try {
+    nlohmann::json r = nlohmann::json::parse(in);
+    if (r.at("case").at("hash") == c.hash()) return r;
+  } catch (const std::exception&) {
+  }
+  return std::nullopt;
 }
 
 void writeSummary(const fs::path& out, const reports::Summary& summary) {
@@ -158,10 +178,15 @@ void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
   val->add_option("--out", val_opts->out, "Output folder")->capture_default_str();
   val->add_option("--cases", val_opts->cases, "Folder of case files")->capture_default_str();
   val->add_option("--tag", val_opts->tag, "Run the cases carrying this tag in case.tags ('all' for every case)")->capture_default_str();
+  val->add_flag("--full", val_opts->full, "Also run the cases tagged 'full' (resolution ladders, full-length scenes)");
+  val->add_flag("--resume", val_opts->resume,
+                "Keep complete runs already in OUT whose case file is unchanged (same hash) and resume interrupted ones from their checkpoints");
   val->add_flag("--quiet", val_opts->quiet, "No progress output");
   val->callback([val_opts, &registry] {
     const auto start = std::chrono::steady_clock::now();
-    const auto files = casesTagged(val_opts->cases, val_opts->tag, registry);
+    std::vector<std::string> wanted{val_opts->tag};
+    if (val_opts->full) wanted.push_back("full");
+    const auto files = casesTagged(val_opts->cases, wanted, registry);
     if (files.empty())
       throw InputError({val_opts->cases, 0, 0, "case.tags"}, "no case carries the tag '" + val_opts->tag + "'", {}, "at least one case to run");
     const fs::path out = val_opts->out;
@@ -170,17 +195,27 @@ void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
     for (std::size_t i = 0; i < files.size(); ++i) {
       const Case c = Case::load(files[i], registry);
       std::fprintf(stderr, "[%zu/%zu] %s (%s)\n", i + 1, files.size(), c.name().c_str(), c.kind().c_str());
-      const RunSummary s = runCase(c, registry, out / "runs" / c.name(), {val_opts->quiet, false});
-      summary.results.push_back(s.result);
+      const fs::path run_dir = out / "runs" / c.name();
+      std::optional<nlohmann::json> done = val_opts->resume ? earlierRun(c, run_dir) : std::nullopt;
+      if (done) {
+        std::fprintf(stderr, "      kept the complete earlier run in %s (same case hash)\n", run_dir.string().c_str());
+        summary.results.push_back(*done);
+      } else {
+        // --resume also lets a runner pick up its own checkpoints in the staged folder.
+        summary.results.push_back(runCase(c, registry, run_dir, {val_opts->quiet, val_opts->resume}).result);
+      }
       // Cases tagged "peer" also run through OpenFOAM, side by side; a missing
       // OpenFOAM marks the peer "not run" instead of failing the validation.
       const auto& tags = c.strings("case.tags");
       if (std::find(tags.begin(), tags.end(), "peer") != tags.end()) {
-        if (openfoam::detect().available) {
+        const fs::path peer_dir = out / "runs" / (c.name() + "-openfoam");
+        std::optional<nlohmann::json> peer_done = val_opts->resume ? earlierRun(c, peer_dir) : std::nullopt;
+        if (peer_done && peer_done->value("details", nlohmann::json::object()).value("status", "") != "not run") {
+          summary.results.push_back(*peer_done);
+        } else if (openfoam::detect().available) {
           std::fprintf(stderr, "      %s through the OpenFOAM peer\n", c.name().c_str());
           const RunSummary ps = runCaseWith(
-              c, [](const Case& cc, const RunContext& ctx) { return openfoam::runPeer(cc, ctx, {}); }, out / "runs" / (c.name() + "-openfoam"),
-              {val_opts->quiet, false});
+              c, [](const Case& cc, const RunContext& ctx) { return openfoam::runPeer(cc, ctx, {}); }, peer_dir, {val_opts->quiet, false});
           summary.results.push_back(ps.result);
         } else {
           const std::string reason = openfoam::detect().reason;

@@ -174,6 +174,11 @@ TEST(Cli, ValidateMarksAMissingOpenFoamPeerNotRun) {
   for (const auto& m : metrics["metrics"])
     if (m["case"] == "array-openfoam" && m["status"] == "not run") peer_row = true;
   EXPECT_TRUE(peer_row) << metrics.dump(1);
+
+  // --resume keeps that complete run (same case file) instead of solving again.
+  const Outcome again = mmval("validate --quiet --resume --cases " + (d / "cases").string() + " --out " + (d / "out").string());
+  EXPECT_EQ(again.status, 0) << again.output;
+  EXPECT_THAT(again.output, HasSubstr("kept the complete earlier run"));
 }
 
 }  // namespace
