@@ -14,70 +14,14 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/tracking/Kinds.hpp"
-#include "mmval/stokes/Stokes.hpp"
 #include "mmval/tracking/Synth.hpp"
+#include "SynthFlow.hpp"
 
 namespace fs = std::filesystem;
 
 namespace mmval::app {
 
 namespace {
-
-/// Stokes flow through a pore image for synthetic videos: the image and its mirror
-/// side by side make the domain periodic along x; solved on a grid a few pixels
-/// coarse and sampled bilinearly, scaled to a mean pore speed in px per frame.
-class FlowMap {
- public:
-  FlowMap(const cv::Mat& grains, double mean_speed) : m_w(grains.cols), m_h(grains.rows) {
-    m_f = std::max(1, static_cast<int>(std::ceil(std::sqrt(2.0 * m_w * m_h / 40000.0))));
-    stokes::Problem p;
-    p.nx = (2 * m_w) / m_f;
-    p.ny = m_h / m_f;
-    p.h = m_f;  // lengths in px; the scale drops out after normalisation
-    p.viscosity = 1;
-    p.pressure_gradient = 1;
-    stokes::setSolidFromIndicator(p, [&](double x, double y) {
-      int xi = static_cast<int>(x), yi = static_cast<int>(y);
-      if (xi >= m_w) xi = 2 * m_w - 1 - xi;  // mirror
-      xi = std::clamp(xi, 0, m_w - 1);
-      yi = std::clamp(yi, 0, m_h - 1);
-      return grains.at<unsigned char>(yi, xi) != 0;
-    }, 2);
-    m_s = stokes::solve(p);
-    m_nx = p.nx;
-    m_ny = p.ny;
-    double sum = 0;
-    int n = 0;
-    for (int y = 0; y < m_h; y += 2)
-      for (int x = 0; x < m_w; x += 2)
-        if (grains.at<unsigned char>(y, x) == 0) {
-          const cv::Point2d v = raw(x + 0.5, y + 0.5);
-          sum += std::hypot(v.x, v.y);
-          ++n;
-        }
-    m_scale = n > 0 && sum > 0 ? mean_speed / (sum / n) : 0;
-  }
-  cv::Point2d at(double x, double y) const {
-    const cv::Point2d v = raw(x, y);
-    return {v.x * m_scale, v.y * m_scale};
-  }
-
- private:
-  /// Bilinear sample of the staggered field at (x, y) px.
-  double sample(const Eigen::ArrayXXd& a, double gx, double gy) const {
-    const int i0 = static_cast<int>(std::floor(gx)), j0 = static_cast<int>(std::floor(gy));
-    const double fx = gx - i0, fy = gy - j0;
-    auto A = [&](int j, int i) { return a(std::clamp(j, 0, m_ny - 1), ((i % m_nx) + m_nx) % m_nx); };
-    return (1 - fx) * (1 - fy) * A(j0, i0) + fx * (1 - fy) * A(j0, i0 + 1) + (1 - fx) * fy * A(j0 + 1, i0) + fx * fy * A(j0 + 1, i0 + 1);
-  }
-  cv::Point2d raw(double x, double y) const {
-    const double cx = x / m_f, cy = y / m_f;
-    return {sample(m_s.u, cx, cy - 0.5), sample(m_s.v, cx - 0.5, cy)};
-  }
-  int m_w, m_h, m_f = 1, m_nx = 0, m_ny = 0;
-  stokes::Solution m_s;
-  double m_scale = 0;
-};
 
 struct TrackCli {
   std::string input, config, out, truth, linker;
@@ -159,12 +103,16 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
   synth->callback([sy] {
     sy->o.pixel_size = sy->pixel_um * 1e-6;
     if (sy->snr > 0) sy->o.noise = sy->o.spot_amplitude / sy->snr;
-    std::unique_ptr<FlowMap> flow;
+    std::unique_ptr<PoreFlowMap> flow;
     if (!sy->geometry.empty()) {
       const cv::Mat img = cv::imread(sy->geometry, cv::IMREAD_GRAYSCALE);
       if (img.empty()) throw InputError({sy->geometry, 0, 0, "--geometry"}, "cannot read the image", {}, "a PNG or TIFF mask");
       cv::threshold(img, sy->o.geometry, 127, 255, sy->grains == "dark" ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
-      flow = std::make_unique<FlowMap>(sy->o.geometry, sy->o.speed);
+      try {
+        flow = std::make_unique<PoreFlowMap>(sy->o.geometry, sy->o.speed);
+      } catch (const std::runtime_error& e) {
+        throw InputError({sy->geometry, 0, 0, "--geometry"}, e.what(), {}, "an image with a connected pore path from the left to the right edge");
+      }
       sy->o.flow = [f = flow.get()](double x, double y) { return f->at(x, y); };
     }
     StagedDirectory staged(sy->out);
