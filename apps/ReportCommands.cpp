@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "mmval/compare/Compare.hpp"
+#include "mmval/compare/Scene.hpp"
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Tracks.hpp"
@@ -23,6 +24,11 @@ struct CompareCli {
   double pixel_size_um = 0;
   double immobile_um = 2, stuck_um = 1, stuck_window_s = 2, cell_um = 5;
   int time_bins = 20;
+  std::string mask, register_frame, grains = "dark";
+  double mask_pixel_size_um = 0, frame_pixel_size_um = 0, min_correlation = 0.6, throat_width_um = 0;
+  bool y_down = false;
+  std::vector<double> window_origin_um;
+  double window_rotation_deg = 0, window_pixel_size_um = 0;
 };
 
 struct ReportCli {
@@ -45,6 +51,17 @@ void registerReportCommands(CLI::App& app) {
   cmp->add_option("--stuck-window-s", c->stuck_window_s, "Length of that final window")->capture_default_str();
   cmp->add_option("--cell-um", c->cell_um, "Grid cell of the streamline occupancy maps")->capture_default_str();
   cmp->add_option("--time-bins", c->time_bins, "Bins of the time series")->capture_default_str();
+  cmp->add_option("--mask,--register-mask", c->mask, "Geometry mask the simulation was built from: per-region speeds, and the target of --register-frame");
+  cmp->add_option("--mask-pixel-size-um", c->mask_pixel_size_um, "Size of one mask pixel");
+  cmp->add_option("--mask-grains", c->grains, "Grains are the dark or light pixels of the mask")->check(CLI::IsMember({"dark", "light"}))->capture_default_str();
+  cmp->add_flag("--mask-y-down", c->y_down, "Simulation y runs down the image from its upper-left corner (default: up from the lower-left, as mmval's solver)");
+  cmp->add_option("--register-frame", c->register_frame, "First video frame or the tracker's background image: registered to the mask (OpenCV ECC) to put the experiment in the simulation frame");
+  cmp->add_option("--frame-pixel-size-um", c->frame_pixel_size_um, "Camera pixel size (default: from the experiment tracks)");
+  cmp->add_option("--min-correlation", c->min_correlation, "Smallest ECC correlation accepted")->capture_default_str();
+  cmp->add_option("--window-origin-um", c->window_origin_um, "Imaged window given directly: X Y of the frame's pixel (0, 0) in the simulation frame")->expected(2);
+  cmp->add_option("--window-rotation-deg", c->window_rotation_deg, "Imaged window's rotation, counter-clockwise")->capture_default_str();
+  cmp->add_option("--window-pixel-size-um", c->window_pixel_size_um, "Imaged window's camera pixel size");
+  cmp->add_option("--throat-width-um", c->throat_width_um, "Pore width at or below which pore space is throat (0: median inscribed diameter)")->capture_default_str();
   cmp->callback([c] {
     const Tracks e = readTracksCsv(c->experiment, c->pixel_size_um * 1e-6);
     const Tracks s = readTracksCsv(c->simulation, c->pixel_size_um * 1e-6);
@@ -54,13 +71,32 @@ void registerReportCommands(CLI::App& app) {
     o.tracks.stuck_window = c->stuck_window_s;
     o.tracks.time_bins = c->time_bins;
     o.occupancy_cell = c->cell_um * 1e-6;
+    compare::SceneSpec spec;
+    spec.mask = c->mask;
+    spec.mask_pixel_size = c->mask_pixel_size_um * 1e-6;
+    spec.grains_dark = c->grains == "dark";
+    spec.y_up = !c->y_down;
+    spec.register_frame = c->register_frame;
+    spec.frame_pixel_size = c->frame_pixel_size_um * 1e-6;
+    spec.registration.min_correlation = c->min_correlation;
+    spec.region_options.throat_width = c->throat_width_um * 1e-6;
+    if (!c->window_origin_um.empty()) {
+      if (!(c->window_pixel_size_um > 0))
+        throw InputError({"(command line)", 0, 0, "--window-pixel-size-um"}, "the imaged window needs its pixel size", {}, "a positive pixel size in um");
+      spec.window = compare::SceneSpec::Window{c->window_origin_um[0] * 1e-6, c->window_origin_um[1] * 1e-6, c->window_rotation_deg * 3.14159265358979323846 / 180,
+                                               c->window_pixel_size_um * 1e-6};
+    }
+    const compare::Comparison result = compare::compareScene(e, s, spec, o);
     StagedDirectory staged(c->out);
-    const compare::Comparison result = compare::compareTracks(e, s, o);
     compare::writeComparison(result, staged.path());
     staged.commit();
     for (const auto& m : result.metrics)
       std::printf("%-20s %12.5g %-6s %s\n", m.name.c_str(), m.value, m.unit.c_str(),
                   m.pass.has_value() ? (*m.pass ? "pass" : "FAIL") : "info");
+    if (result.alignment.contains("dx_px"))
+      std::printf("registration: dx %.3f px, dy %.3f px, rotation %.4f deg, ECC correlation %.4f, RMS residual %.4f\n",
+                  result.alignment["dx_px"].get<double>(), result.alignment["dy_px"].get<double>(), result.alignment["rotation_deg"].get<double>(),
+                  result.alignment["ecc_correlation"].get<double>(), result.alignment["rms_residual"].get<double>());
     std::printf("compare: %s\n", (fs::path(c->out) / "metrics.json").string().c_str());
   });
 

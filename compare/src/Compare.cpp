@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
@@ -42,6 +43,36 @@ Tolerance relative(double f) { return {Tolerance::Kind::relative, f, fmt::format
 
 }  // namespace
 
+RetentionSeries retentionOverTime(const Tracks& tracks, const TrackStats& stats, const TrackOptions& o, const std::vector<double>& times) {
+  std::map<std::int64_t, std::string> state;
+  for (const auto& t : stats.tracks) state[t.particle] = t.state;
+  std::vector<double> seen, stopped;  // first time of each mobile particle; stop time of each retained one
+  for (std::size_t i = 0; i < tracks.points.size();) {
+    std::size_t j = i;
+    while (j < tracks.points.size() && tracks.points[j].particle == tracks.points[i].particle) ++j;
+    const auto it = state.find(tracks.points[i].particle);
+    if (it != state.end() && (it->second == "mobile" || it->second == "deposited")) {
+      seen.push_back(tracks.points[i].t);
+      if (it->second == "deposited") {
+        // The final stationary stretch: points within stuck_distance of the last position.
+        const auto& last = tracks.points[j - 1];
+        std::size_t k = j - 1;
+        while (k > i && std::hypot(tracks.points[k - 1].x - last.x, tracks.points[k - 1].y - last.y) <= o.stuck_distance) --k;
+        stopped.push_back(tracks.points[k].t);
+      }
+    }
+    i = j;
+  }
+  RetentionSeries r;
+  for (double t : times) {
+    const auto n = std::count_if(seen.begin(), seen.end(), [&](double s) { return s <= t; });
+    const auto k = std::count_if(stopped.begin(), stopped.end(), [&](double s) { return s <= t; });
+    r.t.push_back(t);
+    r.fraction.push_back(n > 0 ? double(k) / double(n) : std::nan(""));
+  }
+  return r;
+}
+
 Comparison compareTracks(const Tracks& experiment, const Tracks& simulation, const CompareOptions& o) {
   Comparison c;
   c.experiment = analyseTracks(experiment, o.tracks);
@@ -69,6 +100,16 @@ Comparison compareTracks(const Tracks& experiment, const Tracks& simulation, con
     c.occupancy_simulation = occupancyMap(simulation, o.occupancy_cell, x0, y0, x1 + o.occupancy_cell, y1 + o.occupancy_cell);
     c.iou = intersectionOverUnion(c.occupancy_experiment, c.occupancy_simulation);
   }
+  // Retention against time on a common grid.
+  {
+    const double t0 = std::min(c.experiment.t_begin, c.simulation.t_begin), t1 = std::max(c.experiment.t_end, c.simulation.t_end);
+    std::vector<double> times;
+    const int n = std::max(2, o.tracks.time_bins + 1);
+    for (int i = 0; i < n; ++i) times.push_back(t0 + (t1 - t0) * i / (n - 1));
+    c.retention_experiment = retentionOverTime(experiment, c.experiment, o.tracks, times);
+    c.retention_simulation = retentionOverTime(simulation, c.simulation, o.tracks, times);
+  }
+  c.alignment = o.alignment;
   const auto& e = c.experiment;
   const auto& s = c.simulation;
   c.metrics.push_back(against("mean_speed", s.mean_speed * 1e6, e.mean_speed * 1e6, "um/s", relative(o.speed_tolerance),
@@ -94,6 +135,33 @@ Comparison compareTracks(const Tracks& experiment, const Tracks& simulation, con
     a.reason = "the simulated particles visit the pores the experiment's did";
     c.metrics.push_back(evaluateMetric(a, c.iou));
   }
+  if (o.regions != nullptr) {
+    c.regions_experiment = regionSpeeds(e.steps, *o.regions);
+    c.regions_simulation = regionSpeeds(s.steps, *o.regions);
+    c.region_picture = o.regions->picture();
+    const double px = o.regions->frame.pixel_size;
+    c.regions_info = {{"rule", o.regions->rule},
+                      {"throat_width_threshold_um", o.regions->threshold_px * px * 1e6},
+                      {"pore_body_pixels", cv::countNonZero(o.regions->label == 1)},
+                      {"throat_pixels", cv::countNonZero(o.regions->label == 2)},
+                      {"experiment", c.regions_experiment->toJson()},
+                      {"simulation", c.regions_simulation->toJson()}};
+    auto region = [&](const char* name, double sim, double exp, const char* what) {
+      if (std::isfinite(sim) && std::isfinite(exp) && exp > 0) {
+        c.metrics.push_back(against(name, sim * 1e6, exp * 1e6, "um/s", relative(o.speed_tolerance),
+                                    std::string("mean speed of the steps in ") + what + " (error: relative difference simulation vs experiment)"));
+        c.regions_info[std::string(name) + "_relative_difference"] = (sim - exp) / exp;
+      } else {
+        c.regions_info[std::string(name) + "_missing"] = std::string("no step of ") + (std::isfinite(exp) ? "the simulation" : "the experiment") + " in " + what;
+      }
+    };
+    region("speed_pore_bodies", c.regions_simulation->body_mean, c.regions_experiment->body_mean, "pore bodies");
+    region("speed_throats", c.regions_simulation->throat_mean, c.regions_experiment->throat_mean, "pore throats");
+    const int exp_total = c.regions_experiment->body_steps + c.regions_experiment->throat_steps + c.regions_experiment->grain_steps;
+    if (exp_total > 0)
+      c.metrics.push_back(info("experiment_steps_in_grains", double(c.regions_experiment->grain_steps) / exp_total, "1",
+                               "share of experiment steps inside grains of the mask: large values mean a poor alignment"));
+  }
   c.metrics.push_back(info("speed_wasserstein1", c.wasserstein * 1e6, "um/s", "W1 distance between the speed distributions"));
   c.metrics.push_back(info("speed_ks_statistic", c.ks_statistic, "1", "two-sample Kolmogorov-Smirnov D of the speeds"));
   c.metrics.push_back(info("speed_ks_p_value", c.ks_p_value, "1", "asymptotic p-value of D"));
@@ -111,7 +179,10 @@ nlohmann::json Comparison::toJson() const {
     return nlohmann::json{{"particles", s.particles}, {"immobile", s.immobile}, {"mobile", s.mobile}, {"retained", s.retained},
                           {"steps", s.steps.size()}, {"t_begin_s", s.t_begin}, {"t_end_s", s.t_end}};
   };
-  return {{"schema", "mmval-compare/1"}, {"metrics", m}, {"all_pass", all}, {"experiment", counts(experiment)}, {"simulation", counts(simulation)}};
+  nlohmann::json j{{"schema", "mmval-compare/1"}, {"metrics", m}, {"all_pass", all}, {"experiment", counts(experiment)}, {"simulation", counts(simulation)}};
+  if (!alignment.is_null()) j["alignment"] = alignment;
+  if (!regions_info.is_null()) j["regions"] = regions_info;
+  return j;
 }
 
 std::vector<std::string> writeComparison(const Comparison& c, const std::filesystem::path& dir) {
@@ -135,6 +206,33 @@ std::vector<std::string> writeComparison(const Comparison& c, const std::filesys
   series("median_speed_time_um_per_s.csv", [](const TimeSeries& s) -> const std::vector<double>& { return s.median_speed; });
   series("sigma_x_time_um.csv", [](const TimeSeries& s) -> const std::vector<double>& { return s.sigma_x; });
   series("sigma_y_time_um.csv", [](const TimeSeries& s) -> const std::vector<double>& { return s.sigma_y; });
+  {
+    std::string out = "t_s,experiment,simulation\n";
+    const auto& a = c.retention_experiment;
+    const auto& b = c.retention_simulation;
+    for (std::size_t i = 0; i < a.t.size() && i < b.t.size(); ++i)
+      out += fmt::format("{:.6g},{:.6g},{:.6g}\n", a.t[i], a.fraction[i], b.fraction[i]);
+    writeFileAtomic(dir / "retention_time.csv", out);
+    files.push_back("retention_time.csv");
+  }
+  if (c.regions_experiment && c.regions_simulation) {
+    std::string out = "region,experiment_mean_speed_um_per_s,simulation_mean_speed_um_per_s,relative_difference,experiment_steps,simulation_steps\n";
+    auto row = [&](const char* name, double e, double s, int ne, int ns) {
+      const bool ok = std::isfinite(e) && std::isfinite(s) && e > 0;
+      out += fmt::format("{},{:.6g},{:.6g},{},{},{}\n", name, e * 1e6, s * 1e6, ok ? fmt::format("{:.6g}", (s - e) / e) : "nan", ne, ns);
+    };
+    row("pore_body", c.regions_experiment->body_mean, c.regions_simulation->body_mean, c.regions_experiment->body_steps, c.regions_simulation->body_steps);
+    row("throat", c.regions_experiment->throat_mean, c.regions_simulation->throat_mean, c.regions_experiment->throat_steps, c.regions_simulation->throat_steps);
+    writeFileAtomic(dir / "region_speeds.csv", out);
+    files.push_back("region_speeds.csv");
+  }
+  for (const auto& [picture, name] : {std::pair{&c.region_picture, "regions.png"}, std::pair{&c.registration_picture, "registration.png"}}) {
+    if (picture->empty()) continue;
+    const auto tmp = temporaryPathFor(dir / name);
+    if (!cv::imwrite(tmp.string(), *picture)) throw std::runtime_error("cannot write " + tmp.string());
+    commitTemporary(tmp, dir / name);
+    files.push_back(name);
+  }
   // Speed histograms on common bins.
   double vmax = 0;
   for (const auto* s : {&c.experiment, &c.simulation})

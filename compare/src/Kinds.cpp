@@ -1,6 +1,8 @@
 #include "mmval/compare/Kinds.hpp"
 
 #include "mmval/compare/Compare.hpp"
+#include "mmval/compare/Scene.hpp"
+#include "mmval/core/Error.hpp"
 
 namespace mmval::compare {
 
@@ -12,6 +14,18 @@ void registerCompareKinds(CaseKindRegistry& registry) {
     s.path("inputs.experiment", "Tracks CSV of the experiment (shared tracks schema)");
     s.path("inputs.simulation", "Trajectories CSV of the simulation (shared tracks schema)");
     s.quantity("inputs.pixel_size", "um", "Pixel size, for files with positions in pixels only").def(0.0).nonNegative();
+    s.path("geometry.mask", "Geometry mask image the simulation was built from (enables registration and per-region speeds)").optional();
+    s.quantity("geometry.pixel_size", "um", "Size of one mask pixel").optional().positive();
+    s.choice("geometry.grains", {"dark", "light"}, "Which pixels of the mask are grains").def("dark");
+    s.boolean("geometry.y_up", "Simulation y runs up the image, origin at its lower-left corner (as mmval's solver reads masks); false: y down from the upper-left corner").def(true);
+    s.path("registration.frame", "First video frame or the tracker's background image, registered to the mask with OpenCV ECC (rigid motion)").optional();
+    s.quantity("registration.frame_pixel_size", "um", "Camera pixel size; default: from the experiment tracks (x_um / x), else the mask's").optional().positive();
+    s.quantity("registration.min_correlation", "1", "Smallest ECC correlation accepted as a registration").def(0.6).fraction();
+    s.quantity("window.origin_x", "um", "Imaged window given directly: x of the frame's pixel (0, 0) in the simulation frame").optional();
+    s.quantity("window.origin_y", "um", "Imaged window given directly: y of the frame's pixel (0, 0) in the simulation frame").optional();
+    s.quantity("window.rotation", "deg", "Imaged window's rotation, counter-clockwise").def(0.0);
+    s.quantity("window.pixel_size", "um", "Imaged window's camera pixel size").optional().positive();
+    s.quantity("regions.throat_width", "um", "Pore width at or below which pore space is throat; 0: the median inscribed diameter along the medial axis").def(0.0).nonNegative();
     s.quantity("analysis.immobile_distance", "um", "Particles that never get farther than this from their start are immobile and left out")
         .def("2 um").nonNegative();
     s.quantity("analysis.stuck_distance", "um", "A mobile particle that moves less than this over its final window is retained").def("1 um").nonNegative();
@@ -35,7 +49,27 @@ void registerCompareKinds(CaseKindRegistry& registry) {
     o.retention_tolerance = c.quantity("tolerances.retention");
     o.iou_minimum = c.quantity("tolerances.streamline_iou");
     const double px = c.quantity("inputs.pixel_size");
-    const Comparison cmp = compareTracks(readTracksCsv(c.path("inputs.experiment"), px), readTracksCsv(c.path("inputs.simulation"), px), o);
+    SceneSpec spec;
+    if (c.has("geometry.mask")) {
+      spec.mask = c.path("geometry.mask");
+      if (!c.has("geometry.pixel_size"))
+        throw InputError(c.where("geometry.mask"), "a geometry mask needs geometry.pixel_size", {}, "the size of one mask pixel, e.g. \"2 um\"");
+      spec.mask_pixel_size = c.quantity("geometry.pixel_size");
+    }
+    spec.grains_dark = c.text("geometry.grains") == "dark";
+    spec.y_up = c.flag("geometry.y_up");
+    if (c.has("registration.frame")) spec.register_frame = c.path("registration.frame");
+    if (c.has("registration.frame_pixel_size")) spec.frame_pixel_size = c.quantity("registration.frame_pixel_size");
+    spec.registration.min_correlation = c.quantity("registration.min_correlation");
+    const bool wx = c.has("window.origin_x"), wy = c.has("window.origin_y"), ws = c.has("window.pixel_size");
+    if (wx || wy || ws) {
+      if (!(wx && wy && ws))
+        throw InputError(c.where(wx ? "window.origin_x" : (wy ? "window.origin_y" : "window.pixel_size")), "the imaged window needs origin_x, origin_y and pixel_size together",
+                         {}, "all three keys of [window] (rotation defaults to 0 deg)");
+      spec.window = SceneSpec::Window{c.quantity("window.origin_x"), c.quantity("window.origin_y"), c.quantity("window.rotation"), c.quantity("window.pixel_size")};
+    }
+    spec.region_options.throat_width = c.quantity("regions.throat_width");
+    const Comparison cmp = compareScene(readTracksCsv(c.path("inputs.experiment"), px), readTracksCsv(c.path("inputs.simulation"), px), spec, o);
     RunOutput out;
     out.files = writeComparison(cmp, ctx.out_dir);
     out.evaluated = cmp.metrics;

@@ -1,10 +1,13 @@
 #include "mmval/reports/Report.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -12,6 +15,8 @@
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/reports/Plot.hpp"
+#include "mmval/reports/PaperFigures.hpp"
+#include "mmval/reports/Tables.hpp"
 
 namespace fs = std::filesystem;
 
@@ -211,6 +216,70 @@ int writeReport(const ReportInput& input, const fs::path& out) {
     if (fs::exists(c.dir / "streamlines.png"))
       figures.push_back({c.name + "-streamlines", "Streamline occupancy: experiment | simulation | overlay (magenta experiment, green simulation, white both) (" + c.name + ")", {}, base64(slurp(c.dir / "streamlines.png"))});
   }
+  const fs::path refdir = findReferenceData(input);
+  nlohmann::json extra_metrics = nlohmann::json::array();
+
+  const PermeabilityFigure permeability = permeabilityFigure(input, refdir);
+  if (permeability.plot)
+    addPlot("permeability-time", "Normalised permeability k/k0 against time of every run that wrote permeability.csv; diamonds: the paper's Table 3 reductions.",
+            *permeability.plot);
+  for (const auto& m : permeability.metrics) extra_metrics.push_back(m);
+  const auto& reduction_rows = permeability.rows;
+  if (const auto p = retentionFigure(input, refdir))
+    addPlot("retention-time", "Retained fraction against time: simulations (retained / injected) and experiment vs simulation comparisons (retained / mobile seen so far).", *p);
+
+  // Per comparison: pore bodies and throats of the geometry.
+  for (const auto& c : input.comparisons) {
+    if (fs::exists(c.dir / "regions.png"))
+      figures.push_back({c.name + "-regions", "Pore bodies (blue) and throats (orange) of the geometry mask (" + c.name + ")", {}, base64(slurp(c.dir / "regions.png"))});
+    if (fs::exists(c.dir / "registration.png"))
+      figures.push_back({c.name + "-registration", "Registration check: the experiment's frame with the mask's grain outlines (green) carried by the fitted motion (" + c.name + ")", {},
+                         base64(slurp(c.dir / "registration.png"))});
+  }
+
+  // The paper's tables from the runs present.
+  std::vector<Table> tables;
+  if (auto t = cylinderDragTable(input, refdir)) tables.push_back(*t);
+  if (auto t = chipTable(input, refdir)) tables.push_back(*t);
+  if (!reduction_rows.empty()) {
+    Table t;
+    t.id = "table3";
+    t.title = "Permeability reduction (the paper's Table 3 cases)";
+    t.note = "Runs that wrote permeability.csv; the paper's value when the run name names a Table 3 case (case-I ... case-V).";
+    t.header = {"run", "Table 3 case", "t end (s)", "k/k0 at end", "reduction", "paper", "difference"};
+    t.rows = reduction_rows;
+    tables.push_back(t);
+  }
+  for (const auto& c : input.comparisons) {
+    if (!c.metrics.contains("regions")) continue;
+    const auto& g = c.metrics["regions"];
+    Table t;
+    t.id = "regions-" + c.name;
+    t.title = "Mean speed per region: " + c.name;
+    t.note = g.value("rule", "");
+    t.header = {"region", "experiment (um/s)", "simulation (um/s)", "relative difference", "experiment steps", "simulation steps"};
+    auto cell = [](const nlohmann::json& v) { return v.is_number() ? fmt::format("{:.4g}", v.get<double>()) : std::string("-"); };
+    for (const auto& [label, key, steps, diff] : std::vector<std::array<std::string, 4>>{
+             {"pore bodies", "pore_body_mean_speed_um_per_s", "pore_body_steps", "speed_pore_bodies_relative_difference"},
+             {"throats", "throat_mean_speed_um_per_s", "throat_steps", "speed_throats_relative_difference"}})
+      t.rows.push_back({label, cell(g["experiment"][key]), cell(g["simulation"][key]),
+                        g.contains(diff) ? fmt::format("{:+.1f} %", 100 * g[diff].get<double>()) : "-", cell(g["experiment"][steps]), cell(g["simulation"][steps])});
+    tables.push_back(t);
+  }
+  std::vector<std::string> alignments;
+  for (const auto& c : input.comparisons) {
+    if (!c.metrics.contains("alignment")) continue;
+    const auto& a = c.metrics["alignment"];
+    if (a.contains("dx_px"))
+      alignments.push_back(fmt::format("{}: frame registered to the mask ({}): dx {:.3f} px ({:.3g} um), dy {:.3f} px ({:.3g} um), rotation {:.4f} deg, scale {:g}; "
+                                       "ECC correlation {:.4f}, RMS intensity residual {:.4f}, overlap {:.0f} %",
+                                       c.name, a.value("method", ""), a["dx_px"].get<double>(), a.value("dx_um", 0.0), a["dy_px"].get<double>(), a.value("dy_um", 0.0),
+                                       a["rotation_deg"].get<double>(), a.value("scale", 1.0), a["ecc_correlation"].get<double>(), a["rms_residual"].get<double>(),
+                                       100 * a.value("overlap_fraction", 0.0)));
+    else
+      alignments.push_back(c.name + ": " + a.dump());
+  }
+
   // Images produced by runs (PNG files listed in result.json).
   for (const auto& r : input.summary.results)
     for (const auto& f : r.value("files", nlohmann::json::array())) {
@@ -229,6 +298,13 @@ int writeReport(const ReportInput& input, const fs::path& out) {
       metrics["metrics"].push_back(m);
       if (m["pass"].is_boolean() && !m["pass"].get<bool>()) metrics["all_pass"] = false;
     }
+  for (const auto& m : extra_metrics) metrics["metrics"].push_back(m);
+  metrics["tables"] = nlohmann::json::array();
+  for (const auto& t : tables) metrics["tables"].push_back({{"id", t.id}, {"title", t.title}, {"header", t.header}, {"rows", t.rows}});
+  for (const auto& c : input.comparisons) {
+    if (c.metrics.contains("alignment")) metrics["alignment"][c.name] = c.metrics["alignment"];
+    if (c.metrics.contains("regions")) metrics["regions"][c.name] = c.metrics["regions"];
+  }
   writeFileAtomic(out / "metrics.json", metrics.dump(2) + "\n");
 
   // Markdown.
@@ -240,8 +316,14 @@ int writeReport(const ReportInput& input, const fs::path& out) {
                         m.value("unit", ""), referenceText(m), errorText(m), m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>(),
                         m["pass"].is_null() ? "info" : (m["pass"].get<bool>() ? "pass" : "FAIL"));
   }
+  for (const auto& t : tables) md += t.markdown();
+  if (!alignments.empty()) {
+    md += "\n## Alignment of experiment and simulation\n\n";
+    for (const auto& a : alignments) md += "- " + a + "\n";
+  }
   md += "\n## Figures\n\n";
-  for (const auto& f : figures) md += fmt::format("- {} (`figures/{}.svg`)\n", f.caption, f.id);
+  for (const auto& f : figures)
+    md += f.svg.empty() ? fmt::format("- {} (PNG, inline in index.html)\n", f.caption) : fmt::format("- {} (`figures/{}.svg`)\n", f.caption, f.id);
   writeFileAtomic(out / "report.md", md);
 
   // HTML: the summary page with figures appended before the closing tags.
@@ -257,6 +339,12 @@ int writeReport(const ReportInput& input, const fs::path& out) {
                            escape(m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>()), pass);
     }
     extra += "</table>\n";
+  }
+  for (const auto& t : tables) extra += t.html();
+  if (!alignments.empty()) {
+    extra += "<h2>Alignment of experiment and simulation</h2>\n<ul id=\"alignment\">\n";
+    for (const auto& a : alignments) extra += "<li>" + escape(a) + "</li>\n";
+    extra += "</ul>\n";
   }
   if (!figures.empty()) extra += "<h2>Figures</h2>\n";
   for (const auto& f : figures) {

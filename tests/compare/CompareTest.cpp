@@ -13,6 +13,17 @@
 namespace mmval::compare {
 namespace {
 
+/// A track point without the optional columns.
+TrackPoint pt(std::int64_t frame, std::int64_t particle, double t, double x, double y) {
+  TrackPoint q;
+  q.frame = frame;
+  q.particle = particle;
+  q.t = t;
+  q.x = x;
+  q.y = y;
+  return q;
+}
+
 using namespace mmval::tracking;
 
 TEST(Statistics, PopulationStdOfTheTextbookSample) {
@@ -61,9 +72,9 @@ Tracks scene(double speed_scale = 1.0) {
   for (int f = 0; f <= 15; ++f) {
     const double time = f;
     const double x1 = std::min(f, 10) * 10e-6 * speed_scale;
-    t.points.push_back({f, 1, time, 100e-6 + x1, 50e-6});
-    t.points.push_back({f, 2, time, 20e-6, 20e-6});
-    t.points.push_back({f, 3, time, 60e-6, 10e-6 + f * 20e-6 * speed_scale});
+    t.points.push_back(pt(f, 1, time, 100e-6 + x1, 50e-6));
+    t.points.push_back(pt(f, 2, time, 20e-6, 20e-6));
+    t.points.push_back(pt(f, 3, time, 60e-6, 10e-6 + f * 20e-6 * speed_scale));
   }
   std::stable_sort(t.points.begin(), t.points.end(), [](const TrackPoint& a, const TrackPoint& b) {
     return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
@@ -88,8 +99,8 @@ TEST(TrackMetrics, DispersionIsThePopulationStdPerFrame) {
   Tracks t;
   // Two particles 2 um apart in x at every frame: sigma_x = 1 um, sigma_y = 0.
   for (int f = 0; f < 5; ++f) {
-    t.points.push_back({f, 1, f * 0.1, 0.0 + f * 5e-6, 0.0});
-    t.points.push_back({f, 2, f * 0.1, 2e-6 + f * 5e-6, 0.0});
+    t.points.push_back(pt(f, 1, f * 0.1, 0.0 + f * 5e-6, 0.0));
+    t.points.push_back(pt(f, 2, f * 0.1, 2e-6 + f * 5e-6, 0.0));
   }
   std::stable_sort(t.points.begin(), t.points.end(), [](const TrackPoint& a, const TrackPoint& b) {
     return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
@@ -101,8 +112,11 @@ TEST(TrackMetrics, DispersionIsThePopulationStdPerFrame) {
 
 TEST(Compare, IdenticalTracksAgreeOnEveryMetric) {
   const Comparison c = compareTracks(scene(), scene(), CompareOptions{});
-  for (const auto& m : c.metrics)
-    if (m.pass) EXPECT_TRUE(*m.pass) << m.name;
+  for (const auto& m : c.metrics) {
+    if (m.pass) {
+      EXPECT_TRUE(*m.pass) << m.name;
+    }
+  }
   EXPECT_DOUBLE_EQ(c.iou, 1.0);
   EXPECT_DOUBLE_EQ(c.ks_statistic, 0.0);
   EXPECT_DOUBLE_EQ(c.wasserstein, 0.0);
@@ -128,6 +142,77 @@ TEST(Compare, WritesFilesAndReadsBackTheSchema) {
   ASSERT_EQ(back.points.size(), scene().points.size());
   EXPECT_NEAR(back.points[5].x, scene().points[5].x, 1e-11);
   EXPECT_NEAR(back.points[5].x_px, scene().points[5].x / 0.5e-6, 1e-3);
+}
+
+/// Particle i moves along x at (base + i) um/s for 20 frames 0.1 s apart, on its own row.
+Tracks constantSpeeds(int particles, double base_um_s) {
+  Tracks t;
+  for (int i = 0; i < particles; ++i)
+    for (int f = 0; f < 20; ++f) t.points.push_back(pt(f, i, 0.1 * f, (base_um_s + i) * 1e-6 * 0.1 * f, 30e-6 * i));
+  return t;
+}
+
+const MetricResult& metricNamed(const Comparison& c, const std::string& name) {
+  const auto it = std::find_if(c.metrics.begin(), c.metrics.end(), [&](const MetricResult& m) { return m.name == name; });
+  EXPECT_NE(it, c.metrics.end()) << name;
+  return *it;
+}
+
+TEST(Compare, IdenticalSetsHaveZeroDistancesAndZeroErrors) {
+  const Comparison c = compareTracks(constantSpeeds(20, 5), constantSpeeds(20, 5), CompareOptions{});
+  for (const auto& m : c.metrics) {
+    if (!m.pass) continue;
+    EXPECT_TRUE(*m.pass) << m.name;
+    if (m.tolerance != "interval") {
+      EXPECT_NEAR(m.error, 0.0, 1e-12) << m.name;
+    }
+  }
+  EXPECT_NEAR(metricNamed(c, "speed_wasserstein1").value, 0.0, 1e-12);
+  EXPECT_NEAR(metricNamed(c, "speed_ks_statistic").value, 0.0, 1e-12);
+  EXPECT_NEAR(metricNamed(c, "speed_ks_p_value").value, 1.0, 1e-12);
+  EXPECT_NEAR(metricNamed(c, "streamline_iou").value, 1.0, 1e-12);
+}
+
+TEST(Compare, ShiftedSpeedDistributionGivesTheShiftAsWasserstein) {
+  // Speeds 5..24 um/s against 8..27 um/s, 19 steps each: W1 is the 3 um/s shift;
+  // the CDFs differ by at most 3 particles of 20, KS D = 0.15.
+  const Comparison c = compareTracks(constantSpeeds(20, 5), constantSpeeds(20, 8), CompareOptions{});
+  EXPECT_NEAR(c.wasserstein, 3e-6, 1e-12);
+  EXPECT_NEAR(metricNamed(c, "speed_wasserstein1").value, 3.0, 1e-6);
+  EXPECT_NEAR(c.ks_statistic, 0.15, 1e-12);
+  EXPECT_NEAR(metricNamed(c, "mean_speed").value, 17.5, 1e-6);
+  EXPECT_NEAR(metricNamed(c, "mean_speed").reference->value, 14.5, 1e-6);
+}
+
+TEST(Compare, KnownRetentionIsReportedExactly) {
+  // Seven mobile particles moving 10 um/s; in the experiment three stop at t = 1 s
+  // (and stay put for 1.9 s), in the simulation four do.
+  auto scene7 = [](int stopping) {
+    Tracks t;
+    for (int p = 0; p < 7; ++p)
+      for (int f = 0; f <= 29; ++f) {
+        const double time = 0.1 * f;
+        const double x = 10e-6 * (p < stopping ? std::min(time, 1.0) : time);
+        t.points.push_back(pt(f, p, time, x, 40e-6 * p));
+      }
+    return t;
+  };
+  CompareOptions o;
+  o.tracks.stuck_window = 1.0;
+  const Comparison c = compareTracks(scene7(3), scene7(4), o);
+  EXPECT_EQ(c.experiment.mobile, 7);
+  EXPECT_EQ(c.experiment.retained, 3);
+  EXPECT_EQ(c.simulation.retained, 4);
+  const MetricResult& r = metricNamed(c, "retention_fraction");
+  EXPECT_NEAR(r.value, 4.0 / 7.0, 1e-12);
+  EXPECT_NEAR(r.reference->value, 3.0 / 7.0, 1e-12);
+  EXPECT_NEAR(std::abs(r.error), 1.0 / 7.0, 1e-12);
+  EXPECT_FALSE(*r.pass);  // 0.143 beyond the 0.05 absolute tolerance
+  // Over time: nobody retained before t = 1 s, 3/7 from then on.
+  const auto& series = c.retention_experiment;
+  ASSERT_FALSE(series.t.empty());
+  for (std::size_t i = 0; i < series.t.size(); ++i)
+    EXPECT_NEAR(series.fraction[i], series.t[i] < 1.0 - 1e-9 ? 0.0 : 3.0 / 7.0, 1e-12) << "t = " << series.t[i];
 }
 
 TEST(TracksCsv, BadInputNamesFileLineAndColumn) {

@@ -15,6 +15,7 @@
 #include "mmval/compare/Compare.hpp"
 #include "mmval/reports/Plot.hpp"
 #include "mmval/reports/Report.hpp"
+#include "mmval/reports/Tables.hpp"
 
 namespace mmval::reports {
 namespace {
@@ -27,7 +28,13 @@ Tracks drift(double speed) {
   for (int p = 0; p < 10; ++p)
     for (int f = 0; f < 40; ++f) {
       const int moving = (p == 0) ? std::min(f, 20) : f;
-      t.points.push_back({f, p, 0.1 * f, 10e-6 + moving * speed * 0.1, 5e-6 + p * 8e-6});
+      TrackPoint q;
+      q.frame = f;
+      q.particle = p;
+      q.t = 0.1 * f;
+      q.x = 10e-6 + moving * speed * 0.1;
+      q.y = 5e-6 + p * 8e-6;
+      t.points.push_back(q);
     }
   return t;
 }
@@ -87,6 +94,114 @@ TEST(Report, RendersInHeadlessChromium) {
   EXPECT_THAT(dom, ::testing::HasSubstr(fmt::format("{:.4g}", m.value)));
   EXPECT_THAT(dom, ::testing::HasSubstr("streamline_iou"));
   EXPECT_THAT(dom, ::testing::HasSubstr("<svg"));
+}
+
+/// A minimal result.json of a run in `dir` (what `mmval run` writes, reduced).
+void fakeRun(const fs::path& dir, const std::string& name, const std::string& kind, nlohmann::json metrics, nlohmann::json details = nlohmann::json::object()) {
+  fs::create_directories(dir);
+  nlohmann::json r{{"case", {{"name", name}, {"kind", kind}, {"hash", "0123456789abcdef"}, {"file", std::string(MMVAL_SOURCE_DIR) + "/cases/" + name + ".toml"}}},
+                   {"cost", {{"wall_seconds", 1.5}, {"peak_memory_bytes", 1048576.0}}},
+                   {"metrics", metrics},
+                   {"all_pass", true},
+                   {"details", details},
+                   {"files", nlohmann::json::array()},
+                   {"provenance", {{"mmval_version", "test"}, {"git_hash", "test"}, {"compiler", "test"}, {"build_type", "test"}, {"host", "test"}}}};
+  std::ofstream(dir / "result.json") << r.dump(2);
+}
+
+nlohmann::json info(const std::string& name, double value, const std::string& unit) {
+  return {{"name", name}, {"value", value}, {"unit", unit}, {"reference", nullptr}, {"error", nullptr}, {"tolerance", nullptr}, {"pass", nullptr}};
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream b;
+  b << in.rdbuf();
+  return b.str();
+}
+
+TEST(Report, PaperTablesPermeabilityAndRetentionFromTheRunsPresent) {
+  const fs::path dir = fs::path(MMVAL_BINARY_DIR) / "test-output" / "report-tables";
+  fs::remove_all(dir);
+  // A Table 3 run whose permeability falls linearly to 0.8 k0 over 100 s.
+  fakeRun(dir / "runs" / "fines-case-III", "fines-case-III", "particles-micromodel", nlohmann::json::array());
+  {
+    std::ofstream f(dir / "runs" / "fines-case-III" / "permeability.csv");
+    f << "t_s,k_m2,k_D,k_over_k0,resolves\n";
+    for (int i = 0; i <= 10; ++i) f << fmt::format("{},{},{},{},true\n", 10 * i, 4e-12 * (1 - 0.02 * i), 4.0 * (1 - 0.02 * i), 1 - 0.02 * i);
+  }
+  // A coupled run retaining 40 % of what it injects.
+  fakeRun(dir / "runs" / "coupled", "coupled", "particles-micromodel", nlohmann::json::array());
+  {
+    std::ofstream f(dir / "runs" / "coupled" / "retention.csv");
+    f << "t_s,injected,retained,left,inside\n";
+    for (int i = 1; i <= 10; ++i) f << fmt::format("{},{},{},{},{}\n", 10 * i, 100 * i, 40 * i, 50 * i, 10 * i);
+  }
+  // Cylinder at Re 20: ours and OpenFOAM's; a chip-permeability run.
+  fakeRun(dir / "runs" / "cyl20", "cyl20", "cylinder-channel", nlohmann::json::array({info("c_D (Dennis & Chang)", 2.10, "1")}),
+          {{"Re", 20.0}, {"solver", "mmval simulate"}});
+  fakeRun(dir / "runs" / "cyl20-openfoam", "cyl20-openfoam", "cylinder-channel", nlohmann::json::array({info("c_D (paper model)", 2.2366, "1")}),
+          {{"Re", 20.0}, {"solver", "openfoam v1912"}});
+  // A Schaefer-Turek run also has Re and c_D but is not the paper's set-up: not in Table 1.
+  fakeRun(dir / "runs" / "st", "st", "cylinder-channel", nlohmann::json::array({info("c_D", 5.58, "1")}), {{"Re", 20.0}});
+  fakeRun(dir / "runs" / "chip", "chip", "image-permeability",
+          nlohmann::json::array({info("permeability", 2.7, "D"), info("porosity_total", 0.61, "1"), info("porosity_connected", 0.6, "1")}));
+  const ReportInput input = collect({dir});
+  ASSERT_EQ(input.summary.results.size(), 6u);
+  writeReport(input, dir / "report");
+  const std::string md = slurp(dir / "report" / "report.md");
+  // Table 1: the paper's columns at Re 20 (2.2, 2.04, 2.06, 2.16, 2.13), Dennis & Chang 2.045, ours and OpenFOAM.
+  EXPECT_THAT(md, ::testing::HasSubstr("| 20 | 2.2 | 2.04 | 2.06 | 2.16 | 2.13 | 2.045 | 2.1 | -1.4 % | 2.237 | +5.0 % |"));
+  EXPECT_THAT(md, ::testing::HasSubstr("| 100 | 1.4 | 1.39 | 1.3 | 1.32 | 1.38 | - | not run | - | not run | - |"));
+  // Table 2: measured 2.5 D / 0.58, paper model 2.65 D / 0.62, ours.
+  EXPECT_THAT(md, ::testing::HasSubstr("| permeability (D) | 2.5 | 2.65 | 2.7 |"));
+  EXPECT_THAT(md, ::testing::HasSubstr("| porosity | 0.58 | 0.62 | 0.61 (0.6) |"));
+  // Table 3 case III: 20 % reduction against the paper's 23.2 %.
+  EXPECT_THAT(md, ::testing::HasSubstr("| fines-case-III | III | 100 | 0.8000 | 20.00 % | 23.2 % | -3.20 points |"));
+  const auto metrics = nlohmann::json::parse(slurp(dir / "report" / "metrics.json"));
+  bool found = false;
+  for (const auto& m : metrics["metrics"])
+    if (m["name"] == "permeability_reduction" && m["case"] == "fines-case-III") {
+      found = true;
+      EXPECT_NEAR(m["value"].get<double>(), 20.0, 1e-9);
+      EXPECT_NEAR(m["reference"].get<double>(), 23.2, 1e-12);
+    }
+  EXPECT_TRUE(found);
+  EXPECT_EQ(metrics["tables"].size(), 3u);
+  if (gnuplotAvailable()) {
+    EXPECT_TRUE(fs::exists(dir / "report" / "figures" / "permeability-time.svg"));
+    EXPECT_TRUE(fs::exists(dir / "report" / "figures" / "retention-time.svg"));
+    EXPECT_THAT(slurp(dir / "report" / "figures" / "permeability-time.svg"), ::testing::HasSubstr("case III: -23.2 %"));
+  }
+}
+
+TEST(Report, Table3CaseFromTheRunName) {
+  EXPECT_EQ(table3CaseOf("particles-table3-iii", nullptr), "III");
+  EXPECT_EQ(table3CaseOf("particles-table3-i", nullptr), "I");
+  EXPECT_EQ(table3CaseOf("particles-table3-iv", nullptr), "IV");
+  EXPECT_EQ(table3CaseOf("fines_case_V", nullptr), "V");
+  EXPECT_EQ(table3CaseOf("particles-micromodel", nullptr), "");
+  EXPECT_EQ(table3CaseOf("case-vi", nullptr), "");
+  EXPECT_EQ(table3CaseOf("anything", nlohmann::json{{"table3_case", "II"}}), "II");
+  const fs::path ref = fs::path(MMVAL_SOURCE_DIR) / "reference-data";
+  EXPECT_NEAR(*table3Reduction(ref, "I"), 3.2, 1e-12);
+  EXPECT_NEAR(*table3Reduction(ref, "II"), 5.9, 1e-12);
+  EXPECT_FALSE(table3Reduction(ref, "IV").has_value());  // the paper gives no case label for its 5 um-only result
+}
+
+TEST(Report, NoTablesWithoutTheirRuns) {
+  // Only an experiment-vs-simulation comparison: no paper tables, no permeability or retention-from-runs figure.
+  const fs::path dir = fs::path(MMVAL_BINARY_DIR) / "test-output" / "report-bare";
+  fs::remove_all(dir);
+  compare::CompareOptions o;
+  o.tracks.time_bins = 5;
+  compare::writeComparison(compare::compareTracks(drift(20e-6), drift(20e-6), o), dir / "compare" / "same");
+  writeReport(collect({dir}), dir / "report");
+  const std::string md = slurp(dir / "report" / "report.md");
+  EXPECT_THAT(md, ::testing::Not(::testing::HasSubstr("Table 1")));
+  EXPECT_THAT(md, ::testing::Not(::testing::HasSubstr("Table 2")));
+  EXPECT_THAT(md, ::testing::Not(::testing::HasSubstr("permeability-time")));
+  EXPECT_TRUE(fs::exists(dir / "compare" / "same" / "retention_time.csv"));
 }
 
 }  // namespace

@@ -1,11 +1,13 @@
 // Experiment vs simulation, metric by metric, on the shared tracks schema.
 #pragma once
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "mmval/compare/Regions.hpp"
 #include "mmval/tracking/TrackMetrics.hpp"
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Tracks.hpp"
@@ -25,6 +27,17 @@ struct CompareOptions {
   double dispersion_tolerance = 0.25; ///< relative, time-averaged sigma_x, sigma_y
   double retention_tolerance = 0.05;  ///< absolute, retained fraction
   double iou_minimum = 0.5;           ///< streamline occupancy overlap
+  /// Pore bodies and throats of the geometry (both track sets in its frame);
+  /// null: no per-region speeds.
+  const RegionMap* regions = nullptr;
+  /// How the experiment was put in the simulation frame (recorded in metrics.json).
+  nlohmann::json alignment;
+};
+
+/// Retained fraction against time: particles retained by t (their final
+/// stationary window began at or before t) over mobile particles seen by t.
+struct RetentionSeries {
+  std::vector<double> t, fraction;  ///< s, 1
 };
 
 struct Comparison {
@@ -32,14 +45,26 @@ struct Comparison {
   double wasserstein = 0, ks_statistic = 0, ks_p_value = 1;
   double iou = 0;
   cv::Mat occupancy_experiment, occupancy_simulation;
+  RetentionSeries retention_experiment, retention_simulation;
+  std::optional<RegionSpeeds> regions_experiment, regions_simulation;
+  cv::Mat region_picture;  ///< BGR, when regions were classified
+  cv::Mat registration_picture;  ///< BGR frame with the registered grain outlines, when registered
+  nlohmann::json regions_info, alignment;
   std::vector<MetricResult> metrics;
   nlohmann::json toJson() const;
 };
 
+/// Retention over time on `times` (s) of the mobile tracks of `stats`.
+RetentionSeries retentionOverTime(const Tracks& tracks, const TrackStats& stats, const TrackOptions& options,
+                                  const std::vector<double>& times);
+
 Comparison compareTracks(const Tracks& experiment, const Tracks& simulation, const CompareOptions& options);
 
-/// Writes metrics.json, velocity_time.csv, dispersion_time.csv, speed_histogram.csv
-/// and streamlines.png (experiment | simulation | overlay) into `dir`.
+/// Writes metrics.json, the time series (mean_speed_time_um_per_s.csv,
+/// median_speed_time_um_per_s.csv, sigma_x_time_um.csv, sigma_y_time_um.csv,
+/// retention_time.csv), speed_histogram.csv, streamlines.png (experiment |
+/// simulation | overlay), with regions region_speeds.csv and regions.png, and
+/// registration.png when the experiment was registered to the mask.
 std::vector<std::string> writeComparison(const Comparison& c, const std::filesystem::path& dir);
 
 }  // namespace mmval::compare

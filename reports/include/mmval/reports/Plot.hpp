@@ -14,11 +14,19 @@ struct Series {
   std::string style = "linespoints";  ///< gnuplot "with" style: lines, points, linespoints, boxes, steps
 };
 
+/// A labelled point drawn on the plot (e.g. a paper's value).
+struct Label {
+  double x = 0, y = 0;
+  std::string text;
+};
+
 struct Plot {
   std::string title, xlabel, ylabel;
   bool logx = false, logy = false;
   std::vector<Series> series;
   int width = 640, height = 400;
+  std::vector<Label> labels = {};
+  std::string yrange = {};  ///< gnuplot range, e.g. "[0:1]"; empty: automatic
 };
 
 /// True when gnuplot can be run.

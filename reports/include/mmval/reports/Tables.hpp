@@ -1,0 +1,52 @@
+// The paper's tables rebuilt from the runs present, next to the paper's own
+// numbers (reference-data/): Table 1 (cylinder C_d against Re), Table 2
+// (chip permeability and porosity), and the Table 3 permeability reductions.
+// Each builder returns nothing when no run of its kind is in the report, so a
+// report without that run type simply has no such table.
+#pragma once
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "mmval/reports/Report.hpp"
+
+namespace mmval::reports {
+
+struct Table {
+  std::string id, title, note;
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+  std::string markdown() const;
+  std::string html() const;
+};
+
+/// reference-data/ beside the case files of the runs (case.file/../..), else
+/// the source tree's; empty when neither exists.
+std::filesystem::path findReferenceData(const ReportInput& input);
+
+/// "I".."V" when the run is one of the paper's Table 3 cases: details.table3_case,
+/// or a run name holding "case-III", "case_iii", "table3-III" (any case; the
+/// numeral ends the name or is followed by '-', '_' or '.'); "" otherwise.
+std::string table3CaseOf(const std::string& run_name, const nlohmann::json& details);
+
+/// The paper's permeability reduction (percent) of a Table 3 case, if known.
+std::optional<double> table3Reduction(const std::filesystem::path& reference_dir, const std::string& roman);
+
+/// Table 1: C_d against Re, paper columns ([66]-[69], the paper's model),
+/// Dennis & Chang, ours and OpenFOAM where they ran. Runs count when they have
+/// details.Re and a metric "c_D (...)" judged against the paper's model or
+/// Dennis & Chang (as the cylinder-paper-re* cases are); none: no table.
+std::optional<Table> cylinderDragTable(const ReportInput& input, const std::filesystem::path& reference_dir);
+
+/// Table 2: chip permeability and porosity, measured and the paper's model,
+/// with every image-permeability run present.
+std::optional<Table> chipTable(const ReportInput& input, const std::filesystem::path& reference_dir);
+
+/// A run's time series read from a CSV with a header: column name -> values.
+/// Empty map when the file is missing; throws InputError on a malformed file.
+std::map<std::string, std::vector<double>> readCsvColumns(const std::filesystem::path& file);
+
+}  // namespace mmval::reports
