@@ -5,7 +5,12 @@
 //
 //   BM_Pipeline/<scene>/<threads>  whole tracker from PNG files on disk (decode,
 //                                  detection, linking), no background removal
-//   BM_Detect/<scene>              detection of one in-memory frame
+//   BM_Detect/<scene>/<deblend>    detection of one in-memory frame, with the joint fit of
+//                                  overlapping spots (the default) or without it
+//
+// Threads: with an image folder each worker reads (decodes) and detects whole frames;
+// the calling thread links in order. The machine's load changes real times a lot: compare
+// builds back to back, and read the CPU column too.
 //   BM_Link/<scene>/<linker>       linking of the scene's detections (0 global, 1 paper)
 #include <benchmark/benchmark.h>
 
@@ -86,13 +91,14 @@ void BM_Detect(benchmark::State& state) {
   cv::Mat f;
   int i = 0;
   src.next(f, i);
-  const TrackConfig c = config(1);
+  TrackConfig c = config(1);
+  c.detect.deblend = state.range(1) != 0;
   std::size_t n = 0;
   for (auto _ : state) n = detect(f, {}, Polarity::dark, c.detect).size();
   state.counters["particles"] = static_cast<double>(n);
   state.counters["frames_per_s"] = benchmark::Counter(1, benchmark::Counter::kIsIterationInvariantRate);
 }
-BENCHMARK(BM_Detect)->Arg(0)->Arg(1)->ArgName("scene")->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Detect)->ArgsProduct({{0, 1}, {1, 0}})->ArgNames({"scene", "deblend"})->Unit(benchmark::kMillisecond);
 
 void BM_Link(benchmark::State& state) {
   const auto& frames = detections(static_cast<int>(state.range(0)));

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 
@@ -55,38 +56,45 @@ SynthOptions micromodelScene() {
 }
 
 TEST(TrackingValidation, MicromodelSnr4MeetsIssueTargets) {
-  SynthResult truth;
-  const fs::path dir = render("validation-micromodel", micromodelScene(), truth);
-  const double fastest = fastestStep(truth.truth);
-  for (Linker method : {Linker::global, Linker::paper}) {
-    TrackConfig c;
-    c.detect.find_stuck = true;
-    c.link.method = method;
-    FrameSource src((dir / "frames").string());
-    const TrackRun run = runTracker(src, c, true);
-    const Scores s = scoreTracks(truth.truth, run.tracks);
-    const TrackStats stats = analyseTracks(run.tracks, c.analysis);
-    const double recall = immobileRecall(truth.truth, truth.immobile_ids, run.tracks, stats);
-    std::printf("micromodel SNR 4, %s linker (fastest truth step %.2f px/frame): JSC %.4f JSC_theta %.4f alpha %.4f beta %.4f RMSE %.3f px "
-                "immobile recall %.3f (%d stuck found)\n",
-                method == Linker::global ? "global" : "paper", fastest, s.jaccard_points, s.jaccard_tracks, s.alpha, s.beta, s.rmse_px, recall,
-                run.stuck_found);
-    if (method != Linker::global) continue;  // the paper's rule is reported, the targets are the global linker's
-    // Issue 3 asks for JSC >= 0.95, JSC_theta >= 0.85, RMSE <= 0.3 px, immobile recall
-    // >= 0.95. Met: JSC_theta (measured 0.936). Not yet met, guarded here at the measured
-    // level minus a small margin so they cannot regress (the gap is in the issue notes):
-    //  - RMSE (measured 0.43 px; 0.375 px over the moving particles' detections alone): the Cramer-Rao bound for a Gaussian spot's position at
-    //    peak SNR 4 is sqrt(2) / (4 sqrt(pi / 2)) = 0.28 px whatever the spot size, so 0.3
-    //    px asks for 1.06x the bound; our masked centroid (= least-squares position) gives
-    //    1.3x on single frames. Smoothing along tracks is the way below it.
-    //  - JSC (0.938) and immobile recall (0.89): 8 of the 75 stuck particles are missed
-    //    in the median background (next to grains, or touching another particle).
-    EXPECT_GE(s.jaccard_points, 0.92);
-    EXPECT_GE(s.jaccard_tracks, 0.85);
-    EXPECT_LE(s.rmse_px, 0.45);
-    EXPECT_GE(recall, 0.88);
+  // The case's seed (31) with both linkers, then two more seeds with the default (global)
+  // linker, so the targets are not met by one lucky video.
+  for (const std::uint64_t seed : {31u, 7u, 11u}) {
+    SynthOptions o = micromodelScene();
+    o.seed = seed;
+    SynthResult truth;
+    const fs::path dir = render("validation-micromodel", o, truth);
+    const double fastest = fastestStep(truth.truth);
+    for (Linker method : {Linker::global, Linker::paper}) {
+      if (seed != 31 && method != Linker::global) continue;
+      TrackConfig c;
+      c.detect.find_stuck = true;
+      c.link.method = method;
+      FrameSource src((dir / "frames").string());
+      const TrackRun run = runTracker(src, c, true);
+      const Scores s = scoreTracks(truth.truth, run.tracks);
+      const TrackStats stats = analyseTracks(run.tracks, c.analysis);
+      const double recall = immobileRecall(truth.truth, truth.immobile_ids, run.tracks, stats);
+      std::printf("micromodel SNR 4, seed %d, %s linker (fastest truth step %.2f px/frame): JSC %.4f JSC_theta %.4f alpha %.4f beta %.4f "
+                  "RMSE %.3f px immobile recall %.3f (%d stuck found)\n",
+                  static_cast<int>(seed), method == Linker::global ? "global" : "paper", fastest, s.jaccard_points, s.jaccard_tracks, s.alpha,
+                  s.beta, s.rmse_px, recall, run.stuck_found);
+      EXPECT_GE(fastest, 4.5);  // the scene really reaches ~5 px/frame
+      if (method != Linker::global) continue;  // the paper's rule is reported, the targets are the global linker's
+      // Issue 3's targets: JSC >= 0.95, JSC_theta >= 0.85, immobile recall >= 0.95 (met:
+      // measured 0.973-0.979, 0.952-0.961, 0.960-0.987 over the three seeds).
+      EXPECT_GE(s.jaccard_points, 0.95);
+      EXPECT_GE(s.jaccard_tracks, 0.85);
+      EXPECT_GE(recall, 0.95);
+      // RMSE <= 0.3 px is not met: measured 0.31-0.32 px. The Cramer-Rao bound for one
+      // Gaussian spot's position at peak SNR 4 (rendered sigma 1.3 px, summed over the
+      // pixels) is 0.282 px in 2D, 0.288 px with the noise of a 40-frame median
+      // background; our isolated moving particles reach 0.323 px (1.12x the bound). The
+      // rest is pairs travelling closer than ~2 px, which no single-frame estimator
+      // separates at this SNR (two spots 2 px apart fit one spot worse by only 11 noise
+      // variances). Guarded at the measured level plus a small margin.
+      EXPECT_LE(s.rmse_px, 0.34);
+    }
   }
-  EXPECT_GE(fastest, 4.5);  // the scene really reaches ~5 px/frame
 }
 
 TEST(TrackingValidation, BrownianDiffusionFromAVideo) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <regex>
+#include <stdexcept>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -120,34 +121,56 @@ bool FrameSource::next(cv::Mat& frame, int& index) {
   if (m_kind == Kind::video) {
     // Sequential read; skip frames between steps.
     for (int k = 0; k < (m_pos == 0 ? 1 : m_range.step); ++k)
-      if (!readRaw(index, raw)) return false;
+      if (!readRaw(index, raw))
+        // The container announced more frames than can be decoded: a truncated or
+        // damaged file. Say so rather than stop quietly with part of the video.
+        throw InputError({m_input, 0, 0, {}}, "the video ends early (truncated or damaged): frame " + std::to_string(index) + " cannot be decoded",
+                         std::to_string(index) + " of " + std::to_string(m_total) + " frames",
+                         "a complete file, or inputs.last_frame below " + std::to_string(index) + " to use the readable part");
   } else if (!readRaw(index, raw)) {
     return false;
   }
   ++m_pos;
-  if (raw.depth() == CV_16U) {
+  if (raw.depth() == CV_16U && m_range16[1] <= m_range16[0]) {
     // Scientific cameras put 10-14 bit data (often a narrow band of it) in 16-bit
     // containers: stretch by the first frame's range, the same for every frame.
     cv::Mat grey = raw;
     if (raw.channels() != 1) cv::cvtColor(raw, grey, cv::COLOR_BGR2GRAY);
-    if (m_range16[1] <= m_range16[0]) {
-      cv::minMaxLoc(grey, &m_range16[0], &m_range16[1]);
-      if (m_range16[1] <= m_range16[0]) m_range16[1] = m_range16[0] + 1;
-    }
-    grey.convertTo(frame, CV_32F, 1.0 / (m_range16[1] - m_range16[0]), -m_range16[0] / (m_range16[1] - m_range16[0]));
+    cv::minMaxLoc(grey, &m_range16[0], &m_range16[1]);
+    if (m_range16[1] <= m_range16[0]) m_range16[1] = m_range16[0] + 1;
+  }
+  if (m_size.area() == 0) m_size = raw.size();
+  finish(raw, index, frame);
+  return true;
+}
+
+void FrameSource::readAt(int pos, cv::Mat& frame, int& index) const {
+  if (m_kind != Kind::images) throw std::logic_error("FrameSource::readAt: only image files can be read out of order");
+  index = m_range.first + pos * m_range.step;
+  if (pos < 0 || pos >= m_count || index >= static_cast<int>(m_files.size())) throw std::out_of_range("FrameSource::readAt");
+  const cv::Mat raw = cv::imread(m_files[index], cv::IMREAD_UNCHANGED);
+  if (raw.empty()) throw InputError({m_files[index], 0, 0, {}}, "cannot read the image", {}, "PNG, TIFF or JPEG, 8 or 16 bit");
+  finish(raw, index, frame);
+}
+
+void FrameSource::finish(const cv::Mat& raw, int index, cv::Mat& frame) const {
+  const std::string name = m_kind == Kind::images ? m_files[index] : m_input;
+  if (raw.size() != m_size)
+    throw InputError({name, 0, 0, {}}, "frame size differs from the first frame", std::to_string(raw.cols) + " x " + std::to_string(raw.rows),
+                     std::to_string(m_size.width) + " x " + std::to_string(m_size.height));
+  if (raw.depth() == CV_16U) {
+    cv::Mat grey = raw;
+    if (raw.channels() != 1) cv::cvtColor(raw, grey, cv::COLOR_BGR2GRAY);
+    const double lo = m_range16[0], hi = m_range16[1] > m_range16[0] ? m_range16[1] : m_range16[0] + 1;
+    grey.convertTo(frame, CV_32F, 1.0 / (hi - lo), -lo / (hi - lo));
   } else {
     frame = toFloatGrey(raw);
   }
-  if (m_size.area() == 0) m_size = frame.size();
-  if (frame.size() != m_size)
-    throw InputError({m_kind == Kind::images ? m_files[index] : m_input, 0, 0, {}}, "frame size differs from the first frame",
-                     std::to_string(frame.cols) + " x " + std::to_string(frame.rows), std::to_string(m_size.width) + " x " + std::to_string(m_size.height));
   if (m_roi) {
     const cv::Rect r = *m_roi & cv::Rect(0, 0, frame.cols, frame.rows);
     if (r.area() == 0) throw InputError({m_input, 0, 0, "roi"}, "region of interest lies outside the frame");
     frame = frame(r).clone();
   }
-  return true;
 }
 
 }  // namespace mmval::tracking

@@ -33,11 +33,15 @@ void declareTrackerKeys(Schema& s) {
   s.real("detect.refine_sigma", "Sigma of the Gaussian mask of the intensity centroid, px (0: from the spots' size)").def(0).min(0).max(20);
   s.real("detect.min_mass", "Smallest integrated signal within refine_radius, fraction of full scale x px^2 (0: no filter)").def(0).min(0);
   s.real("detect.min_snr", "Smallest peak over the frame's robust noise floor (0: no filter)").def(5).min(0);
+  s.boolean("detect.deblend",
+            "peaks + intensity: fit overlapping spots jointly, look for spots hidden beside brighter ones, split blobs two spots fit "
+            "significantly better than one").def(true);
   s.boolean("detect.find_stuck", "Find particles stuck all video long in the median background (black/top-hat spots the size of moving ones)").def(false);
   s.integer("detect.threads", "Frames detected in parallel (linking stays in frame order)").def(1).min(1).max(256);
   s.choice("link.method", {"global", "paper"}, "Linker: optimal assignment with gap closing, or the paper's distance + angle rule").def("global");
   s.real("link.search_radius", "Search radius, px per frame").def(8).min(0.1);
   s.integer("link.memory", "Frames a particle may be missed (gap closing)").def(2).min(0).max(100);
+  s.real("link.velocity_smoothing", "Weight of the previous velocity in the prediction's exponential filter (0: last step only)").def(0.7).min(0).max(0.95);
   s.quantity("analysis.immobile_distance", "um", "Particles that never move farther are immobile (left out of velocities)").def("2 um").nonNegative();
   s.quantity("analysis.stuck_distance", "um", "Moving less than this over the final window counts as deposited").def("1 um").nonNegative();
   s.quantity("analysis.stuck_window", "s", "That final window").def("2 s").positive();
@@ -58,6 +62,7 @@ TrackConfig trackerConfig(const Case& c) {
   t.detect.min_circularity = c.real("detect.min_circularity");
   t.detect.refinement = parseRefinement(c.text("detect.refinement"));
   t.detect.find_stuck = c.flag("detect.find_stuck");
+  t.detect.deblend = c.flag("detect.deblend");
   t.detect.method = parseSeedMethod(c.text("detect.method"));
   t.detect.local_background = static_cast<int>(c.integer("detect.local_background"));
   t.detect.refine_radius = static_cast<int>(c.integer("detect.refine_radius"));
@@ -69,6 +74,7 @@ TrackConfig trackerConfig(const Case& c) {
   t.link.method = c.text("link.method") == "paper" ? Linker::paper : Linker::global;
   t.link.search_radius = c.real("link.search_radius");
   t.link.memory = static_cast<int>(c.integer("link.memory"));
+  t.link.velocity_smoothing = c.real("link.velocity_smoothing");
   t.analysis.immobile_distance = c.quantity("analysis.immobile_distance");
   t.analysis.stuck_distance = c.quantity("analysis.stuck_distance");
   t.analysis.stuck_window = c.quantity("analysis.stuck_window");

@@ -11,32 +11,55 @@ namespace mmval::tracking {
 
 namespace {
 
-/// Uniform grid over detections for radius queries.
+/// Uniform grid over detections for radius queries: cells over the detections' bounding
+/// box, filled by a counting sort into one flat array (no per-cell allocations).
 class Grid {
  public:
   Grid(const std::vector<Detection>& d, double cell) : m_d(d), m_cell(std::max(cell, 1e-9)) {
-    for (std::size_t i = 0; i < d.size(); ++i) m_bins[key(cx(d[i].x), cx(d[i].y))].push_back(static_cast<int>(i));
+    if (d.empty()) return;
+    double x0 = d[0].x, y0 = d[0].y, x1 = x0, y1 = y0;
+    for (const auto& p : d) {
+      x0 = std::min(x0, p.x);
+      y0 = std::min(y0, p.y);
+      x1 = std::max(x1, p.x);
+      y1 = std::max(y1, p.y);
+    }
+    m_x0 = x0;
+    m_y0 = y0;
+    m_w = static_cast<long>((x1 - x0) / m_cell) + 1;
+    m_h = static_cast<long>((y1 - y0) / m_cell) + 1;
+    m_start.assign(static_cast<std::size_t>(m_w * m_h + 1), 0);
+    std::vector<long> c(d.size());
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      c[i] = cy(d[i].y) * m_w + cx(d[i].x);
+      ++m_start[c[i] + 1];
+    }
+    for (std::size_t k = 1; k < m_start.size(); ++k) m_start[k] += m_start[k - 1];
+    m_items.resize(d.size());
+    std::vector<int> fill(m_start.begin(), m_start.end() - 1);
+    for (std::size_t i = 0; i < d.size(); ++i) m_items[fill[c[i]]++] = static_cast<int>(i);
   }
   template <class F>
   void near(double x, double y, double r, F&& f) const {
-    const long x0 = cx(x - r), x1 = cx(x + r), y0 = cx(y - r), y1 = cx(y + r);
-    for (long gx = x0; gx <= x1; ++gx)
-      for (long gy = y0; gy <= y1; ++gy) {
-        auto it = m_bins.find(key(gx, gy));
-        if (it == m_bins.end()) continue;
-        for (int i : it->second) {
+    if (m_d.empty()) return;
+    const long gx0 = std::max(0L, cx(x - r)), gx1 = std::min(m_w - 1, cx(x + r));
+    const long gy0 = std::max(0L, cy(y - r)), gy1 = std::min(m_h - 1, cy(y + r));
+    for (long gy = gy0; gy <= gy1; ++gy)
+      for (long gx = gx0; gx <= gx1; ++gx)
+        for (int k = m_start[gy * m_w + gx]; k < m_start[gy * m_w + gx + 1]; ++k) {
+          const int i = m_items[k];
           const double dx = m_d[i].x - x, dy = m_d[i].y - y;
           if (dx * dx + dy * dy <= r * r) f(i, std::sqrt(dx * dx + dy * dy));
         }
-      }
   }
 
  private:
-  long cx(double v) const { return static_cast<long>(std::floor(v / m_cell)); }
-  static long long key(long a, long b) { return (static_cast<long long>(a) << 32) ^ static_cast<long long>(b & 0xffffffff); }
+  long cx(double v) const { return std::clamp(static_cast<long>(std::floor((v - m_x0) / m_cell)), -1L, m_w); }
+  long cy(double v) const { return std::clamp(static_cast<long>(std::floor((v - m_y0) / m_cell)), -1L, m_h); }
   const std::vector<Detection>& m_d;
-  double m_cell;
-  std::unordered_map<long long, std::vector<int>> m_bins;
+  double m_cell, m_x0 = 0, m_y0 = 0;
+  long m_w = 0, m_h = 0;
+  std::vector<int> m_start, m_items;
 };
 
 struct Candidate {
@@ -140,8 +163,12 @@ void TrackLinker::push(int frame, const std::vector<Detection>& dets) {
       Track& t = m_active[det_to_track[di]];
       const int gap = frame - t.last_frame;
       if (gap > 1) ++m_stats.gap_closures;
-      t.vx = (d.x - t.x) / gap;
-      t.vy = (d.y - t.y) / gap;
+      // Velocity for the prediction: the last step averaged with the previous estimate
+      // (an exponential filter), which halves the localisation noise a single step carries.
+      const double vx = (d.x - t.x) / gap, vy = (d.y - t.y) / gap;
+      const double keep = t.has_velocity ? m_o.velocity_smoothing : 0.0;
+      t.vx = keep * t.vx + (1 - keep) * vx;
+      t.vy = keep * t.vy + (1 - keep) * vy;
       t.has_velocity = true;
       t.x = d.x;
       t.y = d.y;

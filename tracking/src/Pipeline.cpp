@@ -5,6 +5,10 @@
 #include <cmath>
 #include <map>
 #include <thread>
+#include <atomic>
+#include <condition_variable>
+#include <exception>
+#include <mutex>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
@@ -23,31 +27,128 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   Progress progress("tracking", static_cast<std::size_t>(std::max(0, source.count())), quiet);
   Polarity polarity = c.detect.polarity;
   const int threads = std::max(1, c.threads);
-  std::vector<cv::Mat> batch(static_cast<std::size_t>(2 * threads));
-  std::vector<int> batch_index(batch.size());
-  std::vector<std::vector<Detection>> found(batch.size());
-  for (bool more = true; more;) {
-    std::size_t n = 0;
-    while (n < batch.size() && (more = source.next(batch[n], batch_index[n]))) ++n;
-    if (n == 0) break;
-    if (polarity == Polarity::automatic) polarity = guessPolarity(batch[0], run.background);
-    // Frames are independent: detect them in parallel, then link in frame order.
-    auto work = [&](std::size_t first) {
-      for (std::size_t k = first; k < n; k += static_cast<std::size_t>(threads)) found[k] = detect(batch[k], run.background, polarity, c.detect);
-    };
-    if (threads == 1) {
-      work(0);
-    } else {
-      std::vector<std::thread> pool;
-      for (int t = 1; t < threads; ++t) pool.emplace_back(work, static_cast<std::size_t>(t));
-      work(0);
-      for (auto& t : pool) t.join();
+  // Stuck-particle candidates (spots of the median background) and, per candidate, the
+  // frames in which the spot is missing from the frame: there the frame is brighter (dark
+  // polarity) than the background by about the spot's amplitude.
+  std::vector<Detection> stuck;
+  std::vector<std::atomic<int>> absent;
+  bool stuck_ready = !(c.detect.find_stuck && !run.background.empty());
+  auto prepare = [&](const cv::Mat& first) {
+    if (polarity == Polarity::automatic) polarity = guessPolarity(first, run.background);
+    if (!stuck_ready) {
+      stuck = detectStuck(run.background, polarity, c.detect);
+      absent = std::vector<std::atomic<int>>(stuck.size());
+      stuck_ready = true;
     }
-    for (std::size_t k = 0; k < n; ++k) {
-      linker.push(batch_index[k], found[k]);
-      run.detections.push_back(std::move(found[k]));
-      run.frame_index.push_back(batch_index[k]);
-      progress.advance();
+  };
+  // One frame's work (any thread): detections, and the absence test of the stuck candidates.
+  auto process = [&](const cv::Mat& f) {
+    if (!stuck.empty()) {
+      // Least-squares amplitude of a spot of sigma 1.5 px at the candidate in
+      // (background - frame) for dark particles: ~0 while the particle is there, about
+      // minus its amplitude once it has gone.
+      const double sign = polarity == Polarity::bright ? 1.0 : -1.0;
+      for (std::size_t i = 0; i < stuck.size(); ++i) {
+        const int cx = static_cast<int>(std::lround(stuck[i].x)), cy = static_cast<int>(std::lround(stuck[i].y));
+        double sg = 0, sgg = 0;
+        for (int y = std::max(0, cy - 4); y <= std::min(f.rows - 1, cy + 4); ++y)
+          for (int x = std::max(0, cx - 4); x <= std::min(f.cols - 1, cx + 4); ++x) {
+            const double g = std::exp(-((x - stuck[i].x) * (x - stuck[i].x) + (y - stuck[i].y) * (y - stuck[i].y)) / (2 * 1.5 * 1.5));
+            sg += g * sign * (f.at<float>(y, x) - run.background.at<float>(y, x));
+            sgg += g * g;
+          }
+        if (sgg > 0 && sg / sgg > 0.5 * stuck[i].peak) ++absent[i];
+      }
+    }
+    return detect(f, run.background, polarity, c.detect);
+  };
+  auto link = [&](int index, std::vector<Detection>&& found) {
+    linker.push(index, found);
+    run.detections.push_back(std::move(found));
+    run.frame_index.push_back(index);
+    progress.advance();
+  };
+  cv::Mat frame;
+  int index = 0;
+  if (threads > 1 && source.randomAccess() && source.next(frame, index)) {
+    // Image files: `threads` workers each read (decode) and detect whole frames, taking
+    // the next frame number from a shared counter; this thread links them in order as
+    // they complete. The first frame, read here, fixes polarity, size and 16-bit range.
+    prepare(frame);
+    const int n = source.count();
+    std::vector<std::vector<Detection>> found(static_cast<std::size_t>(n));
+    std::vector<int> frame_of(static_cast<std::size_t>(n), 0);
+    std::vector<char> done(static_cast<std::size_t>(n), 0);
+    std::vector<std::exception_ptr> failed(static_cast<std::size_t>(n));
+    std::mutex m;
+    std::condition_variable ready;
+    std::atomic<int> next_pos{1};
+    std::atomic<bool> stop{false};
+    found[0] = process(frame);
+    frame_of[0] = index;
+    done[0] = 1;
+    auto worker = [&] {
+      cv::Mat f;
+      for (int pos; !stop && (pos = next_pos++) < n;) {
+        std::exception_ptr error;
+        std::vector<Detection> d;
+        int at = 0;
+        try {
+          source.readAt(pos, f, at);
+          d = process(f);
+        } catch (...) {
+          error = std::current_exception();
+        }
+        {
+          const std::lock_guard<std::mutex> lock(m);
+          found[pos] = std::move(d);
+          frame_of[pos] = at;
+          failed[pos] = error;
+          done[pos] = 1;
+        }
+        ready.notify_all();
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
+    std::exception_ptr error;
+    for (int pos = 0; pos < n && !error; ++pos) {
+      std::unique_lock<std::mutex> lock(m);
+      ready.wait(lock, [&] { return done[pos] != 0; });
+      if (failed[pos]) {
+        error = failed[pos];
+        break;
+      }
+      std::vector<Detection> d = std::move(found[pos]);
+      lock.unlock();
+      link(frame_of[pos], std::move(d));
+    }
+    stop = true;
+    for (auto& t : pool) t.join();
+    if (error) std::rethrow_exception(error);
+  } else {
+    // In order (videos, TIFF stacks, one thread): batches of 2 x threads frames are read
+    // here, detected in parallel, then linked in frame order.
+    std::vector<cv::Mat> batch(static_cast<std::size_t>(2 * threads));
+    std::vector<int> batch_index(batch.size());
+    std::vector<std::vector<Detection>> found(batch.size());
+    for (bool more = true; more;) {
+      std::size_t n = 0;
+      while (n < batch.size() && (more = source.next(batch[n], batch_index[n]))) ++n;
+      if (n == 0) break;
+      prepare(batch[0]);
+      auto work = [&](std::size_t first) {
+        for (std::size_t k = first; k < n; k += static_cast<std::size_t>(threads)) found[k] = process(batch[k]);
+      };
+      if (threads == 1) {
+        work(0);
+      } else {
+        std::vector<std::thread> pool;
+        for (int t = 1; t < threads; ++t) pool.emplace_back(work, static_cast<std::size_t>(t));
+        work(0);
+        for (auto& t : pool) t.join();
+      }
+      for (std::size_t k = 0; k < n; ++k) link(batch_index[k], std::move(found[k]));
     }
   }
   progress.finish();
@@ -59,26 +160,27 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
     // Stuck for the whole video: invisible after background removal, found in the background.
     // Stuck particles look like the moving ones: keep background spots whose blob area
     // is within a factor 2 of the median area of the moving detections.
-    std::vector<double> areas;
+    // ... and whose peak is at least half the moving ones' median peak (grain edges leave
+    // faint round residues in the hat).
+    std::vector<double> areas, peaks;
     for (const auto& frame : run.detections)
-      for (const auto& m : frame) areas.push_back(m.area);
-    double typical = 0;
+      for (const auto& m : frame) {
+        areas.push_back(m.area);
+        peaks.push_back(m.peak);
+      }
+    double typical = 0, typical_peak = 0;
     if (!areas.empty()) {
       std::nth_element(areas.begin(), areas.begin() + areas.size() / 2, areas.end());
       typical = areas[areas.size() / 2];
+      std::nth_element(peaks.begin(), peaks.begin() + peaks.size() / 2, peaks.end());
+      typical_peak = peaks[peaks.size() / 2];
     }
-    for (const auto& d : detectStuck(run.background, polarity, c.detect)) {
-      if (typical > 0 && (d.area < 0.5 * typical || d.area > 2.0 * typical)) continue;
+    for (std::size_t i = 0; i < stuck.size(); ++i) {
+      const Detection& d = stuck[i];
+      if (typical > 0 && (d.area < 0.5 * typical || d.area > 2.0 * typical || d.peak < 0.5 * typical_peak)) continue;
       // A particle that only lingers (stationary for most, not all, of the video) also
-      // shows in the median; it is then detected near the same place in some frames.
-      std::size_t near = 0;
-      for (const auto& frame : run.detections)
-        for (const auto& m : frame)
-          if (std::hypot(m.x - d.x, m.y - d.y) < 3.0) {
-            ++near;
-            break;
-          }
-      if (near > run.detections.size() / 10) continue;
+      // shows in the median; it is missing from the frames where it was elsewhere.
+      if (absent[i] > static_cast<int>(run.frame_index.size() / 10)) continue;
       for (int f : run.frame_index) {
         TrackPoint t;
         t.frame = f;

@@ -109,8 +109,10 @@ TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& o) {
     all_sx.push_back(sx);
     all_sy.push_back(sy);
   }
-  s.sigma_x = mean(all_sx);
-  s.sigma_y = mean(all_sy);
+  // No frame with two or more mobile particles (nothing moves, or one particle at a
+  // time): no spread to measure; 0, not the NaN of an empty mean, which JSON cannot hold.
+  s.sigma_x = all_sx.empty() ? 0.0 : mean(all_sx);
+  s.sigma_y = all_sy.empty() ? 0.0 : mean(all_sy);
   for (int b = 0; b < nb; ++b) {
     s.series.t.push_back(s.t_begin + (b + 0.5) * span / nb);
     s.series.mean_speed.push_back(mean(bin_speed[b]));

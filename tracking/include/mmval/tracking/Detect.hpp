@@ -10,6 +10,13 @@
 // threshold merges into a single blob stay apart. Measured on trackpy's real
 // frames (tests/tracking/TrackpyPeerTest.cpp) it finds 98 % of trackpy's
 // features within 1 px where contours find 82 %.
+//
+// With peaks and the Gaussian-masked centroid, overlapping spots are then fitted
+// jointly (deblend): each spot's centroid and amplitude on the signal minus its
+// neighbours' models, spots hidden beside brighter ones looked for in the residual, and
+// elongated blobs split in two when two spots fit significantly better (a
+// likelihood-ratio test). On issue 3's SNR 4 scene this took JSC from 0.938 to 0.979 and
+// the RMSE from 0.43 to 0.32 px (with the linker's smoothed velocity).
 #pragma once
 #include <string>
 #include <vector>
@@ -50,6 +57,9 @@ struct DetectOptions {
   int local_background = 0;         ///< px half-width of a boxcar local mean subtracted from the signal (spatial high-pass); 0: off
   int separation = 0;               ///< peaks: minimum distance between maxima, px (0: refine_radius)
   double min_mass = 0;              ///< smallest integrated signal inside refine_radius, fraction of full scale x px^2; 0: off
+  /// peaks with intensity/gaussian refinement: fit overlapping spots jointly and look for
+  /// spots hidden beside brighter ones in the residual (see detect())
+  bool deblend = true;
   bool find_stuck = false;          ///< also find particles stuck for the whole video in the median background (off: grain features can pass for particles)
   int stuck_kernel = 9;             ///< px: black/top-hat size, larger than a particle, smaller than a grain
   int refine_radius = 4;            ///< px, half window of the intensity-weighted centroid

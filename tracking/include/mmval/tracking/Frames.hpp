@@ -33,9 +33,19 @@ class FrameSource {
   /// Starts again from the first selected frame.
   void rewind();
   const std::string& input() const { return m_input; }
+  /// Image files (folder or glob) can be read out of order and from several threads at
+  /// once with readAt(); videos and TIFF stacks only in order with next().
+  bool randomAccess() const { return m_kind == Kind::images; }
+  /// Frame number `pos` of the selected range (0 <= pos < count()) and its index in the
+  /// input; thread-safe once next() has returned the first frame (which fixes the frame
+  /// size and the 16-bit range every frame is checked against). Throws like next().
+  void readAt(int pos, cv::Mat& frame, int& index) const;
 
  private:
   bool readRaw(int index, cv::Mat& out);
+  /// Raw image -> float grey [0, 1], size check, region of interest (const: safe in threads
+  /// once m_size and m_range16 are set by the first frame).
+  void finish(const cv::Mat& raw, int index, cv::Mat& frame) const;
   std::string m_input;
   std::optional<cv::Rect> m_roi;
   FrameRange m_range;

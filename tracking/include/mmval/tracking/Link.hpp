@@ -27,6 +27,8 @@ struct LinkOptions {
   int memory = 2;              ///< frames a track may be missed and still continue
   bool predict = true;         ///< extrapolate with the track's last velocity
   double angle_weight = 0.5;   ///< paper: weight of the turning angle against the distance
+  /// weight of the previous velocity in the prediction's exponential filter (0: last step only)
+  double velocity_smoothing = 0.7;
   int max_component = 400;     ///< larger candidate components fall back to greedy (logged in stats)
 };
 

@@ -69,7 +69,7 @@ struct TrackStats {
   int particles = 0, immobile = 0, mobile = 0, retained = 0, short_tracks = 0;
   double retained_fraction = 0;          ///< retained / mobile
   double mean_speed = 0, median_speed = 0;  ///< m/s over all steps
-  double sigma_x = 0, sigma_y = 0;          ///< m, time-averaged dispersion
+  double sigma_x = 0, sigma_y = 0;          ///< m, time-averaged dispersion (0 when no frame has two mobile particles)
   double t_begin = 0, t_end = 0;
   std::vector<TrackSummary> tracks;
   std::vector<FrameDispersion> frames;
