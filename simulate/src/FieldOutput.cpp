@@ -22,17 +22,33 @@ void axisArray(std::ostringstream& o, const Axis& a, const char* name) {
 
 }  // namespace
 
-void writeVtr(const SteadyFlowSolver& s, const std::filesystem::path& file) {
-  const FlowProblem& pr = s.problem();
-  const int nx = s.nx(), ny = s.ny();
-  const Eigen::ArrayXXd ux = s.cellVelocity(0), uy = s.cellVelocity(1), chi = s.cellSolidFraction();
+namespace {
+
+struct Snapshot {
+  const FlowProblem& pr;
+  int nx, ny;
+  Eigen::ArrayXXd p, ux, uy, chi;
+};
+
+Snapshot snapshot(const SteadyFlowSolver& s) { return {s.problem(), s.nx(), s.ny(), s.p(), s.cellVelocity(0), s.cellVelocity(1), s.cellSolidFraction()}; }
+
+Snapshot snapshot(const UnsteadyFlowSolver& s) {
+  Eigen::ArrayXXd u, v, p;
+  s.fields(u, v, p);
+  return {s.problem(), s.nx(), s.ny(), p, s.cellVelocity(0), s.cellVelocity(1), s.cellSolidFraction()};
+}
+
+void writeVtrOf(const Snapshot& s, const std::filesystem::path& file) {
+  const FlowProblem& pr = s.pr;
+  const int nx = s.nx, ny = s.ny;
+  const Eigen::ArrayXXd &ux = s.ux, &uy = s.uy, &chi = s.chi;
   std::ostringstream o;
   o.precision(10);
   o << "<?xml version=\"1.0\"?>\n<VTKFile type=\"RectilinearGrid\" version=\"0.1\" byte_order=\"LittleEndian\">\n";
   o << "<RectilinearGrid WholeExtent=\"0 " << nx << " 0 " << ny << " 0 0\">\n<Piece Extent=\"0 " << nx << " 0 " << ny << " 0 0\">\n";
   o << "<CellData Scalars=\"p\" Vectors=\"U\">\n<DataArray type=\"Float64\" Name=\"p\" format=\"ascii\">";
   for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) o << s.p()(j, i) << ' ';
+    for (int i = 0; i < nx; ++i) o << s.p(j, i) << ' ';
   o << "</DataArray>\n<DataArray type=\"Float64\" Name=\"U\" NumberOfComponents=\"3\" format=\"ascii\">";
   for (int j = 0; j < ny; ++j)
     for (int i = 0; i < nx; ++i) o << ux(j, i) << ' ' << uy(j, i) << " 0 ";
@@ -46,9 +62,9 @@ void writeVtr(const SteadyFlowSolver& s, const std::filesystem::path& file) {
   writeFileAtomic(file, o.str());
 }
 
-void writeSpeedPng(const SteadyFlowSolver& s, const std::filesystem::path& file, int max_pixels) {
-  const FlowProblem& pr = s.problem();
-  const Eigen::ArrayXXd ux = s.cellVelocity(0), uy = s.cellVelocity(1), chi = s.cellSolidFraction();
+void writeSpeedPngOf(const Snapshot& s, const std::filesystem::path& file, int max_pixels) {
+  const FlowProblem& pr = s.pr;
+  const Eigen::ArrayXXd &ux = s.ux, &uy = s.uy, &chi = s.chi;
   const Eigen::ArrayXXd speed = (ux.square() + uy.square()).sqrt();
   const double vmax = std::max(speed.maxCoeff(), 1e-300);
   const double lx = pr.x.length(), ly = pr.y.length();
@@ -69,5 +85,12 @@ void writeSpeedPng(const SteadyFlowSolver& s, const std::filesystem::path& file,
   if (!cv::imencode(".png", color, buf)) throw std::runtime_error("PNG encoding failed for " + file.string());
   writeFileAtomic(file, std::string_view(reinterpret_cast<const char*>(buf.data()), buf.size()));
 }
+
+}  // namespace
+
+void writeVtr(const SteadyFlowSolver& s, const std::filesystem::path& file) { writeVtrOf(snapshot(s), file); }
+void writeVtr(const UnsteadyFlowSolver& s, const std::filesystem::path& file) { writeVtrOf(snapshot(s), file); }
+void writeSpeedPng(const SteadyFlowSolver& s, const std::filesystem::path& file, int max_pixels) { writeSpeedPngOf(snapshot(s), file, max_pixels); }
+void writeSpeedPng(const UnsteadyFlowSolver& s, const std::filesystem::path& file, int max_pixels) { writeSpeedPngOf(snapshot(s), file, max_pixels); }
 
 }  // namespace mmval::simulate

@@ -184,6 +184,20 @@ int FlowOperator::unknown(int d, int n, int t) const {
 
 bool FlowOperator::isMomentumRow(int r) const { return r < m_off[2]; }
 
+double FlowOperator::maxPrescribedVelocity() const {
+  double m = 0;
+  for (int d = 0; d < 2; ++d)
+    for (double v : m_value[d]) m = std::max(m, std::abs(v));
+  return m;
+}
+
+bool FlowOperator::isFixedNode(int r) const {
+  if (r < 0 || r >= m_off[2]) return false;
+  const int d = r < m_off[1] ? 0 : 1;
+  const char k = m_kind[d][static_cast<std::size_t>(r - m_off[d])];
+  return k == kDirichlet || k == kSolid;
+}
+
 double FlowOperator::controlVolume(int d, int n, int t) const {
   const std::size_t q = static_cast<std::size_t>(local(d, n, t));
   const char base = m_base[d][q];

@@ -70,6 +70,13 @@ class FlowOperator {
     m_told = old;
   }
 
+  /// Replaces the uniform body force (N/m3), e.g. a time-dependent drive.
+  void setBodyForce(const Eigen::Vector2d& f) { m_p.body_force = f; }
+  /// Largest |prescribed velocity| on the domain boundary (velocity sides), m/s.
+  double maxPrescribedVelocity() const;
+  /// True for velocity nodes the solver fixes (walls, inflow, sharp-solid nodes).
+  bool isFixedNode(int r) const;
+
   std::vector<BodyLoad> bodyLoads(const std::vector<double>& s) const;
   double pressureAt(const std::vector<double>& s, double x, double y) const;
   double flowRate(const std::vector<double>& s, Side side) const;

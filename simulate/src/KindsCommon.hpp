@@ -1,6 +1,7 @@
 // Internal helpers shared by the fluid case kinds.
 #pragma once
 #include <chrono>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,13 @@ nlohmann::json ladderRow(std::size_t index, int resolution, const SteadyFlowSolv
                          const Acceptance* primary);
 /// Writes fields.vtr and speed.png of `s` into ctx.out_dir (rank 0 only) and lists them in out.files.
 void writeFields(const SteadyFlowSolver& s, const RunContext& ctx, const std::string& stem, RunOutput& out);
+
+/// Unsteady cylinder keys (Courant limit, perturbation, statistics window, refined box).
+void declareUnsteadyCylinderKeys(Schema& s);
+/// Runs the unsteady cylinder-channel case: make_problem(cells_around) builds each level's problem;
+/// coef = 2 / (rho U_ref^2 L_ref) turns forces into coefficients.
+RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::function<FlowProblem(int level)>& make_problem, double coef, double Uref,
+                              double D, double cx, double cy);
 
 inline double secondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

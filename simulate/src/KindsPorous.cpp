@@ -120,6 +120,10 @@ CaseKind imagePermeabilityKind() {
       throw InputError(c.where("geometry.mask"), e.what(), file.string(),
                        "a mask with a connected pore path from the left to the right edge (check geometry.grains polarity)");
     }
+    if (pores.porosity_total >= 1.0 && c.text("numerics.depth_model") != "depth-averaged")
+      // No grain at all: plane 2D flow between slip sides meets no resistance, so its permeability is unbounded.
+      throw InputError(c.where("numerics.depth_model"), "the mask has no grain pixel, so the plane 2D permeability is unbounded (slip sides, no solid)",
+                       c.text("numerics.depth_model"), "depth_model = \"depth-averaged\" (gives the parallel-plate k = h^2/12), or a mask with grains");
     const double px = c.quantity("geometry.pixel_size"), depth = c.quantity("geometry.depth");
     const double mu = c.quantity("fluid.viscosity"), dp = c.quantity("flow.pressure_drop");
     const auto shape = std::make_shared<MaskShape>(pores.solid_connected, px);

@@ -76,32 +76,59 @@ void GriddedFlow::update(const std::vector<double>& ux, const std::vector<double
   m_h = depth;
   m_solid = solid;
   // Distance of each fluid node to the nearest solid node, minus half a cell
-  // (the wall sits between a solid and a fluid node). Brute force over the
-  // solid nodes that touch fluid: exact Euclidean, simple, O(N * B).
-  std::vector<std::pair<int, int>> boundary;
-  for (int j = 0; j < m_ny; ++j)
-    for (int i = 0; i < m_nx; ++i) {
-      if (!m_solid[j * m_nx + i]) continue;
-      bool touches = false;
-      for (int dj = -1; dj <= 1 && !touches; ++dj)
-        for (int di = -1; di <= 1 && !touches; ++di) {
-          const int a = i + di, b = j + dj;
-          if (a >= 0 && a < m_nx && b >= 0 && b < m_ny && !m_solid[b * m_nx + a]) touches = true;
-        }
-      if (touches) boundary.emplace_back(i, j);
-    }
-  const double half = 0.5 * std::min(m_dx, m_dy);
-  for (int j = 0; j < m_ny; ++j)
-    for (int i = 0; i < m_nx; ++i) {
-      const std::size_t k = static_cast<std::size_t>(j) * m_nx + i;
-      if (m_solid[k]) {
-        m_dist[k] = 0.0;
-        continue;
+  // (the wall sits between a solid and a fluid node): exact Euclidean distance
+  // transform by lower envelopes of parabolas, one pass per axis (Felzenszwalb &
+  // Huttenlocher 2012, Theory of Computing 8:415), O(N): image-sized fields
+  // (1e6 nodes) update in milliseconds, so re-solves after deposition are cheap.
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  std::vector<double> d2(n);
+  for (std::size_t k = 0; k < n; ++k) d2[k] = m_solid[k] ? 0.0 : inf;
+  std::vector<double> f;
+  std::vector<int> v;
+  std::vector<double> zb;
+  const auto pass = [&](int len, double s, auto&& get, auto&& set) {
+    // 1D squared distance with node spacing s over the finite entries of f.
+    f.resize(len);
+    for (int q = 0; q < len; ++q) f[q] = get(q);
+    v.assign(len, 0);
+    zb.assign(len + 1, 0.0);
+    int k = -1;
+    const double s2 = s * s;
+    for (int q = 0; q < len; ++q) {
+      if (!std::isfinite(f[q])) continue;
+      while (k >= 0) {
+        const int p = v[k];
+        const double x = ((f[q] + s2 * q * q) - (f[p] + s2 * p * p)) / (2.0 * s2 * (q - p));
+        if (x <= zb[k]) --k;
+        else break;
       }
-      double best = std::numeric_limits<double>::infinity();
-      for (const auto& [a, b] : boundary) best = std::min(best, std::hypot((a - i) * m_dx, (b - j) * m_dy));
-      m_dist[k] = std::isfinite(best) ? best - half : 1e300;
+      ++k;
+      v[k] = q;
+      zb[k] = k == 0 ? -inf : ((f[q] + s2 * q * q) - (f[v[k - 1]] + s2 * v[k - 1] * v[k - 1])) / (2.0 * s2 * (q - v[k - 1]));
+      zb[k + 1] = inf;
     }
+    if (k < 0) {
+      for (int q = 0; q < len; ++q) set(q, inf);
+      return;
+    }
+    int j = 0;
+    for (int q = 0; q < len; ++q) {
+      while (zb[j + 1] < q) ++j;
+      const double dq = q - v[j];
+      set(q, s2 * dq * dq + f[v[j]]);
+    }
+  };
+  for (int i = 0; i < m_nx; ++i)
+    pass(m_ny, m_dy, [&](int q) { return d2[static_cast<std::size_t>(q) * m_nx + i]; },
+         [&](int q, double val) { d2[static_cast<std::size_t>(q) * m_nx + i] = val; });
+  for (int j = 0; j < m_ny; ++j)
+    pass(m_nx, m_dx, [&](int q) { return d2[static_cast<std::size_t>(j) * m_nx + q]; },
+         [&](int q, double val) { d2[static_cast<std::size_t>(j) * m_nx + q] = val; });
+  const double half = 0.5 * std::min(m_dx, m_dy);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (m_solid[k]) m_dist[k] = 0.0;
+    else m_dist[k] = std::isfinite(d2[k]) ? std::sqrt(d2[k]) - half : 1e300;
+  }
   ++m_version;
 }
 

@@ -12,6 +12,7 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Tracks.hpp"
 #include "mmval/particles/EngineFactory.hpp"
+#include "mmval/particles/Micromodel.hpp"
 #include "mmval/particles/SceneSelection.hpp"
 
 namespace mmval::particles {
@@ -234,6 +235,7 @@ void registerParticleKinds(CaseKindRegistry& registry) {
   k.declare = declareChannel;
   k.run = runChannel;
   registry.add(k);
+  registry.add(micromodelKind());
 }
 
 }  // namespace mmval::particles

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <unordered_map>
 
 #include <fmt/format.h>
@@ -59,6 +60,7 @@ void OverdampedEngine::insert(const std::vector<Vec3>& positions) {
     s.x = positions[k];
     trial.push_back(s);
   }
+  for (std::size_t k = m_particles.size(); k < trial.size(); ++k) m_mobile.push_back(static_cast<int>(k));
   m_particles = std::move(trial);
 }
 
@@ -69,14 +71,14 @@ double OverdampedEngine::chooseStep(const std::vector<Vec3>& drift) const {
   // at the capture distance, or 1 % of a radius), else explicit steps overshoot.
   const double floor = std::max(m_cfg.attachment.capture_distance, 0.01 * m_radius);
   double dt = m_cfg.max_dt;
-  for (std::size_t i = 0; i < drift.size(); ++i) {
-    const double v = drift[i].norm();
+  for (std::size_t k = 0; k < m_mobile.size(); ++k) {
+    const double v = drift[k].norm();
     if (v > 0) dt = std::min(dt, lim / v);
-    const auto& x = m_particles[i].x;
-    const double vz = std::abs(drift[i].z());
-    if (vz > 0 && m_particles[i].status == ParticleStatus::mobile) {
+    const auto& x = m_particles[m_mobile[k]].x;
+    const double vz = std::abs(drift[k].z());
+    if (vz > 0) {
       const double h = m_flow->depth(x.x(), x.y());
-      const double gap = vz > 0 && drift[i].z() < 0 ? x.z() - m_radius : h - x.z() - m_radius;
+      const double gap = drift[k].z() < 0 ? x.z() - m_radius : h - x.z() - m_radius;
       dt = std::min(dt, m_cfg.max_step_fraction * std::max(gap, floor) / vz);
     }
   }
@@ -84,39 +86,65 @@ double OverdampedEngine::chooseStep(const std::vector<Vec3>& drift) const {
   return dt;
 }
 
+void OverdampedEngine::indexDeposited(int i) {
+  m_dep_cells[cellKey(m_particles[i].x)].push_back(i);
+  m_dep_order.push_back(i);
+}
+
+std::int64_t OverdampedEngine::cellKey(const Vec3& x) const {
+  // Contact cells are columns (x, y) of side 2 d: a particle's partners within
+  // one diameter lie in the 2 x 2 columns around it (4 look-ups, not 27), and
+  // the chip is only a few diameters deep.
+  const double cs = 4 * m_radius;
+  const auto ix = static_cast<std::int64_t>(std::floor(x.x() / cs)), iy = static_cast<std::int64_t>(std::floor(x.y() / cs));
+  return (ix * 73856093) ^ (iy * 19349663);
+}
+
+void OverdampedEngine::compactMobile(double t_event) {
+  // Particles that stopped in this step: time-stamp them, index the deposited
+  // ones for contacts, keep the mobile list sorted by index (RNG order).
+  std::size_t w = 0;
+  for (const int i : m_mobile) {
+    auto& p = m_particles[i];
+    if (p.status == ParticleStatus::mobile) {
+      m_mobile[w++] = i;
+      continue;
+    }
+    if (std::isnan(p.t_event)) p.t_event = t_event;
+    if (p.status == ParticleStatus::deposited) indexDeposited(i);
+  }
+  m_mobile.resize(w);
+}
+
 void OverdampedEngine::advance(double t_end) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<Vec3> drift;
   while (m_t < t_end * (1 - 1e-14)) {
-    drift.assign(m_particles.size(), Vec3::Zero());
-    std::int64_t mobile = 0;
-    for (std::size_t i = 0; i < m_particles.size(); ++i)
-      if (m_particles[i].status == ParticleStatus::mobile) {
-        drift[i] = driftVelocity(m_particles[i].x);
-        ++mobile;
-      }
+    // Only mobile particles cost anything per step: deposited and departed ones
+    // are never visited (long runs hold thousands of them).
+    drift.resize(m_mobile.size());
+    for (std::size_t k = 0; k < m_mobile.size(); ++k) drift[k] = driftVelocity(m_particles[m_mobile[k]].x);
+    const auto mobile = static_cast<std::int64_t>(m_mobile.size());
     double dt = mobile ? chooseStep(drift) : t_end - m_t;
     dt = std::min(dt, t_end - m_t);
     if (mobile) {
       const auto& c = m_cfg;
-      for (std::size_t i = 0; i < m_particles.size(); ++i) {
-        auto& p = m_particles[i];
-        if (p.status != ParticleStatus::mobile) continue;
+      for (std::size_t k = 0; k < m_mobile.size(); ++k) {
+        auto& p = m_particles[m_mobile[k]];
         const Vec3 before = p.x;
-        Vec3 dx = drift[i] * dt;
+        Vec3 dx = drift[k] * dt;
         if (c.brownian) {
           const auto [par, perp] = m_model.hindrance(p.x.z(), m_flow->depth(p.x.x(), p.x.y()));
           const double sp = std::sqrt(2.0 * m_model.diffusivity() * dt / par), sz = std::sqrt(2.0 * m_model.diffusivity() * dt / perp);
           dx += Vec3(sp * m_rng->normal(), sp * m_rng->normal(), sz * m_rng->normal());
         }
         p.x += dx;
-        p.v = drift[i];
+        p.v = drift[k];
         applyWallsAndCapture(p, before);
         if (p.status != ParticleStatus::mobile) p.t_event = m_t + dt;
       }
       resolveContacts();
-      for (auto& p : m_particles)
-        if (p.status != ParticleStatus::mobile && std::isnan(p.t_event)) p.t_event = m_t + dt;
+      compactMobile(m_t + dt);
       m_stats.particle_steps += mobile;
       ++m_stats.steps;
       m_stats.last_dt = dt;
@@ -127,6 +155,19 @@ void OverdampedEngine::advance(double t_end) {
   }
   m_t = std::max(m_t, t_end);
   m_stats.wall_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+std::int64_t OverdampedEngine::captureInSolid() {
+  std::int64_t n = 0;
+  for (const int i : m_mobile) {
+    auto& p = m_particles[i];
+    if (!m_flow->isSolid(p.x.x(), p.x.y())) continue;
+    p.status = ParticleStatus::deposited;
+    p.t_event = m_t;
+    ++n;
+  }
+  compactMobile(m_t);
+  return n;
 }
 
 void OverdampedEngine::applyWallsAndCapture(ParticleState& p, const Vec3& before) {
@@ -146,12 +187,23 @@ void OverdampedEngine::applyWallsAndCapture(ParticleState& p, const Vec3& before
     p.status = ParticleStatus::left;
     return;
   }
-  const double d = m_flow->wallDistance(p.x.x(), p.x.y());
+  double d = m_flow->wallDistance(p.x.x(), p.x.y());
   if (d < a) {
-    const Vec2 n = m_flow->wallNormal(p.x.x(), p.x.y());
-    p.x.x() += n.x() * (a - d);
-    p.x.y() += n.y() * (a - d);
+    // Pushed out along the wall normal; a few passes settle curved walls and
+    // corners. Where no push helps (a throat narrower than the particle: walls on
+    // both sides) the move is refused, so a particle never squeezes through a gap
+    // smaller than itself.
     touched_grain = true;
+    for (int pass = 0; pass < 3 && d < a; ++pass) {
+      const Vec2 n = m_flow->wallNormal(p.x.x(), p.x.y());
+      p.x.x() += n.x() * (a - d);
+      p.x.y() += n.y() * (a - d);
+      d = m_flow->isSolid(p.x.x(), p.x.y()) ? 0.0 : m_flow->wallDistance(p.x.x(), p.x.y());
+    }
+    if (d < 0.9 * a) {
+      p.x.x() = before.x();
+      p.x.y() = before.y();
+    }
   }
   const double h = m_flow->depth(p.x.x(), p.x.y());
   bool touched_bottom = false, touched_top = false;
@@ -171,58 +223,126 @@ void OverdampedEngine::applyWallsAndCapture(ParticleState& p, const Vec3& before
 }
 
 void OverdampedEngine::resolveContacts() {
-  const double a = m_radius, d = 2 * a, cs = d;
-  const auto key = [&](const Vec3& x) {
-    const auto ix = static_cast<std::int64_t>(std::floor(x.x() / cs)), iy = static_cast<std::int64_t>(std::floor(x.y() / cs)),
-               iz = static_cast<std::int64_t>(std::floor(x.z() / cs));
-    return (ix * 73856093) ^ (iy * 19349663) ^ (iz * 83492791);
-  };
+  const double a = m_radius, d = 2 * a;
   const bool stick = m_cfg.attachment.deposited && m_cfg.attachment.capture_distance > 0;
+  const auto fits = [&](const Vec3& x) { return !m_flow->isSolid(x.x(), x.y()) && m_flow->wallDistance(x.x(), x.y()) >= 0.9 * a; };
+  std::vector<Vec3> start(m_mobile.size());
+  for (std::size_t k = 0; k < m_mobile.size(); ++k) start[k] = m_particles[m_mobile[k]].x;
   // A few Heyes-Melrose sweeps: each removes every overlap found; new ones made
-  // by a push are caught by the next sweep. Dilute scenes need one.
+  // by a push are caught by the next sweep. Dilute scenes need one. Mobile
+  // particles are hashed per sweep; deposited ones sit in a persistent hash
+  // (they never move), so the cost scales with the mobile count only.
   for (int sweep = 0; sweep < 4; ++sweep) {
     std::unordered_map<std::int64_t, std::vector<int>> cells;
-    for (int i = 0; i < static_cast<int>(m_particles.size()); ++i)
-      if (m_particles[i].status != ParticleStatus::left) cells[key(m_particles[i].x)].push_back(i);
+    for (const int i : m_mobile)
+      if (m_particles[i].status == ParticleStatus::mobile) cells[cellKey(m_particles[i].x)].push_back(i);
     bool any = false;
-    for (int i = 0; i < static_cast<int>(m_particles.size()); ++i) {
+    const auto visit = [&](ParticleState& p, int i, int j) {
+      if (j == i) return;
+      auto& q = m_particles[j];
+      if (q.status == ParticleStatus::left) return;
+      if (q.status == ParticleStatus::mobile && j < i) return;  // each mobile pair once
+      Vec3 r = p.x - q.x;
+      const double dist = r.norm();
+      if (dist >= d || (std::abs(r.x()) >= d)) return;
+      if (dist < 1e-12 * d) r = Vec3(0, 0, 1); else r /= dist;
+      const double overlap = d - std::max(dist, 0.0);
+      any = true;
+      if (q.status == ParticleStatus::deposited) {
+        p.x += r * overlap;
+        if (stick) p.status = ParticleStatus::deposited;
+      } else {
+        p.x += 0.5 * overlap * r;
+        q.x -= 0.5 * overlap * r;
+      }
+    };
+    for (const int i : m_mobile) {
       auto& p = m_particles[i];
       if (p.status != ParticleStatus::mobile) continue;
-      const auto ix = static_cast<std::int64_t>(std::floor(p.x.x() / cs)), iy = static_cast<std::int64_t>(std::floor(p.x.y() / cs)),
-                 iz = static_cast<std::int64_t>(std::floor(p.x.z() / cs));
-      for (int dx = -1; dx <= 1; ++dx)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dz = -1; dz <= 1; ++dz) {
-            const auto it = cells.find(((ix + dx) * 73856093) ^ ((iy + dy) * 19349663) ^ ((iz + dz) * 83492791));
-            if (it == cells.end()) continue;
-            for (int j : it->second) {
-              if (j == i) continue;
-              auto& q = m_particles[j];
-              if (q.status == ParticleStatus::mobile && j < i) continue;  // each mobile pair once
-              Vec3 r = p.x - q.x;
-              const double dist = r.norm();
-              if (dist >= d || (std::abs(r.x()) >= d)) continue;
-              if (dist < 1e-12 * d) r = Vec3(0, 0, 1); else r /= dist;
-              const double overlap = d - std::max(dist, 0.0);
-              any = true;
-              if (q.status == ParticleStatus::deposited) {
-                p.x += r * overlap;
-                if (stick) p.status = ParticleStatus::deposited;
-              } else {
-                p.x += 0.5 * overlap * r;
-                q.x -= 0.5 * overlap * r;
-              }
-            }
-          }
+      const double cs4 = 4 * a;
+      const auto x0 = static_cast<std::int64_t>(std::floor((p.x.x() - d) / cs4)), x1 = static_cast<std::int64_t>(std::floor((p.x.x() + d) / cs4));
+      const auto y0 = static_cast<std::int64_t>(std::floor((p.x.y() - d) / cs4)), y1 = static_cast<std::int64_t>(std::floor((p.x.y() + d) / cs4));
+      for (auto ix = x0; ix <= x1; ++ix)
+        for (auto iy = y0; iy <= y1; ++iy) {
+          const std::int64_t key = (ix * 73856093) ^ (iy * 19349663);
+          if (const auto it = cells.find(key); it != cells.end())
+            for (int j : it->second) visit(p, i, j);
+          if (const auto it = m_dep_cells.find(key); it != m_dep_cells.end())
+            for (int j : it->second) visit(p, i, j);
+        }
     }
     // Pushes may have moved particles into the plates: clamp again (no capture here
     // beyond the plate rule, which the next step's wall check applies).
-    for (auto& p : m_particles) {
+    for (const int i : m_mobile) {
+      auto& p = m_particles[i];
       if (p.status == ParticleStatus::left) continue;
       const double h = m_flow->depth(p.x.x(), p.x.y());
       p.x.z() = std::clamp(p.x.z(), a, std::max(a, h - a));
     }
     if (!any) break;
+  }
+  // A push must not carry a particle into a grain or through a throat narrower
+  // than itself (particles jammed at a throat push each other): such a push is
+  // undone in the plane, leaving the overlap to later steps.
+  for (std::size_t k = 0; k < m_mobile.size(); ++k) {
+    auto& p = m_particles[m_mobile[k]];
+    if (p.status == ParticleStatus::left || p.x == start[k]) continue;
+    if (!fits(p.x) && fits(start[k])) {
+      p.x.x() = start[k].x();
+      p.x.y() = start[k].y();
+    }
+  }
+}
+
+void OverdampedEngine::saveState(CheckpointWriter& w) const {
+  w.putString("overdamped-v1");
+  w.put(m_t);
+  w.put(m_stats);
+  w.put<std::uint64_t>(m_particles.size());
+  for (const auto& p : m_particles) {
+    w.put(p.id);
+    w.put(p.x.x()); w.put(p.x.y()); w.put(p.x.z());
+    w.put(p.v.x()); w.put(p.v.y()); w.put(p.v.z());
+    w.put(static_cast<std::uint8_t>(p.status));
+    w.put(p.t_event);
+  }
+  w.putVector(m_dep_order);
+  w.putString(gsl_rng_name(m_rng->r));
+  w.putBytes(gsl_rng_state(m_rng->r), gsl_rng_size(m_rng->r));
+}
+
+void OverdampedEngine::loadState(CheckpointReader& r) {
+  if (r.getString() != "overdamped-v1") throw std::runtime_error("checkpoint " + r.name() + ": not an overdamped-engine state");
+  m_t = r.get<double>();
+  m_stats = r.get<EngineStats>();
+  const auto n = r.get<std::uint64_t>();
+  std::vector<ParticleState> ps(n);
+  for (auto& p : ps) {
+    p.id = r.get<std::int64_t>();
+    const double x = r.get<double>(), y = r.get<double>(), z = r.get<double>();
+    const double vx = r.get<double>(), vy = r.get<double>(), vz = r.get<double>();
+    p.x = Vec3(x, y, z);
+    p.v = Vec3(vx, vy, vz);
+    const auto st = r.get<std::uint8_t>();
+    if (st > 2) throw std::runtime_error("checkpoint " + r.name() + ": bad particle status");
+    p.status = static_cast<ParticleStatus>(st);
+    p.t_event = r.get<double>();
+  }
+  const auto order = r.getVector<int>();
+  if (r.getString() != gsl_rng_name(m_rng->r)) throw std::runtime_error("checkpoint " + r.name() + ": other random generator");
+  const std::string state = r.getString();
+  if (state.size() != gsl_rng_size(m_rng->r)) throw std::runtime_error("checkpoint " + r.name() + ": random generator state has the wrong size");
+  std::memcpy(gsl_rng_state(m_rng->r), state.data(), state.size());
+  m_particles = std::move(ps);
+  m_mobile.clear();
+  m_dep_cells.clear();
+  m_dep_order.clear();
+  for (int i = 0; i < static_cast<int>(m_particles.size()); ++i)
+    if (m_particles[i].status == ParticleStatus::mobile) m_mobile.push_back(i);
+  for (const int i : order) {
+    if (i < 0 || i >= static_cast<int>(m_particles.size()) || m_particles[i].status != ParticleStatus::deposited)
+      throw std::runtime_error("checkpoint " + r.name() + ": deposit order does not match the particles");
+    indexDeposited(i);
   }
 }
 

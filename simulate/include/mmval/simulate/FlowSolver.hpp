@@ -36,8 +36,11 @@
 // Solution. The coupled (u, v, p) system is assembled into one PETSc matrix.
 // Stokes is one linear solve; steady Navier-Stokes is Newton's method on the
 // quadratic convective term starting from the Stokes solution. Linear
-// solves: "direct" (MUMPS LU, parallel) or "iterative" (FGMRES with a Schur
-// fieldsplit: GAMG on the velocity block, selfp Schur approximation). Every
+// solves: "direct" (UMFPACK LU serial, MUMPS parallel) or "iterative" (FGMRES
+// with a Schur fieldsplit: for Stokes without friction, BoomerAMG on the
+// velocity block and the pressure mass matrix / mu for the Schur complement,
+// iteration counts ~independent of N; with Hele-Shaw friction or inertia, GAMG
+// and the selfp approximation). Time stepping: UnsteadyFlowSolver. Every
 // rank assembles its rows of a replicated grid and receives the whole
 // solution: simple and exact under MPI for 2D sizes (the grid, not the
 // factorisation, is replicated).

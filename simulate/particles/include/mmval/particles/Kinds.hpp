@@ -7,6 +7,8 @@ namespace mmval::particles {
 /// "particles-channel": particles injected into an analytic Hele-Shaw channel,
 /// moved by the engine the scene's numbers pick (or the case forces), with
 /// deposition; writes trajectories.csv (shared tracks schema), retention.csv.
+/// "particles-micromodel": the coupled validation scene on a pore image
+/// (Micromodel.hpp): trajectories.csv, retention.csv, permeability.csv.
 void registerParticleKinds(CaseKindRegistry& registry);
 
 }  // namespace mmval::particles

@@ -11,6 +11,9 @@
 // (Heyes & Melrose 1993, J. Non-Newtonian Fluid Mech. 46:1), so no contact
 // stiffness limits the step. The step is chosen so that no particle moves more
 // than `max_step_fraction` radii (flow, forces and Brownian rms), not by tau_p.
+// A move (or a contact push) that leaves a particle overlapping a grain after
+// three pushes along the wall normal is refused: particles never squeeze
+// through a throat narrower than themselves (straining).
 // Attachment: a particle whose gap to a sticky surface falls below the capture
 // distance, or that would have penetrated it, deposits and stays.
 // Not modelled: the near-wall lag of a sphere in shear (Goldman, Cox & Brenner
@@ -20,6 +23,7 @@
 #include <memory>
 #include <unordered_map>
 
+#include "mmval/particles/Checkpoint.hpp"
 #include "mmval/particles/HydroModel.hpp"
 #include "mmval/particles/Scene.hpp"
 
@@ -45,17 +49,34 @@ class OverdampedEngine final : public ParticleEngine {
   Vec3 driftVelocity(const Vec3& x) const;
   const HydroModel& model() const { return m_model; }
 
+  /// After the flow field changed (deposits turned cells solid): mobile
+  /// particles now inside solid are deposited there (they are part of the
+  /// deposit that closed the cell). Returns how many.
+  std::int64_t captureInSolid();
+  /// Everything that determines the future of the run (time, particles,
+  /// statistics, the random generator's state), for checkpoints: a run
+  /// restored with loadState() continues bit for bit like the original.
+  void saveState(CheckpointWriter& w) const;
+  /// Throws std::runtime_error when the data do not fit this engine.
+  void loadState(CheckpointReader& r);
+
  private:
   void step(double dt);
   void resolveContacts();
   void applyWallsAndCapture(ParticleState& p, const Vec3& before);
-  double chooseStep(const std::vector<Vec3>& drift) const;
+  double chooseStep(const std::vector<Vec3>& drift) const;  ///< drift indexed like m_mobile
+  std::int64_t cellKey(const Vec3& x) const;
+  void indexDeposited(int i);
+  void compactMobile(double t_event);
 
   std::shared_ptr<const FlowField> m_flow;
   SceneConfig m_cfg;
   HydroModel m_model;
   double m_radius, m_outlet;
   std::vector<ParticleState> m_particles;
+  std::vector<int> m_mobile;  ///< indices of mobile particles, ascending
+  std::unordered_map<std::int64_t, std::vector<int>> m_dep_cells;  ///< deposited particles by contact cell
+  std::vector<int> m_dep_order;  ///< deposited particles in the order they were indexed (restores m_dep_cells exactly)
   double m_t = 0.0;
   EngineStats m_stats;
   struct Rng;

@@ -1,0 +1,38 @@
+// The coupled validation scene, case kind "particles-micromodel" (issue 6):
+// the micromodel experiment of the paper (paper-notes.md, "The micromodel
+// experiment") on a pore mask. The geometry comes from a binary image (pixel
+// size and chip depth from the case), the depth-averaged Stokes flow from
+// mmval's fluid solver (MicromodelFlow) at the experiment's Darcy velocity,
+// fines of the experiment's size and density enter at the inlet at the
+// experiment's concentration (optionally a random sample of it, each simulated
+// particle then a parcel for the deposit volume), move with the overdamped
+// colloid engine (Stokes number ~1e-5) and stick to grains, the bottom plate
+// and earlier deposits. Four-way: deposits close pixel columns (DepositGrid),
+// and the flow is solved again when enough closed since the last solve.
+//
+// Outputs (all written under temporary names and renamed):
+//   trajectories.csv  the tracker's tracks schema: frame, particle, x, y (pixels
+//                     of the geometry image, column / row from the top-left
+//                     pixel's centre), x_um, y_um (= pixels x pixel size, image
+//                     axes), t_s, z_um (height above the bottom plate), state
+//                     (mobile; a deposited particle appears once, in the first
+//                     frame after it deposited, with state "deposited")
+//   retention.csv     t_s, injected, retained, left, inside  (injected = retained + left + inside)
+//   permeability.csv  t_s, k_m2, k_D, k_over_k0, resolves
+// Long runs write checkpoint.bin every run.checkpoint_every engine steps (at
+// the next output frame); `mmval run --resume` continues from it bit for bit.
+#pragma once
+#include "mmval/core/CaseKind.hpp"
+
+namespace mmval::particles {
+
+/// Thrown when a run stops on purpose after run.stop_after_frames frames
+/// (tests of checkpoint/restart); the checkpoint is on disk.
+class RunStopped : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+CaseKind micromodelKind();
+
+}  // namespace mmval::particles

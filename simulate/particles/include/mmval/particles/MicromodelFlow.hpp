@@ -1,0 +1,93 @@
+// The fluid side of the coupled micromodel scene (issue 6): a pore mask (image
+// pixels, row 0 at the top, y up in metres as simulate::MaskShape has it), its
+// depth-averaged Stokes flow from mmval's own solver (simulate::SteadyFlowSolver,
+// Hele-Shaw friction -12 mu u / h^2 of the chip depth), scaled to a given Darcy
+// velocity, and handed to the particle engines as a GriddedFlow on the pixel
+// centres. Four-way coupling: cells the deposits have filled are added to the
+// solids and the flow is solved again (Stokes has no memory, so the new steady
+// field is the answer). Permeability by Darcy's law at a fixed pressure drop,
+//   k = mu q L / (W dp)   (q: flux per unit depth through the outlet),
+// the definition of the image-permeability kind. Solids enter by the penalized
+// (volume-fraction) immersed boundary: with the sharp one, pixels closed by
+// deposits put face nodes exactly on the pixel staircase and the solve came out
+// non-finite (seen on the dilated Pore2Chip mask at 0.1 and 0.5 cells per
+// pixel), and the method must not change between re-solves, or k/k0 would
+// jump for numerical reasons. Pockets cut off from both inlet and outlet are
+// closed before each solve (they have no pressure level).
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mmval/particles/FlowField.hpp"
+
+namespace mmval::particles {
+
+using PixelMask = Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic>;  ///< rows x cols, true = solid, row 0 = top
+
+struct MicromodelFlowOptions {
+  double pixel = 10e-6;             ///< m per pixel
+  double depth = 20e-6;             ///< chip depth, m
+  double viscosity = 1e-3;          ///< Pa s
+  double darcy_velocity = 0.0;      ///< m/s, superficial velocity the flow is scaled to (>= 0)
+  double cells_per_pixel = 0.5;     ///< fluid grid resolution
+};
+
+struct FlowSolveResult {
+  double permeability = 0;     ///< m2 (depth-averaged model)
+  double flux_scale = 0;       ///< velocity factor from the 1 Pa solve to the target Darcy velocity
+  double seconds = 0;          ///< wall time of the solve
+  bool blocked = false;        ///< no flow path left (k = 0)
+};
+
+class MicromodelFlow {
+ public:
+  /// `grains`: solid pixels (isolated pores already closed). Throws std::invalid_argument on bad options.
+  MicromodelFlow(PixelMask grains, MicromodelFlowOptions options);
+
+  /// Solves the flow with the grains plus `extra_solid` (same shape, may be empty
+  /// for none), fills field() and returns the permeability. Throws std::runtime_error
+  /// when the solver fails.
+  FlowSolveResult solve(const PixelMask& extra_solid);
+
+  /// The field the engines see: nodes at pixel centres, padded by one node on
+  /// every side (solid rows beyond the two side walls; copies of the first and
+  /// last columns beyond the inlet and the outlet, so that x = 0 and x = width are inside).
+  std::shared_ptr<GriddedFlow> field() const { return m_field; }
+  /// Node arrays of the last solve (for checkpoints) and restoring them exactly.
+  const std::vector<double>& nodeUx() const { return m_ux; }
+  const std::vector<double>& nodeUy() const { return m_uy; }
+  const std::vector<std::uint8_t>& nodeSolid() const { return m_solid; }
+  void restore(const std::vector<double>& ux, const std::vector<double>& uy, const std::vector<std::uint8_t>& solid);
+
+  int rows() const { return static_cast<int>(m_grains.rows()); }
+  int cols() const { return static_cast<int>(m_grains.cols()); }
+  double width() const { return cols() * m_opt.pixel; }   ///< m, along x (flow)
+  double height() const { return rows() * m_opt.pixel; }  ///< m, along y
+  const MicromodelFlowOptions& options() const { return m_opt; }
+  const PixelMask& grains() const { return m_grains; }
+
+  /// Image pixel (column, row) of a point in metres; may be outside the image.
+  void pixelOf(double x, double y, int& col, int& row) const;
+
+ private:
+  PixelMask m_grains;
+  MicromodelFlowOptions m_opt;
+  std::shared_ptr<GriddedFlow> m_field;
+  std::vector<double> m_ux, m_uy, m_h;
+  std::vector<std::uint8_t> m_solid;
+};
+
+/// Largest particle diameter (m) that can travel from the inlet column to the
+/// outlet column of `solid` through the pore space: the bottleneck of the
+/// Euclidean distance to the grains and side walls (the maximin path through
+/// the medial axis), sampled at pixel centres: a throat n pixels wide reads n
+/// pixels for odd n and n - 1 for even n. 0 when no pore path exists.
+double passableDiameter(const PixelMask& solid, double pixel);
+
+/// Largest particle diameter (m) that fits somewhere in the inlet column.
+double inletOpening(const PixelMask& solid, double pixel);
+
+}  // namespace mmval::particles

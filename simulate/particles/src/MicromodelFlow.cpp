@@ -1,0 +1,232 @@
+#include "mmval/particles/MicromodelFlow.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <queue>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "mmval/simulate/FlowSolver.hpp"
+#include "mmval/simulate/Geometry.hpp"
+#include "mmval/simulate/Grid.hpp"
+
+namespace mmval::particles {
+
+namespace {
+constexpr double kPressureDrop = 1.0;  // Pa; Stokes is linear, the field is rescaled to the target flux
+
+/// Distance (m) from each pixel centre to the nearest grain or side wall, row-major
+/// from the bottom row up (j * cols + i, j = 0 the image's last row).
+std::vector<double> pixelWallDistance(const PixelMask& solid, double pixel) {
+  const int rows = static_cast<int>(solid.rows()), cols = static_cast<int>(solid.cols());
+  // One solid row beyond each side wall; distances come from GriddedFlow's transform.
+  GriddedFlow g(cols, rows + 2, 0.5 * pixel, -0.5 * pixel, pixel, pixel);
+  const auto n = static_cast<std::size_t>(cols) * (rows + 2);
+  std::vector<double> zero(n, 0.0), h(n, 1.0);
+  std::vector<std::uint8_t> s(n, 1);
+  for (int j = 1; j <= rows; ++j)
+    for (int i = 0; i < cols; ++i) s[static_cast<std::size_t>(j) * cols + i] = solid(rows - j, i) ? 1 : 0;
+  g.update(zero, zero, h, s);
+  std::vector<double> d(static_cast<std::size_t>(rows) * cols);
+  for (int j = 0; j < rows; ++j)
+    for (int i = 0; i < cols; ++i) d[static_cast<std::size_t>(j) * cols + i] = g.wallDistance((i + 0.5) * pixel, (j + 0.5) * pixel);
+  return d;
+}
+}  // namespace
+
+MicromodelFlow::MicromodelFlow(PixelMask grains, MicromodelFlowOptions options) : m_grains(std::move(grains)), m_opt(options) {
+  if (m_grains.rows() < 2 || m_grains.cols() < 2) throw std::invalid_argument("MicromodelFlow: the mask needs at least 2 x 2 pixels");
+  if (!(m_opt.pixel > 0) || !(m_opt.depth > 0) || !(m_opt.viscosity > 0) || !(m_opt.darcy_velocity >= 0) || !(m_opt.cells_per_pixel > 0))
+    throw std::invalid_argument("MicromodelFlow: pixel, depth, viscosity, cells_per_pixel must be > 0 and the Darcy velocity >= 0");
+  m_field = std::make_shared<GriddedFlow>(cols() + 2, rows() + 2, -0.5 * m_opt.pixel, -0.5 * m_opt.pixel, m_opt.pixel, m_opt.pixel);
+}
+
+void MicromodelFlow::pixelOf(double x, double y, int& col, int& row) const {
+  col = static_cast<int>(std::floor(x / m_opt.pixel));
+  row = rows() - 1 - static_cast<int>(std::floor(y / m_opt.pixel));
+}
+
+FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid) {
+  const auto t0 = std::chrono::steady_clock::now();
+  PixelMask all = m_grains;
+  if (extra_solid.size() > 0) {
+    if (extra_solid.rows() != all.rows() || extra_solid.cols() != all.cols()) throw std::invalid_argument("MicromodelFlow::solve: extra solid has the wrong shape");
+    all = all || extra_solid;
+  }
+  const int nr = rows(), nc = cols();
+  const double W = width(), H = height(), p = m_opt.pixel;
+  const int nx = std::max(4, static_cast<int>(std::lround(nc * m_opt.cells_per_pixel)));
+  const int ny = std::max(4, static_cast<int>(std::lround(nr * m_opt.cells_per_pixel)));
+  simulate::FlowProblem prob;
+  prob.x = simulate::uniformAxis(0, W, nx);
+  prob.y = simulate::uniformAxis(0, H, ny);
+  prob.boundary[0].type = prob.boundary[1].type = simulate::BoundaryType::pressure;
+  prob.boundary[0].pressure = kPressureDrop;
+  prob.boundary[1].pressure = 0.0;
+  prob.boundary[2].type = prob.boundary[3].type = simulate::BoundaryType::slip;
+  prob.viscosity = m_opt.viscosity;
+  prob.depth = m_opt.depth;
+  // Deposits (or a coarse grid) can wall off pockets of pore space; an enclosed
+  // pocket has no pressure level and makes the linear system singular.
+  // Connectivity is taken as the sharp method sees it: a cell is fluid when its
+  // centre is, and two cells (or a cell and the inlet/outlet) communicate when
+  // the node of their shared face is fluid too. Cells reachable from neither
+  // the inlet nor the outlet are closed (every pixel they overlap).
+  const double cw = W / nx, ch = H / ny;
+  for (int pass = 0; pass < 8; ++pass) {  // closing pixels can cut off more cells: repeat until none is
+    const simulate::MaskShape probe(all, p);
+    std::vector<std::uint8_t> fluid(static_cast<std::size_t>(nx) * ny), reach(fluid.size(), 0);
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) fluid[static_cast<std::size_t>(j) * nx + i] = !probe.solid((i + 0.5) * cw, (j + 0.5) * ch);
+    const auto openX = [&](int i, int j) { return !probe.solid(i * cw, (j + 0.5) * ch); };  // face at x = i cw
+    const auto openY = [&](int i, int j) { return !probe.solid((i + 0.5) * cw, j * ch); };  // face at y = j ch
+    const auto flood = [&](int column, std::uint8_t bit) {
+      std::vector<int> stack;
+      for (int j = 0; j < ny; ++j) {
+        const int k = j * nx + column;
+        if (fluid[k] && openX(column == 0 ? 0 : nx, j) && !(reach[k] & bit)) {
+          reach[k] |= bit;
+          stack.push_back(k);
+        }
+      }
+      while (!stack.empty()) {
+        const int k = stack.back();
+        stack.pop_back();
+        const int i = k % nx, j = k / nx;
+        const auto go = [&](int ii, int jj, bool open) {
+          if (ii < 0 || ii >= nx || jj < 0 || jj >= ny || !open) return;
+          const int kk = jj * nx + ii;
+          if (!fluid[kk] || (reach[kk] & bit)) return;
+          reach[kk] |= bit;
+          stack.push_back(kk);
+        };
+        go(i + 1, j, i + 1 < nx && openX(i + 1, j));
+        go(i - 1, j, i > 0 && openX(i, j));
+        go(i, j + 1, j + 1 < ny && openY(i, j + 1));
+        go(i, j - 1, j > 0 && openY(i, j));
+      }
+    };
+    flood(0, 1);
+    flood(nx - 1, 2);
+    bool spanning = false;
+    for (int j = 0; j < ny && !spanning; ++j) spanning = reach[static_cast<std::size_t>(j) * nx + nx - 1] == 3;
+    if (!spanning) {
+      FlowSolveResult blocked;
+      blocked.blocked = true;
+      m_ux.assign(m_ux.size(), 0.0);
+      m_uy.assign(m_uy.size(), 0.0);
+      if (!m_ux.empty()) m_field->update(m_ux, m_uy, m_h, m_solid);
+      blocked.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      return blocked;
+    }
+    bool isolated = false;
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const auto k = static_cast<std::size_t>(j) * nx + i;
+        if (!fluid[k] || reach[k]) continue;
+        isolated = true;
+        // Pixels overlapping cell (i, j); b counts pixel rows from the bottom.
+        const int c0 = std::max(0, static_cast<int>(std::floor(i * cw / p))), c1 = std::min(nc - 1, static_cast<int>(std::ceil((i + 1) * cw / p)));
+        const int b0 = std::max(0, static_cast<int>(std::floor(j * ch / p))), b1 = std::min(nr - 1, static_cast<int>(std::ceil((j + 1) * ch / p)));
+        for (int b = b0; b <= b1; ++b)
+          for (int cc = c0; cc <= c1; ++cc) all(nr - 1 - b, cc) = true;
+      }
+    if (!isolated) break;
+  }
+  prob.shape = std::make_shared<simulate::MaskShape>(all, p);
+  prob.method = simulate::ImmersedMethod::penalized;
+  simulate::SteadyFlowSolver solver(prob);
+  solver.solve();
+  FlowSolveResult r;
+  const double q = solver.flowRate(simulate::Side::east);
+  r.blocked = !(q > 0) || !std::isfinite(q);
+  r.permeability = r.blocked ? 0.0 : m_opt.viscosity * q * W / (H * kPressureDrop);
+  r.flux_scale = r.blocked ? 0.0 : m_opt.darcy_velocity * H / q;
+  const Eigen::ArrayXXd cu = solver.cellVelocity(0), cv = solver.cellVelocity(1);
+  const double dxc = W / nx, dyc = H / ny;
+  const auto interp = [&](const Eigen::ArrayXXd& a, double x, double y) {
+    const double fx = std::clamp(x / dxc - 0.5, 0.0, nx - 1.0), fy = std::clamp(y / dyc - 0.5, 0.0, ny - 1.0);
+    const int i = std::min(static_cast<int>(fx), nx - 2), j = std::min(static_cast<int>(fy), ny - 2);
+    const double s = fx - i, t = fy - j;
+    return (1 - s) * (1 - t) * a(j, i) + s * (1 - t) * a(j, i + 1) + (1 - s) * t * a(j + 1, i) + s * t * a(j + 1, i + 1);
+  };
+  const int NX = nc + 2, NY = nr + 2;
+  const auto n = static_cast<std::size_t>(NX) * NY;
+  m_ux.assign(n, 0.0);
+  m_uy.assign(n, 0.0);
+  m_h.assign(n, m_opt.depth);
+  m_solid.assign(n, 1);
+  for (int j = 0; j < NY; ++j)
+    for (int i = 0; i < NX; ++i) {
+      const std::size_t k = static_cast<std::size_t>(j) * NX + i;
+      const int jb = j - 1;
+      if (jb < 0 || jb >= nr) continue;  // beyond a side wall
+      const int col = std::clamp(i - 1, 0, nc - 1), row = nr - 1 - jb;
+      if (all(row, col)) continue;
+      m_solid[k] = 0;
+      const double x = (col + 0.5) * p, y = (jb + 0.5) * p;
+      m_ux[k] = r.flux_scale * interp(cu, x, y);
+      m_uy[k] = r.flux_scale * interp(cv, x, y);
+    }
+  m_field->update(m_ux, m_uy, m_h, m_solid);
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+void MicromodelFlow::restore(const std::vector<double>& ux, const std::vector<double>& uy, const std::vector<std::uint8_t>& solid) {
+  m_ux = ux;
+  m_uy = uy;
+  m_solid = solid;
+  m_h.assign(m_ux.size(), m_opt.depth);
+  m_field->update(m_ux, m_uy, m_h, m_solid);
+}
+
+double passableDiameter(const PixelMask& solid, double pixel) {
+  const int rows = static_cast<int>(solid.rows()), cols = static_cast<int>(solid.cols());
+  const std::vector<double> d = pixelWallDistance(solid, pixel);
+  // Widest path (maximin) from the inlet column to the outlet column over
+  // 4-connected pore pixels: a Dijkstra with max-heap on the bottleneck.
+  std::vector<double> best(d.size(), -1.0);
+  std::priority_queue<std::pair<double, int>> heap;
+  for (int j = 0; j < rows; ++j) {
+    const int k = j * cols;
+    if (solid(rows - 1 - j, 0)) continue;
+    best[k] = d[k];
+    heap.emplace(d[k], k);
+  }
+  double answer = 0.0;
+  while (!heap.empty()) {
+    const auto [b, k] = heap.top();
+    heap.pop();
+    if (b < best[k]) continue;
+    const int i = k % cols, j = k / cols;
+    if (i == cols - 1) {
+      answer = b;  // the first outlet pixel popped has the widest bottleneck
+      break;
+    }
+    const int ni[4] = {i + 1, i - 1, i, i}, nj[4] = {j, j, j + 1, j - 1};
+    for (int m = 0; m < 4; ++m) {
+      if (ni[m] < 0 || ni[m] >= cols || nj[m] < 0 || nj[m] >= rows) continue;
+      if (solid(rows - 1 - nj[m], ni[m])) continue;
+      const int kk = nj[m] * cols + ni[m];
+      const double nb = std::min(b, d[kk]);
+      if (nb > best[kk]) {
+        best[kk] = nb;
+        heap.emplace(nb, kk);
+      }
+    }
+  }
+  return 2.0 * std::max(answer, 0.0);
+}
+
+double inletOpening(const PixelMask& solid, double pixel) {
+  const int rows = static_cast<int>(solid.rows()), cols = static_cast<int>(solid.cols());
+  const std::vector<double> d = pixelWallDistance(solid, pixel);
+  double m = 0.0;
+  for (int j = 0; j < rows; ++j) m = std::max(m, d[static_cast<std::size_t>(j) * cols]);
+  return 2.0 * m;
+}
+
+}  // namespace mmval::particles

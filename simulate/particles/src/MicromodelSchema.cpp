@@ -1,0 +1,151 @@
+// Schema and geometry of the particles-micromodel kind (Micromodel.hpp):
+// the case keys, the mask (found, cropped, dilated, isolated pores closed).
+#include <cmath>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "MicromodelDetail.hpp"
+#include "mmval/core/Error.hpp"
+#include "mmval/particles/FlowField.hpp"
+#include "mmval/simulate/Geometry.hpp"
+#include "mmval/simulate/PoreSpace.hpp"
+
+namespace mmval::particles::detail {
+
+namespace fs = std::filesystem;
+
+void declareMicromodel(Schema& s) {
+  s.path("geometry.mask", "Binary image of the pore geometry (PNG, TIFF), relative to the case file (or to the folder above it)");
+  s.quantity("geometry.pixel_size", "um", "Size of one image pixel (the image carries no scale)").positive();
+  s.choice("geometry.grains", {"dark", "bright"}, "Which pixels are grains").def("dark");
+  s.quantity("geometry.depth", "um", "Chip depth h (the experiment's chip: 20 um)").def("20 um").positive();
+  s.integer("geometry.dilate", "Grow the grains by this many pixels (disc; to lower the porosity of a design mask); 0: as drawn").def(0).min(0).max(1000);
+  s.integerList("geometry.crop", "Window of the image [first column, first row, columns, rows]; absent: the whole image").optional();
+  s.quantity("flow.rate", "uL/min", "Volume flow rate through the chip (the experiment: 5 uL/min)").def("5 uL/min").nonNegative();
+  s.quantity("flow.rate_width", "mm",
+             "Width of the chip the flow rate goes through (the experiment's 10 mm); the simulated geometry gets the same Darcy "
+             "velocity rate / (width x depth). 0: the rate goes through the simulated geometry itself")
+      .def("10 mm").nonNegative();
+  s.quantity("flow.darcy_velocity", "cm/min", "Darcy (superficial) velocity; given, it replaces flow.rate (Table 3 gives velocities)").optional().nonNegative();
+  s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def("1e-3 Pa s").positive();
+  s.quantity("fluid.density", "kg/m3", "Fluid density").def("998.2 kg/m3").positive();
+  s.quantity("fluid.temperature", "K", "Temperature (Brownian motion)").def("293.15 K").positive();
+  s.quantity("particles.diameter", "um", "Fine particle diameter (the experiment: ~5 um)").def("5 um").positive();
+  s.quantityList("particles.diameters", "um",
+                 "Several size classes (polydisperse fines, paper Table 3); given, they replace particles.diameter. Classes do not "
+                 "see each other's particles in contacts (dilute), but all see every deposit through the flow and the closed pixels")
+      .optional();
+  s.realList("particles.size_fractions", "Number fraction of each size class (sums to 1; Table 3 does not say whether by number or volume)").optional();
+  s.integer("particles.count", "Simulated particles injected over the injection time; 0: from the concentration and the flow").def(0).min(0).max(100000000);
+  s.quantity("particles.density", "g/cm3", "Particle density (polystyrene 1.05)").def("1.05 g/cm3").positive();
+  s.quantity("particles.concentration", "mL^-1", "Number concentration of the injected suspension (the experiment: 2.9e7 per mL)")
+      .def("2.9e7 mL^-1").nonNegative();
+  s.real("particles.sample_fraction",
+         "Fraction of the suspension's particles that is simulated (a random sample; 1: all). Each simulated particle then "
+         "stands for 1 / sample_fraction real ones in the deposit volume when coupling.parcel_weighting is on")
+      .def(1.0).min(1e-9).max(1.0);
+  s.quantity("particles.injection_time", "s", "Particles enter during [0, injection_time]; 0: the whole run").def(0.0).nonNegative();
+  s.choice("particles.engine", {"auto", "overdamped"},
+           "Particle engine. auto: from the scene's numbers, which must allow the overdamped engine (LIGGGHTS cannot run this "
+           "scene's length: liggghts-notes.md); overdamped: forced, with the automatic choice recorded")
+      .def("auto");
+  s.quantity("physics.gravity", "m/s2", "Gravity along -z (the depth); 0: no settling").def("9.81 m/s2").nonNegative();
+  s.choice("physics.brownian", {"auto", "on", "off"}, "Brownian motion; auto follows the Peclet numbers").def("auto");
+  s.boolean("physics.wall_hindrance", "Faxen / Brenner drag corrections from the plates").def(true);
+  s.boolean("physics.faxen_curvature", "Faxen's a^2/6 lap(u) term of the depth profile").def(true);
+  s.quantity("deposition.capture_distance", "um", "Surface gap at which a particle attaches (0: never)").def("0.1 um").nonNegative();
+  s.boolean("deposition.bottom", "The bottom plate is sticky").def(true);
+  s.boolean("deposition.top", "The top plate is sticky").def(false);
+  s.boolean("deposition.walls", "Grains and side walls are sticky").def(true);
+  s.boolean("deposition.deposited", "Deposited particles are sticky (ripening, bridging)").def(true);
+  s.quantity("deposition.hamaker", "J", "Hamaker constant of the sphere-wall van der Waals attraction (0: none)").def(1e-20).nonNegative();
+  s.quantity("deposition.attraction_range", "um", "van der Waals cut-off gap").def("1 um").positive();
+  s.choice("coupling.mode", {"four-way", "one-way"},
+           "four-way: deposits close pixel columns and the flow is solved again; one-way: the flow never changes")
+      .def("four-way");
+  s.real("coupling.fill_fraction", "A pore pixel's column closes when deposits fill this fraction of its volume").def(0.5).min(0.01).max(1.0);
+  s.real("coupling.resolve_threshold", "Re-solve the flow when this fraction of the pore pixels closed since the last solve")
+      .def(1e-3).min(0.0).max(1.0);
+  s.boolean("coupling.parcel_weighting", "A deposit's volume is that of the 1 / sample_fraction particles it stands for").def(true);
+  s.real("numerics.cells_per_pixel", "Fluid grid cells per image pixel").def(0.5).min(0.05).max(4);
+  s.real("numerics.max_step_fraction", "Largest particle displacement per step, in radii").def(0.5).min(1e-4).max(1);
+  s.quantity("run.duration", "s", "Physical time simulated").def("20 min").positive();
+  s.quantity("run.output_interval", "s", "Output (frame) interval").def("1 s").positive();
+  s.integer("run.seed", "Random seed (Brownian motion, injection)").def(1).min(0);
+  s.integer("run.checkpoint_every", "Write checkpoint.bin at the first output frame after this many engine steps (0: never)")
+      .def(200000).min(0);
+  s.integer("run.stop_after_frames", "Stop (as if killed) after this many output frames, leaving a checkpoint (0: run to the end; tests)")
+      .def(0).min(0);
+}
+
+/// Grains grown by a disc of `radius_px` pixels (Euclidean, centre to centre).
+PixelMask dilate(const PixelMask& m, int radius_px) {
+  if (radius_px <= 0) return m;
+  const int rows = static_cast<int>(m.rows()), cols = static_cast<int>(m.cols());
+  GriddedFlow g(cols, rows, 0, 0, 1.0, 1.0);
+  const auto n = static_cast<std::size_t>(rows) * cols;
+  std::vector<double> zero(n, 0.0), h(n, 1.0);
+  std::vector<std::uint8_t> s(n);
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) s[static_cast<std::size_t>(r) * cols + c] = m(r, c) ? 1 : 0;
+  g.update(zero, zero, h, s);
+  PixelMask out = m;
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c)
+      if (!m(r, c) && g.wallDistance(c, r) + 0.5 <= radius_px + 1e-9) out(r, c) = true;
+  return out;
+}
+
+fs::path maskPath(const Case& c) {
+  const fs::path p = c.path("geometry.mask");
+  if (fs::exists(p)) return p;
+  // Also relative to the folder above the case file (the repository for cases/).
+  const fs::path raw = c.text("geometry.mask");
+  if (raw.is_relative()) {
+    const fs::path q = c.file().parent_path().parent_path() / raw;
+    if (fs::exists(q)) return q;
+    throw InputError(c.where("geometry.mask"), "mask image not found", raw.string(),
+                     fmt::format("an image at {} or {}", p.string(), q.string()));
+  }
+  throw InputError(c.where("geometry.mask"), "mask image not found", raw.string(), "an existing PNG/TIFF file");
+}
+
+PixelMask loadGeometry(const Case& c, nlohmann::json& details, double& porosity) {
+  const fs::path file = maskPath(c);
+  PixelMask raw;
+  try {
+    raw = simulate::readMask(file, c.text("geometry.grains") == "dark");
+  } catch (const std::exception& e) {
+    throw InputError(c.where("geometry.mask"), e.what(), file.string(), "a readable PNG/TIFF image");
+  }
+  details["image"] = file.string();
+  details["image_pixels"] = {raw.cols(), raw.rows()};
+  if (c.has("geometry.crop")) {
+    const auto& v = c.integers("geometry.crop");
+    if (v.size() != 4 || v[0] < 0 || v[1] < 0 || v[2] < 2 || v[3] < 2 || v[0] + v[2] > raw.cols() || v[1] + v[3] > raw.rows())
+      throw InputError(c.where("geometry.crop"), "window outside the image or smaller than 2 x 2 pixels",
+                       fmt::format("{}", fmt::join(v, ", ")),
+                       fmt::format("[first column, first row, columns, rows] inside the {} x {} image", raw.cols(), raw.rows()));
+    raw = PixelMask(raw.block(v[1], v[0], v[3], v[2]));
+    details["crop"] = v;
+  }
+  if (const auto r = c.integer("geometry.dilate"); r > 0) {
+    raw = dilate(raw, static_cast<int>(r));
+    details["dilated_px"] = r;
+  }
+  simulate::PoreSpaceReport pores;
+  try {
+    pores = simulate::analysePoreSpace(raw);
+  } catch (const simulate::NoFlowPath& e) {
+    throw InputError(c.where("geometry.mask"), e.what(), file.string(),
+                     "a mask (or crop window) with a connected pore path from the left to the right edge (check geometry.grains)");
+  }
+  details["porosity_total"] = pores.porosity_total;
+  details["porosity_connected"] = pores.porosity_connected;
+  details["pore_components"] = pores.components;
+  porosity = pores.porosity_connected;
+  return pores.solid_connected;
+}
+
+}  // namespace mmval::particles::detail

@@ -1,0 +1,257 @@
+#include "CoupledSystem.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include <fmt/format.h>
+#include <petscksp.h>
+
+namespace mmval::simulate {
+
+namespace {
+
+void check(PetscErrorCode ierr, const char* what) {
+  if (ierr != 0) throw std::runtime_error(fmt::format("PETSc error {} in {}", static_cast<int>(ierr), what));
+}
+
+double seconds(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+struct CoupledSystem::Impl {
+  SolverOptions opt;
+  MPI_Comm comm;
+  Mat A = nullptr;
+  Vec b = nullptr, x = nullptr;
+  KSP ksp = nullptr;
+  MatSolverType solver = MATSOLVERMUMPS;
+  bool factored_once = false;
+  int lag_max_its = 0;     ///< > 0: lagged factorisation (see setLaggedFactorisation)
+  bool refactor = true;
+  int factorisations = 0;
+  bool mass_schur = false;  ///< iterative Stokes: Schur complement preconditioned by the scaled pressure mass matrix
+  Mat Sp = nullptr;
+
+  ~Impl() {
+    if (ksp != nullptr) KSPDestroy(&ksp);
+    if (Sp != nullptr) MatDestroy(&Sp);
+    if (A != nullptr) MatDestroy(&A);
+    if (b != nullptr) VecDestroy(&b);
+    if (x != nullptr) VecDestroy(&x);
+  }
+
+  void create(const FlowOperator& op) {
+    const PetscInt n = op.unknowns();
+    check(MatCreate(comm, &A), "MatCreate");
+    check(MatSetSizes(A, PETSC_DECIDE, PETSC_DECIDE, n, n), "MatSetSizes");
+    check(MatSetType(A, MATAIJ), "MatSetType");
+    check(MatSeqAIJSetPreallocation(A, 24, nullptr), "prealloc");
+    check(MatMPIAIJSetPreallocation(A, 24, nullptr, 24, nullptr), "prealloc");
+    check(MatSetOption(A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE), "MatSetOption");
+    check(MatCreateVecs(A, &x, &b), "MatCreateVecs");
+    check(KSPCreate(comm, &ksp), "KSPCreate");
+    // Stokes without friction or inertia: the Schur complement -B A^-1 B^T is spectrally
+    // equivalent to the pressure mass matrix / mu (Silvester & Wathen 1994), which gives
+    // grid-independent iteration counts; with friction or inertia the velocity block is
+    // mass-like and the diagonal ("selfp") approximation B diag(A)^-1 B^T fits instead.
+    const FlowProblem& pr = op.problem();
+    mass_schur = opt.linear == "iterative" && !pr.inertia && pr.depth == 0;
+    check(KSPSetOptionsPrefix(ksp, mass_schur ? "fluidm_" : "fluid_"), "prefix");
+    PC pc;
+    check(KSPGetPC(ksp, &pc), "KSPGetPC");
+    if (opt.linear == "direct") {
+      check(KSPSetType(ksp, KSPPREONLY), "KSPSetType");
+      check(PCSetType(pc, PCLU), "PCSetType");
+      // Serial: UMFPACK (measured 4x faster than MUMPS here on the 2D saddle-point
+      // systems: Debian's MUMPS falls back to the PORD ordering). Parallel: MUMPS.
+      int size = 1;
+      MPI_Comm_size(comm, &size);
+      solver = size == 1 ? MATSOLVERUMFPACK : MATSOLVERMUMPS;
+      check(PCFactorSetMatSolverType(pc, solver), "factor solver");
+    } else if (opt.linear == "iterative") {
+      check(KSPSetType(ksp, KSPFGMRES), "KSPSetType");
+      check(KSPGMRESSetRestart(ksp, 200), "restart");
+      check(KSPSetTolerances(ksp, opt.linear_rtol, 1e-30, PETSC_DEFAULT, 5000), "tol");
+      check(PCSetType(pc, PCFIELDSPLIT), "fieldsplit");
+      PetscInt lo = 0, hi = 0;
+      check(MatGetOwnershipRange(A, &lo, &hi), "ownership");
+      std::vector<PetscInt> iu, ip;
+      for (PetscInt r = lo; r < hi; ++r) (r < op.pressureOffset() ? iu : ip).push_back(r);
+      IS isu, isp;
+      check(ISCreateGeneral(comm, static_cast<PetscInt>(iu.size()), iu.data(), PETSC_COPY_VALUES, &isu), "IS");
+      check(ISCreateGeneral(comm, static_cast<PetscInt>(ip.size()), ip.data(), PETSC_COPY_VALUES, &isp), "IS");
+      check(PCFieldSplitSetIS(pc, "0", isu), "IS u");
+      check(PCFieldSplitSetIS(pc, "1", isp), "IS p");
+      ISDestroy(&isu);
+      ISDestroy(&isp);
+      check(PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR), "schur");
+      check(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER), "schur fact");
+      if (!mass_schur) check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELFP, nullptr), "selfp");
+      auto def = [](const char* k, const char* v) {
+        PetscBool has = PETSC_FALSE;
+        PetscOptionsHasName(nullptr, nullptr, k, &has);
+        if (!has) PetscOptionsSetValue(nullptr, k, v);
+      };
+      def("-fluid_fieldsplit_0_ksp_type", "preonly");
+      def("-fluid_fieldsplit_0_pc_type", "gamg");
+      def("-fluid_fieldsplit_1_ksp_type", "preonly");
+      def("-fluid_fieldsplit_1_pc_type", "gamg");
+      def("-fluidm_fieldsplit_0_ksp_type", "preonly");
+      def("-fluidm_fieldsplit_0_pc_type", "hypre");  // BoomerAMG: steadier than GAMG on the cut-cell velocity block (bench)
+      def("-fluidm_fieldsplit_1_ksp_type", "preonly");
+      def("-fluidm_fieldsplit_1_pc_type", "jacobi");
+    } else {
+      throw std::invalid_argument("linear solver must be 'direct' or 'iterative', got '" + opt.linear + "'");
+    }
+    check(KSPSetFromOptions(ksp), "KSPSetFromOptions");
+  }
+
+  void solve(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats) {
+    auto t0 = std::chrono::steady_clock::now();
+    check(MatZeroEntries(A), "MatZeroEntries");
+    check(VecSet(b, 0.0), "VecSet");
+    PetscInt lo = 0, hi = 0;
+    check(MatGetOwnershipRange(A, &lo, &hi), "ownership");
+    RowTerms row;
+    std::vector<std::pair<int, double>> entries;
+    std::vector<PetscInt> cols;
+    std::vector<PetscScalar> vals;
+    for (PetscInt r = lo; r < hi; ++r) {
+      const double rhs = op.linearRow(static_cast<int>(r), mode, state, row, entries);
+      cols.clear();
+      vals.clear();
+      for (const auto& [c, v] : entries) {
+        cols.push_back(c);
+        vals.push_back(v);
+      }
+      const PetscInt rr = r;
+      check(MatSetValues(A, 1, &rr, static_cast<PetscInt>(cols.size()), cols.data(), vals.data(), ADD_VALUES), "MatSetValues");
+      check(VecSetValue(b, r, rhs, INSERT_VALUES), "VecSetValue");
+    }
+    check(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY), "assembly");
+    check(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY), "assembly");
+    check(VecAssemblyBegin(b), "vec assembly");
+    check(VecAssemblyEnd(b), "vec assembly");
+    stats.assemble_seconds += seconds(t0);
+    t0 = std::chrono::steady_clock::now();
+    check(KSPSetOperators(ksp, A, A), "KSPSetOperators");
+    if (mass_schur && Sp == nullptr) buildMassSchur(op, lo, hi);
+    if (opt.linear == "direct" && !factored_once && std::string(solver) == MATSOLVERMUMPS) {
+      PC pc;
+      KSPGetPC(ksp, &pc);
+      check(PCFactorSetUpMatSolverType(pc), "mumps setup");
+      Mat F;
+      check(PCFactorGetMatrix(pc, &F), "factor matrix");
+      check(MatMumpsSetIcntl(F, 14, 200), "mumps icntl 14");  // workspace headroom for saddle-point pivoting
+    }
+    factored_once = true;
+    if (lag_max_its > 0) {
+      // Initial guess: the incoming state (an extrapolation of the solution).
+      for (PetscInt r = lo; r < hi; ++r) check(VecSetValue(x, r, state[static_cast<std::size_t>(r)], INSERT_VALUES), "VecSetValue");
+      check(VecAssemblyBegin(x), "vec assembly");
+      check(VecAssemblyEnd(x), "vec assembly");
+      check(KSPSetReusePreconditioner(ksp, refactor ? PETSC_FALSE : PETSC_TRUE), "reuse pc");
+    }
+    if (opt.linear == "direct" && (lag_max_its == 0 || refactor)) ++factorisations;
+    check(KSPSolve(ksp, b, x), "KSPSolve");
+    KSPConvergedReason reason;
+    KSPGetConvergedReason(ksp, &reason);
+    if (reason < 0 && lag_max_its > 0 && !refactor) {
+      // The lagged factorisation is too far from the current matrix: refactorise and retry.
+      refactor = true;
+      ++factorisations;
+      for (PetscInt r = lo; r < hi; ++r) check(VecSetValue(x, r, state[static_cast<std::size_t>(r)], INSERT_VALUES), "VecSetValue");
+      check(VecAssemblyBegin(x), "vec assembly");
+      check(VecAssemblyEnd(x), "vec assembly");
+      check(KSPSetReusePreconditioner(ksp, PETSC_FALSE), "reuse pc");
+      check(KSPSolve(ksp, b, x), "KSPSolve");
+      KSPGetConvergedReason(ksp, &reason);
+    }
+    if (reason < 0) throw std::runtime_error(fmt::format("the fluid linear solve failed ({})", KSPConvergedReasons[reason]));
+    PetscInt its = 0;
+    KSPGetIterationNumber(ksp, &its);
+    stats.linear_iterations += std::max<PetscInt>(its, 1);
+    if (lag_max_its > 0) refactor = its > lag_max_its;
+    stats.solve_seconds += seconds(t0);
+    gather(op, state);
+  }
+
+  /// Diagonal Schur preconditioner -vol / mu per cell (pinned cells: their own diagonal).
+  void buildMassSchur(const FlowOperator& op, PetscInt lo, PetscInt hi) {
+    Vec d;
+    check(MatCreateVecs(A, nullptr, &d), "vec");
+    check(MatGetDiagonal(A, d), "diagonal");
+    const PetscScalar* dv = nullptr;
+    check(VecGetArrayRead(d, &dv), "array");
+    const PetscInt off = op.pressureOffset();
+    const PetscInt plo = std::max(lo, off) - off, phi = std::max(hi, off) - off;
+    check(MatCreateAIJ(comm, phi - plo, phi - plo, PETSC_DETERMINE, PETSC_DETERMINE, 1, nullptr, 0, nullptr, &Sp), "Sp");
+    const Axis& X = op.problem().x;
+    const Axis& Y = op.problem().y;
+    const double mu = op.problem().viscosity;
+    for (PetscInt k = plo; k < phi; ++k) {
+      const double own = dv[k + off - lo];
+      const int i = static_cast<int>(k % op.nx()), j = static_cast<int>(k / op.nx());
+      const PetscScalar v = own != 0 ? own : -X.width(i) * Y.width(j) / mu;
+      check(MatSetValue(Sp, k, k, v, INSERT_VALUES), "Sp value");
+    }
+    check(VecRestoreArrayRead(d, &dv), "array");
+    VecDestroy(&d);
+    check(MatAssemblyBegin(Sp, MAT_FINAL_ASSEMBLY), "Sp assembly");
+    check(MatAssemblyEnd(Sp, MAT_FINAL_ASSEMBLY), "Sp assembly");
+    PC pc;
+    check(KSPGetPC(ksp, &pc), "KSPGetPC");
+    check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_USER, Sp), "schur pre user");
+  }
+
+  void gather(const FlowOperator& op, std::vector<double>& state) {
+    VecScatter sc;
+    Vec all;
+    check(VecScatterCreateToAll(x, &sc, &all), "scatter");
+    check(VecScatterBegin(sc, x, all, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+    check(VecScatterEnd(sc, x, all, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+    const PetscScalar* a = nullptr;
+    VecGetArrayRead(all, &a);
+    bool finite = true;
+    for (PetscInt k = 0; k < op.unknowns(); ++k) finite = finite && std::isfinite(a[k]);
+    if (finite) state.assign(a, a + op.unknowns());
+    VecRestoreArrayRead(all, &a);
+    VecScatterDestroy(&sc);
+    VecDestroy(&all);
+    if (!finite) throw std::runtime_error("the fluid solution is not finite (NaN or Inf)");
+  }
+};
+
+CoupledSystem::CoupledSystem(const FlowOperator& op, const SolverOptions& options, MPI_Comm comm) : m(std::make_unique<Impl>()) {
+  m->opt = options;
+  m->comm = comm;
+  m->create(op);
+}
+
+CoupledSystem::~CoupledSystem() = default;
+
+void CoupledSystem::setLaggedFactorisation(int max_iterations, double rtol) {
+  if (m->opt.linear != "direct") return;
+  m->lag_max_its = std::max(1, max_iterations);
+  m->refactor = true;
+  check(KSPSetType(m->ksp, KSPGMRES), "KSPSetType");
+  check(KSPGMRESSetRestart(m->ksp, 4 * m->lag_max_its), "restart");
+  check(KSPSetInitialGuessNonzero(m->ksp, PETSC_TRUE), "initial guess");
+  check(KSPSetTolerances(m->ksp, rtol, 1e-300, PETSC_DEFAULT, 8 * m->lag_max_its), "tol");
+  check(KSPSetFromOptions(m->ksp), "KSPSetFromOptions");
+}
+
+void CoupledSystem::invalidate() { m->refactor = true; }
+
+int CoupledSystem::factorisations() const { return m->factorisations; }
+
+void CoupledSystem::solve(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats) {
+  m->solve(op, mode, state, stats);
+}
+
+}  // namespace mmval::simulate

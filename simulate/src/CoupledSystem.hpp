@@ -1,0 +1,48 @@
+// Internal: the PETSc side of the fluid solvers. Owns the coupled (u, v, p)
+// matrix, its vectors and the KSP; assembles the system a FlowOperator
+// linearises at a state and solves it into that state. Shared by
+// SteadyFlowSolver (Stokes / Newton) and UnsteadyFlowSolver (one linearised
+// solve per time step), so both use the same linear solvers and options.
+#pragma once
+#include <memory>
+#include <vector>
+
+#include <mpi.h>
+
+#include "FlowOperator.hpp"
+
+namespace mmval::simulate {
+
+class CoupledSystem {
+ public:
+  /// options.linear: "direct" (UMFPACK serial, MUMPS parallel) or "iterative"
+  /// (FGMRES + Schur fieldsplit with GAMG); throws std::invalid_argument otherwise.
+  CoupledSystem(const FlowOperator& op, const SolverOptions& options, MPI_Comm comm);
+  ~CoupledSystem();
+  CoupledSystem(const CoupledSystem&) = delete;
+  CoupledSystem& operator=(const CoupledSystem&) = delete;
+
+  /// Assembles the system linearised at `state` and overwrites `state` with
+  /// its solution (on every rank). Adds timings and iterations to `stats`.
+  /// Throws std::runtime_error if the solve fails or the result is not finite
+  /// (`state` is then left unchanged).
+  void solve(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats);
+
+  /// Direct solver only: keep the LU factorisation of an earlier matrix and use
+  /// it to precondition GMRES on the current one (state is the initial guess),
+  /// refactorising when GMRES needs more than `max_iterations`. For time
+  /// stepping, where the matrix changes by O(dt) per step: a few triangular
+  /// solves per step instead of a factorisation; the answer is the same to the
+  /// GMRES tolerance `rtol`.
+  void setLaggedFactorisation(int max_iterations, double rtol);
+  /// The next solve refactorises (the operator's geometry changed).
+  void invalidate();
+  /// Factorisations so far (direct solver).
+  int factorisations() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> m;
+};
+
+}  // namespace mmval::simulate

@@ -1,0 +1,135 @@
+// Unsteady flow around a cylinder in a channel with mmval's own solver
+// (UnsteadyFlowSolver, BDF2): Schaefer & Turek (1996) 2D-2 and the paper's
+// Re 100 set-up. Metrics over the last whole shedding periods: c_D max / min /
+// mean, c_L max / min, Strouhal number f D / U_ref. Force history as CSV.
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "KindsCommon.hpp"
+#include "mmval/core/Error.hpp"
+#include "mmval/core/Progress.hpp"
+#include "mmval/core/Run.hpp"
+#include "mmval/simulate/FieldOutput.hpp"
+#include "mmval/simulate/ForceHistory.hpp"
+#include "mmval/simulate/Petsc.hpp"
+#include "mmval/simulate/UnsteadyFlowSolver.hpp"
+
+namespace mmval::simulate::detail {
+
+void declareUnsteadyCylinderKeys(Schema& s) {
+  s.real("numerics.max_courant", "Unsteady (mmval): Courant limit of the adaptive time step, max over cells of dt (|u|/dx + |v|/dy)").def(1.0).min(0.05).max(4.0);
+  s.real("numerics.initial_perturbation",
+         "Unsteady (mmval): peak speed of a vortex placed 1.5 D behind the cylinder at t = 0, as a fraction of the reference velocity "
+         "(breaks the symmetry so shedding starts early; 0: none)")
+      .def(0.0).min(0.0).max(1.0);
+  s.quantity("numerics.statistics_from", "s", "Unsteady: start of the window for the periodic statistics (whole c_L periods after it); default: half the end time")
+      .optional()
+      .nonNegative();
+  s.real("numerics.refine_downstream", "mmval: length of the uniformly refined box behind the cylinder centre, in diameters").def(1.5).min(0.6).max(100);
+  s.real("numerics.refine_across", "mmval: half-height of the uniformly refined box around the cylinder centre, in diameters").def(0.75).min(0.6).max(100);
+}
+
+RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::function<FlowProblem(int level)>& make_problem, double coef, double Uref,
+                              double D, double cx, double cy) {
+  const double end_time = c.quantity("numerics.end_time"), dt0 = c.quantity("numerics.time_step");
+  const double from = c.has("numerics.statistics_from") ? c.quantity("numerics.statistics_from") : 0.5 * end_time;
+  if (from >= end_time)
+    throw InputError(c.where("numerics.statistics_from"), "the statistics window starts after the end of the run", fmt::format("{} s", from),
+                     fmt::format("a time below numerics.end_time = {} s", end_time));
+  const std::vector<int> levels = levelsOf(c, "numerics.cells_around", 8, 4096);
+  UnsteadyOptions uo;
+  uo.max_courant = c.real("numerics.max_courant");
+  const double eps = c.real("numerics.initial_perturbation");
+  RunOutput out;
+  out.details["solver"] = std::string(kSolverName) + ", unsteady BDF2";
+  out.details["time_scheme"] = "BDF2 (variable step), convection linearised about the extrapolated velocity; adaptive dt (Courant limit)";
+  nlohmann::json ladder = nlohmann::json::array();
+  SheddingStats last_stats;
+  for (std::size_t li = 0; li < levels.size(); ++li) {
+    const auto t0 = std::chrono::steady_clock::now();
+    UnsteadyFlowSolver solver(make_problem(levels[li]), solverOptions(c), uo);
+    if (eps > 0) {
+      // Gaussian vortex (stream function psi = eps U D exp(-r^2 / D^2) / 2) 1.5 D behind the cylinder.
+      const double xv = cx + 1.5 * D, yv = cy, amp = eps * Uref * std::sqrt(std::exp(1.0) / 2);
+      solver.setVelocity([=](double x, double y) {
+        const double X = (x - xv) / D, Y = (y - yv) / D, g = amp * std::exp(-(X * X + Y * Y));
+        return Eigen::Vector2d(-Y * g, X * g);
+      });
+    }
+    ForceHistory hist;
+    Progress progress(fmt::format("fluid {} (level {}/{})", c.name(), li + 1, levels.size()), 1000, ctx.quiet);
+    while (solver.time() < end_time * (1 - 1e-12)) {
+      // numerics.time_step is the first step; later steps grow (<= max_growth per step) up to the Courant limit.
+      const double request = solver.stepStats().steps == 0 ? dt0 : end_time - solver.time();
+      solver.step(std::min(request, end_time - solver.time()));
+      const BodyLoad L = solver.bodyLoads()[0];
+      hist.add(solver.time(), coef * L.force.x(), coef * L.force.y());
+      progress.update(static_cast<std::size_t>(1000 * solver.time() / end_time));
+    }
+    progress.finish();
+    const SheddingStats st = hist.analyse(from, 4);
+    last_stats = st;
+    const double wall = secondsSince(t0);
+    const FlowStats& fs = solver.stats();
+    nlohmann::json row = {{"level", li},
+                          {"resolution", levels[li]},
+                          {"cells", fs.cells},
+                          {"nx", solver.nx()},
+                          {"ny", solver.ny()},
+                          {"unknowns", fs.unknowns},
+                          {"h_over_D", M_PI / levels[li]},
+                          {"time_steps", solver.stepStats().steps},
+                          {"max_courant", solver.stepStats().max_courant},
+                          {"wall_seconds", wall},
+                          {"assemble_seconds", fs.assemble_seconds},
+                          {"solve_seconds", fs.solve_seconds},
+                          {"linear_iterations", fs.linear_iterations},
+                          {"peak_memory_bytes", peakMemoryBytes()},
+                          {"ranks", PetscSession::size()},
+                          {"shedding_periods", st.periods},
+                          {"St", st.frequency_hz * D / Uref},
+                          {"c_D_max", st.cd_max},
+                          {"c_D_mean", st.cd_mean},
+                          {"c_L_max", st.cl_max},
+                          {"value", st.cd_max}};
+    ladder.push_back(row);
+    if (!ctx.out_dir.empty()) {
+      const bool final_level = li + 1 == levels.size();
+      const std::string name = final_level ? "forces.csv" : fmt::format("forces-level{}.csv", li);
+      if (PetscSession::rank() == 0) {
+        hist.writeCsv(ctx.out_dir / name);
+        if (final_level) {  // the flow at the end time
+          writeVtr(solver, ctx.out_dir / "fields.vtr");
+          writeSpeedPng(solver, ctx.out_dir / "fields-speed.png");
+        }
+      }
+      out.files.push_back(name);
+      if (final_level) {
+        out.files.push_back("fields.vtr");
+        out.files.push_back("fields-speed.png");
+      }
+    }
+    out.details["cells"] = fs.cells;
+    out.details["time_steps"] = solver.stepStats().steps;
+    out.details["max_relative_divergence"] = solver.maxRelativeDivergence();
+  }
+  addObservedOrder(ladder, levels);
+  out.details["ladder"] = ladder;
+  out.details["statistics_window_s"] = {last_stats.window_start_s, last_stats.window_end_s};
+  out.details["shedding_periods"] = last_stats.periods;
+  if (last_stats.periods == 0)
+    out.details["warning"] = "no periodic shedding detected in the statistics window: St is 0 and the extrema are over the whole window";
+  out.metrics["c_D_max"] = last_stats.cd_max;
+  out.metrics["c_D_min"] = last_stats.cd_min;
+  out.metrics["c_D_mean"] = last_stats.cd_mean;
+  out.metrics["c_L_max"] = last_stats.cl_max;
+  out.metrics["c_L_min"] = last_stats.cl_min;
+  out.metrics["c_L_amplitude"] = last_stats.cl_amplitude;
+  out.metrics["St"] = last_stats.frequency_hz * D / Uref;
+  out.metrics["frequency"] = last_stats.frequency_hz;
+  out.units["frequency"] = "Hz";
+  return out;
+}
+
+}  // namespace mmval::simulate::detail
