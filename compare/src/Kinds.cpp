@@ -1,18 +1,39 @@
 #include "mmval/compare/Kinds.hpp"
 
+#include <filesystem>
+
 #include "mmval/compare/Compare.hpp"
 #include "mmval/compare/Scene.hpp"
 #include "mmval/core/Error.hpp"
 
 namespace mmval::compare {
 
+namespace {
+
+/// inputs.<side>, or `file` in the folder of the run named by inputs.<side>_run,
+/// beside this run's own folder (validate's runs/).
+std::filesystem::path inputFile(const Case& c, const RunContext& ctx, const std::string& side, const char* file) {
+  const std::string key = "inputs." + side;
+  if (c.has(key)) return c.path(key);
+  if (!c.has(key + "_run")) throw InputError(c.where(key), "missing", {}, key + " (a tracks CSV) or " + key + "_run (a case run earlier in the same validation)");
+  const std::filesystem::path f = ctx.out_dir.parent_path() / c.text(key + "_run") / file;
+  if (!std::filesystem::exists(f))
+    throw InputError(c.where(key + "_run"), std::string("no ") + file + " from that run in " + ctx.out_dir.parent_path().string(), c.text(key + "_run"),
+                     "the name of a case that `mmval validate` runs before this one");
+  return f;
+}
+
+}  // namespace
+
 void registerCompareKinds(CaseKindRegistry& registry) {
   CaseKind k;
   k.name = "compare-tracks";
   k.summary = "Experiment tracks against simulated trajectories: speeds, dispersion, retention, streamline overlap";
   k.declare = [](Schema& s) {
-    s.path("inputs.experiment", "Tracks CSV of the experiment (shared tracks schema)");
-    s.path("inputs.simulation", "Trajectories CSV of the simulation (shared tracks schema)");
+    s.path("inputs.experiment", "Tracks CSV of the experiment (shared tracks schema)").optional();
+    s.path("inputs.simulation", "Trajectories CSV of the simulation (shared tracks schema)").optional();
+    s.string("inputs.experiment_run", "Instead of inputs.experiment: a case run earlier in the same validation; its tracks.csv").optional();
+    s.string("inputs.simulation_run", "Instead of inputs.simulation: a case run earlier in the same validation; its trajectories.csv").optional();
     s.quantity("inputs.pixel_size", "um", "Pixel size, for files with positions in pixels only").def(0.0).nonNegative();
     s.path("geometry.mask", "Geometry mask image the simulation was built from (enables registration and per-region speeds)").optional();
     s.quantity("geometry.pixel_size", "um", "Size of one mask pixel").optional().positive();
@@ -69,7 +90,8 @@ void registerCompareKinds(CaseKindRegistry& registry) {
       spec.window = SceneSpec::Window{c.quantity("window.origin_x"), c.quantity("window.origin_y"), c.quantity("window.rotation"), c.quantity("window.pixel_size")};
     }
     spec.region_options.throat_width = c.quantity("regions.throat_width");
-    const Comparison cmp = compareScene(readTracksCsv(c.path("inputs.experiment"), px), readTracksCsv(c.path("inputs.simulation"), px), spec, o);
+    const Comparison cmp =
+        compareScene(readTracksCsv(inputFile(c, ctx, "experiment", "tracks.csv"), px), readTracksCsv(inputFile(c, ctx, "simulation", "trajectories.csv"), px), spec, o);
     RunOutput out;
     out.files = writeComparison(cmp, ctx.out_dir);
     out.evaluated = cmp.metrics;

@@ -231,4 +231,46 @@ TEST(Cli, SynthGeometryWithoutAPorePathIsRefused) {
   EXPECT_THAT(o.output, HasSubstr("mask.pgm"));
 }
 
+TEST(Cli, RenderedTrajectoriesAreTrackedAndComparedThroughRunNames) {
+  // Ten particles (11 px apart) crossing an empty 160 x 120 px channel at 2 px per step (10 um px,
+  // 0.05 s steps: 400 um/s), written as a simulation would; rendered, tracked, then
+  // compared through the run names validate uses. The tracker must recover the
+  // speed of a clean video to 2 %.
+  const fs::path d = scratch("rendered");
+  writeMask(d / "mask.pgm", 160, 120, [](int, int) { return false; });
+  mmval::Tracks sim;
+  for (int p = 0; p < 10; ++p)
+    for (int f = 0; f < 60; ++f) {
+      mmval::TrackPoint q;
+      q.frame = f;
+      q.particle = p;
+      q.t = 0.05 * f;
+      q.x_px = 20 + 2.0 * f + 3.0 * p;
+      q.y_px = 6 + 11.0 * p;
+      q.x = q.x_px * 10e-6;
+      q.y = q.y_px * 10e-6;
+      sim.points.push_back(q);
+    }
+  fs::create_directories(d / "runs" / "scene");
+  mmval::writeTracksCsv(d / "runs" / "scene" / "trajectories.csv", sim, 10e-6);
+  std::ofstream(d / "render.toml") << "[case]\nname = \"render\"\nkind = \"tracking-rendered\"\n[inputs]\ntrajectories_run = \"scene\"\n"
+                                      "[geometry]\nmask = \"mask.pgm\"\npixel_size = \"10 um\"\n[render]\nsnr = 10\n[detect]\npolarity = \"dark\"\n";
+  const Outcome r = mmval("run --quiet " + (d / "render.toml").string() + " --out " + (d / "runs" / "render").string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::ifstream rin(d / "runs" / "render" / "result.json");
+  const auto rj = nlohmann::json::parse(rin);
+  EXPECT_GT(rj["details"]["scores"]["jaccard_points"].get<double>(), 0.95) << rj["details"].dump(1);
+  EXPECT_LT(rj["details"]["scores"]["rmse_px"].get<double>(), 0.3);
+  std::ofstream(d / "compare.toml") << "[case]\nname = \"cmp\"\nkind = \"compare-tracks\"\n[inputs]\nexperiment_run = \"render\"\n"
+                                       "simulation_run = \"scene\"\n[tolerances]\nspeed = 0.02\n";
+  const Outcome c = mmval("run --quiet " + (d / "compare.toml").string() + " --out " + (d / "runs" / "cmp").string());
+  EXPECT_EQ(c.status, 0) << c.output;
+  EXPECT_THAT(c.output, HasSubstr("mean_speed"));
+  // A run name that did not run is named in the message.
+  std::ofstream(d / "bad.toml") << "[case]\nname = \"bad\"\nkind = \"compare-tracks\"\n[inputs]\nexperiment_run = \"nothing\"\nsimulation_run = \"scene\"\n";
+  const Outcome b = mmval("run --quiet " + (d / "bad.toml").string() + " --out " + (d / "runs" / "bad").string());
+  EXPECT_EQ(b.status, 2) << b.output;
+  EXPECT_THAT(b.output, HasSubstr("nothing"));
+}
+
 }  // namespace

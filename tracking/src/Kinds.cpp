@@ -251,6 +251,7 @@ void registerTrackingKinds(CaseKindRegistry& registry) {
     return out;
   };
   registry.add(k);
+  registerRenderedKind(registry);
 }
 
 }  // namespace mmval::tracking

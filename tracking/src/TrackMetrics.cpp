@@ -58,9 +58,12 @@ TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& o) {
         st.speed = std::hypot(st.vx, st.vy);
         s.steps.push_back(st);
       }
-      // Retained: the final window shows (almost) no motion.
+      // Retained: the final window shows (almost) no motion, or the file says so
+      // (simulated trajectories mark a particle "deposited" where it attaches).
       const double t_last = pts[j - 1].t;
-      if (t_last - pts[i].t >= o.stuck_window) {
+      if (pts[j - 1].state == "deposited") {
+        ++s.retained;
+      } else if (t_last - pts[i].t >= o.stuck_window) {
         double moved = 0;
         for (std::size_t k = i; k < j; ++k)
           if (pts[k].t >= t_last - o.stuck_window) moved = std::max(moved, std::hypot(pts[k].x - pts[j - 1].x, pts[k].y - pts[j - 1].y));

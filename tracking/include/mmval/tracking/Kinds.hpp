@@ -10,6 +10,10 @@ namespace mmval::tracking {
 /// truth, tracks it, and scores the tracks (Chenouard et al. 2014).
 void registerTrackingKinds(CaseKindRegistry& registry);
 
+/// "tracking-rendered": a simulation's trajectories drawn as a microscope video
+/// over its geometry, tracked, and scored against them (registered by the above).
+void registerRenderedKind(CaseKindRegistry& registry);
+
 /// Runs a "tracking-video" case (also what `mmval track` does).
 RunOutput runTrackingVideo(const Case& c, const RunContext& ctx);
 

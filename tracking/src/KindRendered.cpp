@@ -1,0 +1,122 @@
+// "tracking-rendered": a simulation's trajectories seen through a camera. The
+// trajectories (a file, or the run of another case in the same validation)
+// are drawn over the geometry image as a noisy microscope video, which the
+// tracker then processes like an experiment's. Its tracks.csv is what
+// `compare` sets against the trajectories: the differences are what video
+// processing alone does to each metric.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include <opencv2/imgcodecs.hpp>
+#include <fmt/format.h>
+#include <opencv2/imgproc.hpp>
+
+#include "mmval/core/Error.hpp"
+#include "mmval/tracking/Kinds.hpp"
+#include "mmval/tracking/RenderTracks.hpp"
+#include "mmval/tracking/Score.hpp"
+
+namespace mmval::tracking {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+/// inputs.trajectories, or the trajectories.csv of the run named by
+/// inputs.trajectories_run beside this run's folder (validate's runs/).
+fs::path trajectoriesFile(const Case& c, const RunContext& ctx) {
+  if (c.has("inputs.trajectories")) return c.path("inputs.trajectories");
+  if (!c.has("inputs.trajectories_run"))
+    throw InputError(c.where("inputs.trajectories"), "no trajectories to render", {},
+                     "inputs.trajectories (a tracks CSV) or inputs.trajectories_run (a case run earlier in the same validation)");
+  const std::string run = c.text("inputs.trajectories_run");
+  const fs::path f = ctx.out_dir.parent_path() / run / "trajectories.csv";
+  if (!fs::exists(f))
+    throw InputError(c.where("inputs.trajectories_run"), "no trajectories.csv from that run in " + ctx.out_dir.parent_path().string(), run,
+                     "the name of a case that `mmval validate` runs before this one (or use inputs.trajectories)");
+  return f;
+}
+
+}  // namespace
+
+void registerRenderedKind(CaseKindRegistry& registry) {
+  CaseKind k;
+  k.name = "tracking-rendered";
+  k.summary = "Render a simulation's trajectories as a microscope video over its geometry, track it, and score the tracks against them";
+  k.declare = [](Schema& s) {
+    s.path("inputs.trajectories", "Trajectories CSV (shared tracks schema, with pixel columns in the geometry image)").optional();
+    s.string("inputs.trajectories_run", "Instead: name of a case run earlier in the same validation; its trajectories.csv is used").optional();
+    s.path("geometry.mask", "Geometry image the trajectories were simulated in (the same crop)");
+    s.choice("geometry.grains", {"dark", "light"}, "Which pixels of the image are grains").def("dark");
+    s.integerList("geometry.crop", "Window of the image the simulation used: [x, y, width, height] in px").optional();
+    s.quantity("geometry.pixel_size", "um", "Size of one geometry pixel").positive();
+    s.real("render.scale", "Video pixels per geometry pixel").def(1.0).min(0.1).max(16);
+    s.real("render.spot_sigma", "Particle spot sigma, video px").def(1.3).min(0.3);
+    s.real("render.snr", "Spot depth over the camera noise std").def(8).min(0.5);
+    s.integer("render.seed", "Camera noise seed").def(1).min(0);
+    s.real("score.gate", "Gate of the scores, px (5 in the tracking challenge)").def(5).min(0.1);
+    declareTrackerKeys(s);
+  };
+  k.run = [](const Case& c, const RunContext& ctx) {
+    const fs::path file = trajectoriesFile(c, ctx);
+    const double geometry_pixel = c.quantity("geometry.pixel_size");
+    const Tracks sim = readTracksCsv(file, geometry_pixel);
+    const fs::path mask = c.path("geometry.mask");
+    cv::Mat img = cv::imread(mask.string(), cv::IMREAD_GRAYSCALE);
+    if (img.empty()) throw InputError(c.where("geometry.mask"), "cannot read the image", mask.string(), "a PNG or TIFF mask");
+    if (c.has("geometry.crop")) {
+      const auto& crop = c.integers("geometry.crop");
+      const cv::Rect r(static_cast<int>(crop.at(0)), static_cast<int>(crop.size() > 1 ? crop[1] : 0), static_cast<int>(crop.size() > 2 ? crop[2] : 0),
+                       static_cast<int>(crop.size() > 3 ? crop[3] : 0));
+      if (crop.size() != 4 || r.width <= 0 || r.height <= 0 || (r & cv::Rect(0, 0, img.cols, img.rows)) != r)
+        throw InputError(c.where("geometry.crop"), "not a window inside the image", {}, fmt::format("[x, y, width, height] inside {} x {} px", img.cols, img.rows));
+      img = img(r).clone();
+    }
+    cv::Mat grains;
+    cv::threshold(img, grains, 127, 255, c.text("geometry.grains") == "dark" ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
+    RenderOptions ro;
+    ro.scale = c.real("render.scale");
+    ro.spot_sigma = c.real("render.spot_sigma");
+    ro.snr = c.real("render.snr");
+    ro.seed = static_cast<std::uint64_t>(c.integer("render.seed"));
+    RenderedVideo video;
+    try {
+      video = renderTracksVideo(sim, grains, geometry_pixel, ro, ctx.out_dir / "video");
+    } catch (const std::invalid_argument& e) {
+      throw InputError({file.string(), 0, 0, "x, y"}, e.what(), {}, "trajectories with pixel columns and at least two output steps");
+    }
+    TrackConfig cfg = trackerConfig(c);
+    cfg.pixel_size = geometry_pixel / ro.scale;
+    cfg.fps = video.fps;
+    FrameSource source((ctx.out_dir / "video" / "frames").string());
+    TrackRun run = runTracker(source, cfg, ctx.quiet);
+    const Scores sc = scoreTracks(video.truth, run.tracks, c.real("score.gate"));
+    // Positions in micrometres: the tracker's pixel size is the geometry's over the scale,
+    // and a video pixel centre (i + 0.5) / scale - 0.5 geometry pixels from the origin.
+    for (auto& p : run.tracks.points) {
+      p.x = ((p.x_px + 0.5) / ro.scale - 0.5) * geometry_pixel;
+      p.y = ((p.y_px + 0.5) / ro.scale - 0.5) * geometry_pixel;
+    }
+    const TrackStats truth_stats = analyseTracks(video.truth, cfg.analysis), ours = analyseTracks(run.tracks, cfg.analysis);
+    nlohmann::json extra = {{"trajectories", file.string()},
+                            {"scores", {{"alpha", sc.alpha}, {"beta", sc.beta}, {"jaccard_points", sc.jaccard_points},
+                                        {"jaccard_tracks", sc.jaccard_tracks}, {"rmse_px", sc.rmse_px}, {"tp", sc.tp}, {"fp", sc.fp}, {"fn", sc.fn}}}};
+    RunOutput out;
+    out.files = writeTrackOutputs(run, cfg, ctx.out_dir, extra);
+    out.metrics["jaccard_points"] = sc.jaccard_points;
+    out.metrics["jaccard_tracks"] = sc.jaccard_tracks;
+    out.metrics["rmse"] = sc.rmse_px;
+    if (truth_stats.mean_speed > 0) out.metrics["mean_speed_relative_error"] = (ours.mean_speed - truth_stats.mean_speed) / truth_stats.mean_speed;
+    out.metrics["frames_per_second"] = run.frame_index.size() / std::max(run.seconds, 1e-9);
+    out.units["frames_per_second"] = "Hz";
+    out.details = extra;
+    out.details["video"] = {{"frames", video.frames}, {"fps", video.fps}, {"pixel_size_um", cfg.pixel_size * 1e6}, {"snr", ro.snr}};
+    out.details["truth_mean_speed_um_per_s"] = truth_stats.mean_speed * 1e6;
+    out.details["tracked_mean_speed_um_per_s"] = ours.mean_speed * 1e6;
+    return out;
+  };
+  registry.add(k);
+}
+
+}  // namespace mmval::tracking
