@@ -5,6 +5,7 @@
 #include "mmval/compare/Compare.hpp"
 #include "mmval/compare/Scene.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/Run.hpp"
 
 namespace mmval::compare {
 
@@ -16,11 +17,7 @@ std::filesystem::path inputFile(const Case& c, const RunContext& ctx, const std:
   const std::string key = "inputs." + side;
   if (c.has(key)) return c.path(key);
   if (!c.has(key + "_run")) throw InputError(c.where(key), "missing", {}, key + " (a tracks CSV) or " + key + "_run (a case run earlier in the same validation)");
-  const std::filesystem::path f = ctx.out_dir.parent_path() / c.text(key + "_run") / file;
-  if (!std::filesystem::exists(f))
-    throw InputError(c.where(key + "_run"), std::string("no ") + file + " from that run in " + ctx.out_dir.parent_path().string(), c.text(key + "_run"),
-                     "the name of a case that `mmval validate` runs before this one");
-  return f;
+  return siblingRunFile(c, ctx, key + "_run", file);
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/Error.hpp"
 #include "mmval/core/BuildInfo.hpp"
 
 namespace mmval {
@@ -126,6 +127,16 @@ RunSummary runCaseWith(const Case& c, const std::function<RunOutput(const Case&,
   }
   s.result_file = out_dir / "result.json";
   return s;
+}
+
+std::filesystem::path siblingRunFile(const Case& c, const RunContext& ctx, const std::string& run_key, const std::string& file) {
+  const std::string& run = c.text(run_key);
+  const std::filesystem::path runs = ctx.out_dir.parent_path();
+  const std::filesystem::path f = runs / run / file;
+  if (!std::filesystem::exists(f))
+    throw InputError(c.where(run_key), "no " + file + " from that run in " + runs.string(), run,
+                     "the name of a case that `mmval validate` runs before this one");
+  return f;
 }
 
 }  // namespace mmval

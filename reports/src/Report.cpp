@@ -12,6 +12,8 @@
 
 #include <fmt/format.h>
 
+#include "mmval/reports/Summary.hpp"
+
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/reports/Plot.hpp"
@@ -79,17 +81,6 @@ std::vector<std::vector<double>> readColumns(const fs::path& p) {
     }
   }
   return cols;
-}
-
-std::string escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    if (c == '&') out += "&amp;";
-    else if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else out += c;
-  }
-  return out;
 }
 
 struct Figure {
@@ -330,30 +321,30 @@ int writeReport(const ReportInput& input, const fs::path& out) {
   std::string html = input.summary.html();
   std::string extra;
   for (const auto& c : input.comparisons) {
-    extra += fmt::format("<h2>Experiment vs simulation: {}</h2>\n<table class=\"compare\"><tr><th>metric</th><th>simulation</th><th>experiment</th><th>error</th><th>tolerance</th><th>result</th></tr>\n", escape(c.name));
+    extra += fmt::format("<h2>Experiment vs simulation: {}</h2>\n<table class=\"compare\"><tr><th>metric</th><th>simulation</th><th>experiment</th><th>error</th><th>tolerance</th><th>result</th></tr>\n", htmlEscape(c.name));
     for (const auto& m : c.metrics["metrics"]) {
       const std::string pass = m["pass"].is_null() ? "info" : (m["pass"].get<bool>() ? "pass" : "FAIL");
       extra += fmt::format("<tr class=\"{}\"><td>{}</td><td>{:.4g} {}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n", pass,
-                           escape(m["name"].get<std::string>()), m["value"].is_number() ? m["value"].get<double>() : std::nan(""),
-                           escape(m.value("unit", "")), escape(referenceText(m)), escape(errorText(m)),
-                           escape(m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>()), pass);
+                           htmlEscape(m["name"].get<std::string>()), m["value"].is_number() ? m["value"].get<double>() : std::nan(""),
+                           htmlEscape(m.value("unit", "")), htmlEscape(referenceText(m)), htmlEscape(errorText(m)),
+                           htmlEscape(m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>()), pass);
     }
     extra += "</table>\n";
   }
   for (const auto& t : tables) extra += t.html();
   if (!alignments.empty()) {
     extra += "<h2>Alignment of experiment and simulation</h2>\n<ul id=\"alignment\">\n";
-    for (const auto& a : alignments) extra += "<li>" + escape(a) + "</li>\n";
+    for (const auto& a : alignments) extra += "<li>" + htmlEscape(a) + "</li>\n";
     extra += "</ul>\n";
   }
   if (!figures.empty()) extra += "<h2>Figures</h2>\n";
   for (const auto& f : figures) {
-    extra += fmt::format("<figure id=\"fig-{}\">\n", escape(f.id));
+    extra += fmt::format("<figure id=\"fig-{}\">\n", htmlEscape(f.id));
     if (!f.svg.empty())
       extra += f.svg;
     else
-      extra += fmt::format("<img alt=\"{}\" style=\"max-width:100%;image-rendering:pixelated\" src=\"data:image/png;base64,{}\">", escape(f.caption), f.png_base64);
-    extra += fmt::format("\n<figcaption>{}</figcaption></figure>\n", escape(f.caption));
+      extra += fmt::format("<img alt=\"{}\" style=\"max-width:100%;image-rendering:pixelated\" src=\"data:image/png;base64,{}\">", htmlEscape(f.caption), f.png_base64);
+    extra += fmt::format("\n<figcaption>{}</figcaption></figure>\n", htmlEscape(f.caption));
   }
   if (!plots) extra += "<p><b>gnuplot was not found: plots were left out.</b></p>\n";
   // A check the headless-browser test reads: how many images decoded.

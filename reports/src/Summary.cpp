@@ -23,6 +23,8 @@ std::string passText(const nlohmann::json& m) {
   return m["pass"].get<bool>() ? "pass" : "FAIL";
 }
 
+}  // namespace
+
 std::string htmlEscape(const std::string& s) {
   std::string out;
   for (char c : s) {
@@ -36,8 +38,6 @@ std::string htmlEscape(const std::string& s) {
   }
   return out;
 }
-
-}  // namespace
 
 std::string referenceText(const nlohmann::json& m) {
   const auto& r = m["reference"];

@@ -10,6 +10,8 @@
 
 #include <fmt/format.h>
 
+#include "mmval/reports/Summary.hpp"
+
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ReferenceData.hpp"
 
@@ -18,17 +20,6 @@ namespace fs = std::filesystem;
 namespace mmval::reports {
 
 namespace {
-
-std::string esc(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    if (c == '&') out += "&amp;";
-    else if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else out += c;
-  }
-  return out;
-}
 
 std::string num(double v, int digits = 4) { return std::isfinite(v) ? fmt::format("{:.{}g}", v, digits) : "-"; }
 
@@ -79,14 +70,14 @@ std::string Table::markdown() const {
 }
 
 std::string Table::html() const {
-  std::string out = fmt::format("<h2>{}</h2>\n", esc(title));
-  if (!note.empty()) out += "<p>" + esc(note) + "</p>\n";
-  out += fmt::format("<table id=\"{}\"><tr>", esc(id));
-  for (const auto& h : header) out += "<th>" + esc(h) + "</th>";
+  std::string out = fmt::format("<h2>{}</h2>\n", htmlEscape(title));
+  if (!note.empty()) out += "<p>" + htmlEscape(note) + "</p>\n";
+  out += fmt::format("<table id=\"{}\"><tr>", htmlEscape(id));
+  for (const auto& h : header) out += "<th>" + htmlEscape(h) + "</th>";
   out += "</tr>\n";
   for (const auto& r : rows) {
     out += "<tr>";
-    for (const auto& c : r) out += "<td>" + esc(c) + "</td>";
+    for (const auto& c : r) out += "<td>" + htmlEscape(c) + "</td>";
     out += "</tr>\n";
   }
   return out + "</table>\n";

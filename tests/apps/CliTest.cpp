@@ -24,8 +24,9 @@ struct Outcome {
   std::string output;  // stdout and stderr together
 };
 
-Outcome mmval(const std::string& args) {
-  const std::string cmd = std::string(MMVAL_BINARY_DIR) + "/bin/mmval " + args + " 2>&1";
+/// Runs `mmval ARGS`; `env` (e.g. "VAR=value ") goes in front of the command.
+Outcome mmval(const std::string& args, const std::string& env = "") {
+  const std::string cmd = env + std::string(MMVAL_BINARY_DIR) + "/bin/mmval " + args + " 2>&1";
   Outcome o;
   FILE* pipe = popen(cmd.c_str(), "r");
   char buf[4096];
@@ -159,14 +160,8 @@ TEST(Cli, ValidateMarksAMissingOpenFoamPeerNotRun) {
       << "[case]\nname = \"array\"\nkind = \"periodic-array\"\ntags = [\"default\", \"peer\"]\n"
          "[geometry]\ncell = \"100 um\"\nsolid_fraction = 0.2\n[fluid]\ndensity = \"1000 kg/m3\"\nviscosity = \"1e-3 Pa s\"\n"
          "[flow]\nmean_velocity = \"1e-4 m/s\"\n[numerics]\ncells_around = 32\n";
-  const std::string cmd = "WM_PROJECT_DIR=" + (d / "no-openfoam").string() + " " + std::string(MMVAL_BINARY_DIR) + "/bin/mmval validate --quiet --cases " +
-                          (d / "cases").string() + " --out " + (d / "out").string() + " 2>&1";
-  Outcome v;
-  FILE* pipe = popen(cmd.c_str(), "r");
-  char buf[4096];
-  while (std::fgets(buf, sizeof buf, pipe) != nullptr) v.output += buf;
-  const int raw = pclose(pipe);
-  v.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  const Outcome v = mmval("validate --quiet --cases " + (d / "cases").string() + " --out " + (d / "out").string(),
+                          "WM_PROJECT_DIR=" + (d / "no-openfoam").string() + " ");
   EXPECT_EQ(v.status, 0) << v.output;
   EXPECT_THAT(v.output, HasSubstr("OpenFOAM peer not run for array"));
   std::ifstream in(d / "out" / "metrics.json");

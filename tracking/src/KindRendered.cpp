@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "mmval/core/Error.hpp"
+#include "mmval/core/Run.hpp"
 #include "mmval/tracking/Kinds.hpp"
 #include "mmval/tracking/RenderTracks.hpp"
 #include "mmval/tracking/Score.hpp"
@@ -30,12 +31,7 @@ fs::path trajectoriesFile(const Case& c, const RunContext& ctx) {
   if (!c.has("inputs.trajectories_run"))
     throw InputError(c.where("inputs.trajectories"), "no trajectories to render", {},
                      "inputs.trajectories (a tracks CSV) or inputs.trajectories_run (a case run earlier in the same validation)");
-  const std::string run = c.text("inputs.trajectories_run");
-  const fs::path f = ctx.out_dir.parent_path() / run / "trajectories.csv";
-  if (!fs::exists(f))
-    throw InputError(c.where("inputs.trajectories_run"), "no trajectories.csv from that run in " + ctx.out_dir.parent_path().string(), run,
-                     "the name of a case that `mmval validate` runs before this one (or use inputs.trajectories)");
-  return f;
+  return siblingRunFile(c, ctx, "inputs.trajectories_run", "trajectories.csv");
 }
 
 }  // namespace

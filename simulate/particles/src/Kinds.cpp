@@ -1,5 +1,7 @@
 #include "mmval/particles/Kinds.hpp"
 
+#include "CaseScene.hpp"
+
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -69,17 +71,7 @@ SceneConfig sceneFromCase(const Case& c, const EngineChoice& choice, const std::
   s.particle.friction = c.real("particles.friction");
   s.cohesion_energy_density = c.quantity("particles.cohesion_energy_density");
   s.gravity = c.quantity("physics.gravity");
-  const std::string& b = c.text("physics.brownian");
-  s.brownian = b == "auto" ? choice.brownian : b == "on";
-  s.wall_hindrance = c.flag("physics.wall_hindrance");
-  s.faxen_curvature = c.flag("physics.faxen_curvature");
-  s.attachment.capture_distance = c.quantity("deposition.capture_distance");
-  s.attachment.bottom = c.flag("deposition.bottom");
-  s.attachment.top = c.flag("deposition.top");
-  s.attachment.grains = c.flag("deposition.walls");
-  s.attachment.deposited = c.flag("deposition.deposited");
-  s.attachment.hamaker = c.quantity("deposition.hamaker");
-  s.attachment.attraction_range = c.quantity("deposition.attraction_range");
+  physicsAndDepositionFromCase(c, choice, s);
   s.seed = static_cast<std::uint64_t>(c.integer("run.seed"));
   s.max_step_fraction = c.real("numerics.max_step_fraction");
   s.rayleigh_fraction = c.real("numerics.rayleigh_fraction");
@@ -236,6 +228,20 @@ void registerParticleKinds(CaseKindRegistry& registry) {
   k.run = runChannel;
   registry.add(k);
   registry.add(micromodelKind());
+}
+
+void physicsAndDepositionFromCase(const Case& c, const EngineChoice& choice, SceneConfig& s) {
+  const std::string& b = c.text("physics.brownian");
+  s.brownian = b == "auto" ? choice.brownian : b == "on";
+  s.wall_hindrance = c.flag("physics.wall_hindrance");
+  s.faxen_curvature = c.flag("physics.faxen_curvature");
+  s.attachment.capture_distance = c.quantity("deposition.capture_distance");
+  s.attachment.bottom = c.flag("deposition.bottom");
+  s.attachment.top = c.flag("deposition.top");
+  s.attachment.grains = c.flag("deposition.walls");
+  s.attachment.deposited = c.flag("deposition.deposited");
+  s.attachment.hamaker = c.quantity("deposition.hamaker");
+  s.attachment.attraction_range = c.quantity("deposition.attraction_range");
 }
 
 }  // namespace mmval::particles

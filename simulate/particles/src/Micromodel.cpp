@@ -1,5 +1,6 @@
 #include "mmval/particles/Micromodel.hpp"
 
+#include "CaseScene.hpp"
 #include "MicromodelDetail.hpp"
 
 #include <algorithm>
@@ -221,17 +222,7 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   scene.fluid = scales.fluid;
   scene.particle.density = scales.particle.density;
   scene.gravity = scales.gravity;
-  const std::string& b = c.text("physics.brownian");
-  scene.brownian = b == "auto" ? choice.brownian : b == "on";
-  scene.wall_hindrance = c.flag("physics.wall_hindrance");
-  scene.faxen_curvature = c.flag("physics.faxen_curvature");
-  scene.attachment.capture_distance = c.quantity("deposition.capture_distance");
-  scene.attachment.bottom = c.flag("deposition.bottom");
-  scene.attachment.top = c.flag("deposition.top");
-  scene.attachment.grains = c.flag("deposition.walls");
-  scene.attachment.deposited = c.flag("deposition.deposited");
-  scene.attachment.hamaker = c.quantity("deposition.hamaker");
-  scene.attachment.attraction_range = c.quantity("deposition.attraction_range");
+  physicsAndDepositionFromCase(c, choice, scene);
   scene.outlet_x = W;
   scene.max_step_fraction = c.real("numerics.max_step_fraction");
   const auto seed = static_cast<std::uint64_t>(c.integer("run.seed"));

@@ -45,6 +45,11 @@ std::vector<MetricResult> evaluateMetrics(const Case& c, const RunOutput& output
 /// successive levels, p = log((f2 - f1) / (f3 - f2)) / log(r).
 void addObservedOrder(nlohmann::json& ladder, const std::vector<int>& levels);
 
+/// `file` from the run of the case named by the string key `run_key` in the
+/// same output folder as this run (validate's runs/): the way one case reads
+/// another's outputs. Throws InputError naming the key when it is missing.
+std::filesystem::path siblingRunFile(const Case& c, const RunContext& ctx, const std::string& run_key, const std::string& file);
+
 /// Peak resident memory of this process so far, bytes (getrusage).
 long long peakMemoryBytes();
 

@@ -23,6 +23,8 @@ struct Summary {
   int failures() const;
 };
 
+/// Text for HTML: & < > and " as entities.
+std::string htmlEscape(const std::string& s);
 /// Formats a metric's reference (point, interval) for tables.
 std::string referenceText(const nlohmann::json& metric);
 /// Formats a metric's error: relative as %, absolute in the metric's unit.
