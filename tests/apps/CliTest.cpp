@@ -240,8 +240,8 @@ TEST(Cli, RenderedTrajectoriesAreTrackedAndComparedThroughRunNames) {
       q.frame = f;
       q.particle = p;
       q.t = 0.05 * f;
-      q.x_px = 20 + 2.0 * f + 3.0 * p;
-      q.y_px = 6 + 11.0 * p;
+      q.x_px = 20.37 + 2.0 * f + 3.0 * p;  // off the occupancy cells' edges
+      q.y_px = 6.41 + 11.0 * p;
       q.x = q.x_px * 10e-6;
       q.y = q.y_px * 10e-6;
       sim.points.push_back(q);
@@ -257,7 +257,7 @@ TEST(Cli, RenderedTrajectoriesAreTrackedAndComparedThroughRunNames) {
   EXPECT_GT(rj["details"]["scores"]["jaccard_points"].get<double>(), 0.95) << rj["details"].dump(1);
   EXPECT_LT(rj["details"]["scores"]["rmse_px"].get<double>(), 0.3);
   std::ofstream(d / "compare.toml") << "[case]\nname = \"cmp\"\nkind = \"compare-tracks\"\n[inputs]\nexperiment_run = \"render\"\n"
-                                       "simulation_run = \"scene\"\n[tolerances]\nspeed = 0.02\n";
+                                       "simulation_run = \"scene\"\n[tolerances]\nspeed = 0.02\n[analysis]\noccupancy_cell = \"20 um\"\n";
   const Outcome c = mmval("run --quiet " + (d / "compare.toml").string() + " --out " + (d / "runs" / "cmp").string());
   EXPECT_EQ(c.status, 0) << c.output;
   EXPECT_THAT(c.output, HasSubstr("mean_speed"));
