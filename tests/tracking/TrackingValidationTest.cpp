@@ -81,11 +81,11 @@ TEST(TrackingValidation, MicromodelSnr4MeetsIssueTargets) {
       EXPECT_GE(fastest, 4.5);  // the scene really reaches ~5 px/frame
       if (method != Linker::global) continue;  // the paper's rule is reported, the targets are the global linker's
       // Issue 3's targets: JSC >= 0.95, JSC_theta >= 0.85, immobile recall >= 0.95 (met:
-      // measured 0.973-0.979, 0.952-0.961, 0.960-0.987 over the three seeds).
+      // measured 0.967-0.981, 0.955-0.968, 0.960-1.000 over the three seeds).
       EXPECT_GE(s.jaccard_points, 0.95);
       EXPECT_GE(s.jaccard_tracks, 0.85);
       EXPECT_GE(recall, 0.95);
-      // RMSE <= 0.3 px is not met: measured 0.31-0.32 px. The Cramer-Rao bound for one
+      // RMSE <= 0.3 px is not met: measured 0.33 px. The Cramer-Rao bound for one
       // Gaussian spot's position at peak SNR 4 (rendered sigma 1.3 px, summed over the
       // pixels) is 0.282 px in 2D, 0.288 px with the noise of a 40-frame median
       // background; our isolated moving particles reach 0.323 px (1.12x the bound). The
@@ -94,6 +94,63 @@ TEST(TrackingValidation, MicromodelSnr4MeetsIssueTargets) {
       // variances). Guarded at the measured level plus a small margin.
       EXPECT_LE(s.rmse_px, 0.34);
     }
+  }
+}
+
+/// Pairs of detections in one frame closer than `radius` px with at most one truth
+/// particle within `radius` of their midpoint: one particle found twice.
+int falseDuplicates(const TrackRun& run, const Tracks& truth, double radius) {
+  int dups = 0;
+  for (std::size_t f = 0; f < run.detections.size(); ++f) {
+    const auto& d = run.detections[f];
+    const std::int64_t frame = run.frame_index[f];
+    for (std::size_t i = 0; i < d.size(); ++i)
+      for (std::size_t j = i + 1; j < d.size(); ++j) {
+        if (std::hypot(d[i].x - d[j].x, d[i].y - d[j].y) >= radius) continue;
+        const double mx = 0.5 * (d[i].x + d[j].x), my = 0.5 * (d[i].y + d[j].y);
+        int near = 0;
+        for (const auto& p : truth.points)
+          if (p.frame == frame && std::hypot(p.x_px - mx, p.y_px - my) < radius) ++near;
+        if (near <= 1) ++dups;
+      }
+  }
+  return dups;
+}
+
+TEST(TrackingValidation, CleanSparseSpotsAreNotSplit) {
+  // Regression: the split test of the joint spot fit (deblend) once judged two spots
+  // against one spot of the joint fit's narrow model, which every lone spot fits worse
+  // by a few percent of its energy; on clean sparse scenes (SNR 10 and more) most spots
+  // were found twice ~2 px apart and tracks fragmented (JSC_theta 0.48 at SNR 10).
+  for (const double snr : {10.0, 20.0}) {
+    SynthOptions o;
+    o.width = 480;
+    o.height = 360;
+    o.frames = 12;
+    o.particles = 150;
+    o.immobile = 0;
+    o.deposit_fraction = 0;
+    o.grains = 8;
+    o.grain_radius = 20;
+    o.speed = 2;
+    o.snr = snr;
+    o.seed = 5;
+    SynthResult truth;
+    const fs::path dir = render("validation-clean-sparse", o, truth);
+    TrackConfig c;
+    c.link.search_radius = 2 * o.speed + 3;
+    FrameSource src((dir / "frames").string());
+    const TrackRun run = runTracker(src, c, true);
+    const Scores s = scoreTracks(truth.truth, run.tracks);
+    const int dups = falseDuplicates(run, truth.truth, 3.0);
+    std::printf("clean sparse scene, SNR %.0f: JSC %.4f JSC_theta %.4f RMSE %.3f px, false duplicates %d of %lld truth points\n", snr,
+                s.jaccard_points, s.jaccard_tracks, s.rmse_px, dups, static_cast<long long>(truth.truth.points.size()));
+    // Measured 0 duplicates and JSC_theta >= 0.97 at both SNRs; without deblending (no
+    // split at all) JSC_theta is ~0.96. A duplicate or two can be a real pair whose
+    // second truth particle sits just beyond 3 px.
+    EXPECT_LE(dups, 2) << "SNR " << snr;
+    EXPECT_GE(s.jaccard_tracks, 0.95) << "SNR " << snr;
+    EXPECT_GE(s.jaccard_points, 0.95) << "SNR " << snr;
   }
 }
 
