@@ -122,7 +122,7 @@ Comparison compareTracks(const Tracks& experiment, const Tracks& simulation, con
                               "time-averaged dispersion along y, paper Eq. 18 / Fig. 16"));
   c.metrics.push_back(against("retention_fraction", s.retained_fraction, e.retained_fraction, "1",
                               {Tolerance::Kind::absolute, o.retention_tolerance, fmt::format("{:g}", o.retention_tolerance)},
-                              "retained / mobile particles; paper: 42.3 % measured vs 44.1 % simulated"));
+                              "retained / particles that entered; paper: 42.3 % measured vs 44.1 % simulated"));
   {
     Acceptance a;
     a.metric = "streamline_iou";

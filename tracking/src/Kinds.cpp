@@ -36,14 +36,20 @@ void declareTrackerKeys(Schema& s) {
   s.boolean("detect.deblend",
             "peaks + intensity: fit overlapping spots jointly, look for spots hidden beside brighter ones, split blobs two spots fit "
             "significantly better than one").def(true);
-  s.boolean("detect.find_stuck", "Find particles stuck all video long in the median background (black/top-hat spots the size of moving ones)").def(false);
+  s.boolean("detect.find_stuck",
+            "Find particles at rest in the median background (black/top-hat spots the size of moving ones): stuck all video long "
+            "(immobile), or arrived and deposited (joined to the track that brought them, which continues at rest to the end)")
+      .def(false);
   s.integer("detect.threads", "Frames detected in parallel (linking stays in frame order)").def(1).min(1).max(256);
   s.choice("link.method", {"global", "paper"}, "Linker: optimal assignment with gap closing, or the paper's distance + angle rule").def("global");
   s.real("link.search_radius", "Search radius, px per frame").def(8).min(0.1);
   s.integer("link.memory", "Frames a particle may be missed (gap closing)").def(2).min(0).max(100);
   s.real("link.velocity_smoothing", "Weight of the previous velocity in the prediction's exponential filter (0: last step only)").def(0.7).min(0).max(0.95);
   s.quantity("analysis.immobile_distance", "um", "Particles that never move farther are immobile (left out of velocities)").def("2 um").nonNegative();
-  s.quantity("analysis.stuck_distance", "um", "Moving less than this over the final window counts as deposited").def("1 um").nonNegative();
+  s.quantity("analysis.stuck_distance", "um",
+             "Moving less than this (plus what the track's own localisation noise explains) over the final window counts as deposited")
+      .def("1 um")
+      .nonNegative();
   s.quantity("analysis.stuck_window", "s", "That final window").def("2 s").positive();
 }
 
@@ -222,6 +228,8 @@ void registerTrackingKinds(CaseKindRegistry& registry) {
         return std::find(synth.immobile_ids.begin(), synth.immobile_ids.end(), p.particle) != synth.immobile_ids.end();
       });
     const Scores sc = scoreTracks(scored, run.tracks, c.real("score.gate"));
+    // The truth's resting ends labelled as the tracker labels its own (out of velocities).
+    markDeposits(scored, cfg.analysis);
     const TrackStats truth_stats = analyseTracks(scored, cfg.analysis);
     const TrackStats ours = analyseTracks(run.tracks, cfg.analysis);
     nlohmann::json extra = {{"scores", {{"alpha", sc.alpha}, {"beta", sc.beta}, {"jaccard_points", sc.jaccard_points},

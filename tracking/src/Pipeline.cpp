@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <unordered_map>
 #include <thread>
 #include <atomic>
 #include <condition_variable>
@@ -19,6 +20,221 @@
 
 namespace mmval::tracking {
 
+namespace {
+
+/// Points bucketed in square cells of `cell` px: everything within `cell` of a position
+/// is in its 3 x 3 neighbourhood of cells (keeps the joins below linear in the tracks).
+class CellGrid {
+ public:
+  explicit CellGrid(double cell) : m_cell(cell) {}
+  void add(std::size_t item, double x, double y) { m_bins[key(cell(x), cell(y))].push_back(item); }
+  template <class F>
+  void near(double x, double y, F&& visit) const {
+    const long long cx = cell(x), cy = cell(y);
+    for (long long i = cx - 1; i <= cx + 1; ++i)
+      for (long long j = cy - 1; j <= cy + 1; ++j) {
+        const auto it = m_bins.find(key(i, j));
+        if (it != m_bins.end())
+          for (std::size_t item : it->second) visit(item);
+      }
+  }
+
+ private:
+  long long cell(double v) const { return static_cast<long long>(std::floor(v / m_cell)); }
+  static long long key(long long i, long long j) { return i * 1000003LL + j; }
+  double m_cell;
+  std::unordered_map<long long, std::vector<std::size_t>> m_bins;
+};
+
+/// Least-squares amplitude of a spot (sigma 1.5 px) at (x, y) in sign x (frame - background):
+/// ~0 where frame and background agree, about minus a particle's depth where the
+/// background holds a particle the frame does not.
+double spotDifference(const cv::Mat& f, const cv::Mat& background, double x, double y, double sign) {
+  const int cx = static_cast<int>(std::lround(x)), cy = static_cast<int>(std::lround(y));
+  double sg = 0, sgg = 0;
+  for (int yy = std::max(0, cy - 4); yy <= std::min(f.rows - 1, cy + 4); ++yy)
+    for (int xx = std::max(0, cx - 4); xx <= std::min(f.cols - 1, cx + 4); ++xx) {
+      const double g = std::exp(-((xx - x) * (xx - x) + (yy - y) * (yy - y)) / (2 * 1.5 * 1.5));
+      sg += g * sign * (f.at<float>(yy, xx) - background.at<float>(yy, xx));
+      sgg += g * g;
+    }
+  return sgg > 0 ? sg / sgg : 0.0;
+}
+
+/// Deposits the background search did not isolate (a particle against a grain wall, a
+/// pair): a moving track that ends in the interior, continued by no other track, where
+/// the median background holds a particle that the reference frames before the end lack
+/// and those after the end show. The particle arrived there and stayed; its track
+/// continues there, at rest, to the end of the video, labelled deposited.
+void joinByReference(TrackRun& run, const TrackConfig& c, const std::map<int, cv::Mat>& refs, Polarity polarity, double typical_peak) {
+  auto& pts = run.tracks.points;
+  if (pts.empty() || run.frame_index.empty()) return;
+  const int last_frame = *std::max_element(run.frame_index.begin(), run.frame_index.end());
+  const double gate_px = std::max(3.0, c.link.search_radius);
+  const int gate_frames = std::max(10, 3 * (c.link.memory + 1));
+  const double sign = polarity == Polarity::bright ? 1.0 : -1.0;
+  const double margin = std::max(1.0, static_cast<double>(c.detect.refine_radius));
+  struct Span {
+    std::size_t first, last;
+  };
+  std::vector<Span> spans;
+  for (std::size_t i = 0; i < pts.size();) {
+    std::size_t j = i;
+    while (j < pts.size() && pts[j].particle == pts[i].particle) ++j;
+    spans.push_back({i, j - 1});
+    i = j;
+  }
+  CellGrid starts(gate_px);
+  for (std::size_t k = 0; k < spans.size(); ++k) starts.add(k, pts[spans[k].first].x_px, pts[spans[k].first].y_px);
+  std::vector<int> frames = run.frame_index;
+  std::sort(frames.begin(), frames.end());
+  std::vector<TrackPoint> added;
+  for (const Span& s : spans) {
+    const TrackPoint& e = pts[s.last];
+    if (e.state == "deposited" || e.frame + gate_frames > last_frame || s.last - s.first + 1 < static_cast<std::size_t>(c.analysis.min_points)) continue;
+    if (e.x_px < margin || e.y_px < margin || e.x_px > run.background.cols - 1 - margin || e.y_px > run.background.rows - 1 - margin) continue;
+    double reach = 0;
+    for (std::size_t k = s.first; k <= s.last; ++k) reach = std::max(reach, std::hypot(pts[k].x - pts[s.first].x, pts[k].y - pts[s.first].y));
+    if (reach < c.analysis.immobile_distance) continue;
+    bool continued = false;
+    starts.near(e.x_px, e.y_px, [&](std::size_t k) {
+      const TrackPoint& b = pts[spans[k].first];
+      continued = continued || (b.frame > e.frame && b.frame <= e.frame + gate_frames && std::hypot(b.x_px - e.x_px, b.y_px - e.y_px) <= gate_px);
+    });
+    if (continued) continue;
+    // Where it rests: its last position, or one more step along its last velocity.
+    std::vector<cv::Point2d> places = {{e.x_px, e.y_px}};
+    if (s.last > s.first) places.emplace_back(2 * e.x_px - pts[s.last - 1].x_px, 2 * e.y_px - pts[s.last - 1].y_px);
+    for (const cv::Point2d& q : places) {
+      int before = 0, missing_before = 0, after = 0, missing_after = 0;
+      for (const auto& [f, img] : refs) {
+        if (f < e.frame - 1) {
+          ++before;
+          missing_before += spotDifference(img, run.background, q.x, q.y, sign) < -0.5 * typical_peak ? 1 : 0;
+        } else if (f > e.frame + 1) {
+          ++after;
+          missing_after += spotDifference(img, run.background, q.x, q.y, sign) < -0.5 * typical_peak ? 1 : 0;
+        }
+      }
+      if (before == 0 || after == 0 || missing_before * 4 < before * 3 || missing_after * 4 > after) continue;
+      for (int f : frames)
+        if (f > e.frame) {
+          TrackPoint p = e;
+          p.frame = f;
+          p.t = f / c.fps;
+          p.x_px = q.x;
+          p.y_px = q.y;
+          p.x = q.x * c.pixel_size;
+          p.y = q.y * c.pixel_size;
+          p.state = "deposited";
+          added.push_back(p);
+        }
+      ++run.deposits_by_reference;
+      break;
+    }
+  }
+  pts.insert(pts.end(), added.begin(), added.end());
+  std::stable_sort(pts.begin(), pts.end(), [](const TrackPoint& a, const TrackPoint& b) {
+    return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
+  });
+}
+
+/// Particles that deposit onto particles already at rest (clusters, bridges) vanish into
+/// their blob: the track ends, in the interior, at a resting place after the particle
+/// there stopped, and no track begins nearby in the frames after (which a particle
+/// passing over the blob would start). Such a track continues at the resting place, at
+/// rest, to the end of the video, labelled deposited.
+void joinClusterArrivals(TrackRun& run, const TrackConfig& c) {
+  auto& pts = run.tracks.points;
+  if (pts.empty() || run.frame_index.empty()) return;
+  const int last_frame = *std::max_element(run.frame_index.begin(), run.frame_index.end());
+  const double near = std::max(1.0, static_cast<double>(c.detect.refine_radius));
+  const double gate_px = std::max(3.0, c.link.search_radius);
+  const int gate_frames = std::max(10, 3 * (c.link.memory + 1));
+  struct Span {
+    std::size_t first, last;
+  };
+  std::vector<Span> spans;
+  for (std::size_t i = 0; i < pts.size();) {
+    std::size_t j = i;
+    while (j < pts.size() && pts[j].particle == pts[i].particle) ++j;
+    spans.push_back({i, j - 1});
+    i = j;
+  }
+  struct Site {
+    double x, y;
+    std::int64_t since;
+  };
+  std::vector<Site> sites;  // resting places: deposited tracks from their stop, immobile ones throughout
+  for (const Span& s : spans) {
+    const TrackPoint& l = pts[s.last];
+    if (l.state == "deposited") {
+      std::size_t k = s.last;
+      while (k > s.first && pts[k - 1].state == "deposited") --k;
+      sites.push_back({l.x_px, l.y_px, pts[k].frame});
+    } else if (s.last - s.first + 1 >= static_cast<std::size_t>(c.analysis.min_points) && l.frame == last_frame) {
+      double reach = 0;
+      for (std::size_t k = s.first; k <= s.last; ++k) reach = std::max(reach, std::hypot(pts[k].x - pts[s.first].x, pts[k].y - pts[s.first].y));
+      if (reach < c.analysis.immobile_distance) sites.push_back({l.x_px, l.y_px, pts[s.first].frame});
+    }
+  }
+  if (sites.empty()) return;
+  CellGrid site_grid(near);
+  for (std::size_t k = 0; k < sites.size(); ++k) site_grid.add(k, sites[k].x, sites[k].y);
+  std::vector<std::size_t> by_start(spans.size());
+  for (std::size_t k = 0; k < spans.size(); ++k) by_start[k] = k;
+  std::sort(by_start.begin(), by_start.end(), [&](std::size_t a, std::size_t b) { return pts[spans[a].first].frame < pts[spans[b].first].frame; });
+  std::vector<TrackPoint> added;
+  std::vector<int> frames = run.frame_index;
+  std::sort(frames.begin(), frames.end());
+  for (const Span& s : spans) {
+    const TrackPoint& e = pts[s.last];
+    if (e.state == "deposited" || e.frame + gate_frames > last_frame || s.last - s.first + 1 < static_cast<std::size_t>(c.analysis.min_points)) continue;
+    double reach = 0;  // a moving track: a stationary one here is the resting particle itself
+    for (std::size_t k = s.first; k <= s.last; ++k) reach = std::max(reach, std::hypot(pts[k].x - pts[s.first].x, pts[k].y - pts[s.first].y));
+    if (reach < c.analysis.immobile_distance) continue;
+    const Site* site = nullptr;
+    site_grid.near(e.x_px, e.y_px, [&](std::size_t k) {
+      const Site& st = sites[k];
+      const double d = std::hypot(e.x_px - st.x, e.y_px - st.y);
+      if (e.frame + 1 >= st.since && d <= near && (site == nullptr || d < std::hypot(e.x_px - site->x, e.y_px - site->y))) site = &st;
+    });
+    if (site == nullptr) continue;
+    bool continued = false;
+    auto from = std::lower_bound(by_start.begin(), by_start.end(), e.frame + 1,
+                                 [&](std::size_t k, std::int64_t f) { return pts[spans[k].first].frame < f; });
+    for (auto it = from; it != by_start.end() && pts[spans[*it].first].frame <= e.frame + gate_frames; ++it) {
+      const Span& o = spans[*it];
+      const TrackPoint& b = pts[o.first];
+      if (std::hypot(b.x_px - e.x_px, b.y_px - e.y_px) > gate_px) continue;
+      // A track that begins there and leaves the resting place is the particle moving on;
+      // one that stays is the cluster itself.
+      for (std::size_t k = o.first; k <= o.last && !continued; ++k) continued = std::hypot(pts[k].x_px - site->x, pts[k].y_px - site->y) > near;
+      if (continued) break;
+    }
+    if (continued) continue;
+    for (int f : frames)
+      if (f > e.frame) {
+        TrackPoint q = e;
+        q.frame = f;
+        q.t = f / c.fps;
+        q.x_px = site->x;
+        q.y_px = site->y;
+        q.x = site->x * c.pixel_size;
+        q.y = site->y * c.pixel_size;
+        q.state = "deposited";
+        added.push_back(q);
+      }
+    ++run.cluster_arrivals;
+  }
+  pts.insert(pts.end(), added.begin(), added.end());
+  std::stable_sort(pts.begin(), pts.end(), [](const TrackPoint& a, const TrackPoint& b) {
+    return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
+  });
+}
+
+}  // namespace
+
 TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   const auto t0 = std::chrono::steady_clock::now();
   TrackRun run;
@@ -31,19 +247,30 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   // frames in which the spot is missing from the frame: there the frame is brighter (dark
   // polarity) than the background by about the spot's amplitude.
   std::vector<Detection> stuck;
-  std::vector<std::atomic<int>> absent;
+  // About a dozen frames spread over the video, kept whole: where a track ends, they tell
+  // whether a particle of the background was missing before and there after.
+  std::map<int, cv::Mat> references;
+  std::mutex reference_mutex;
+  const int reference_stride = source.count() > 0 ? std::max(1, source.count() / 12) : 25;
+  std::vector<std::vector<int>> absent;  // per candidate: the frames it is missing from
+  std::mutex absent_mutex;
   bool stuck_ready = !(c.detect.find_stuck && !run.background.empty());
   auto prepare = [&](const cv::Mat& first) {
     if (polarity == Polarity::automatic) polarity = guessPolarity(first, run.background);
     if (!stuck_ready) {
       stuck = detectStuck(run.background, polarity, c.detect);
-      absent = std::vector<std::atomic<int>>(stuck.size());
+      absent.assign(stuck.size(), {});
       stuck_ready = true;
     }
   };
   // One frame's work (any thread): detections, and the absence test of the stuck candidates.
-  auto process = [&](const cv::Mat& f) {
+  auto process = [&](const cv::Mat& f, int frame_number) {
+    if (c.detect.find_stuck && !run.background.empty() && frame_number % reference_stride == 0) {
+      const std::lock_guard<std::mutex> lock(reference_mutex);
+      if (references.size() < 24) references[frame_number] = f.clone();
+    }
     if (!stuck.empty()) {
+      std::vector<std::size_t> missing;
       // Least-squares amplitude of a spot of sigma 1.5 px at the candidate in
       // (background - frame) for dark particles: ~0 while the particle is there, about
       // minus its amplitude once it has gone.
@@ -57,8 +284,10 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
             sg += g * sign * (f.at<float>(y, x) - run.background.at<float>(y, x));
             sgg += g * g;
           }
-        if (sgg > 0 && sg / sgg > 0.5 * stuck[i].peak) ++absent[i];
+        if (sgg > 0 && sg / sgg < -0.5 * stuck[i].peak) missing.push_back(i);
       }
+      const std::lock_guard<std::mutex> lock(absent_mutex);
+      for (std::size_t i : missing) absent[i].push_back(frame_number);
     }
     return detect(f, run.background, polarity, c.detect);
   };
@@ -84,7 +313,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
     std::condition_variable ready;
     std::atomic<int> next_pos{1};
     std::atomic<bool> stop{false};
-    found[0] = process(frame);
+    found[0] = process(frame, index);
     frame_of[0] = index;
     done[0] = 1;
     auto worker = [&] {
@@ -95,7 +324,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
         int at = 0;
         try {
           source.readAt(pos, f, at);
-          d = process(f);
+          d = process(f, at);
         } catch (...) {
           error = std::current_exception();
         }
@@ -138,7 +367,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
       if (n == 0) break;
       prepare(batch[0]);
       auto work = [&](std::size_t first) {
-        for (std::size_t k = first; k < n; k += static_cast<std::size_t>(threads)) found[k] = process(batch[k]);
+        for (std::size_t k = first; k < n; k += static_cast<std::size_t>(threads)) found[k] = process(batch[k], batch_index[k]);
       };
       if (threads == 1) {
         work(0);
@@ -156,8 +385,25 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   run.link = linker.stats();
   std::int64_t next_id = 0;
   for (const auto& p : linker.points()) next_id = std::max(next_id, p.particle + 1);
+  auto point = [&](std::int64_t frame, std::int64_t particle, double x, double y) {
+    TrackPoint t;
+    t.frame = frame;
+    t.particle = particle;
+    t.t = static_cast<double>(frame) / c.fps;
+    t.x_px = x;
+    t.y_px = y;
+    t.x = x * c.pixel_size;
+    t.y = y * c.pixel_size;
+    return t;
+  };
+  for (const auto& p : linker.points()) run.tracks.points.push_back(point(p.frame, p.particle, p.x, p.y));
+  double typical_peak = 0;  // median peak of the moving detections
   if (c.detect.find_stuck && !run.background.empty() && !run.frame_index.empty()) {
-    // Stuck for the whole video: invisible after background removal, found in the background.
+    // Particles at rest for most of the video are part of the median background: found
+    // there, each is either stuck all along (immobile, left out as the paper does), or a
+    // particle that arrived and deposited: missing from the frames before its arrival and
+    // present in all after. Its moving track ends where it merged into the background, so
+    // it is joined to the track that ends there then and continues, at rest, to the end.
     // Stuck particles look like the moving ones: keep background spots whose blob area
     // is within a factor 2 of the median area of the moving detections.
     // ... and whose peak is at least half the moving ones' median peak (grain edges leave
@@ -168,48 +414,150 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
         areas.push_back(m.area);
         peaks.push_back(m.peak);
       }
-    double typical = 0, typical_peak = 0;
+    double typical = 0;
     if (!areas.empty()) {
       std::nth_element(areas.begin(), areas.begin() + areas.size() / 2, areas.end());
       typical = areas[areas.size() / 2];
       std::nth_element(peaks.begin(), peaks.begin() + peaks.size() / 2, peaks.end());
       typical_peak = peaks[peaks.size() / 2];
     }
+    std::vector<int> frames = run.frame_index;
+    std::sort(frames.begin(), frames.end());
+    const int n = static_cast<int>(frames.size());
+    const int tolerance = n / 10;  // frames the absence test may get wrong
+    struct Candidate {
+      const Detection* d;
+      bool all_along;   // missing from at most a tenth of the frames: stuck from the start
+      int arrival = -1; // deposited: first frame of the best absent-then-present split, -1: none
+    };
+    std::vector<Candidate> candidates;
     for (std::size_t i = 0; i < stuck.size(); ++i) {
       const Detection& d = stuck[i];
       if (typical > 0 && (d.area < 0.5 * typical || d.area > 2.0 * typical || d.peak < 0.5 * typical_peak)) continue;
+      std::vector<int>& a = absent[i];
+      std::sort(a.begin(), a.end());
+      // Step fit: missing before frames[k], present from it on. Mismatches at split k:
+      // present frames before k plus absent frames from k = k - 2 (absent before k) + |a|.
+      int best_k = 0, best_err = static_cast<int>(a.size());
+      std::size_t before = 0;
+      for (int k = 1; k <= n; ++k) {
+        while (before < a.size() && a[before] <= frames[k - 1]) ++before;
+        const int err = k - 2 * static_cast<int>(before) + static_cast<int>(a.size());
+        if (err < best_err) {
+          best_err = err;
+          best_k = k;
+        }
+      }
+      Candidate cand{&d, static_cast<int>(a.size()) <= tolerance, -1};
+      if (best_k > 0 && best_k < n && best_err <= tolerance) cand.arrival = frames[best_k];
       // A particle that only lingers (stationary for most, not all, of the video) also
       // shows in the median; it is missing from the frames where it was elsewhere.
-      if (absent[i] > static_cast<int>(run.frame_index.size() / 10)) continue;
-      for (int f : run.frame_index) {
-        TrackPoint t;
-        t.frame = f;
-        t.particle = next_id;
-        t.t = f / c.fps;
-        t.x_px = d.x;
-        t.y_px = d.y;
-        t.x = d.x * c.pixel_size;
-        t.y = d.y * c.pixel_size;
-        run.tracks.points.push_back(t);
+      if (cand.all_along || cand.arrival >= 0) candidates.push_back(cand);
+    }
+    // Track ends that can be joined: the track's last point, a few pixels from the
+    // particle's resting place, within a few frames of its arrival there.
+    std::map<std::int64_t, const TrackPoint*> last;
+    for (const auto& p : run.tracks.points) {
+      auto& l = last[p.particle];
+      if (l == nullptr || p.frame > l->frame) l = &p;
+    }
+    const double gate_px = std::max(3.0, c.link.search_radius);
+    const int gate_frames = std::max(10, 3 * (c.link.memory + 1));
+    struct Join {
+      double cost;
+      std::size_t candidate;
+      const TrackPoint* end;
+    };
+    std::vector<Join> joins;
+    std::vector<const TrackPoint*> ends;
+    CellGrid end_grid(gate_px);
+    for (const auto& [id, end] : last) {
+      end_grid.add(ends.size(), end->x_px, end->y_px);
+      ends.push_back(end);
+    }
+    for (std::size_t k = 0; k < candidates.size(); ++k) {
+      if (candidates[k].arrival < 0) continue;
+      end_grid.near(candidates[k].d->x, candidates[k].d->y, [&](std::size_t e) {
+        const TrackPoint* end = ends[e];
+        const double dist = std::hypot(end->x_px - candidates[k].d->x, end->y_px - candidates[k].d->y);
+        const auto lag = std::abs(end->frame + 1 - candidates[k].arrival);
+        if (dist <= gate_px && lag <= gate_frames) joins.push_back({dist / gate_px + static_cast<double>(lag) / gate_frames, k, end});
+      });
+    }
+    std::sort(joins.begin(), joins.end(), [](const Join& a, const Join& b) { return a.cost < b.cost; });
+    std::vector<char> joined(candidates.size(), 0);
+    std::map<std::int64_t, char> used;
+    std::vector<TrackPoint> rest;
+    // A particle half merged into the median background (at rest for about half the
+    // video) still leaves faint detections at its resting place after it arrived: they
+    // are the deposited particle, labelled so on its own track, and other tracks made
+    // only of them are duplicates of it and dropped.
+    const double near = std::max(1.0, static_cast<double>(c.detect.refine_radius));
+    std::map<std::int64_t, std::pair<std::size_t, int>> deposit_of;  // track -> (candidate, arrival)
+    for (const Join& j : joins) {
+      if (joined[j.candidate] || used[j.end->particle]) continue;
+      joined[j.candidate] = used[j.end->particle] = 1;
+      const Detection& d = *candidates[j.candidate].d;
+      for (int f : frames)
+        if (f > j.end->frame) {
+          rest.push_back(point(f, j.end->particle, d.x, d.y));
+          rest.back().state = "deposited";
+        }
+      deposit_of[j.end->particle] = {j.candidate, candidates[j.candidate].arrival};
+      ++run.deposits_joined;
+    }
+    if (!deposit_of.empty()) {
+      std::vector<std::pair<std::int64_t, std::pair<std::size_t, int>>> deposits(deposit_of.begin(), deposit_of.end());
+      CellGrid deposit_grid(near);
+      for (std::size_t k = 0; k < deposits.size(); ++k)
+        deposit_grid.add(k, candidates[deposits[k].second.first].d->x, candidates[deposits[k].second.first].d->y);
+      std::map<std::int64_t, char> duplicate;  // 1 while every point so far sits at a deposit after its arrival
+      for (auto& p : run.tracks.points) {
+        bool at_deposit = false;
+        deposit_grid.near(p.x_px, p.y_px, [&](std::size_t k) {
+          const auto& [track, ca] = deposits[k];
+          const Detection& d = *candidates[ca.first].d;
+          if (p.frame < ca.second || std::hypot(p.x_px - d.x, p.y_px - d.y) > near) return;
+          at_deposit = true;
+          if (track == p.particle) p.state = "deposited";
+        });
+        const auto it = duplicate.find(p.particle);
+        const char keep = deposit_of.count(p.particle) == 0 && at_deposit ? 1 : 0;
+        duplicate[p.particle] = it == duplicate.end() ? keep : static_cast<char>(it->second & keep);
       }
+      std::erase_if(run.tracks.points, [&](const TrackPoint& p) { return duplicate[p.particle] != 0; });
+      // The joined track's own labelled points must be its trailing ones: a label followed
+      // by an unlabelled point (it moved again) is removed.
+      std::map<std::int64_t, std::int64_t> last_unlabelled;
+      for (const auto& p : run.tracks.points)
+        if (deposit_of.count(p.particle) && p.state != "deposited") last_unlabelled[p.particle] = std::max(last_unlabelled[p.particle], p.frame);
+      for (auto& p : run.tracks.points)
+        if (deposit_of.count(p.particle) && p.state == "deposited" && last_unlabelled.count(p.particle) && p.frame < last_unlabelled[p.particle])
+          p.state.clear();
+    }
+    for (std::size_t k = 0; k < candidates.size(); ++k) {
+      if (joined[k]) continue;
+      if (!candidates[k].all_along) {
+        ++run.deposits_unjoined;  // arrived, but no track brought it: left out
+        continue;
+      }
+      for (int f : frames) rest.push_back(point(f, next_id, candidates[k].d->x, candidates[k].d->y));
       ++next_id;
       ++run.stuck_found;
     }
-  }
-  for (const auto& p : linker.points()) {
-    TrackPoint t;
-    t.frame = p.frame;
-    t.particle = p.particle;
-    t.t = p.frame / c.fps;
-    t.x_px = p.x;
-    t.y_px = p.y;
-    t.x = p.x * c.pixel_size;
-    t.y = p.y * c.pixel_size;
-    run.tracks.points.push_back(t);
+    run.tracks.points.insert(run.tracks.points.end(), rest.begin(), rest.end());
   }
   std::stable_sort(run.tracks.points.begin(), run.tracks.points.end(), [](const TrackPoint& a, const TrackPoint& b) {
     return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
   });
+  // Particles seen to stop (at rest over the final window) are labelled deposited from
+  // where they stopped, so their resting positions stay out of velocity statistics.
+  markDeposits(run.tracks, c.analysis);
+  if (!references.empty() && typical_peak > 0) {
+    joinByReference(run, c, references, polarity, typical_peak);
+    markDeposits(run.tracks, c.analysis);
+  }
+  joinClusterArrivals(run, c);
   run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return run;
 }
@@ -228,12 +576,20 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
       det += fmt::format("{},{:.6g},{:.4f},{:.4f},{:.4f},{:.4f},{:.1f},{:.4g},{:.4g}\n", run.frame_index[k], run.frame_index[k] / c.fps, d.x, d.y,
                          d.x * c.pixel_size * 1e6, d.y * c.pixel_size * 1e6, d.area, d.mass, d.peak);
   put("detections.csv", det);
-  const TrackStats s = analyseTracks(run.tracks, c.analysis);
+  // Resting ends labelled (idempotent: runTracker has done it), so that every reader of
+  // tracks.csv (compare) sees where a deposited particle stopped.
+  Tracks labelled = run.tracks;
+  markDeposits(labelled, c.analysis);
+  const TrackStats s = analyseTracks(labelled, c.analysis);
   {
+    // state per point: the track's state, except that a deposited track is "mobile" up to
+    // where it stopped and "deposited" from there on.
     std::map<std::int64_t, std::string> state;
     for (const auto& t : s.tracks) state[t.particle] = t.state;
-    Tracks labelled = run.tracks;
-    for (auto& p : labelled.points) p.state = state[p.particle];
+    for (auto& p : labelled.points) {
+      const std::string& track = state[p.particle];
+      p.state = track != "deposited" ? track : (p.state == "deposited" ? "deposited" : "mobile");
+    }
     writeTracksCsv(dir / "tracks.csv", labelled, c.pixel_size);
     files.push_back("tracks.csv");
   }
@@ -262,26 +618,14 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
   put("speed_time.csv", speed);
   // Deposited over time: mobile particles whose track has ended in a stop by time t.
   std::string ret = "quantity,value\n";
-  ret += fmt::format("particles,{}\nimmobile,{}\nmobile,{}\nretained,{}\nretained_fraction,{:.5g}\n", s.particles, s.immobile, s.mobile, s.retained,
-                     s.retained_fraction);
+  ret += fmt::format("particles,{}\nimmobile,{}\nmobile,{}\nentered,{}\nretained,{}\nretained_fraction,{:.5g}\n", s.particles, s.immobile, s.mobile,
+                     s.entered, s.retained, s.retained_fraction);
   put("retention.csv", ret);
   {
-    // Deposited over time: a deposited particle counts from the first frame after which
-    // it stays within stuck_distance of where it ends.
-    std::map<std::int64_t, std::string> state;
-    for (const auto& t : s.tracks) state[t.particle] = t.state;
+    // Deposited over time: a deposited particle counts from the time it stopped for good.
     std::vector<double> stop_times;
-    const auto& pts = run.tracks.points;
-    for (std::size_t i = 0; i < pts.size();) {
-      std::size_t j = i;
-      while (j < pts.size() && pts[j].particle == pts[i].particle) ++j;
-      if (state[pts[i].particle] == "deposited") {
-        std::size_t k = j - 1;
-        while (k > i && std::hypot(pts[k - 1].x - pts[j - 1].x, pts[k - 1].y - pts[j - 1].y) < c.analysis.stuck_distance) --k;
-        stop_times.push_back(pts[k].t);
-      }
-      i = j;
-    }
+    for (const auto& t : s.tracks)
+      if (t.state == "deposited" && std::isfinite(t.stop_time)) stop_times.push_back(t.stop_time);
     std::sort(stop_times.begin(), stop_times.end());
     std::string rt = "frame,t_s,deposited\n";
     std::size_t n = 0;
@@ -325,6 +669,7 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
   summary["tracks"] = s.particles;
   summary["immobile"] = s.immobile;
   summary["retained"] = s.retained;
+  summary["entered"] = s.entered;
   summary["retained_fraction"] = s.retained_fraction;
   summary["mean_speed_um_per_s"] = s.mean_speed * 1e6;
   summary["median_speed_um_per_s"] = s.median_speed * 1e6;
@@ -341,6 +686,10 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
                            {"memory", c.link.memory}, {"linker", c.link.method == Linker::global ? "global" : "paper"},
                            {"seeds", c.detect.method == SeedMethod::peaks ? "peaks" : "contours"}, {"threads", c.threads}};
   summary["stuck_found_in_background"] = run.stuck_found;
+  summary["deposits_joined_from_background"] = run.deposits_joined;
+  summary["deposits_not_joined"] = run.deposits_unjoined;
+  summary["cluster_arrivals"] = run.cluster_arrivals;
+  summary["deposits_found_by_reference_frames"] = run.deposits_by_reference;
   summary["seconds"] = run.seconds;
   summary["frames_per_second"] = run.seconds > 0 ? run.frame_index.size() / run.seconds : 0.0;
   put("summary.json", summary.dump(2) + "\n");

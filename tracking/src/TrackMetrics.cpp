@@ -10,6 +10,109 @@
 
 namespace mmval::tracking {
 
+namespace {
+
+/// First point of the final window of [i, j): those within stuck_window of the last.
+std::size_t windowBegin(const std::vector<TrackPoint>& pts, std::size_t i, std::size_t j, const TrackOptions& o) {
+  std::size_t k = j - 1;
+  while (k > i && pts[k - 1].t >= pts[j - 1].t - o.stuck_window - 1e-12) --k;
+  return k;
+}
+
+/// Per-axis localisation noise of points [b, j) if they are at rest: successive
+/// differences of a resting particle have E|dr|^2 = 4 sigma^2 (2D, independent errors).
+double restingNoise(const std::vector<TrackPoint>& pts, std::size_t b, std::size_t j) {
+  if (j - b < 2) return 0.0;
+  double sum = 0;
+  for (std::size_t k = b + 1; k < j; ++k) sum += std::pow(pts[k].x - pts[k - 1].x, 2) + std::pow(pts[k].y - pts[k - 1].y, 2);
+  return std::sqrt(sum / (4.0 * static_cast<double>(j - b - 1)));
+}
+
+/// Per-axis medians of points [b, e).
+void medianOf(const std::vector<TrackPoint>& pts, std::size_t b, std::size_t e, double& mx, double& my) {
+  std::vector<double> xs, ys;
+  for (std::size_t k = b; k < e; ++k) {
+    xs.push_back(pts[k].x);
+    ys.push_back(pts[k].y);
+  }
+  mx = median(xs);
+  my = median(ys);
+}
+
+/// A point where the particle sits attached: labelled deposited, after a deposited point.
+bool restingTail(const std::vector<TrackPoint>& pts, std::size_t i, std::size_t k) {
+  return k > i && pts[k].state == "deposited" && pts[k - 1].state == "deposited";
+}
+
+/// Start of the trailing run of points labelled deposited in [i, j) (j if none).
+std::size_t labelledStop(const std::vector<TrackPoint>& pts, std::size_t i, std::size_t j) {
+  std::size_t k = j;
+  while (k > i && pts[k - 1].state == "deposited") --k;
+  return k;
+}
+
+}  // namespace
+
+bool isStopped(const std::vector<TrackPoint>& pts, std::size_t i, std::size_t j, const TrackOptions& o) {
+  if (j <= i + 1 || pts[j - 1].t - pts[i].t < o.stuck_window) return false;
+  const std::size_t b = windowBegin(pts, i, j, o);
+  double moved = 0;
+  for (std::size_t k = b; k < j; ++k) moved = std::max(moved, std::hypot(pts[k].x - pts[j - 1].x, pts[k].y - pts[j - 1].y));
+  if (moved < o.stuck_distance) return true;
+  // Noisy positions (a tracker's, where stuck_distance may be below its localisation
+  // error sigma): at rest means that the window's first and last thirds have medians
+  // within stuck_distance + 3 sigma, and that 90 % of its points lie within that of the
+  // window's median (a neighbour passing by or depositing alongside shifts a few
+  // centroids). A particle moving at v px/frame has sigma ~ v / 2 by this estimate, so
+  // any steady motion over the window's 6 or more points fails the first test.
+  const std::size_t n = j - b;
+  if (n < 6) return false;
+  const double tol = o.stuck_distance + 3.0 * restingNoise(pts, b, j);
+  const std::size_t m = n / 3;
+  double ax, ay, bx, by, mx, my;
+  medianOf(pts, b, b + m, ax, ay);
+  medianOf(pts, j - m, j, bx, by);
+  if (std::hypot(bx - ax, by - ay) > tol) return false;
+  medianOf(pts, b, j, mx, my);
+  std::size_t outside = 0;
+  for (std::size_t k = b; k < j; ++k) outside += std::hypot(pts[k].x - mx, pts[k].y - my) > tol ? 1 : 0;
+  return outside * 10 <= n;
+}
+
+std::size_t stopIndex(const std::vector<TrackPoint>& pts, std::size_t i, std::size_t j, const TrackOptions& o) {
+  const std::size_t b = windowBegin(pts, i, j, o);
+  double mx, my;
+  medianOf(pts, b, j, mx, my);
+  const double r = o.stuck_distance + 3.0 * restingNoise(pts, b, j);
+  // Back from the end while points stay near the resting place; a single stray point (a
+  // neighbour's centroid) does not end the stretch, two in a row do.
+  std::size_t k = j - 1;
+  while (k > i) {
+    if (std::hypot(pts[k - 1].x - mx, pts[k - 1].y - my) <= r) {
+      --k;
+    } else if (k > i + 1 && std::hypot(pts[k - 2].x - mx, pts[k - 2].y - my) <= r) {
+      k -= 2;
+    } else {
+      break;
+    }
+  }
+  return k;
+}
+
+void markDeposits(Tracks& tracks, const TrackOptions& o) {
+  auto& pts = tracks.points;
+  for (std::size_t i = 0; i < pts.size();) {
+    std::size_t j = i;
+    while (j < pts.size() && pts[j].particle == pts[i].particle) ++j;
+    double reach = 0;
+    for (std::size_t k = i; k < j; ++k) reach = std::max(reach, std::hypot(pts[k].x - pts[i].x, pts[k].y - pts[i].y));
+    const bool candidate = static_cast<int>(j - i) >= o.min_points && reach >= o.immobile_distance;
+    if (candidate && pts[j - 1].state != "deposited" && isStopped(pts, i, j, o))
+      for (std::size_t k = stopIndex(pts, i, j, o); k < j; ++k) pts[k].state = "deposited";
+    i = j;
+  }
+}
+
 TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& o) {
   TrackStats s;
   const auto& pts = tracks.points;
@@ -20,7 +123,7 @@ TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& o) {
     s.t_begin = std::min(s.t_begin, p.t);
     s.t_end = std::max(s.t_end, p.t);
   }
-  std::vector<const TrackPoint*> mobile_points;
+  std::vector<const TrackPoint*> mobile_points, mobile_first;
   for (std::size_t i = 0; i < pts.size();) {
     std::size_t j = i;
     while (j < pts.size() && pts[j].particle == pts[i].particle) ++j;
@@ -44,9 +147,12 @@ TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& o) {
       ts.state = "immobile";
     } else {
       ++s.mobile;
-      for (std::size_t k = i; k < j; ++k) mobile_points.push_back(&pts[k]);
+      mobile_first.push_back(&pts[i]);
+      for (std::size_t k = i; k < j; ++k)
+        if (!restingTail(pts, i, k)) mobile_points.push_back(&pts[k]);
       for (std::size_t k = i + 1; k < j; ++k) {
         const double dt = pts[k].t - pts[k - 1].t;
+        if (restingTail(pts, i, k)) continue;
         if (dt <= 0) continue;
         Step st;
         st.particle = pts[k].particle;
@@ -60,21 +166,40 @@ TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& o) {
       }
       // Retained: the final window shows (almost) no motion, or the file says so
       // (simulated trajectories mark a particle "deposited" where it attaches).
-      const double t_last = pts[j - 1].t;
       if (pts[j - 1].state == "deposited") {
         ++s.retained;
-      } else if (t_last - pts[i].t >= o.stuck_window) {
-        double moved = 0;
-        for (std::size_t k = i; k < j; ++k)
-          if (pts[k].t >= t_last - o.stuck_window) moved = std::max(moved, std::hypot(pts[k].x - pts[j - 1].x, pts[k].y - pts[j - 1].y));
-        if (moved < o.stuck_distance) ++s.retained;
+        ts.stop_time = pts[std::min(labelledStop(pts, i, j), j - 1)].t;
+      } else if (isStopped(pts, i, j, o)) {
+        ++s.retained;
+        ts.stop_time = pts[stopIndex(pts, i, j, o)].t;
       }
       ts.state = s.retained > retained_before ? "deposited" : "mobile";
     }
     s.tracks.push_back(ts);
     i = j;
   }
-  s.retained_fraction = s.mobile > 0 ? static_cast<double>(s.retained) / s.mobile : 0.0;
+  // Particles that entered the view: mobile tracks that begin in the first frames or
+  // near the edge of the field of view (the box of all positions). A track that begins
+  // mid-video in the interior continues a particle already counted (the tracker lost it
+  // for longer than its gap closing), so retention, like the experiment's fraction of the
+  // injected particles, is retained / entered and does not fall with fragmentation.
+  {
+    double x0 = std::numeric_limits<double>::max(), y0 = x0, x1 = std::numeric_limits<double>::lowest(), y1 = x1;
+    std::vector<double> dts;
+    for (std::size_t k = 0; k < pts.size(); ++k) {
+      x0 = std::min(x0, pts[k].x);
+      x1 = std::max(x1, pts[k].x);
+      y0 = std::min(y0, pts[k].y);
+      y1 = std::max(y1, pts[k].y);
+      if (k > 0 && pts[k].particle == pts[k - 1].particle && pts[k].t > pts[k - 1].t) dts.push_back(pts[k].t - pts[k - 1].t);
+    }
+    const double frame_dt = dts.empty() ? 0.0 : median(dts);
+    const double margin = o.entry_margin * std::min(x1 - x0, y1 - y0);
+    for (const TrackPoint* p : mobile_first)
+      if (p->t <= s.t_begin + 2.5 * frame_dt || p->x <= x0 + margin || p->x >= x1 - margin || p->y <= y0 + margin || p->y >= y1 - margin) ++s.entered;
+  }
+  const int base = s.entered > 0 ? s.entered : s.mobile;
+  s.retained_fraction = base > 0 ? std::min(1.0, static_cast<double>(s.retained) / base) : 0.0;
   std::vector<double> speeds;
   for (const auto& st : s.steps) speeds.push_back(st.speed);
   s.mean_speed = mean(speeds);
@@ -134,8 +259,12 @@ Msd ensembleMsd(const Tracks& tracks, const TrackStats& stats, const TrackOption
   for (const auto& t : stats.tracks) state[t.particle] = &t;
   // Lags in frames up to a quarter of the longest track (the usual reliability limit).
   std::map<std::int64_t, std::vector<const TrackPoint*>> by_particle;
-  for (const auto& p : tracks.points)
-    if (state.count(p.particle) && state[p.particle]->state != "immobile") by_particle[p.particle].push_back(&p);
+  // Moving part only: a deposited particle's resting tail (see analyseTracks) is left out.
+  for (std::size_t k = 0; k < tracks.points.size(); ++k) {
+    const auto& p = tracks.points[k];
+    const bool tail = k > 0 && tracks.points[k - 1].particle == p.particle && p.state == "deposited" && tracks.points[k - 1].state == "deposited";
+    if (!tail && state.count(p.particle) && state[p.particle]->state != "immobile") by_particle[p.particle].push_back(&p);
+  }
   std::size_t longest = 0;
   for (const auto& [id, v] : by_particle) longest = std::max(longest, v.size());
   const int max_lag = std::max(1, static_cast<int>(longest / 4));

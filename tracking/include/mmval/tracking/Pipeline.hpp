@@ -32,10 +32,24 @@ struct TrackRun {
   cv::Mat background;
   double seconds = 0;
   int stuck_found = 0;  ///< particles found in the background (stuck all along)
+  /// Particles that arrived, deposited and stayed long enough to be part of the median
+  /// background: joined to the track that brought them (it continues, at rest, to the end
+  /// of the video, its points from the stop on labelled "deposited"), or found without one.
+  int deposits_joined = 0, deposits_unjoined = 0;
+  /// Tracks that end, in the interior, on a particle already at rest and are continued by
+  /// no other track: the particle deposited onto it (clusters); continued there, at rest.
+  int cluster_arrivals = 0;
+  /// Tracks that end, in the interior, where the background holds a particle that
+  /// reference frames before the end lack and after it show: deposited there.
+  int deposits_by_reference = 0;
 };
 
 /// Runs the tracker over the whole source; a progress bar unless quiet. Memory stays
 /// bounded: frames are read in batches of 2 x threads, only detections are kept.
+/// With detect.find_stuck, particles at rest in the median background are immobile
+/// tracks (stuck from the start) or continue the track that ends where and when they
+/// arrived (deposited). Tracks at rest over their final analysis.stuck_window are
+/// labelled "deposited" from where they stopped (markDeposits).
 TrackRun runTracker(FrameSource& source, const TrackConfig& config, bool quiet);
 
 /// Writes detections.csv, tracks.csv, track_summary.csv, velocities.csv,

@@ -5,6 +5,7 @@
 // occupancy map (every position of every frame composited).
 #pragma once
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,10 @@ struct TrackOptions {
   double stuck_distance = 1e-6;     ///< m
   int time_bins = 20;               ///< bins for velocity and dispersion against time
   int min_points = 3;               ///< shorter tracks are "short" (likely noise): in no statistic
+  /// fraction of the view's smaller side: a mobile track that begins this close to the edge
+  /// of the field of view (or in the first frames) is a particle entering; one that begins
+  /// deeper inside, later, is the continuation of a track the tracker lost
+  double entry_margin = 0.05;
 };
 
 struct Step {
@@ -46,6 +51,7 @@ struct TrackSummary {
   double net_displacement = 0;  ///< m, first to last
   double straightness = 0;      ///< net / path (1: straight line)
   std::string state;            ///< mobile, immobile, deposited, short
+  double stop_time = std::numeric_limits<double>::quiet_NaN();  ///< s, deposited: when it stopped for good
 };
 
 struct FrameDispersion {
@@ -67,7 +73,8 @@ struct TrackStats {
   std::vector<Step> steps;  ///< of mobile particles
   TimeSeries series;
   int particles = 0, immobile = 0, mobile = 0, retained = 0, short_tracks = 0;
-  double retained_fraction = 0;          ///< retained / mobile
+  int entered = 0;  ///< mobile tracks that begin in the first frames or within entry_margin of the view's edge
+  double retained_fraction = 0;          ///< retained / entered (retained / mobile when none entered), at most 1
   double mean_speed = 0, median_speed = 0;  ///< m/s over all steps
   double sigma_x = 0, sigma_y = 0;          ///< m, time-averaged dispersion (0 when no frame has two mobile particles)
   double t_begin = 0, t_end = 0;
@@ -76,7 +83,32 @@ struct TrackStats {
   Msd msd;
 };
 
+/// Per-track statistics. A mobile track is retained ("deposited") when its last point
+/// has state "deposited" (simulated trajectories, or a tracker that saw the particle
+/// stop) or when its final stuck_window shows no motion beyond stuck_distance plus what
+/// localisation noise explains (see isStopped). Points labelled "deposited" that follow
+/// another deposited point are the particle sitting where it attached: they count for
+/// retention but not in velocities, dispersion or MSD (simulations stop writing a
+/// particle once it deposits; a tracked one would otherwise add zero-speed steps).
 TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& options);
+
+/// Whether points [first, last) of one track (sorted by frame) end at rest over the final
+/// stuck_window: every point of it within stuck_distance of the last point (exact
+/// positions), or, for noisy positions, the window's first and last thirds with medians
+/// within stuck_distance + 3 sigma and 90 % of its points within that of its median,
+/// sigma being the per-axis localisation noise estimated from successive differences in
+/// the window (a particle at rest has E|dr|^2 = 4 sigma^2). Needs 6 points for the latter.
+bool isStopped(const std::vector<TrackPoint>& points, std::size_t first, std::size_t last, const TrackOptions& options);
+
+/// Index of the first point of the final stretch at rest of points [first, last): back
+/// from the end while points stay within stuck_distance + 3 sigma (as isStopped) of the
+/// final window's median position; one stray point does not end the stretch, two do.
+std::size_t stopIndex(const std::vector<TrackPoint>& points, std::size_t first, std::size_t last, const TrackOptions& options);
+
+/// Labels, in place, the resting end (from stopIndex on) of every track that is neither
+/// short nor immobile and that isStopped or already ends in a "deposited" point, with
+/// state "deposited"; other points keep their state. `tracks` sorted by particle, frame.
+void markDeposits(Tracks& tracks, const TrackOptions& options);
 
 /// The ensemble MSD of the mobile tracks of `stats` (called by analyseTracks).
 Msd ensembleMsd(const Tracks& tracks, const TrackStats& stats, const TrackOptions& options);
