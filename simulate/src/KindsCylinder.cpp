@@ -59,6 +59,7 @@ CaseKind cylinderChannelKind() {
     const double coef = 2.0 / (rho * Uref * Uref * Lref);
     const std::vector<int> levels = levelsOf(c, "numerics.cells_around", 8, 4096);
     const Acceptance* primary = c.acceptanceFor("c_D");
+    const Acceptance* lift = c.acceptanceFor("c_L");
     const bool probes = c.has("probes.pressure_a") && c.has("probes.pressure_b");
     if (probes && (c.reals("probes.pressure_a").size() != 2 || c.reals("probes.pressure_b").size() != 2))
       throw InputError(c.where("probes.pressure_a"), "a probe needs two coordinates", {}, "[\"x\", \"y\"]");
@@ -115,6 +116,10 @@ CaseKind cylinderChannelKind() {
       auto row = ladderRow(li, levels[li], *last, secondsSince(t0), coef * load.force.x(), primary);
       row["h_over_D"] = h / D;
       row["c_L"] = coef * load.force.y();
+      // The lift error per level: at h ~ D/15-D/30 it scatters by several % with the sub-cell
+      // position of the surface, so its ladder shows whether a level's c_L is converged or lucky.
+      if (lift != nullptr && !lift->reference.isInterval() && lift->reference.value != 0)
+        row["c_L_error"] = (coef * load.force.y() - lift->reference.value) / lift->reference.value;
       if (probes) row["dp"] = dp;
       row["newton_update"] = last->stats().update_norm;
       ladder.push_back(row);
