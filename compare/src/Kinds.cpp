@@ -35,6 +35,7 @@ void registerCompareKinds(CaseKindRegistry& registry) {
     s.path("geometry.mask", "Geometry mask image the simulation was built from (enables registration and per-region speeds)").optional();
     s.quantity("geometry.pixel_size", "um", "Size of one mask pixel").optional().positive();
     s.choice("geometry.grains", {"dark", "light"}, "Which pixels of the mask are grains").def("dark");
+    s.integerList("geometry.crop", "Window of the mask the simulation used, [x, y, width, height] in px (the simulation's coordinates start at its corner)").optional();
     s.boolean("geometry.y_up", "Simulation y runs up the image, origin at its lower-left corner (as mmval's solver reads masks); false: y down from the upper-left corner").def(true);
     s.path("registration.frame", "First video frame or the tracker's background image, registered to the mask with OpenCV ECC (rigid motion)").optional();
     s.quantity("registration.frame_pixel_size", "um", "Camera pixel size; default: from the experiment tracks (x_um / x), else the mask's").optional().positive();
@@ -75,6 +76,11 @@ void registerCompareKinds(CaseKindRegistry& registry) {
       spec.mask_pixel_size = c.quantity("geometry.pixel_size");
     }
     spec.grains_dark = c.text("geometry.grains") == "dark";
+    if (c.has("geometry.crop")) {
+      const auto& r = c.integers("geometry.crop");
+      if (r.size() != 4) throw InputError(c.where("geometry.crop"), "a crop has four integers", {}, "[x, y, width, height] in px");
+      spec.crop = cv::Rect(static_cast<int>(r[0]), static_cast<int>(r[1]), static_cast<int>(r[2]), static_cast<int>(r[3]));
+    }
     spec.y_up = c.flag("geometry.y_up");
     if (c.has("registration.frame")) spec.register_frame = c.path("registration.frame");
     if (c.has("registration.frame_pixel_size")) spec.frame_pixel_size = c.quantity("registration.frame_pixel_size");

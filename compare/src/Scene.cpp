@@ -1,5 +1,7 @@
 #include "mmval/compare/Scene.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -32,6 +34,14 @@ Comparison compareScene(const Tracks& experiment_in, const Tracks& simulation, c
   MaskFrame frame;
   if (!spec.mask.empty()) {
     pore = readPoreMask(spec.mask, spec.grains_dark);
+    if (spec.crop) {
+      if (!spec.register_frame.empty())
+        throw InputError({where, 0, 0, "crop"}, "a cropped mask cannot be registered to", {}, "registration to the whole mask, or the window given directly");
+      if ((*spec.crop & cv::Rect(0, 0, pore.cols, pore.rows)) != *spec.crop || spec.crop->area() == 0)
+        throw InputError({where, 0, 0, "crop"}, "the crop is not a window inside the mask", {},
+                         fmt::format("[x, y, width, height] inside {} x {} px", pore.cols, pore.rows));
+      pore = pore(*spec.crop).clone();
+    }
     frame = MaskFrame{spec.mask_pixel_size, pore.rows, pore.cols, spec.y_up};
   }
 

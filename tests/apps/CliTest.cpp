@@ -261,6 +261,13 @@ TEST(Cli, RenderedTrajectoriesAreTrackedAndComparedThroughRunNames) {
   const Outcome c = mmval("run --quiet " + (d / "compare.toml").string() + " --out " + (d / "runs" / "cmp").string());
   EXPECT_EQ(c.status, 0) << c.output;
   EXPECT_THAT(c.output, HasSubstr("mean_speed"));
+  // A geometry crop outside the mask is refused with the key named.
+  writeMask(d / "grain.pgm", 160, 120, [](int x, int y) { return std::hypot(x - 80.0, y - 60.0) < 20; });
+  std::ofstream(d / "crop.toml") << "[case]\nname = \"crop\"\nkind = \"compare-tracks\"\n[inputs]\nexperiment_run = \"render\"\n"
+                                    "simulation_run = \"scene\"\n[geometry]\nmask = \"grain.pgm\"\npixel_size = \"10 um\"\ncrop = [100, 0, 100, 50]\n";
+  const Outcome k = mmval("run --quiet " + (d / "crop.toml").string() + " --out " + (d / "runs" / "crop").string());
+  EXPECT_EQ(k.status, 2) << k.output;
+  EXPECT_THAT(k.output, HasSubstr("crop"));
   // A run name that did not run is named in the message.
   std::ofstream(d / "bad.toml") << "[case]\nname = \"bad\"\nkind = \"compare-tracks\"\n[inputs]\nexperiment_run = \"nothing\"\nsimulation_run = \"scene\"\n";
   const Outcome b = mmval("run --quiet " + (d / "bad.toml").string() + " --out " + (d / "runs" / "bad").string());

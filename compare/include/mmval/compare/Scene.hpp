@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <optional>
 
+#include <opencv2/core.hpp>
+
 #include "mmval/compare/Compare.hpp"
 #include "mmval/compare/Regions.hpp"
 #include "mmval/compare/Registration.hpp"
@@ -16,6 +18,7 @@ struct SceneSpec {
   double mask_pixel_size = 0;        ///< m per mask pixel (required with a mask)
   bool grains_dark = true;
   bool y_up = true;                  ///< simulation y runs up the image (as mmval's solver reads masks)
+  std::optional<cv::Rect> crop;      ///< window of the mask the simulation used (not with registration)
   std::filesystem::path register_frame;  ///< first frame / background image to register to the mask
   double frame_pixel_size = 0;       ///< m; 0: from the experiment tracks (x_um / x), else the mask's
   RegistrationOptions registration;
