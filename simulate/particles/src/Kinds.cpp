@@ -39,17 +39,7 @@ void declareChannel(Schema& s) {
   s.real("particles.restitution", "Coefficient of restitution (LIGGGHTS engine)").def(0.5).min(0.02).max(1);
   s.real("particles.friction", "Coefficient of friction (LIGGGHTS engine)").def(0.5).min(0).max(10);
   s.quantity("particles.cohesion_energy_density", "J/m3", "sjkr cohesion (LIGGGHTS engine; 0: off)").def(0.0).nonNegative();
-  s.quantity("physics.gravity", "m/s2", "Gravity along -z (the depth); 0: no settling").def("9.81 m/s2").nonNegative();
-  s.choice("physics.brownian", {"auto", "on", "off"}, "Brownian motion (overdamped engine); auto follows the Peclet numbers").def("auto");
-  s.boolean("physics.wall_hindrance", "Faxen / Brenner drag corrections from the plates").def(true);
-  s.boolean("physics.faxen_curvature", "Faxen's a^2/6 lap(u) term of the depth profile").def(true);
-  s.quantity("deposition.capture_distance", "um", "Surface gap at which a particle attaches to a sticky surface (0: never)").def("0.1 um").nonNegative();
-  s.boolean("deposition.bottom", "The bottom plate is sticky").def(true);
-  s.boolean("deposition.top", "The top plate is sticky").def(false);
-  s.boolean("deposition.walls", "Side walls and grains are sticky").def(true);
-  s.boolean("deposition.deposited", "Deposited particles are sticky (ripening)").def(true);
-  s.quantity("deposition.hamaker", "J", "Hamaker constant of the van der Waals attraction (0: none)").def(0.0).nonNegative();
-  s.quantity("deposition.attraction_range", "um", "van der Waals cut-off gap").def("1 um").positive();
+  declarePhysicsAndDeposition(s, 0.0);
   s.quantity("run.duration", "s", "Physical time simulated").def("2 s").positive();
   s.quantity("run.output_interval", "s", "Output (frame) interval").def("0.05 s").positive();
   s.integer("run.seed", "Random seed (Brownian motion, injection)").def(1).min(0);
@@ -228,6 +218,20 @@ void registerParticleKinds(CaseKindRegistry& registry) {
   k.run = runChannel;
   registry.add(k);
   registry.add(micromodelKind());
+}
+
+void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {
+  s.quantity("physics.gravity", "m/s2", "Gravity along -z (the depth); 0: no settling").def("9.81 m/s2").nonNegative();
+  s.choice("physics.brownian", {"auto", "on", "off"}, "Brownian motion (overdamped engine); auto follows the Peclet numbers").def("auto");
+  s.boolean("physics.wall_hindrance", "Faxen / Brenner drag corrections from the plates").def(true);
+  s.boolean("physics.faxen_curvature", "Faxen's a^2/6 lap(u) term of the depth profile").def(true);
+  s.quantity("deposition.capture_distance", "um", "Surface gap at which a particle attaches to a sticky surface (0: never)").def("0.1 um").nonNegative();
+  s.boolean("deposition.bottom", "The bottom plate is sticky").def(true);
+  s.boolean("deposition.top", "The top plate is sticky").def(false);
+  s.boolean("deposition.walls", "Grains and side walls are sticky").def(true);
+  s.boolean("deposition.deposited", "Deposited particles are sticky (ripening, bridging)").def(true);
+  s.quantity("deposition.hamaker", "J", "Hamaker constant of the sphere-wall van der Waals attraction (0: none)").def(hamaker_default).nonNegative();
+  s.quantity("deposition.attraction_range", "um", "van der Waals cut-off gap").def("1 um").positive();
 }
 
 void physicsAndDepositionFromCase(const Case& c, const EngineChoice& choice, SceneConfig& s) {

@@ -6,6 +6,7 @@
 #include <fmt/ranges.h>
 
 #include "MicromodelDetail.hpp"
+#include "CaseScene.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/particles/FlowField.hpp"
 #include "mmval/simulate/Geometry.hpp"
@@ -50,17 +51,7 @@ void declareMicromodel(Schema& s) {
            "Particle engine. auto: from the scene's numbers, which must allow the overdamped engine (LIGGGHTS cannot run this "
            "scene's length: liggghts-notes.md); overdamped: forced, with the automatic choice recorded")
       .def("auto");
-  s.quantity("physics.gravity", "m/s2", "Gravity along -z (the depth); 0: no settling").def("9.81 m/s2").nonNegative();
-  s.choice("physics.brownian", {"auto", "on", "off"}, "Brownian motion; auto follows the Peclet numbers").def("auto");
-  s.boolean("physics.wall_hindrance", "Faxen / Brenner drag corrections from the plates").def(true);
-  s.boolean("physics.faxen_curvature", "Faxen's a^2/6 lap(u) term of the depth profile").def(true);
-  s.quantity("deposition.capture_distance", "um", "Surface gap at which a particle attaches (0: never)").def("0.1 um").nonNegative();
-  s.boolean("deposition.bottom", "The bottom plate is sticky").def(true);
-  s.boolean("deposition.top", "The top plate is sticky").def(false);
-  s.boolean("deposition.walls", "Grains and side walls are sticky").def(true);
-  s.boolean("deposition.deposited", "Deposited particles are sticky (ripening, bridging)").def(true);
-  s.quantity("deposition.hamaker", "J", "Hamaker constant of the sphere-wall van der Waals attraction (0: none)").def(1e-20).nonNegative();
-  s.quantity("deposition.attraction_range", "um", "van der Waals cut-off gap").def("1 um").positive();
+  declarePhysicsAndDeposition(s, 1e-20);
   s.choice("coupling.mode", {"four-way", "one-way"},
            "four-way: deposits close pixel columns and the flow is solved again; one-way: the flow never changes")
       .def("four-way");
