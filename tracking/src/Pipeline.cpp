@@ -242,6 +242,9 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   TrackLinker linker(c.link);
   Progress progress("tracking", static_cast<std::size_t>(std::max(0, source.count())), quiet);
   Polarity polarity = c.detect.polarity;
+  // From frames spread over the video, not the first alone: the first frame of a scene can
+  // hold no moving particle yet, only the absence of deposits that arrive later.
+  if (polarity == Polarity::automatic) polarity = guessPolarity(sampleFrames(source, 24), run.background);
   const int threads = std::max(1, c.threads);
   // Stuck-particle candidates (spots of the median background) and, per candidate, the
   // frames in which the spot is missing from the frame: there the frame is brighter (dark
@@ -583,12 +586,14 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
   const TrackStats s = analyseTracks(labelled, c.analysis);
   {
     // state per point: the track's state, except that a deposited track is "mobile" up to
-    // where it stopped and "deposited" from there on.
+    // where it stopped and "deposited" from there on (and a mobile one "deposited" where it rested).
     std::map<std::int64_t, std::string> state;
     for (const auto& t : s.tracks) state[t.particle] = t.state;
     for (auto& p : labelled.points) {
       const std::string& track = state[p.particle];
-      p.state = track != "deposited" ? track : (p.state == "deposited" ? "deposited" : "mobile");
+      // A mobile track keeps the "deposited" labels of stretches where it rested mid-track
+      // (markDeposits), so that readers of tracks.csv leave those steps out too.
+      p.state = track != "deposited" && track != "mobile" ? track : (p.state == "deposited" ? "deposited" : "mobile");
     }
     writeTracksCsv(dir / "tracks.csv", labelled, c.pixel_size);
     files.push_back("tracks.csv");

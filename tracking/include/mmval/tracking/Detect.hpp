@@ -79,8 +79,21 @@ struct Detection {
 /// Temporal median of up to `samples` frames spread over the source (rewinds it).
 cv::Mat medianBackground(FrameSource& source, int samples);
 
-/// Dark or bright particles: the sign of the strongest deviations from the background.
+/// Up to `samples` frames spread evenly over the source (rewinds it).
+std::vector<cv::Mat> sampleFrames(FrameSource& source, int samples);
+
+/// Dark or bright particles from one frame: the sign of the strongest deviation from the
+/// background (the frame's mean when `background` is empty). Static features that the
+/// background holds but the frame lacks (a deposit not yet arrived) can fool it: prefer
+/// the overload below.
 Polarity guessPolarity(const cv::Mat& frame, const cv::Mat& background);
+
+/// Dark or bright particles from frames spread over a video: the side (darker or brighter
+/// than the background) that holds more of the moving foreground, i.e. deviations beyond
+/// 4 robust noise sigma after a 1 px blur, leaving out pixels that deviate the same way in
+/// more than a quarter of the frames (static: grains, deposits, illumination).
+/// `background` empty: the frames' temporal median. Dark when nothing deviates.
+Polarity guessPolarity(const std::vector<cv::Mat>& frames, const cv::Mat& background);
 
 /// Particles in one frame (float grey in [0, 1]); `background` may be empty.
 std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, Polarity polarity, const DetectOptions& options);
