@@ -44,21 +44,28 @@ Tolerance relative(double f) { return {Tolerance::Kind::relative, f, fmt::format
 }  // namespace
 
 RetentionSeries retentionOverTime(const Tracks& tracks, const TrackStats& stats, const TrackOptions& o, const std::vector<double>& times) {
-  std::map<std::int64_t, std::string> state;
-  for (const auto& t : stats.tracks) state[t.particle] = t.state;
-  std::vector<double> seen, stopped;  // first time of each mobile particle; stop time of each retained one
+  // The same count as the final retained fraction: deposited particles over the
+  // particles that entered (every mobile one when none is known to have entered),
+  // each counted from the time it entered or stopped.
+  std::map<std::int64_t, const TrackSummary*> summary;
+  for (const auto& t : stats.tracks) summary[t.particle] = &t;
+  std::vector<double> seen, stopped;  // entry time of each counted particle; stop time of each retained one
   for (std::size_t i = 0; i < tracks.points.size();) {
     std::size_t j = i;
     while (j < tracks.points.size() && tracks.points[j].particle == tracks.points[i].particle) ++j;
-    const auto it = state.find(tracks.points[i].particle);
-    if (it != state.end() && (it->second == "mobile" || it->second == "deposited")) {
-      seen.push_back(tracks.points[i].t);
-      if (it->second == "deposited") {
-        // The final stationary stretch: points within stuck_distance of the last position.
-        const auto& last = tracks.points[j - 1];
-        std::size_t k = j - 1;
-        while (k > i && std::hypot(tracks.points[k - 1].x - last.x, tracks.points[k - 1].y - last.y) <= o.stuck_distance) --k;
-        stopped.push_back(tracks.points[k].t);
+    const auto it = summary.find(tracks.points[i].particle);
+    if (it != summary.end() && (it->second->state == "mobile" || it->second->state == "deposited")) {
+      if (stats.entered == 0 || it->second->entered) seen.push_back(tracks.points[i].t);
+      if (it->second->state == "deposited") {
+        double stop = it->second->stop_time;
+        if (!std::isfinite(stop)) {
+          // The final stationary stretch: points within stuck_distance of the last position.
+          const auto& last = tracks.points[j - 1];
+          std::size_t k = j - 1;
+          while (k > i && std::hypot(tracks.points[k - 1].x - last.x, tracks.points[k - 1].y - last.y) <= o.stuck_distance) --k;
+          stop = tracks.points[k].t;
+        }
+        stopped.push_back(stop);
       }
     }
     i = j;

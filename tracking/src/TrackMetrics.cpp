@@ -181,6 +181,7 @@ TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& o) {
     s.t_end = std::max(s.t_end, p.t);
   }
   std::vector<const TrackPoint*> mobile_points, mobile_first;
+  std::vector<std::size_t> mobile_track;  // index in s.tracks of each mobile_first
   for (std::size_t i = 0; i < pts.size();) {
     std::size_t j = i;
     while (j < pts.size() && pts[j].particle == pts[i].particle) ++j;
@@ -205,6 +206,7 @@ TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& o) {
     } else {
       ++s.mobile;
       mobile_first.push_back(&pts[i]);
+      mobile_track.push_back(s.tracks.size());
       for (std::size_t k = i; k < j; ++k)
         if (!restingTail(pts, i, k)) mobile_points.push_back(&pts[k]);
       for (std::size_t k = i + 1; k < j; ++k) {
@@ -252,8 +254,13 @@ TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& o) {
     }
     const double frame_dt = dts.empty() ? 0.0 : median(dts);
     const double margin = o.entry_margin * std::min(x1 - x0, y1 - y0);
-    for (const TrackPoint* p : mobile_first)
-      if (p->t <= s.t_begin + 2.5 * frame_dt || p->x <= x0 + margin || p->x >= x1 - margin || p->y <= y0 + margin || p->y >= y1 - margin) ++s.entered;
+    for (std::size_t m = 0; m < mobile_first.size(); ++m) {
+      const TrackPoint* p = mobile_first[m];
+      if (p->t <= s.t_begin + 2.5 * frame_dt || p->x <= x0 + margin || p->x >= x1 - margin || p->y <= y0 + margin || p->y >= y1 - margin) {
+        ++s.entered;
+        s.tracks[mobile_track[m]].entered = true;
+      }
+    }
   }
   const int base = s.entered > 0 ? s.entered : s.mobile;
   s.retained_fraction = base > 0 ? std::min(1.0, static_cast<double>(s.retained) / base) : 0.0;

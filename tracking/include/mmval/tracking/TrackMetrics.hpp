@@ -52,6 +52,7 @@ struct TrackSummary {
   double straightness = 0;      ///< net / path (1: straight line)
   std::string state;            ///< mobile, immobile, deposited, short
   double stop_time = std::numeric_limits<double>::quiet_NaN();  ///< s, deposited: when it stopped for good
+  bool entered = false;         ///< mobile and deposited: began in the first frames or at the view's edge
 };
 
 struct FrameDispersion {
