@@ -46,6 +46,50 @@ class CellGrid {
   std::unordered_map<long long, std::vector<std::size_t>> m_bins;
 };
 
+/// A tracker point at pixel position (x, y) of `frame`, with its time and metres.
+TrackPoint trackPoint(const TrackConfig& c, std::int64_t frame, std::int64_t particle, double x, double y) {
+  TrackPoint t;
+  t.frame = frame;
+  t.particle = particle;
+  t.t = static_cast<double>(frame) / c.fps;
+  t.x_px = x;
+  t.y_px = y;
+  t.x = x * c.pixel_size;
+  t.y = y * c.pixel_size;
+  return t;
+}
+
+/// First and last index of each track in points sorted by particle, then frame.
+struct Span {
+  std::size_t first, last;
+};
+std::vector<Span> trackSpans(const std::vector<TrackPoint>& pts) {
+  std::vector<Span> spans;
+  for (std::size_t i = 0; i < pts.size();) {
+    std::size_t j = i;
+    while (j < pts.size() && pts[j].particle == pts[i].particle) ++j;
+    spans.push_back({i, j - 1});
+    i = j;
+  }
+  return spans;
+}
+
+/// Back into the tracks order: by particle, then frame.
+void sortTracks(std::vector<TrackPoint>& pts) {
+  std::stable_sort(pts.begin(), pts.end(), [](const TrackPoint& a, const TrackPoint& b) {
+    return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
+  });
+}
+
+/// Appends `end`'s particle at rest at (x, y) in every frame after `end`, labelled deposited.
+void restUntilTheEnd(const TrackConfig& c, const TrackPoint& end, double x, double y, const std::vector<int>& frames, std::vector<TrackPoint>& out) {
+  for (int f : frames)
+    if (f > end.frame) {
+      out.push_back(trackPoint(c, f, end.particle, x, y));
+      out.back().state = "deposited";
+    }
+}
+
 /// Least-squares amplitude of a spot (sigma 1.5 px) at (x, y) in sign x (frame - background):
 /// ~0 where frame and background agree, about minus a particle's depth where the
 /// background holds a particle the frame does not.
@@ -74,16 +118,7 @@ void joinByReference(TrackRun& run, const TrackConfig& c, const std::map<int, cv
   const int gate_frames = std::max(10, 3 * (c.link.memory + 1));
   const double sign = polarity == Polarity::bright ? 1.0 : -1.0;
   const double margin = std::max(1.0, static_cast<double>(c.detect.refine_radius));
-  struct Span {
-    std::size_t first, last;
-  };
-  std::vector<Span> spans;
-  for (std::size_t i = 0; i < pts.size();) {
-    std::size_t j = i;
-    while (j < pts.size() && pts[j].particle == pts[i].particle) ++j;
-    spans.push_back({i, j - 1});
-    i = j;
-  }
+  const std::vector<Span> spans = trackSpans(pts);
   CellGrid starts(gate_px);
   for (std::size_t k = 0; k < spans.size(); ++k) starts.add(k, pts[spans[k].first].x_px, pts[spans[k].first].y_px);
   std::vector<int> frames = run.frame_index;
@@ -117,26 +152,13 @@ void joinByReference(TrackRun& run, const TrackConfig& c, const std::map<int, cv
         }
       }
       if (before == 0 || after == 0 || missing_before * 4 < before * 3 || missing_after * 4 > after) continue;
-      for (int f : frames)
-        if (f > e.frame) {
-          TrackPoint p = e;
-          p.frame = f;
-          p.t = f / c.fps;
-          p.x_px = q.x;
-          p.y_px = q.y;
-          p.x = q.x * c.pixel_size;
-          p.y = q.y * c.pixel_size;
-          p.state = "deposited";
-          added.push_back(p);
-        }
+      restUntilTheEnd(c, e, q.x, q.y, frames, added);
       ++run.deposits_by_reference;
       break;
     }
   }
   pts.insert(pts.end(), added.begin(), added.end());
-  std::stable_sort(pts.begin(), pts.end(), [](const TrackPoint& a, const TrackPoint& b) {
-    return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
-  });
+  sortTracks(pts);
 }
 
 /// Particles that deposit onto particles already at rest (clusters, bridges) vanish into
@@ -151,16 +173,7 @@ void joinClusterArrivals(TrackRun& run, const TrackConfig& c) {
   const double near = std::max(1.0, static_cast<double>(c.detect.refine_radius));
   const double gate_px = std::max(3.0, c.link.search_radius);
   const int gate_frames = std::max(10, 3 * (c.link.memory + 1));
-  struct Span {
-    std::size_t first, last;
-  };
-  std::vector<Span> spans;
-  for (std::size_t i = 0; i < pts.size();) {
-    std::size_t j = i;
-    while (j < pts.size() && pts[j].particle == pts[i].particle) ++j;
-    spans.push_back({i, j - 1});
-    i = j;
-  }
+  const std::vector<Span> spans = trackSpans(pts);
   struct Site {
     double x, y;
     std::int64_t since;
@@ -213,24 +226,11 @@ void joinClusterArrivals(TrackRun& run, const TrackConfig& c) {
       if (continued) break;
     }
     if (continued) continue;
-    for (int f : frames)
-      if (f > e.frame) {
-        TrackPoint q = e;
-        q.frame = f;
-        q.t = f / c.fps;
-        q.x_px = site->x;
-        q.y_px = site->y;
-        q.x = site->x * c.pixel_size;
-        q.y = site->y * c.pixel_size;
-        q.state = "deposited";
-        added.push_back(q);
-      }
+    restUntilTheEnd(c, e, site->x, site->y, frames, added);
     ++run.cluster_arrivals;
   }
   pts.insert(pts.end(), added.begin(), added.end());
-  std::stable_sort(pts.begin(), pts.end(), [](const TrackPoint& a, const TrackPoint& b) {
-    return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
-  });
+  sortTracks(pts);
 }
 
 }  // namespace
@@ -388,17 +388,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   run.link = linker.stats();
   std::int64_t next_id = 0;
   for (const auto& p : linker.points()) next_id = std::max(next_id, p.particle + 1);
-  auto point = [&](std::int64_t frame, std::int64_t particle, double x, double y) {
-    TrackPoint t;
-    t.frame = frame;
-    t.particle = particle;
-    t.t = static_cast<double>(frame) / c.fps;
-    t.x_px = x;
-    t.y_px = y;
-    t.x = x * c.pixel_size;
-    t.y = y * c.pixel_size;
-    return t;
-  };
+  auto point = [&](std::int64_t frame, std::int64_t particle, double x, double y) { return trackPoint(c, frame, particle, x, y); };
   for (const auto& p : linker.points()) run.tracks.points.push_back(point(p.frame, p.particle, p.x, p.y));
   double typical_peak = 0;  // median peak of the moving detections
   if (c.detect.find_stuck && !run.background.empty() && !run.frame_index.empty()) {
@@ -501,11 +491,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
       if (joined[j.candidate] || used[j.end->particle]) continue;
       joined[j.candidate] = used[j.end->particle] = 1;
       const Detection& d = *candidates[j.candidate].d;
-      for (int f : frames)
-        if (f > j.end->frame) {
-          rest.push_back(point(f, j.end->particle, d.x, d.y));
-          rest.back().state = "deposited";
-        }
+      restUntilTheEnd(c, *j.end, d.x, d.y, frames, rest);
       deposit_of[j.end->particle] = {j.candidate, candidates[j.candidate].arrival};
       ++run.deposits_joined;
     }
@@ -550,9 +536,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
     }
     run.tracks.points.insert(run.tracks.points.end(), rest.begin(), rest.end());
   }
-  std::stable_sort(run.tracks.points.begin(), run.tracks.points.end(), [](const TrackPoint& a, const TrackPoint& b) {
-    return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
-  });
+  sortTracks(run.tracks.points);
   // Particles seen to stop (at rest over the final window) are labelled deposited from
   // where they stopped, so their resting positions stay out of velocity statistics.
   markDeposits(run.tracks, c.analysis);
