@@ -9,19 +9,6 @@
 
 namespace mmval::compare {
 
-namespace {
-
-/// inputs.<side>, or `file` in the folder of the run named by inputs.<side>_run,
-/// beside this run's own folder (validate's runs/).
-std::filesystem::path inputFile(const Case& c, const RunContext& ctx, const std::string& side, const char* file) {
-  const std::string key = "inputs." + side;
-  if (c.has(key)) return c.path(key);
-  if (!c.has(key + "_run")) throw InputError(c.where(key), "missing", {}, key + " (a tracks CSV) or " + key + "_run (a case run earlier in the same validation)");
-  return siblingRunFile(c, ctx, key + "_run", file);
-}
-
-}  // namespace
-
 void registerCompareKinds(CaseKindRegistry& registry) {
   CaseKind k;
   k.name = "compare-tracks";
@@ -94,7 +81,7 @@ void registerCompareKinds(CaseKindRegistry& registry) {
     }
     spec.region_options.throat_width = c.quantity("regions.throat_width");
     const Comparison cmp =
-        compareScene(readTracksCsv(inputFile(c, ctx, "experiment", "tracks.csv"), px), readTracksCsv(inputFile(c, ctx, "simulation", "trajectories.csv"), px), spec, o);
+        compareScene(readTracksCsv(fileOrRunFile(c, ctx, "inputs.experiment", "tracks.csv"), px), readTracksCsv(fileOrRunFile(c, ctx, "inputs.simulation", "trajectories.csv"), px), spec, o);
     RunOutput out;
     out.files = writeComparison(cmp, ctx.out_dir);
     out.evaluated = cmp.metrics;

@@ -139,4 +139,11 @@ std::filesystem::path siblingRunFile(const Case& c, const RunContext& ctx, const
   return f;
 }
 
+std::filesystem::path fileOrRunFile(const Case& c, const RunContext& ctx, const std::string& key, const std::string& file) {
+  if (c.has(key)) return c.path(key);
+  if (!c.has(key + "_run"))
+    throw InputError(c.where(key), "missing", {}, key + " (a file) or " + key + "_run (a case run earlier in the same validation, for its " + file + ")");
+  return siblingRunFile(c, ctx, key + "_run", file);
+}
+
 }  // namespace mmval

@@ -22,20 +22,6 @@ namespace mmval::tracking {
 
 namespace fs = std::filesystem;
 
-namespace {
-
-/// inputs.trajectories, or the trajectories.csv of the run named by
-/// inputs.trajectories_run beside this run's folder (validate's runs/).
-fs::path trajectoriesFile(const Case& c, const RunContext& ctx) {
-  if (c.has("inputs.trajectories")) return c.path("inputs.trajectories");
-  if (!c.has("inputs.trajectories_run"))
-    throw InputError(c.where("inputs.trajectories"), "no trajectories to render", {},
-                     "inputs.trajectories (a tracks CSV) or inputs.trajectories_run (a case run earlier in the same validation)");
-  return siblingRunFile(c, ctx, "inputs.trajectories_run", "trajectories.csv");
-}
-
-}  // namespace
-
 void registerRenderedKind(CaseKindRegistry& registry) {
   CaseKind k;
   k.name = "tracking-rendered";
@@ -55,7 +41,7 @@ void registerRenderedKind(CaseKindRegistry& registry) {
     declareTrackerKeys(s);
   };
   k.run = [](const Case& c, const RunContext& ctx) {
-    const fs::path file = trajectoriesFile(c, ctx);
+    const fs::path file = fileOrRunFile(c, ctx, "inputs.trajectories", "trajectories.csv");
     const double geometry_pixel = c.quantity("geometry.pixel_size");
     const Tracks sim = readTracksCsv(file, geometry_pixel);
     const fs::path mask = c.path("geometry.mask");

@@ -50,6 +50,10 @@ void addObservedOrder(nlohmann::json& ladder, const std::vector<int>& levels);
 /// another's outputs. Throws InputError naming the key when it is missing.
 std::filesystem::path siblingRunFile(const Case& c, const RunContext& ctx, const std::string& run_key, const std::string& file);
 
+/// The path in `key` when the case gives it, else `file` from the run named by
+/// `key`_run (siblingRunFile). Throws InputError naming both keys when neither is given.
+std::filesystem::path fileOrRunFile(const Case& c, const RunContext& ctx, const std::string& key, const std::string& file);
+
 /// Peak resident memory of this process so far, bytes (getrusage).
 long long peakMemoryBytes();
 
