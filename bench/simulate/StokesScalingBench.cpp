@@ -30,13 +30,7 @@ int main(int argc, char** argv) {
   for (const std::string linear : {"iterative", "direct"})
     for (int n : sizes) {
       if (linear == "direct" && n > 256) continue;  // LU fill grows ~N log N in memory and faster in time
-      FlowProblem p;
-      p.x = uniformAxis(0, L, n);
-      p.y = uniformAxis(0, L, n);
-      for (auto& b : p.boundary) b.type = BoundaryType::periodic;
-      p.viscosity = mu;
-      p.body_force = {G, 0};
-      p.shape = std::make_shared<Circles>(std::vector<Circle>{{0.5 * L, 0.5 * L, L * std::sqrt(phi / M_PI)}}, L, L);
+      FlowProblem p = squareArrayProblem(L, n, phi, mu, G);
       SolverOptions o;
       o.linear = linear;
       o.linear_rtol = 1e-8;

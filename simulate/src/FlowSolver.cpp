@@ -81,4 +81,15 @@ double SteadyFlowSolver::maxRelativeDivergence() const { return m->op.maxRelativ
 Eigen::ArrayXXd SteadyFlowSolver::cellVelocity(int component) const { return m->op.cellVelocity(m->state, component); }
 Eigen::ArrayXXd SteadyFlowSolver::cellSolidFraction() const { return m->op.cellSolidFraction(); }
 
+FlowProblem squareArrayProblem(double L, int n, double phi, double viscosity, double G) {
+  FlowProblem p;
+  p.x = uniformAxis(0, L, n);
+  p.y = uniformAxis(0, L, n);
+  for (auto& b : p.boundary) b.type = BoundaryType::periodic;
+  p.viscosity = viscosity;
+  p.body_force = {G, 0};
+  p.shape = std::make_shared<Circles>(std::vector<Circle>{{0.5 * L, 0.5 * L, L * std::sqrt(phi / M_PI)}}, L, L);
+  return p;
+}
+
 }  // namespace mmval::simulate

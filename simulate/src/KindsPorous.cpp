@@ -36,7 +36,6 @@ CaseKind periodicArrayKind() {
   };
   k.run = [](const Case& c, const RunContext& ctx) {
     const double L = c.quantity("geometry.cell"), phi = c.quantity("geometry.solid_fraction"), mu = c.quantity("fluid.viscosity");
-    const double a = L * std::sqrt(phi / M_PI);
     if (phi > M_PI / 4 - 1e-9)
       throw InputError(c.where("geometry.solid_fraction"), "the cylinders touch (phi > pi/4 closes the square array)", fmt::format("{}", phi), "phi < 0.785");
     const std::vector<int> levels = levelsOf(c, "numerics.cells_around", 8, 4096);
@@ -51,13 +50,7 @@ CaseKind periodicArrayKind() {
     const double G = 1.0;  // Pa/m; Stokes is linear, F* does not depend on it
     for (std::size_t li = 0; li < levels.size(); ++li) {
       const auto t0 = std::chrono::steady_clock::now();
-      FlowProblem p;
-      p.x = uniformAxis(0, L, levels[li]);
-      p.y = uniformAxis(0, L, levels[li]);
-      for (auto& b : p.boundary) b.type = BoundaryType::periodic;
-      p.viscosity = mu;
-      p.body_force = {G, 0};
-      p.shape = std::make_shared<Circles>(std::vector<Circle>{{0.5 * L, 0.5 * L, a}}, L, L);
+      FlowProblem p = squareArrayProblem(L, levels[li], phi, mu, G);
       p.method = immersedMethod(c);
       p.supersample = static_cast<int>(c.integer("numerics.supersample"));
       last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c));

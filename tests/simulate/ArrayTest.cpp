@@ -17,13 +17,7 @@ struct ArrayResult {
 
 ArrayResult solveArray(double phi, int n, ImmersedMethod method, const std::string& linear = "direct") {
   const double L = 1e-4, mu = 1e-3, G = 1.0;
-  FlowProblem p;
-  p.x = uniformAxis(0, L, n);
-  p.y = uniformAxis(0, L, n);
-  for (auto& b : p.boundary) b.type = BoundaryType::periodic;
-  p.viscosity = mu;
-  p.body_force = {G, 0};
-  p.shape = std::make_shared<Circles>(std::vector<Circle>{{0.5 * L, 0.5 * L, L * std::sqrt(phi / M_PI)}}, L, L);
+  FlowProblem p = squareArrayProblem(L, n, phi, mu, G);
   p.method = method;
   SolverOptions o;
   o.linear = linear;

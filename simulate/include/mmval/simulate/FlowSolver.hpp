@@ -115,6 +115,11 @@ struct FlowStats {
   bool converged = true;
 };
 
+/// Creeping flow through a periodic square array of cylinders (Sangani & Acrivos):
+/// one cell of side L on an n x n grid, periodic on all sides, one cylinder of
+/// solid fraction phi at the centre, driven by the mean pressure gradient G (Pa/m).
+FlowProblem squareArrayProblem(double L, int n, double phi, double viscosity, double G);
+
 class SteadyFlowSolver {
  public:
   /// Checks the problem (periodic sides pairwise, velocity profiles present);
