@@ -45,6 +45,12 @@ void declareTrackerKeys(Schema& s) {
   s.real("link.search_radius", "Search radius, px per frame").def(8).min(0.1);
   s.integer("link.memory", "Frames a particle may be missed (gap closing)").def(2).min(0).max(100);
   s.real("link.velocity_smoothing", "Weight of the previous velocity in the prediction's exponential filter (0: last step only)").def(0.7).min(0).max(0.95);
+  s.integer("link.smooth_frames",
+            "Half-width, frames, of a quadratic fit along each moving track that refines its positions (localisation error "
+            "x 0.70 at 2, x 0.58 at 3); for particles carried by a flow, not for Brownian motion (0: positions as detected)")
+      .def(0)
+      .min(0)
+      .max(10);
   s.quantity("analysis.immobile_distance", "um", "Particles that never move farther are immobile (left out of velocities)").def("2 um").nonNegative();
   s.quantity("analysis.stuck_distance", "um",
              "Moving less than this (plus what the track's own localisation noise explains) over the final window counts as deposited")
@@ -81,6 +87,7 @@ TrackConfig trackerConfig(const Case& c) {
   t.link.search_radius = c.real("link.search_radius");
   t.link.memory = static_cast<int>(c.integer("link.memory"));
   t.link.velocity_smoothing = c.real("link.velocity_smoothing");
+  t.smooth_frames = static_cast<int>(c.integer("link.smooth_frames"));
   t.analysis.immobile_distance = c.quantity("analysis.immobile_distance");
   t.analysis.stuck_distance = c.quantity("analysis.stuck_distance");
   t.analysis.stuck_window = c.quantity("analysis.stuck_window");

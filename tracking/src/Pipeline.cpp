@@ -17,6 +17,7 @@
 
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Progress.hpp"
+#include "mmval/tracking/TrackSmooth.hpp"
 
 namespace mmval::tracking {
 
@@ -545,6 +546,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
     markDeposits(run.tracks, c.analysis);
   }
   joinClusterArrivals(run, c);
+  run.smoothed_points = smoothTracks(run.tracks, c.smooth_frames, c.pixel_size).points;
   run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return run;
 }
@@ -673,12 +675,14 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
   summary["parameters"] = {{"pixel_size_um", c.pixel_size * 1e6}, {"fps", c.fps}, {"blur_sigma", c.detect.blur_sigma},
                            {"subtract_background", c.detect.subtract_background}, {"search_radius_px", c.link.search_radius},
                            {"memory", c.link.memory}, {"linker", c.link.method == Linker::global ? "global" : "paper"},
-                           {"seeds", c.detect.method == SeedMethod::peaks ? "peaks" : "contours"}, {"threads", c.threads}};
+                           {"seeds", c.detect.method == SeedMethod::peaks ? "peaks" : "contours"}, {"threads", c.threads},
+                           {"smooth_frames", c.smooth_frames}};
   summary["stuck_found_in_background"] = run.stuck_found;
   summary["deposits_joined_from_background"] = run.deposits_joined;
   summary["deposits_not_joined"] = run.deposits_unjoined;
   summary["cluster_arrivals"] = run.cluster_arrivals;
   summary["deposits_found_by_reference_frames"] = run.deposits_by_reference;
+  summary["smoothed_points"] = run.smoothed_points;
   summary["seconds"] = run.seconds;
   summary["frames_per_second"] = run.seconds > 0 ? run.frame_index.size() / run.seconds : 0.0;
   put("summary.json", summary.dump(2) + "\n");

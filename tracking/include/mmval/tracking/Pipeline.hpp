@@ -21,6 +21,9 @@ struct TrackConfig {
   double pixel_size = 1e-6;  ///< m per px
   double fps = 10;
   int threads = 1;  ///< detection threads (frames are detected in parallel, linked in order)
+  /// Half-width, in frames, of the along-track quadratic fit of moving particles'
+  /// positions (TrackSmooth.hpp); 0: positions as detected.
+  int smooth_frames = 0;
 };
 
 struct TrackRun {
@@ -42,6 +45,7 @@ struct TrackRun {
   /// Tracks that end, in the interior, where the background holds a particle that
   /// reference frames before the end lack and after it show: deposited there.
   int deposits_by_reference = 0;
+  long long smoothed_points = 0;  ///< moving points refined along their track (smooth_frames)
 };
 
 /// Runs the tracker over the whole source; a progress bar unless quiet. Memory stays
