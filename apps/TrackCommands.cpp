@@ -27,7 +27,7 @@ struct TrackCli {
   std::string input, config, out, truth, linker;
   double pixel_um = 0, fps = 0;
   std::vector<int> roi;
-  int first = 0, last = -1;
+  int first = 0, last = -1, smooth = -1;
   bool quiet = false, no_background = false;
 };
 
@@ -53,6 +53,10 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
   track->add_option("--first", t->first, "First frame")->capture_default_str();
   track->add_option("--last", t->last, "Last frame (-1: to the end)")->capture_default_str();
   track->add_option("--linker", t->linker, "global or paper (overrides the config)")->check(CLI::IsMember({"global", "paper"}));
+  track->add_option("--smooth", t->smooth,
+                    "Half-width in frames of the quadratic fit along each moving track (link.smooth_frames; 2 for particles carried by a "
+                    "flow, 0 for Brownian motion)")
+      ->check(CLI::Range(0, 10));
   track->add_flag("--no-background", t->no_background, "Do not subtract the median background (to count stuck particles)");
   track->add_flag("--quiet", t->quiet, "No progress bar");
   track->callback([t, &registry] {
@@ -75,6 +79,7 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
     c.set("inputs.last_frame", static_cast<std::int64_t>(t->last));
     if (!t->linker.empty()) c.set("link.method", t->linker);
     if (t->no_background) c.set("detect.subtract_background", false);
+    if (t->smooth >= 0) c.set("link.smooth_frames", static_cast<std::int64_t>(t->smooth));
     const RunSummary s = runCaseWith(c, tracking::runTrackingVideo, t->out, {t->quiet, false});
     for (const auto& m : s.metrics) std::printf("%-20s %12.5g %s\n", m.name.c_str(), m.value, m.unit.c_str());
     if (s.result["details"].value("detections", 1) == 0)
