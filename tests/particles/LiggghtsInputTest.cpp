@@ -2,6 +2,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
+#include <sstream>
+
+#include <Eigen/Geometry>
+#include <fmt/format.h>
 
 #include "mmval/core/Error.hpp"
 #include "mmval/particles/LiggghtsInput.hpp"
@@ -64,15 +69,85 @@ TEST(LiggghtsInput, BadValuesAreInputErrorsBeforeAnyCommand) {
   EXPECT_NE(ok[2].find("set atom 3*4 diameter"), std::string::npos);
 }
 
-TEST(LiggghtsInput, GrainFieldsAreRefusedWithAReason) {
-  GriddedFlow g(4, 4, 0, 0, 1e-5, 1e-5);
-  std::vector<double> z(16, 0.0), h(16, 20e-6);
-  g.update(z, z, h, std::vector<std::uint8_t>(16, 0));
-  try {
-    liggghtsSetupFor(g, scene(), 3e-5);
-    FAIL() << "expected InputError";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("STL"), std::string::npos) << e.what();
+/// A field of nx x ny nodes 10 um apart, at rest, 20 um deep, solid at the listed nodes.
+GriddedFlow gridWith(int nx, int ny, const std::vector<std::pair<int, int>>& solid_nodes) {
+  GriddedFlow g(nx, ny, 0, 0, 10e-6, 10e-6);
+  const auto n = static_cast<std::size_t>(nx) * ny;
+  std::vector<double> z(n, 0.0), h(n, 20e-6);
+  std::vector<std::uint8_t> solid(n, 0);
+  for (const auto& [i, j] : solid_nodes) solid[static_cast<std::size_t>(j) * nx + i] = 1;
+  g.update(z, z, h, solid);
+  return g;
+}
+
+/// Total area of the triangles of an ASCII STL and the largest edge ratio of one triangle.
+double stlArea(const std::string& stl, double& worst_aspect) {
+  std::istringstream in(stl);
+  std::string word;
+  std::vector<Eigen::Vector3d> v;
+  double area = 0;
+  worst_aspect = 0;
+  while (in >> word)
+    if (word == "vertex") {
+      Eigen::Vector3d p;
+      in >> p.x() >> p.y() >> p.z();
+      v.push_back(p);
+      if (v.size() == 3) {
+        area += 0.5 * (v[1] - v[0]).cross(v[2] - v[0]).norm();
+        const double e[3] = {(v[1] - v[0]).norm(), (v[2] - v[1]).norm(), (v[0] - v[2]).norm()};
+        worst_aspect = std::max(worst_aspect, *std::max_element(e, e + 3) / *std::min_element(e, e + 3));
+        v.clear();
+      }
+    }
+  return area;
+}
+
+// Grains of a gridded field are the squares of one node spacing around solid nodes
+// (GriddedFlow::isSolid takes the nearest node); LIGGGHTS gets exactly their side
+// faces, extruded through the depth. Checked on hand-counted shapes: a 2 x 2 block
+// has a perimeter of 8 spacings in 4 runs (8 triangles); a 6 x 1 bar with runs of at
+// most 4 spacings has sides of 4 + 2 and two ends: 6 runs, 12 triangles, 14 spacings.
+TEST(LiggghtsInput, GriddedGrainsBecomeAnStlMeshWall) {
+  const double dx = 10e-6, z0 = -1e-6, z1 = 21e-6;
+  {
+    const GriddedFlow g = gridWith(20, 16, {{8, 6}, {9, 6}, {8, 7}, {9, 7}});
+    long tris = 0;
+    const std::string stl = grainWallStl(g, z0, z1, 4, tris);
+    EXPECT_EQ(tris, 8);
+    double aspect = 0;
+    EXPECT_NEAR(stlArea(stl, aspect), 8 * dx * (z1 - z0), 1e-18);
+    // The block's faces: x = 7.5 dx and 9.5 dx, y = 5.5 dx and 7.5 dx.
+    EXPECT_NE(stl.find(fmt::format("vertex {:.12g} {:.12g}", 7.5 * dx, 5.5 * dx)), std::string::npos) << stl.substr(0, 400);
+    EXPECT_NE(stl.find(fmt::format("vertex {:.12g} {:.12g}", 9.5 * dx, 7.5 * dx)), std::string::npos);
+  }
+  {
+    std::vector<std::pair<int, int>> bar;
+    for (int i = 5; i < 11; ++i) bar.emplace_back(i, 8);
+    const GriddedFlow g = gridWith(20, 16, bar);
+    long tris = 0;
+    const std::string stl = grainWallStl(g, z0, z1, 4, tris);
+    EXPECT_EQ(tris, 12);
+    double aspect = 0;
+    EXPECT_NEAR(stlArea(stl, aspect), 14 * dx * (z1 - z0), 1e-18);
+    EXPECT_LT(aspect, 4.5);  // runs of <= 4 spacings against a 22 um height: no slivers
+  }
+  {
+    // The setup writes the mesh into the work folder and adds the mesh wall fixes.
+    const GriddedFlow g = gridWith(20, 16, {{8, 6}, {9, 6}, {8, 7}, {9, 7}});
+    const LiggghtsSetup s = liggghtsSetupFor(g, scene(), 190e-6);
+    EXPECT_EQ(s.grain_triangles, 8);
+    ASSERT_TRUE(std::filesystem::exists(s.grain_stl));
+    const auto c = liggghtsSetupCommands(s);
+    EXPECT_TRUE(has(c, "mesh/surface file " + s.grain_stl.string()));
+    EXPECT_TRUE(has(c, "mesh n_meshes 1 meshes grains"));
+    EXPECT_LE(s.x0, -dx);  // the outermost node squares stay inside the box
+  }
+  {
+    // No solid node: plates only, no mesh.
+    const GriddedFlow g = gridWith(20, 16, {});
+    const LiggghtsSetup s = liggghtsSetupFor(g, scene(), 190e-6);
+    EXPECT_TRUE(s.grain_stl.empty());
+    EXPECT_FALSE(has(liggghtsSetupCommands(s), "mesh/surface"));
   }
 }
 

@@ -97,6 +97,53 @@ TEST(Liggghts, HeadOnCollisionLastsHertzContactTime) {
   EXPECT_NEAR(t_out - t_in, tc, 0.03 * tc) << "dt = " << dt << " s, t_c = " << tc << " s (restitution 0.99: damping lengthens it < 1 %)";
 }
 
+// A grain of a gridded field (here a wall of solid nodes across the channel) is an STL
+// mesh wall in LIGGGHTS: a sphere thrown at it (no fluid to speak of: viscosity
+// 1e-12 Pa s) touches it at x = face - a, penetrates no more than the Hertz overlap of
+// the impact (~0.5 um at 0.05 m/s, E = 1e6 Pa; more than half of it with damping), and leaves with the material's
+// coefficient of restitution (LIGGGHTS derives the Hertz damping from it).
+TEST(Liggghts, SphereBouncesOffAGridGrainWithItsRestitution) {
+  const int nx = 30, ny = 12;
+  const double dx = 10e-6, h = 20e-6;
+  auto flow = std::make_shared<GriddedFlow>(nx, ny, 0, 0, dx, dx);
+  const auto n = static_cast<std::size_t>(nx) * ny;
+  std::vector<double> z(n, 0.0), depth(n, h);
+  std::vector<std::uint8_t> solid(n, 0);
+  for (int j = 0; j < ny; ++j)
+    for (int i = 22; i < nx; ++i) solid[static_cast<std::size_t>(j) * nx + i] = 1;
+  flow->update(z, z, depth, solid);
+  SceneConfig c = quietScene("grain-bounce");
+  c.fluid.viscosity = 1e-12;
+  LiggghtsEngine e(flow, c);
+  const double a = c.particle.radius(), face = 21.5 * dx, v = 0.05;
+  e.insert({Vec3(100e-6, 55e-6, 0.5 * h)});
+  e.setVelocity(1, Vec3(v, 0, 0));
+  // Coast to just before contact, then follow the contact step by step (~30 DEM steps).
+  const double t_hit = (face - a - 100e-6) / v;
+  e.advance(t_hit - 2e-6);
+  double x_max = 0;
+  for (int k = 1; k <= 200; ++k) {
+    e.advance(e.time() + e.dt());
+    x_max = std::max(x_max, e.particles()[0].x.x());
+  }
+  e.advance(1.5 * t_hit);
+  // Hertz overlap of a sphere on a wall of the same material at speed v:
+  // delta = (15 m v^2 / (16 E* sqrt(a)))^(2/5), 1 / E* = 2 (1 - nu^2) / E.
+  const double m = c.particle.density * kPi * std::pow(c.particle.diameter, 3) / 6;
+  const double estar = c.particle.youngs_modulus / (2 * (1 - c.particle.poisson_ratio * c.particle.poisson_ratio));
+  const double delta = std::pow(15 * m * v * v / (16 * estar * std::sqrt(a)), 0.4);
+  const auto p = e.particles()[0];
+  std::cout << "grain bounce: deepest centre " << (x_max - (face - a)) * 1e9 << " nm past contact (elastic Hertz " << delta * 1e9
+            << " nm), restitution " << -p.v.x() / v << " (material "
+            << c.particle.restitution << "), dt " << e.dt() << " s\n";
+  // Damping (restitution 0.5) makes the overlap smaller than the elastic one.
+  EXPECT_GT(x_max - (face - a), 0.5 * delta) << "touched the grain face (elastic Hertz overlap " << delta << " m)";
+  EXPECT_LT(x_max - (face - a), 1.05 * delta) << "penetrated the grain deeper than the Hertz overlap";
+  EXPECT_LT(p.v.x(), 0.0) << "bounced back";
+  EXPECT_NEAR(-p.v.x() / v, c.particle.restitution, 0.05 * c.particle.restitution);
+  EXPECT_NEAR(p.x.y(), 55e-6, 1e-9);  // head-on: no sideways motion
+}
+
 }  // namespace
 }  // namespace mmval::particles
 

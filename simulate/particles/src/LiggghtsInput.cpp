@@ -1,7 +1,9 @@
 #include "mmval/particles/LiggghtsInput.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <fstream>
 
 #include <fmt/format.h>
 
@@ -24,6 +26,66 @@ bool safePath(const std::filesystem::path& p) {
 
 }  // namespace
 
+std::string grainWallStl(const GriddedFlow& flow, double z0, double z1, int max_run, long& triangles) {
+  const int nx = flow.nx(), ny = flow.ny();
+  const Bounds2 b = flow.bounds();
+  const double dx = nx > 1 ? (b.x1 - b.x0) / (nx - 1) : 1.0, dy = ny > 1 ? (b.y1 - b.y0) / (ny - 1) : 1.0;
+  // Node solidity sampled at the nodes themselves (nearest node = the node).
+  std::vector<std::uint8_t> solid(static_cast<std::size_t>(nx) * ny);
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) solid[static_cast<std::size_t>(j) * nx + i] = flow.isSolid(b.x0 + i * dx, b.y0 + j * dy) ? 1 : 0;
+  const auto at = [&](int i, int j) { return solid[static_cast<std::size_t>(j) * nx + i] != 0; };
+  std::string out = "solid grains\n";
+  triangles = 0;
+  // One rectangle (two triangles) in the vertical plane through (xa, ya)-(xb, yb), normal n.
+  const auto quad = [&](double xa, double ya, double xb, double yb, double nxv, double nyv) {
+    const double p[4][3] = {{xa, ya, z0}, {xb, yb, z0}, {xb, yb, z1}, {xa, ya, z1}};
+    for (const auto& tri : {std::array<int, 3>{0, 1, 2}, std::array<int, 3>{0, 2, 3}}) {
+      out += fmt::format("facet normal {:.9g} {:.9g} 0\n outer loop\n", nxv, nyv);
+      for (int v : tri) out += fmt::format("  vertex {:.12g} {:.12g} {:.12g}\n", p[v][0], p[v][1], p[v][2]);
+      out += " endloop\nendfacet\n";
+      ++triangles;
+    }
+  };
+  const int run_max = std::max(1, max_run);
+  // Faces normal to x: between nodes (i, j) and (i + 1, j), at x = x_i + dx / 2; runs along y.
+  for (int i = 0; i + 1 < nx; ++i)
+    for (int side = 0; side < 2; ++side) {  // side 0: solid on the left (normal +x), 1: solid on the right
+      int j = 0;
+      while (j < ny) {
+        const auto face = [&](int jj) { return side == 0 ? (at(i, jj) && !at(i + 1, jj)) : (!at(i, jj) && at(i + 1, jj)); };
+        if (!face(j)) {
+          ++j;
+          continue;
+        }
+        int k = j;
+        while (k + 1 < ny && k + 1 - j < run_max && face(k + 1)) ++k;
+        const double x = b.x0 + (i + 0.5) * dx;
+        quad(x, b.y0 + (j - 0.5) * dy, x, b.y0 + (k + 0.5) * dy, side == 0 ? 1.0 : -1.0, 0.0);
+        j = k + 1;
+      }
+    }
+  // Faces normal to y: between nodes (i, j) and (i, j + 1); runs along x.
+  for (int j = 0; j + 1 < ny; ++j)
+    for (int side = 0; side < 2; ++side) {
+      int i = 0;
+      while (i < nx) {
+        const auto face = [&](int ii) { return side == 0 ? (at(ii, j) && !at(ii, j + 1)) : (!at(ii, j) && at(ii, j + 1)); };
+        if (!face(i)) {
+          ++i;
+          continue;
+        }
+        int k = i;
+        while (k + 1 < nx && k + 1 - i < run_max && face(k + 1)) ++k;
+        const double y = b.y0 + (j + 0.5) * dy;
+        quad(b.x0 + (i - 0.5) * dx, y, b.x0 + (k + 0.5) * dx, y, 0.0, side == 0 ? 1.0 : -1.0);
+        i = k + 1;
+      }
+    }
+  out += "endsolid grains\n";
+  return out;
+}
+
 double liggghtsTimeStep(const ParticleMaterial& p, double rayleigh_fraction, double impact_speed) {
   const double dt_r = rayleigh_fraction * rayleighTime(p);
   const double dt_h = hertzContactTimeEqual(p, std::max(impact_speed, 1e-9)) / 20.0;
@@ -36,24 +98,34 @@ LiggghtsSetup liggghtsSetupFor(const FlowField& flow, const SceneConfig& cfg, do
   const double d = cfg.particle.diameter;
   s.particle = cfg.particle;
   s.cohesion_energy_density = cfg.cohesion_energy_density;
-  const double h = flow.depth(0.5 * (b.x0 + b.x1), 0.5 * (b.y0 + b.y1));
-  for (double fx : {0.0, 0.5, 1.0})
-    for (double fy : {0.1, 0.5, 0.9}) {
-      const double hh = flow.depth(b.x0 + fx * (b.x1 - b.x0), b.y0 + fy * (b.y1 - b.y0));
+  // The plates are two planes: the depth must be one number over the fluid.
+  double h = 0;
+  for (int fx = 0; fx <= 8; ++fx)
+    for (int fy = 1; fy <= 7; ++fy) {
+      const double x = b.x0 + fx / 8.0 * (b.x1 - b.x0), y = b.y0 + fy / 8.0 * (b.y1 - b.y0);
+      if (flow.isSolid(x, y)) continue;
+      const double hh = flow.depth(x, y);
+      if (h == 0) h = hh;
       if (std::abs(hh - h) > 1e-9 * h)
-        throw InputError(keyLocation("flow"), "the LIGGGHTS engine models the chip's plates as two planes; this field's depth varies", fmt::format("{:.4g} vs {:.4g} um", hh * 1e6, h * 1e6),
-                         "a constant-depth field, or the overdamped engine");
+        throw InputError(keyLocation("flow"), "the LIGGGHTS engine models the chip's plates as two planes; this field's depth varies",
+                         fmt::format("{:.4g} vs {:.4g} um", hh * 1e6, h * 1e6), "a constant-depth field, or the overdamped engine");
     }
+  if (!(h > 0)) throw InputError(keyLocation("flow"), "no fluid found in the field for the LIGGGHTS engine", "all solid", "a field with pore space");
+  const auto* gridded = dynamic_cast<const GriddedFlow*>(&flow);
+  double margin = 2 * d;
   if (dynamic_cast<const HeleShawChannel*>(&flow) != nullptr) {
     s.side_walls = true;
     s.wall_y0 = b.y0;
     s.wall_y1 = b.y1;
+  } else if (gridded != nullptr) {
+    // The node squares reach half a spacing beyond the outer nodes: keep them inside the box.
+    const double dx = gridded->nx() > 1 ? (b.x1 - b.x0) / (gridded->nx() - 1) : 0.0, dy = gridded->ny() > 1 ? (b.y1 - b.y0) / (gridded->ny() - 1) : 0.0;
+    margin = std::max(margin, std::max(dx, dy));
   } else if (dynamic_cast<const UniformFlow*>(&flow) == nullptr) {
-    throw InputError(keyLocation("engine"), "the LIGGGHTS engine has plane walls only; grain walls from STL meshes are not implemented yet", "liggghts",
-                     "engine = \"overdamped\" for fields with grains");
+    throw InputError(keyLocation("engine"), "the LIGGGHTS engine knows plane plates, channel side walls and gridded grains; this flow field is none of them",
+                     "liggghts", "engine = \"overdamped\"");
   }
   s.depth = h;
-  const double margin = 2 * d;
   s.x0 = b.x0 - margin;
   s.x1 = std::max(b.x1, outlet_x) + margin;
   s.y0 = b.y0 - margin;
@@ -64,6 +136,15 @@ LiggghtsSetup liggghtsSetupFor(const FlowField& flow, const SceneConfig& cfg, do
   s.dt = liggghtsTimeStep(cfg.particle, cfg.rayleigh_fraction, std::max(umax, settlingSpeed(cfg.fluid, cfg.particle, cfg.gravity)));
   s.skin = 0.5 * d;
   std::filesystem::create_directories(cfg.work_dir);
+  if (gridded != nullptr) {
+    // Grain walls span the box's depth beyond both plates, so no particle meets an edge.
+    const std::string stl = grainWallStl(*gridded, 0.5 * s.z0, s.depth + 0.5 * (s.z1 - s.depth), 4, s.grain_triangles);
+    if (s.grain_triangles > 0) {
+      s.grain_stl = cfg.work_dir / "grains.stl";
+      std::ofstream(s.grain_stl) << stl;
+      if (!std::ifstream(s.grain_stl)) throw InputError(keyLocation("work_dir"), "cannot write the grain mesh for LIGGGHTS", s.grain_stl.string(), "a writable folder");
+    }
+  }
   s.log_file = cfg.work_dir / "liggghts.log";
   s.screen_file = cfg.work_dir / "liggghts.screen";
   return s;
@@ -95,6 +176,14 @@ std::vector<std::string> liggghtsSetupCommands(const LiggghtsSetup& s) {
   require(safePath(s.log_file) && safePath(s.screen_file), "work_dir", "LIGGGHTS log path empty or with spaces/special characters", 0,
           "a plain path");
   if (s.side_walls) require(s.wall_y1 > s.wall_y0 && s.wall_y0 > s.y0 && s.wall_y1 < s.y1, "flow.bounds", "side walls outside the box", s.wall_y0, "inside the box");
+  if (!s.grain_stl.empty()) {
+    require(safePath(s.grain_stl), "work_dir", "grain mesh path empty or with spaces/special characters", 0, "a plain path");
+    require(s.grain_triangles > 0 && s.grain_triangles <= 2000000, "geometry.mask", "grain mesh triangle count out of range", static_cast<double>(s.grain_triangles),
+            "1 .. 2e6 triangles");
+    // LIGGGHTS rejects meshes whose extent is under ~1e-4 m (liggghts-notes.md).
+    require(std::max(s.x1 - s.x0, s.y1 - s.y0) > 1.5e-4, "geometry.mask", "a grain mesh smaller than LIGGGHTS accepts", std::max(s.x1 - s.x0, s.y1 - s.y0),
+            "a field wider than 150 um");
+  }
 
   const bool cohesion = s.cohesion_energy_density > 0;
   const std::string model = std::string("model hertz tangential history") + (cohesion ? " cohesion sjkr" : "");
@@ -124,6 +213,10 @@ std::vector<std::string> liggghtsSetupCommands(const LiggghtsSetup& s) {
   if (s.side_walls) {
     c.push_back(fmt::format("fix wall_y0 all wall/gran {} primitive type 1 yplane {}", model, num(s.wall_y0)));
     c.push_back(fmt::format("fix wall_y1 all wall/gran {} primitive type 1 yplane {}", model, num(s.wall_y1)));
+  }
+  if (!s.grain_stl.empty()) {
+    c.push_back(fmt::format("fix grains all mesh/surface file {} type 1", s.grain_stl.string()));
+    c.push_back(fmt::format("fix wall_grains all wall/gran {} mesh n_meshes 1 meshes grains", model));
   }
   c.push_back("thermo 1000000000");
   c.push_back("thermo_modify lost ignore norm no");

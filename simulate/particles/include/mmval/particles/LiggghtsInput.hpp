@@ -16,6 +16,9 @@ struct LiggghtsSetup {
   double depth = 0;                ///< plates at z = 0 and z = depth, m
   bool side_walls = false;         ///< plane walls at y = wall_y0 and y = wall_y1
   double wall_y0 = 0, wall_y1 = 0;
+  /// Grains as a LIGGGHTS mesh wall: an ASCII STL (empty path: no grains), its triangles.
+  std::filesystem::path grain_stl;
+  long grain_triangles = 0;
   ParticleMaterial particle;
   double cohesion_energy_density = 0;  ///< J/m3, sjkr; 0: no cohesion
   double dt = 0;                   ///< DEM step, s
@@ -27,9 +30,18 @@ struct LiggghtsSetup {
 /// twentieth of the Hertz contact time (paper Eq. 14) at `impact_speed`.
 double liggghtsTimeStep(const ParticleMaterial& p, double rayleigh_fraction, double impact_speed);
 
-/// Box, walls and step for a scene: the flow must be a UniformFlow (plates
-/// only) or a HeleShawChannel (plates + side walls) of constant depth; grain
-/// walls need STL meshes, not implemented yet (InputError says so).
+/// The solid region of a gridded field as LIGGGHTS sees it: the vertical faces
+/// between solid and fluid nodes' squares (GriddedFlow::isSolid is the nearest
+/// node, so its grains are unions of squares of one node spacing around solid
+/// nodes), extruded from z0 to z1, as an ASCII STL. Collinear faces are merged
+/// into runs of at most `max_run` node spacings, so triangles stay well shaped
+/// (LIGGGHTS rejects slivers); both engines see the same grain surfaces.
+/// `triangles` receives the count. Faces toward the outside of the grid are not walls.
+std::string grainWallStl(const GriddedFlow& flow, double z0, double z1, int max_run, long& triangles);
+
+/// Box, walls and step for a scene: a UniformFlow (plates only), a HeleShawChannel
+/// (plates + side walls) or a GriddedFlow (plates + its solid nodes as an STL mesh
+/// wall written to cfg.work_dir/grains.stl), of constant depth.
 LiggghtsSetup liggghtsSetupFor(const FlowField& flow, const SceneConfig& cfg, double outlet_x);
 
 /// The setup commands, from `units si` to the wall fixes (not the integrator
