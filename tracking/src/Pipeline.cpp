@@ -17,6 +17,7 @@
 
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Progress.hpp"
+#include "mmval/tracking/TrackImages.hpp"
 #include "mmval/tracking/TrackSmooth.hpp"
 
 namespace mmval::tracking {
@@ -650,10 +651,17 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
       const cv::Scalar colour((a.particle * 67) % 200 + 55, (a.particle * 131) % 200 + 55, (a.particle * 29) % 200 + 55);
       cv::line(img, cv::Point2d(a.x_px, a.y_px), cv::Point2d(b.x_px, b.y_px), colour, 1, cv::LINE_AA);
     }
-    const auto tmp = temporaryPathFor(dir / "streamlines.png");
-    cv::imwrite(tmp.string(), img);
-    commitTemporary(tmp, dir / "streamlines.png");
-    files.push_back("streamlines.png");
+    const auto png = [&](const std::string& name, const cv::Mat& m) {
+      const auto t = temporaryPathFor(dir / name);
+      cv::imwrite(t.string(), m);
+      commitTemporary(t, dir / name);
+      files.push_back(name);
+    };
+    png("streamlines.png", img);
+    // Steps coloured by speed, and the mean speed binned on the pore space (bins of
+    // about two particle diameters).
+    png("velocity_overlay.png", velocityOverlay(base, s, c.pixel_size, 1.0 / c.fps));
+    png("speed_map.png", speedMap(base, s, c.pixel_size, std::max(4, 2 * c.detect.refine_radius)));
   }
   nlohmann::json summary = extra;
   summary["frames"] = run.frame_index.size();
