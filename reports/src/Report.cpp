@@ -232,6 +232,7 @@ int writeReport(const ReportInput& input, const fs::path& out) {
   std::vector<Table> tables;
   if (auto t = cylinderDragTable(input, refdir)) tables.push_back(*t);
   if (auto t = chipTable(input, refdir)) tables.push_back(*t);
+  if (auto t = engineComparisonTable(input)) tables.push_back(*t);
   if (!reduction_rows.empty()) {
     Table t;
     t.id = "table3";

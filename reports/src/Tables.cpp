@@ -195,6 +195,33 @@ std::optional<Table> chipTable(const ReportInput& input, const fs::path& dir) {
   return t;
 }
 
+std::optional<Table> engineComparisonTable(const ReportInput& input) {
+  Table t;
+  t.id = "engines";
+  t.title = "Overdamped engine against LIGGGHTS on a shared window of the scene";
+  t.note = "Both engines start from the same particles on the same flow field and are compared at every output time: position differences "
+           "(particles that left are skipped), capture events and the retained fraction of the window; no Brownian motion (LIGGGHTS has none), "
+           "gravity raised as the window states so that particles reach the bottom plate. Wall times of one run, same machine.";
+  t.header = {"case", "candidate", "window (s)", "particles", "RMS position diff (um)", "median final diff (nm)", "max diff (um)",
+              "captured LIGGGHTS / candidate / both", "RMS capture time diff (s)", "retained LIGGGHTS / candidate", "wall LIGGGHTS / candidate (s)", "speed-up"};
+  for (const auto& r : input.summary.results) {
+    const auto& d = r.value("details", nlohmann::json::object());
+    if (!d.contains("engine_comparison")) continue;
+    for (const auto& e : d["engine_comparison"]) {
+      const double wl = e.value("wall_seconds_reference", 0.0), wc = e.value("wall_seconds_candidate", 0.0);
+      t.rows.push_back({r["case"]["name"].get<std::string>(), e.value("candidate", std::string("overdamped")), num(e.value("window_s", 0.0), 3),
+                        std::to_string(e.value("particles", 0)), num(1e6 * e.value("rms_position_difference_m", 0.0), 3),
+                        num(1e9 * e.value("median_final_difference_m", 0.0), 3), num(1e6 * e.value("max_position_difference_m", 0.0), 3),
+                        fmt::format("{} / {} / {}", e.value("captured_reference", 0), e.value("captured_candidate", 0), e.value("captured_both", 0)),
+                        num(e.value("rms_capture_time_difference_s", 0.0), 3),
+                        num(e.value("retained_fraction_reference", 0.0), 3) + " / " + num(e.value("retained_fraction_candidate", 0.0), 3),
+                        num(wl, 3) + " / " + num(wc, 3), wc > 0 ? num(wl / wc, 3) : "-"});
+    }
+  }
+  if (t.rows.empty()) return std::nullopt;
+  return t;
+}
+
 std::map<std::string, std::vector<double>> readCsvColumns(const fs::path& file) {
   std::map<std::string, std::vector<double>> out;
   std::ifstream in(file);

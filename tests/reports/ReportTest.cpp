@@ -131,7 +131,13 @@ TEST(Report, PaperTablesPermeabilityAndRetentionFromTheRunsPresent) {
     for (int i = 0; i <= 10; ++i) f << fmt::format("{},{},{},{},true\n", 10 * i, 4e-12 * (1 - 0.02 * i), 4.0 * (1 - 0.02 * i), 1 - 0.02 * i);
   }
   // A coupled run retaining 40 % of what it injects.
-  fakeRun(dir / "runs" / "coupled", "coupled", "particles-micromodel", nlohmann::json::array());
+  // ... with its shared-window comparison of the particle engines.
+  const nlohmann::json window = {{"candidate", "overdamped, step 0.1"}, {"window_s", 0.2}, {"particles", 40}, {"rms_position_difference_m", 0.12e-6},
+                                 {"median_final_difference_m", 25e-9}, {"max_position_difference_m", 1.5e-6}, {"captured_reference", 11},
+                                 {"captured_candidate", 12}, {"captured_both", 10}, {"rms_capture_time_difference_s", 2e-3},
+                                 {"retained_fraction_reference", 0.275}, {"retained_fraction_candidate", 0.3}, {"wall_seconds_reference", 12.0},
+                                 {"wall_seconds_candidate", 0.04}};
+  fakeRun(dir / "runs" / "coupled", "coupled", "particles-micromodel", nlohmann::json::array(), {{"engine_comparison", nlohmann::json::array({window})}});
   {
     std::ofstream f(dir / "runs" / "coupled" / "retention.csv");
     f << "t_s,injected,retained,left,inside\n";
@@ -167,7 +173,9 @@ TEST(Report, PaperTablesPermeabilityAndRetentionFromTheRunsPresent) {
       EXPECT_NEAR(m["reference"].get<double>(), 23.2, 1e-12);
     }
   EXPECT_TRUE(found);
-  EXPECT_EQ(metrics["tables"].size(), 3u);
+  // The engines' shared window: one row, errors in um / nm, speed-up 12 / 0.04 = 300.
+  EXPECT_THAT(md, ::testing::HasSubstr("| coupled | overdamped, step 0.1 | 0.2 | 40 | 0.12 | 25 | 1.5 | 11 / 12 / 10 | 0.002 | 0.275 / 0.3 | 12 / 0.04 | 300 |"));
+  EXPECT_EQ(metrics["tables"].size(), 4u);
   if (gnuplotAvailable()) {
     EXPECT_TRUE(fs::exists(dir / "report" / "figures" / "permeability-time.svg"));
     EXPECT_TRUE(fs::exists(dir / "report" / "figures" / "retention-time.svg"));

@@ -2,7 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 #include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "mmval/core/Error.hpp"
+#include "mmval/particles/EngineFactory.hpp"
 
 namespace mmval::particles {
 
@@ -75,6 +81,42 @@ EngineComparison compareEngines(ParticleEngine& reference, ParticleEngine& candi
   r.steps_reference = reference.stats().steps;
   r.steps_candidate = candidate.stats().steps;
   return r;
+}
+
+std::vector<Vec3> samplePoreSpace(const FlowField& flow, double radius, int n, std::uint64_t seed) {
+  const Bounds2 b = flow.bounds();
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> ux(b.x0, b.x1), uy(b.y0, b.y1), unit(0.0, 1.0);
+  std::vector<ParticleState> placed;
+  std::vector<Vec3> out;
+  const long tries = 1000L * std::max(n, 1);
+  for (long t = 0; t < tries && static_cast<int>(out.size()) < n; ++t) {
+    const double x = ux(rng), y = uy(rng);
+    const double h = flow.depth(x, y);
+    const Vec3 p(x, y, radius + unit(rng) * std::max(h - 2 * radius, 0.0));
+    if (!insertionProblem(flow, radius, p, placed).empty()) continue;
+    ParticleState s;
+    s.id = static_cast<std::int64_t>(placed.size()) + 1;
+    s.x = p;
+    placed.push_back(s);
+    out.push_back(p);
+  }
+  if (static_cast<int>(out.size()) < n)
+    throw InputError(keyLocation("engines.compare_particles"), "the pore space cannot take that many particles apart from each other",
+                     fmt::format("{} placed of {}", out.size(), n), "fewer particles");
+  return out;
+}
+
+EngineComparison compareOnScene(std::shared_ptr<const FlowField> flow, SceneConfig config, const SceneWindow& w, const SceneConfig* candidate) {
+  config.brownian = false;
+  config.gravity *= w.gravity_factor;
+  SceneConfig od = candidate ? *candidate : config;
+  od.brownian = false;
+  od.gravity = config.gravity;
+  const auto positions = samplePoreSpace(*flow, config.particle.radius(), w.particles, w.seed);
+  auto reference = makeEngine(EngineKind::liggghts, flow, config);
+  auto cheap = makeEngine(EngineKind::overdamped, flow, od);
+  return compareEngines(*reference, *cheap, positions, w.window, w.interval);
 }
 
 }  // namespace mmval::particles

@@ -45,6 +45,11 @@ std::optional<Table> cylinderDragTable(const ReportInput& input, const std::file
 /// with every image-permeability run present.
 std::optional<Table> chipTable(const ReportInput& input, const std::filesystem::path& reference_dir);
 
+/// The cheaper particle model against LIGGGHTS on a scene's shared window: one row
+/// per entry of a run's details.engine_comparison (EngineComparison::toJson plus a
+/// "candidate" label); none: no table.
+std::optional<Table> engineComparisonTable(const ReportInput& input);
+
 /// A run's time series read from a CSV with a header: column name -> values.
 /// Empty map when the file is missing; throws InputError on a malformed file.
 std::map<std::string, std::vector<double>> readCsvColumns(const std::filesystem::path& file);

@@ -2,6 +2,8 @@
 // (issue 6: the cheaper model's error against LIGGGHTS): both get the same
 // particles at the same positions and are advanced to the same output times.
 #pragma once
+#include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -29,5 +31,31 @@ struct EngineComparison {
 /// k = 1 .. window / interval and compares. Engines must be fresh (time 0, empty).
 EngineComparison compareEngines(ParticleEngine& reference, ParticleEngine& candidate, const std::vector<Vec3>& positions, double window,
                                 double interval);
+
+/// `n` positions spread uniformly over a field's pore space: (x, y) uniform over
+/// the fluid of the bounds, z uniform over [a, h - a], each accepted only where
+/// insertionProblem has nothing against it (clear of grains, walls and each
+/// other). Deterministic for a seed; throws InputError when the pore space cannot
+/// take them in 1000 n tries.
+std::vector<Vec3> samplePoreSpace(const FlowField& flow, double radius, int n, std::uint64_t seed);
+
+/// The shared window of a scene: particles spread over its pore space, both
+/// engines from the same positions on the same field, deterministic (no
+/// Brownian motion: LIGGGHTS has none), gravity x `gravity_factor` so that
+/// particles reach the bottom plate within a short window.
+struct SceneWindow {
+  double window = 0.2;          ///< s
+  double interval = 0.01;       ///< s, comparison times
+  int particles = 40;
+  double gravity_factor = 100;
+  std::uint64_t seed = 5;
+};
+
+/// LIGGGHTS (the reference: Hertz contacts, grains as an STL mesh wall) against
+/// the overdamped engine on `flow` with the scene's physics `config` (brownian is
+/// switched off for both; `candidate` may change the overdamped step settings).
+/// Throws InputError when this build has no LIGGGHTS.
+EngineComparison compareOnScene(std::shared_ptr<const FlowField> flow, SceneConfig config, const SceneWindow& w,
+                                const SceneConfig* candidate = nullptr);
 
 }  // namespace mmval::particles
