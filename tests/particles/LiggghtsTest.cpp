@@ -97,6 +97,30 @@ TEST(Liggghts, HeadOnCollisionLastsHertzContactTime) {
   EXPECT_NEAR(t_out - t_in, tc, 0.03 * tc) << "dt = " << dt << " s, t_c = " << tc << " s (restitution 0.99: damping lengthens it < 1 %)";
 }
 
+// Paper Eq. 14 at run time: a particle thrown at 5 m/s makes the Hertz time of a
+// head-on pair at 10 m/s the binding limit (t_c / 20 below the Rayleigh fraction);
+// once water has stopped it (tau_p = 1.5 us), the step returns to the setup's.
+TEST(Liggghts, TimeStepFollowsTheFastestParticle) {
+  auto flow = std::make_shared<UniformFlow>(Vec2(0, 0), 40e-6, Bounds2{0, 400e-6, 0, 100e-6});
+  SceneConfig c = quietScene("retime");
+  LiggghtsEngine e(flow, c);
+  const double dt0 = e.dt();
+  e.insert({Vec3(50e-6, 50e-6, 20e-6)});
+  e.setVelocity(1, Vec3(5.0, 0, 0));
+  e.advance(2e-8);
+  const double hertz = hertzContactTimeEqual(c.particle, 10.0) / 20;
+  ASSERT_LT(hertz, dt0) << "the test needs Hertz to bind at 10 m/s";
+  EXPECT_NEAR(e.dt(), hertz, 1e-12 * hertz);
+  const double t = e.time();
+  e.advance(t + 30e-6);  // 20 tau_p: at rest in still water
+  EXPECT_LT(e.particles()[0].v.norm(), 1e-6);
+  e.advance(e.time() + 1e-6);
+  EXPECT_DOUBLE_EQ(e.dt(), dt0);
+  EXPECT_NEAR(e.time(), t + 31e-6, 2 * dt0);  // time keeps counting across the changes
+  EXPECT_DOUBLE_EQ(e.stats().min_dt, hertz);
+  EXPECT_DOUBLE_EQ(e.stats().max_dt, dt0);
+}
+
 // A grain of a gridded field (here a wall of solid nodes across the channel) is an STL
 // mesh wall in LIGGGHTS: a sphere thrown at it (no fluid to speak of: viscosity
 // 1e-12 Pa s) touches it at x = face - a, penetrates no more than the Hertz overlap of

@@ -7,6 +7,7 @@
 #include <modify.h>
 #include <update.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -61,7 +62,8 @@ LiggghtsEngine::LiggghtsEngine(std::shared_ptr<const FlowField> flow, SceneConfi
   const int ifix = lmp->modify->find_fix("mmval_fluid");
   if (ifix < 0) throw std::logic_error("fix mmval_fluid not found after creation");
   static_cast<LAMMPS_NS::FixExternal*>(lmp->modify->fix[ifix])->set_callback(fluidCallback, this);
-  m_step0 = static_cast<long long>(lmp->update->ntimestep);
+  m_step_base = static_cast<long long>(lmp->update->ntimestep);
+  m_dt0 = m_setup.dt;
 }
 
 LiggghtsEngine::~LiggghtsEngine() {
@@ -116,7 +118,7 @@ void LiggghtsEngine::applyFluidForces(long long ntimestep, int nlocal, int* tag,
   const double* radius = atom->radius;
   const double* rmass = atom->rmass;
   const double dt = lmp->update->dt;
-  const double t = static_cast<double>(ntimestep - m_step0) * dt;
+  const double t = m_t_base + static_cast<double>(ntimestep - m_step_base) * dt;
   const double mu = m_cfg.fluid.viscosity;
   const auto& flow = *m_flow;
   for (int i = 0; i < nlocal; ++i) {
@@ -164,8 +166,22 @@ void LiggghtsEngine::applyFluidForces(long long ntimestep, int nlocal, int* tag,
   }
 }
 
+void LiggghtsEngine::retime() {
+  double vmax = 0;
+  for (const auto& p : m_particles)
+    if (p.status == ParticleStatus::mobile && p.v.allFinite()) vmax = std::max(vmax, p.v.norm());
+  const double dt = std::min(m_dt0, liggghtsTimeStep(m_cfg.particle, m_cfg.rayleigh_fraction, 2 * vmax));
+  if (!(std::isfinite(dt) && dt > 0) || std::abs(dt - m_setup.dt) <= 1e-9 * m_setup.dt) return;
+  auto* lmp = static_cast<LAMMPS_NS::LAMMPS*>(m_lmp);
+  m_t_base = m_t;
+  m_step_base = static_cast<long long>(lmp->update->ntimestep);
+  m_setup.dt = dt;
+  command(fmt::format("timestep {:.17g}", dt));
+}
+
 void LiggghtsEngine::advance(double t_end) {
   const auto t0 = std::chrono::steady_clock::now();
+  retime();
   const long long n = std::llround((t_end - m_t) / m_setup.dt);
   long long done = 0;
   while (done < n) {
@@ -179,7 +195,9 @@ void LiggghtsEngine::advance(double t_end) {
     m_stats.steps += n;
     m_stats.particle_steps += n * static_cast<long long>(m_particles.size());
   }
-  m_stats.last_dt = m_stats.min_dt = m_stats.max_dt = m_setup.dt;
+  m_stats.last_dt = m_setup.dt;
+  m_stats.min_dt = std::min(m_stats.min_dt, m_setup.dt);
+  m_stats.max_dt = std::max(m_stats.max_dt, m_setup.dt);
   gather();
   m_stats.wall_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }

@@ -14,9 +14,17 @@
 // (HydroModel, shared with the overdamped engine). A Stokes torque 8 pi mu a^3
 // relaxes the spin towards half the fluid vorticity the same way.
 // Deposited particles (capture rule of AttachmentModel) and particles past the
-// outlet are frozen in place by the same callback. Not modelled here: Brownian
-// motion, attachment to deposited particles (sjkr cohesion stands in), grain
-// walls from STL meshes.
+// outlet are frozen in place by the same callback. Grains of a gridded field are
+// an STL mesh wall (LiggghtsInput.hpp). Not modelled here: Brownian motion,
+// attachment to deposited particles (sjkr cohesion stands in).
+//
+// Time step (paper Eq. 14, adjusted at run time): each advance() first sets
+// dt = min(dt0, t_Hertz(2 v_max) / 20), v_max the fastest mobile particle (2 v_max:
+// a head-on pair), dt0 the setup's step (a fraction of the Rayleigh time, and the
+// Hertz time at the flow's speed); LIGGGHTS gets a `timestep` command when it
+// changes. The fluid forces are exchanged every DEM step (the coupling interval
+// of the paper's Eq. 15 is 1: the steady Stokes field needs no time step of its
+// own, Eq. 13's Courant limit belongs to UnsteadyFlowSolver).
 #pragma once
 #ifndef MMVAL_WITH_LIGGGHTS
 #error "LiggghtsEngine.hpp needs the LIGGGHTS engine (configure with MMVAL_WITH_LIGGGHTS=ON)"
@@ -60,6 +68,8 @@ class LiggghtsEngine final : public ParticleEngine {
  private:
   void command(const std::string& c);
   void gather();
+  /// Eq. 14 at run time: dt from the fastest mobile particle (see the file comment).
+  void retime();
 
   std::shared_ptr<const FlowField> m_flow;
   SceneConfig m_cfg;
@@ -69,7 +79,9 @@ class LiggghtsEngine final : public ParticleEngine {
   void* m_lmp = nullptr;
   double m_outlet = 0.0;
   double m_t = 0.0;
-  long long m_step0 = 0;      ///< LIGGGHTS step count at time 0
+  double m_t_base = 0.0;      ///< time at LIGGGHTS step m_step_base (the last dt change)
+  long long m_step_base = 0;  ///< LIGGGHTS step count at m_t_base
+  double m_dt0 = 0.0;         ///< the setup's step: the largest dt ever used
   bool m_need_setup = true;   ///< next run must re-run the setup (after insertion)
   std::vector<ParticleState> m_particles;  ///< by id - 1
   std::vector<std::uint8_t> m_status;      ///< by id - 1; updated per rank, merged after each run
