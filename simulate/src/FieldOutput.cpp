@@ -20,6 +20,12 @@ void axisArray(std::ostringstream& o, const Axis& a, const char* name) {
   o << "</DataArray>\n";
 }
 
+void writePng(const cv::Mat& img, const std::filesystem::path& file) {
+  std::vector<unsigned char> buf;
+  if (!cv::imencode(".png", img, buf)) throw std::runtime_error("PNG encoding failed for " + file.string());
+  writeFileAtomic(file, std::string_view(reinterpret_cast<const char*>(buf.data()), buf.size()));
+}
+
 }  // namespace
 
 namespace {
@@ -86,7 +92,75 @@ void writeSpeedPngOf(const Snapshot& s, const std::filesystem::path& file, int m
   writeFileAtomic(file, std::string_view(reinterpret_cast<const char*>(buf.data()), buf.size()));
 }
 
+/// Cell-centred velocity of a 3D solution: the mean of the two faces on each axis.
+Eigen::Vector3d cellVelocity3d(const Stokes3DSolver& s, int i, int j, int k) {
+  return {0.5 * (s.u(i, j, k) + s.u(i + 1, j, k)), 0.5 * (s.v(i, j, k) + s.v(i, j + 1, k)), 0.5 * (s.w(i, j, k) + s.w(i, j, k + 1))};
+}
+
+bool solidCell3d(const Stokes3DSolver& s, int i, int j) {
+  const auto& solid = s.problem().solid;
+  return solid.size() > 0 && solid(j, i);
+}
+
 }  // namespace
+
+void writeVtr(const Stokes3DSolver& s, const std::filesystem::path& file) {
+  const auto& pr = s.problem();
+  const int nx = pr.nx, ny = pr.ny, nz = pr.nz;
+  std::ostringstream o;
+  o.precision(8);
+  o << "<?xml version=\"1.0\"?>\n<VTKFile type=\"RectilinearGrid\" version=\"0.1\" byte_order=\"LittleEndian\">\n";
+  o << "<RectilinearGrid WholeExtent=\"0 " << nx << " 0 " << ny << " 0 " << nz << "\">\n<Piece Extent=\"0 " << nx << " 0 " << ny << " 0 " << nz << "\">\n";
+  o << "<CellData Scalars=\"p\" Vectors=\"U\">\n<DataArray type=\"Float64\" Name=\"p\" format=\"ascii\">";
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) o << (solidCell3d(s, i, j) ? 0.0 : s.p(i, j, k)) << ' ';
+  o << "</DataArray>\n<DataArray type=\"Float64\" Name=\"U\" NumberOfComponents=\"3\" format=\"ascii\">";
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const Eigen::Vector3d u = cellVelocity3d(s, i, j, k);
+        o << u.x() << ' ' << u.y() << ' ' << u.z() << ' ';
+      }
+  o << "</DataArray>\n<DataArray type=\"UInt8\" Name=\"solid\" format=\"ascii\">";
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) o << (solidCell3d(s, i, j) ? 1 : 0) << ' ';
+  o << "</DataArray>\n</CellData>\n<Coordinates>\n";
+  const auto axis = [&](const char* name, int n, double len) {
+    o << "<DataArray type=\"Float64\" Name=\"" << name << "\" format=\"ascii\">";
+    for (int q = 0; q <= n; ++q) o << len * q / n << ' ';
+    o << "</DataArray>\n";
+  };
+  axis("x", nx, pr.length);
+  axis("y", ny, pr.width);
+  axis("z", nz, pr.depth);
+  o << "</Coordinates>\n</Piece>\n</RectilinearGrid>\n</VTKFile>\n";
+  writeFileAtomic(file, o.str());
+}
+
+void writeMidDepthSpeedPng(const Stokes3DSolver& s, const std::filesystem::path& file) {
+  const auto& pr = s.problem();
+  const int k = pr.nz / 2;
+  Eigen::ArrayXXd speed(pr.ny, pr.nx);
+  for (int j = 0; j < pr.ny; ++j)
+    for (int i = 0; i < pr.nx; ++i) speed(j, i) = solidCell3d(s, i, j) ? 0.0 : cellVelocity3d(s, i, j, k).norm();
+  const double vmax = std::max(speed.maxCoeff(), 1e-300);
+  cv::Mat gray(pr.ny, pr.nx, CV_8UC1), solid(pr.ny, pr.nx, CV_8UC1);
+  for (int j = 0; j < pr.ny; ++j)
+    for (int i = 0; i < pr.nx; ++i) {
+      const int r = j;  // the 3D grid's y cell j is row j of the (coarsened) image: drawn as the image
+      gray.at<unsigned char>(r, i) = static_cast<unsigned char>(std::clamp(255.0 * speed(j, i) / vmax, 0.0, 255.0));
+      solid.at<unsigned char>(r, i) = solidCell3d(s, i, j) ? 255 : 0;
+    }
+  cv::Mat color;
+  cv::applyColorMap(gray, color, cv::COLORMAP_VIRIDIS);
+  color.setTo(cv::Scalar(128, 128, 128), solid);
+  // Coarse 3D grids are small: enlarge by whole pixels to ~600 px on the long side.
+  const int zoom = std::max(1, 600 / std::max(pr.nx, pr.ny));
+  if (zoom > 1) cv::resize(color, color, cv::Size(), zoom, zoom, cv::INTER_NEAREST);
+  writePng(color, file);
+}
 
 void writeVtr(const SteadyFlowSolver& s, const std::filesystem::path& file) { writeVtrOf(snapshot(s), file); }
 void writeVtr(const UnsteadyFlowSolver& s, const std::filesystem::path& file) { writeVtrOf(snapshot(s), file); }

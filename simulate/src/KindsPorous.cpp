@@ -8,7 +8,9 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Run.hpp"
+#include "mmval/simulate/FieldOutput.hpp"
 #include "mmval/simulate/Kinds.hpp"
+#include "mmval/simulate/Petsc.hpp"
 #include "mmval/simulate/PoreSpace.hpp"
 #include "mmval/simulate/Stokes3D.hpp"
 
@@ -23,7 +25,8 @@ constexpr double kDarcy = 9.869233e-13;  // m2
 /// the 3D grid and extruded between no-slip plates; one solve per cells_z level. Adds
 /// permeability_3d (last level), its z-extrapolation (with a ladder), the 3D grid's porosity,
 /// k_3d / k_depth_averaged, and details.runs_3d (cells, unknowns, iterations, wall time).
-void run3d(const Case& c, const BoolArray& solid, double px, double depth, double mu, double dp, std::map<std::string, double>& k_of, RunOutput& out) {
+void run3d(const Case& c, const RunContext& ctx, const BoolArray& solid, double px, double depth, double mu, double dp, std::map<std::string, double>& k_of,
+           RunOutput& out) {
   const double cpp = c.real("numerics.cells_per_pixel_3d");
   const int nx = std::max(4, static_cast<int>(std::lround(solid.cols() * cpp)));
   const int ny = std::max(4, static_cast<int>(std::lround(solid.rows() * cpp)));
@@ -52,10 +55,10 @@ void run3d(const Case& c, const BoolArray& solid, double px, double depth, doubl
   nlohmann::json runs = nlohmann::json::array();
   std::vector<double> ks;
   Stokes3DStats last;
+  std::unique_ptr<Stokes3DSolver> s;
   for (const int nz : levels) {
     const auto t0 = std::chrono::steady_clock::now();
     p.nz = nz;
-    std::unique_ptr<Stokes3DSolver> s;
     try {
       s = std::make_unique<Stokes3DSolver>(p, o);
     } catch (const NoFlowPath& e) {
@@ -83,6 +86,15 @@ void run3d(const Case& c, const BoolArray& solid, double px, double depth, doubl
     runs.push_back(row);
   }
   out.details["runs_3d"] = runs;
+  // Fields of the last level: the whole 3D solution for ParaView, and its mid-depth speed.
+  if (!ctx.out_dir.empty()) {
+    if (PetscSession::rank() == 0) {
+      writeVtr(*s, ctx.out_dir / "fields-3d.vtr");
+      writeMidDepthSpeedPng(*s, ctx.out_dir / "fields-3d-middepth-speed.png");
+    }
+    out.files.push_back("fields-3d.vtr");
+    out.files.push_back("fields-3d-middepth-speed.png");
+  }
   out.details["cells_3d"] = last.cells;
   out.details["boundaries_3d"] = "pressure inlet/outlet on x, slip sides, no-slip plates at z = 0 and z = depth";
   k_of["3d"] = ks.back();
@@ -255,7 +267,7 @@ CaseKind imagePermeabilityKind() {
     }
     out.details["runs"] = runs;
     if (last) out.details["cells"] = last->stats().cells;
-    if (want_3d) run3d(c, pores.solid_connected, px, depth, mu, dp, k_of, out);
+    if (want_3d) run3d(c, ctx, pores.solid_connected, px, depth, mu, dp, k_of, out);
     const double k_main = k_of.count("depth-averaged") ? k_of["depth-averaged"] : k_of.count("3d") ? k_of["3d"] : k_of["2d"];
     out.metrics["permeability"] = k_main;
     out.units["permeability"] = "D";

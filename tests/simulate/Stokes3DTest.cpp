@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <memory>
 #include <stdexcept>
@@ -16,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include "mmval/core/Run.hpp"
+#include "mmval/simulate/FieldOutput.hpp"
 #include "mmval/simulate/FlowSolver.hpp"
 #include "mmval/simulate/Geometry.hpp"
 #include "mmval/simulate/Grid.hpp"
@@ -88,6 +90,31 @@ TEST(Stokes3D, PlanePoiseuilleIsTheKnownDiscreteSolution) {
   EXPECT_NEAR(std::log2(err[0] / err[1]), 2.0, 1e-5);
   EXPECT_NEAR(std::log2(err[1] / err[2]), 2.0, 1e-5);
   EXPECT_NEAR(err[2], 0, 0.008);  // nz = 16: within 0.8 % of h^2/12
+}
+
+TEST(Stokes3D, FieldFileHoldsTheFlowRate) {
+  // The .vtr's cell velocities are face means, so their average over all cells times
+  // the cross-section is the flow rate (to the 8 printed digits); one value per cell.
+  const double L = 100e-6, W = 50e-6, h = 20e-6;
+  Stokes3DSolver s(channel(L, W, h, 5, 3, 8, true));
+  s.solve();
+  const std::filesystem::path f = std::filesystem::path(MMVAL_BINARY_DIR) / "test-output" / "stokes3d-fields.vtr";
+  std::filesystem::create_directories(f.parent_path());
+  writeVtr(s, f);
+  std::ifstream in(f);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto start = text.find("Name=\"U\"");
+  ASSERT_NE(start, std::string::npos);
+  std::istringstream values(text.substr(text.find('>', start) + 1, text.find("</DataArray>", start) - text.find('>', start) - 1));
+  double ux = 0, uy = 0, uz = 0, sum = 0;
+  int n = 0;
+  while (values >> ux >> uy >> uz) {
+    sum += ux;
+    ++n;
+  }
+  EXPECT_EQ(n, 5 * 3 * 8);
+  EXPECT_NEAR(sum / n * W * h, s.flowRate(0), 1e-7 * s.flowRate(0));
+  EXPECT_NE(text.find("WholeExtent=\"0 5 0 3 0 8\""), std::string::npos);
 }
 
 TEST(Stokes3D, SquareDuctAgainstTheExactSeriesAndOrder) {

@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "mmval/simulate/FlowSolver.hpp"
+#include "mmval/simulate/Stokes3D.hpp"
 #include "mmval/simulate/UnsteadyFlowSolver.hpp"
 
 namespace mmval::simulate {
@@ -20,5 +21,12 @@ void writeVtr(const UnsteadyFlowSolver& solver, const std::filesystem::path& fil
 /// the long side (uniform in physical space, so stretched grids look right).
 void writeSpeedPng(const SteadyFlowSolver& solver, const std::filesystem::path& file, int max_pixels = 1200);
 void writeSpeedPng(const UnsteadyFlowSolver& solver, const std::filesystem::path& file, int max_pixels = 1200);
+
+/// A 3D Stokes solution as a .vtr over its nx x ny x nz cells: cell pressure,
+/// cell-centred velocity (mean of the two faces per axis) and a solid flag.
+void writeVtr(const Stokes3DSolver& solver, const std::filesystem::path& file);
+/// Speed in the mid-depth layer of a 3D solution (its fastest, the Poiseuille centre),
+/// one pixel per cell, y up; solid cells grey.
+void writeMidDepthSpeedPng(const Stokes3DSolver& solver, const std::filesystem::path& file);
 
 }  // namespace mmval::simulate
