@@ -40,6 +40,17 @@ void declareTrackerKeys(Schema& s) {
             "Find particles at rest in the median background (black/top-hat spots the size of moving ones): stuck all video long "
             "(immobile), or arrived and deposited (joined to the track that brought them, which continues at rest to the end)")
       .def(false);
+  s.real("detect.background_quantile",
+         "Per-pixel quantile of the sampled frames that is the static background (0.5: median; higher for dark particles that cover a pixel "
+         "often, lower for bright ones)")
+      .def(0.5)
+      .min(0)
+      .max(1);
+  s.integer("detect.background_window",
+            "Rolling background: frames per block, each with its own background, blended between blocks (long videos that drift); 0: one for "
+            "the whole video")
+      .def(0)
+      .min(0);
   s.integer("detect.threads", "Frames detected in parallel (linking stays in frame order)").def(1).min(1).max(256);
   s.choice("link.method", {"global", "paper"}, "Linker: optimal assignment with gap closing, or the paper's distance + angle rule").def("global");
   s.real("link.search_radius", "Search radius, px per frame").def(8).min(0.1);
@@ -83,6 +94,8 @@ TrackConfig trackerConfig(const Case& c) {
   t.detect.refine_sigma = c.real("detect.refine_sigma");
   t.detect.min_snr = c.real("detect.min_snr");
   t.threads = static_cast<int>(c.integer("detect.threads"));
+  t.background_quantile = c.real("detect.background_quantile");
+  t.background_window = static_cast<int>(c.integer("detect.background_window"));
   t.link.method = c.text("link.method") == "paper" ? Linker::paper : Linker::global;
   t.link.search_radius = c.real("link.search_radius");
   t.link.memory = static_cast<int>(c.integer("link.memory"));

@@ -17,6 +17,7 @@
 
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Progress.hpp"
+#include "mmval/tracking/Background.hpp"
 #include "mmval/tracking/TrackImages.hpp"
 #include "mmval/tracking/TrackSmooth.hpp"
 
@@ -240,7 +241,12 @@ void joinClusterArrivals(TrackRun& run, const TrackConfig& c) {
 TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   const auto t0 = std::chrono::steady_clock::now();
   TrackRun run;
-  if (c.detect.subtract_background) run.background = medianBackground(source, c.detect.background_samples);
+  RollingBackground rolling;
+  if (c.detect.subtract_background) {
+    run.background = quantileOfFrames(sampleFrames(source, c.detect.background_samples), c.background_quantile);
+    if (c.background_window > 0)
+      rolling = rollingBackground(source, c.background_window, std::min(c.background_window, c.detect.background_samples), c.background_quantile);
+  }
   TrackLinker linker(c.link);
   Progress progress("tracking", static_cast<std::size_t>(std::max(0, source.count())), quiet);
   Polarity polarity = c.detect.polarity;
@@ -294,7 +300,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
       const std::lock_guard<std::mutex> lock(absent_mutex);
       for (std::size_t i : missing) absent[i].push_back(frame_number);
     }
-    return detect(f, run.background, polarity, c.detect);
+    return detect(f, rolling.backgrounds.empty() ? run.background : rolling.at(frame_number), polarity, c.detect);
   };
   auto link = [&](int index, std::vector<Detection>&& found) {
     linker.push(index, found);
@@ -684,7 +690,8 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
                            {"subtract_background", c.detect.subtract_background}, {"search_radius_px", c.link.search_radius},
                            {"memory", c.link.memory}, {"linker", c.link.method == Linker::global ? "global" : "paper"},
                            {"seeds", c.detect.method == SeedMethod::peaks ? "peaks" : "contours"}, {"threads", c.threads},
-                           {"smooth_frames", c.smooth_frames}};
+                           {"smooth_frames", c.smooth_frames}, {"background_quantile", c.background_quantile},
+                           {"background_window", c.background_window}};
   summary["stuck_found_in_background"] = run.stuck_found;
   summary["deposits_joined_from_background"] = run.deposits_joined;
   summary["deposits_not_joined"] = run.deposits_unjoined;

@@ -24,6 +24,11 @@ struct TrackConfig {
   /// Half-width, in frames, of the along-track quadratic fit of moving particles'
   /// positions (TrackSmooth.hpp); 0: positions as detected.
   int smooth_frames = 0;
+  /// Background (detect.subtract_background): the per-pixel quantile of sampled frames
+  /// (0.5: the median), one for the whole video, or with background_window > 0 one per
+  /// block of that many frames, blended between blocks (Background.hpp).
+  double background_quantile = 0.5;
+  int background_window = 0;
 };
 
 struct TrackRun {
