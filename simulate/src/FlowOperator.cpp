@@ -25,6 +25,29 @@ FlowOperator::FlowOperator(FlowProblem problem) : m_p(std::move(problem)) {
   if (m_p.method == ImmersedMethod::penalized && !(m_p.penalty > 0)) throw std::invalid_argument("the penalty must be positive");
   m_nn = {m_per[0] ? m_N[0] : m_N[0] + 1, m_per[1] ? m_N[1] : m_N[1] + 1};
   m_off = {0, m_nn[0] * m_N[1], m_nn[0] * m_N[1] + m_nn[1] * m_N[0]};
+  if (m_p.depth_field.size() > 0) {
+    const Eigen::ArrayXXd& hc = m_p.depth_field;
+    if (hc.rows() != m_N[1] || hc.cols() != m_N[0])
+      throw std::invalid_argument("the depth field must have one value per cell (ny x nx rows x columns)");
+    if (!(m_p.depth > 0)) throw std::invalid_argument("a depth field needs the reference depth (FlowProblem::depth > 0)");
+    if (!hc.isFinite().all() || !(hc.minCoeff() > 0)) throw std::invalid_argument("the depth field must be finite and > 0 in every cell");
+    // Face depth: equal neighbours give their depth exactly (so a constant field
+    // reproduces the scalar depth bit for bit); otherwise the harmonic mean of
+    // h^3, the exact face conductance of a depth step at the face in the
+    // friction-dominated (Reynolds) limit: (dx/2)(1/h1^3 + 1/h2^3) = dx / h_f^3.
+    // Boundary faces take their one cell's depth.
+    for (int d = 0; d < 2; ++d) {
+      const int b = 1 - d;
+      m_hface[d].assign(static_cast<std::size_t>(m_nn[d] * m_N[b]), m_p.depth);
+      for (int t = 0; t < m_N[b]; ++t)
+        for (int n = 0; n < m_nn[d]; ++n) {
+          const int lo = m_per[d] ? wrapIndex(d, n - 1) : std::max(n - 1, 0), hi = m_per[d] ? wrapIndex(d, n) : std::min(n, m_N[d] - 1);
+          const double h1 = d == 0 ? hc(t, lo) : hc(lo, t), h2 = d == 0 ? hc(t, hi) : hc(hi, t);
+          m_hface[d][static_cast<std::size_t>(local(d, n, t))] =
+              h1 == h2 ? h1 : std::cbrt(2.0 / (1.0 / (h1 * h1 * h1) + 1.0 / (h2 * h2 * h2)));
+        }
+    }
+  }
   const Shape* shape = m_p.shape.get();
   const bool sharp = shape != nullptr && m_p.method == ImmersedMethod::sharp;
   const bool pen = shape != nullptr && m_p.method == ImmersedMethod::penalized;
@@ -302,7 +325,10 @@ void FlowOperator::momentumRow(int d, int n, int t, bool standard, RowTerms& R) 
     R.bil.push_back({rho * wn, advecting(d, n, t + 1, base), advected(d, n, t, t + 1)});
     R.bil.push_back({-rho * wn, advecting(d, n, t, base), advected(d, n, t, t - 1)});
   }
-  if (m_p.depth > 0) diag += 12 * mu / (m_p.depth * m_p.depth) * vol;  // Hele-Shaw friction
+  if (m_p.depth > 0) {
+    const double hf = faceDepth(d, q);
+    diag += 12 * mu / (hf * hf) * vol;  // Hele-Shaw friction of the face's depth
+  }
   if (!standard && m_chi[d][q] > 0) {
     // Volume-fraction forcing u = M u* + (1 - M) v (M = 1 - chi, v = 0): the row
     // becomes (1 - chi) [momentum] + chi a_P u = 0 with a_P the row's own
@@ -325,10 +351,24 @@ void FlowOperator::continuityRow(int i, int j, RowTerms& R) const {
     return;
   }
   const double dx = W(0, i), dy = W(1, j);
-  R.lin.emplace_back(unknown(0, i, j), dy);
-  R.lin.emplace_back(unknown(0, i + 1, j), -dy);
-  R.lin.emplace_back(unknown(1, j, i), dx);
-  R.lin.emplace_back(unknown(1, j + 1, i), -dx);
+  if (m_hface[0].empty()) {
+    R.lin.emplace_back(unknown(0, i, j), dy);
+    R.lin.emplace_back(unknown(0, i + 1, j), -dy);
+    R.lin.emplace_back(unknown(1, j, i), dx);
+    R.lin.emplace_back(unknown(1, j + 1, i), -dx);
+    return;
+  }
+  // Variable depth: the flux h_f u_f A_f is conserved (weights h_f / h_ref keep the row's scale).
+  R.lin.emplace_back(unknown(0, i, j), dy * fluxWeight(0, i, j));
+  R.lin.emplace_back(unknown(0, i + 1, j), -dy * fluxWeight(0, i + 1, j));
+  R.lin.emplace_back(unknown(1, j, i), dx * fluxWeight(1, j, i));
+  R.lin.emplace_back(unknown(1, j + 1, i), -dx * fluxWeight(1, j + 1, i));
+}
+
+double FlowOperator::fluxWeight(int d, int n, int t) const {
+  if (m_hface[d].empty()) return 1.0;
+  const int r = unknown(d, n, t);
+  return m_hface[d][static_cast<std::size_t>(r - m_off[d])] / m_p.depth;
 }
 
 double FlowOperator::linearRow(int r, Linearisation mode, const std::vector<double>& state, RowTerms& R,
@@ -448,7 +488,7 @@ double FlowOperator::flowRate(const std::vector<double>& s, Side sd) const {
   const int d = (sd == Side::west || sd == Side::east) ? 0 : 1, b = 1 - d;
   const int n = (sd == Side::east || sd == Side::north) ? (m_per[d] ? 0 : m_N[d]) : 0;
   double q = 0;
-  for (int t = 0; t < m_N[b]; ++t) q += s[static_cast<std::size_t>(unknown(d, n, t))] * W(b, t);
+  for (int t = 0; t < m_N[b]; ++t) q += s[static_cast<std::size_t>(unknown(d, n, t))] * W(b, t) * fluxWeight(d, n, t);
   return q;
 }
 
@@ -456,7 +496,8 @@ double FlowOperator::superficialVelocity(const std::vector<double>& s) const {
   double sum = 0;
   for (int j = 0; j < m_N[1]; ++j)
     for (int i = 0; i < m_N[0]; ++i)
-      sum += 0.5 * (s[static_cast<std::size_t>(unknown(0, i, j))] + s[static_cast<std::size_t>(unknown(0, i + 1, j))]) * W(0, i) * W(1, j);
+      sum += 0.5 * (s[static_cast<std::size_t>(unknown(0, i, j))] * fluxWeight(0, i, j) + s[static_cast<std::size_t>(unknown(0, i + 1, j))] * fluxWeight(0, i + 1, j)) *
+             W(0, i) * W(1, j);
   return sum / (ax(0).length() * ax(1).length());
 }
 
@@ -467,8 +508,8 @@ double FlowOperator::maxRelativeDivergence(const std::vector<double>& s) const {
     for (int i = 0; i < m_N[0]; ++i) {
       if (m_pinned[static_cast<std::size_t>(j * m_N[0] + i)] != 0) continue;
       const double dx = W(0, i), dy = W(1, j);
-      const double div = (s[static_cast<std::size_t>(unknown(0, i + 1, j))] - s[static_cast<std::size_t>(unknown(0, i, j))]) / dx +
-                         (s[static_cast<std::size_t>(unknown(1, j + 1, i))] - s[static_cast<std::size_t>(unknown(1, j, i))]) / dy;
+      const auto flux = [&](int d, int n, int t) { return s[static_cast<std::size_t>(unknown(d, n, t))] * fluxWeight(d, n, t); };
+      const double div = (flux(0, i + 1, j) - flux(0, i, j)) / dx + (flux(1, j + 1, i) - flux(1, j, i)) / dy;
       dmax = std::max(dmax, std::abs(div) * std::min(dx, dy));
     }
   return umax > 0 ? dmax / umax : dmax;

@@ -120,6 +120,11 @@ class FlowOperator {
   std::array<std::vector<double>, 2> m_value, m_chi;
   std::array<std::vector<int>, 2> m_body;
   std::array<std::vector<std::array<double, 4>>, 2> m_cut;  ///< theta per neighbour slot (n-1, n+1, t-1, t+1); 0: no cut
+  std::array<std::vector<double>, 2> m_hface;  ///< depth field only: face depth h_f per velocity node, m
+  /// Face depth of node (d, q): the face's own with a depth field, else the scalar depth.
+  double faceDepth(int d, std::size_t q) const { return m_hface[d].empty() ? m_p.depth : m_hface[d][q]; }
+  /// Continuity / flux weight h_f / h_ref of the face of node (d, n, t) (1 without a depth field).
+  double fluxWeight(int d, int n, int t) const;
   std::vector<char> m_pinned;
   Eigen::ArrayXXd m_cellChi;  ///< ny x nx
   double m_tcoef = 0;

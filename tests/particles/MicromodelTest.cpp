@@ -1,6 +1,7 @@
 // Pieces of the coupled micromodel scene (issue 6), each against an
 // independent reference: the distance transform against brute force, deposit
-// volume conservation, throat bottlenecks of masks with known widths, engine
+// volume conservation (columns and plate layers), the flux through thinned
+// apertures (Reynolds equation), throat bottlenecks of masks with known widths, engine
 // checkpoints against uninterrupted runs, and bad insertions.
 #include <gtest/gtest.h>
 
@@ -9,6 +10,7 @@
 
 #include "mmval/core/Error.hpp"
 #include "mmval/particles/DepositGrid.hpp"
+#include "mmval/particles/HydroModel.hpp"
 #include "mmval/particles/MicromodelFlow.hpp"
 #include "mmval/particles/OverdampedEngine.hpp"
 
@@ -54,6 +56,69 @@ TEST(Micromodel, DepositVolumeIsConservedAndSpillsIntoPoresOnly) {
   EXPECT_TRUE(g.closed()(2, 2));
   EXPECT_FALSE(g.closed()(2, 3));  // grains never count as deposit
   EXPECT_NEAR(g.depositedVolume(), 3.5 * cap, 1e-12 * cap);
+}
+
+TEST(Micromodel, PlateLayerThinsTheApertureAndConservesVolume) {
+  // 5 x 5 pore pixels of 10 um, 20 um deep, 5 um particles: a monolayer (5 um of
+  // layer at packing phi) holds phi * px^2 * 5 um of solid per pixel.
+  const PixelMask grains = PixelMask::Constant(5, 5, false);
+  const double px = 10e-6, h = 20e-6, d = 5e-6;
+  DepositLayerModel lm;  // default packing: RSA jamming 0.547 x 2/3
+  lm.min_aperture = d;
+  EXPECT_NEAR(lm.packing, 0.547 * 2.0 / 3.0, 1e-15);
+  DepositGrid g(grains, px, h, 0.5, lm);
+  const double mono = lm.packing * px * px * d;
+  // 3.5 monolayers at the centre: one each to the centre and to its nearest
+  // neighbours (distance 1, ties by index: up, left, then half to right).
+  EXPECT_EQ(g.addLayer(2.5 * px, 2.5 * px, 3.5 * mono, d), 0);
+  const std::vector<double> a = g.aperture();
+  const auto at = [&](int r, int c) { return a[static_cast<std::size_t>(r * 5 + c)]; };
+  EXPECT_NEAR(at(2, 2), h - d, 1e-12 * h);
+  EXPECT_NEAR(at(1, 2), h - d, 1e-12 * h);
+  EXPECT_NEAR(at(2, 1), h - d, 1e-12 * h);
+  EXPECT_NEAR(at(2, 3), h - 0.5 * d, 1e-12 * h);
+  EXPECT_NEAR(at(3, 2), h, 1e-12 * h);
+  EXPECT_NEAR(g.lostColumns(), 3.5 * d / h, 1e-12);  // lost aperture in whole columns
+  EXPECT_NEAR(g.depositedVolume(), 3.5 * mono, 1e-12 * mono);
+  // Two more at the centre: the centre reaches 15 um of layer (aperture = min_aperture = d) and closes.
+  EXPECT_EQ(g.addLayer(2.5 * px, 2.5 * px, mono, d), 0);
+  EXPECT_EQ(g.addLayer(2.5 * px, 2.5 * px, mono, d), 1);
+  EXPECT_TRUE(g.closed()(2, 2));
+  EXPECT_EQ(g.aperture()[12], 0.0);
+  // Lost columns: the closed pixel counts 1; the others their layer / depth.
+  double layer_sum = 0;
+  for (std::size_t k = 0; k < 25; ++k)
+    if (k != 12) layer_sum += h - g.aperture()[k];
+  EXPECT_NEAR(g.lostColumns(), 1.0 + layer_sum / h, 1e-12);
+  // Column deposits alone: lost columns = closed pixels exactly (the re-solve trigger of column mode).
+  DepositGrid col(grains, px, h, 0.5, lm);
+  col.add(2.5 * px, 2.5 * px, 3.5 * col.capacity());
+  EXPECT_EQ(col.lostColumns(), static_cast<double>(col.closedCount()));
+  EXPECT_THROW(DepositGrid(grains, px, h, 0.5, DepositLayerModel{0.4, h}), std::invalid_argument);
+}
+
+TEST(Micromodel, FlowThroughThinnedAperturesFollowsTheReynoldsEquation) {
+  // An open 20 x 10 px slot (10 um px, 20 um deep, slip sides): k = h^3 / (12 h_ref)
+  // with q per unit reference depth; uniform flow has no in-plane shear, so
+  // these are exact (round-off tolerance).
+  const PixelMask open = PixelMask::Constant(10, 20, false);
+  MicromodelFlowOptions o;
+  o.pixel = 10e-6;
+  o.depth = 20e-6;
+  o.darcy_velocity = 1e-4;
+  MicromodelFlow flow(open, o);
+  const double k0 = flow.solve({}).permeability;
+  EXPECT_NEAR(k0 / (o.depth * o.depth / 12), 1.0, 1e-10);
+  // Half the aperture everywhere: k / 8.
+  std::vector<double> ap(200, 10e-6);
+  EXPECT_NEAR(flow.solve({}, ap).permeability / k0, 1.0 / 8.0, 1e-10);
+  EXPECT_NEAR(flow.field()->depth(55e-6, 45e-6), 10e-6, 1e-18);  // the engines see the thinned aperture
+  // Downstream half at 10 um (a step at a fluid cell face): resistances in series,
+  // k / k0 = 1 / (0.5 + 0.5 * 8).
+  for (int r = 0; r < 10; ++r)
+    for (int c = 0; c < 20; ++c) ap[static_cast<std::size_t>(r * 20 + c)] = c < 10 ? 20e-6 : 10e-6;
+  EXPECT_NEAR(flow.solve({}, ap).permeability / k0, 1.0 / 4.5, 1e-10);
+  EXPECT_THROW(flow.solve({}, std::vector<double>(3, 1e-6)), std::invalid_argument);
 }
 
 TEST(Micromodel, PassableDiameterOfStraightChannelsAndAThroat) {
@@ -133,6 +198,47 @@ TEST(Micromodel, SameSeedSameTrajectoriesOtherSeedDifferent) {
     diff_c = std::max(diff_c, (pa[i].x - pc[i].x).norm());
   }
   EXPECT_GT(diff_c, 1e-9);  // Brownian motion is on: another seed moves them differently
+}
+
+TEST(Micromodel, PlateTorqueBalanceAgainstItsClosedForm) {
+  // A 5 um polystyrene sphere on the bottom plate of a 20 um Hele-Shaw channel:
+  // it stays when the DMT adhesion torque (F_A + W) (F_A + W)^(1/3) (a / K)^(1/3)
+  // exceeds the Goldman-Cox-Brenner moment a (1.7009 6 pi mu a^2 + 0.944 4 pi mu a^2) G,
+  // G = 6 u_mean / h. Critical mean speed by hand: ~3.0 mm/s for A = 1e-20 J,
+  // z0 = 0.4 nm, K = 4.84 GPa.
+  const double h = 20e-6, a = 2.5e-6, mu = 1e-3;
+  SceneConfig c = colloidScene(1);
+  c.attachment.torque_balance = true;
+  const double fa = c.attachment.hamaker * a / (6 * std::pow(c.attachment.adhesion_separation, 2));
+  const double w = (c.particle.density - c.fluid.density) * c.particle.volume() * c.gravity;
+  const double load = fa + w, resisting = load * std::cbrt(load * a / c.attachment.contact_modulus);
+  const double g_c = resisting / (a * (1.7009 * 6 * kPi * mu * a * a + 0.944 * 4 * kPi * mu * a * a));
+  const double u_c = g_c * h / 6;
+  EXPECT_NEAR(u_c, 3.008e-3, 1e-5);
+  for (double f : {0.95, 1.05}) {
+    auto flow = std::make_shared<HeleShawChannel>(2e-3, 200e-6, h, f * u_c);
+    HydroModel m(flow, c);
+    double margin = 0;
+    EXPECT_EQ(m.plateAdhesionHolds(Vec3(1e-3, 100e-6, a), true, &margin), f < 1) << f;
+    EXPECT_NEAR(margin, 1 / f, 1e-12);  // the moments are linear in the shear rate
+  }
+  // In the engine: particles resting on the bottom at 3 u_c roll on (torque
+  // balance) instead of sticking (capture rule).
+  auto fast = std::make_shared<HeleShawChannel>(2e-3, 200e-6, h, 3 * u_c);
+  int stuck[2] = {0, 0};
+  for (int rule = 0; rule < 2; ++rule) {
+    SceneConfig sc = colloidScene(2);
+    sc.attachment.torque_balance = rule == 1;
+    sc.attachment.grains = false;  // plates only
+    OverdampedEngine e(fast, sc);
+    std::vector<Vec3> pos;
+    for (int i = 0; i < 20; ++i) pos.emplace_back(20e-6 + 8e-6 * (i % 5), 40e-6 + 30e-6 * (i / 5), a + 0.05e-6);
+    e.insert(pos);
+    e.advance(0.05);
+    stuck[rule] = static_cast<int>(e.counts().deposited);
+  }
+  EXPECT_EQ(stuck[0], 20);  // inside the capture distance (0.1 um): all captured at the first step
+  EXPECT_EQ(stuck[1], 0);
 }
 
 TEST(MicromodelBadInput, OverlappingInsertionIsRefusedWholesale) {

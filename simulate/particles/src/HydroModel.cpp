@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace mmval::particles {
@@ -77,6 +78,26 @@ Vec3 HydroModel::force(const Vec3& x) const {
     }
   }
   return f;
+}
+
+bool HydroModel::plateAdhesionHolds(const Vec3& x, bool bottom, double* margin) const {
+  const auto& c = m_cfg;
+  const auto& at = c.attachment;
+  const double a = m_radius, mu = c.fluid.viscosity;
+  const double h = m_flow->depth(x.x(), x.y());
+  // Wall shear rate of the plane-Poiseuille depth profile: du/dz = 6 u_mean / h at both plates.
+  const double shear = m_flow->isSolid(x.x(), x.y()) ? 0.0 : 6.0 * m_flow->meanVelocity(x.x(), x.y()).norm() / h;
+  const double drag = 1.7009 * 6.0 * kPi * mu * a * a * shear;
+  const double torque = 0.944 * 4.0 * kPi * mu * a * a * a * shear;
+  const double applied = drag * a + torque;  // moment about the contact point
+  const double z0 = at.adhesion_separation;
+  const double adhesion = at.hamaker > 0 && z0 > 0 ? at.hamaker * a / (6.0 * z0 * z0) : 0.0;
+  const double weight = (c.particle.density - c.fluid.density) * c.particle.volume() * c.gravity;
+  const double load = std::max(adhesion + (bottom ? weight : -weight), 0.0);
+  const double contact = at.contact_modulus > 0 ? std::cbrt(load * a / at.contact_modulus) : 0.0;
+  const double resisting = load * contact;
+  if (margin != nullptr) *margin = applied > 0 ? resisting / applied : std::numeric_limits<double>::infinity();
+  return resisting >= applied;
 }
 
 bool HydroModel::captured(const Vec3& x) const {

@@ -232,6 +232,16 @@ void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {
   s.boolean("deposition.deposited", "Deposited particles are sticky (ripening, bridging)").def(true);
   s.quantity("deposition.hamaker", "J", "Hamaker constant of the sphere-wall van der Waals attraction (0: none)").def(hamaker_default).nonNegative();
   s.quantity("deposition.attraction_range", "um", "van der Waals cut-off gap").def("1 um").positive();
+  s.choice("deposition.plate_rule", {"capture", "torque-balance"},
+           "Attachment to a sticky plate. capture: within the capture distance, for good; torque-balance (overdamped engine): "
+           "only if the DMT adhesion torque (Hamaker constant, adhesion_separation, contact_modulus) holds against the "
+           "Goldman-Cox-Brenner drag and torque of the local wall shear, else the particle rolls on")
+      .def("capture");
+  s.quantity("deposition.adhesion_separation", "nm", "Contact separation z0 of the adhesion A a / (6 z0^2) (0.4 nm: the usual convention)")
+      .def("0.4 nm").positive();
+  s.quantity("deposition.contact_modulus", "GPa",
+             "Composite contact modulus K = 4/3 / ((1 - nu1^2)/E1 + (1 - nu2^2)/E2); default polystyrene (3.4 GPa, 0.33) on glass (70 GPa, 0.22)")
+      .def("4.84 GPa").positive();
 }
 
 void physicsAndDepositionFromCase(const Case& c, const EngineChoice& choice, SceneConfig& s) {
@@ -246,6 +256,9 @@ void physicsAndDepositionFromCase(const Case& c, const EngineChoice& choice, Sce
   s.attachment.deposited = c.flag("deposition.deposited");
   s.attachment.hamaker = c.quantity("deposition.hamaker");
   s.attachment.attraction_range = c.quantity("deposition.attraction_range");
+  s.attachment.torque_balance = c.text("deposition.plate_rule") == "torque-balance";
+  s.attachment.adhesion_separation = c.quantity("deposition.adhesion_separation");
+  s.attachment.contact_modulus = c.quantity("deposition.contact_modulus");
 }
 
 }  // namespace mmval::particles

@@ -44,6 +44,9 @@ void ensureMpi() {
 
 LiggghtsEngine::LiggghtsEngine(std::shared_ptr<const FlowField> flow, SceneConfig config, MPI_Comm comm)
     : m_flow(std::move(flow)), m_cfg(std::move(config)), m_model(m_flow, m_cfg), m_comm(comm) {
+  if (m_cfg.attachment.torque_balance)
+    throw InputError(keyLocation("deposition.plate_rule"), "the torque balance on the plates is implemented in the overdamped engine only",
+                     "torque-balance", "plate_rule = \"capture\" with LIGGGHTS, or the overdamped engine");
   m_outlet = std::isnan(m_cfg.outlet_x) ? m_flow->bounds().x1 : m_cfg.outlet_x;
   m_setup = liggghtsSetupFor(*m_flow, m_cfg, m_outlet);
   const std::vector<std::string> commands = liggghtsSetupCommands(m_setup);  // validates; throws before LIGGGHTS starts

@@ -53,7 +53,10 @@ struct SizeClass {
 
 /// Everything of the runner that a checkpoint must carry besides the engines and the deposits.
 struct RunnerState {
-  std::int64_t next_frame = 0, next_id = 1, resolves = 0, closed_at_solve = 0, steps_at_checkpoint = 0;
+  std::int64_t next_frame = 0, next_id = 1, resolves = 0, steps_at_checkpoint = 0;
+  std::int64_t wall_deposits = 0, plate_deposits = 0;  ///< deposits booked as columns (at a grain) / as plate layers
+  double lost_at_solve = 0;  ///< DepositGrid::lostColumns() at the last solve
+  double blocked_at = -1;    ///< s: first re-solve that found no flow path (-1: never)
   double k = 0, k0 = 0, speed_sum = 0, solve_seconds = 0, wall_before = 0;
   std::int64_t speed_n = 0;
   std::vector<TrajRow> rows;
@@ -75,9 +78,10 @@ std::string fingerprint(const Case& c) {
 void writeCheckpoint(const fs::path& file, const std::string& fp, const RunnerState& s, const std::vector<SizeClass>& classes,
                      const DepositGrid& deposits, const MicromodelFlow& flow) {
   CheckpointWriter w;
-  w.putString("mmval-micromodel-checkpoint-3");
+  w.putString("mmval-micromodel-checkpoint-4");
   w.putString(fp);
-  w.put(s.next_frame); w.put(s.next_id); w.put(s.resolves); w.put(s.closed_at_solve); w.put(s.steps_at_checkpoint);
+  w.put(s.next_frame); w.put(s.next_id); w.put(s.resolves); w.put(s.steps_at_checkpoint);
+  w.put(s.wall_deposits); w.put(s.plate_deposits); w.put(s.lost_at_solve); w.put(s.blocked_at);
   w.put(s.k); w.put(s.k0); w.put(s.speed_sum); w.put(s.solve_seconds); w.put(s.wall_before); w.put(s.speed_n);
   w.putVector(s.rows);
   w.putVector(s.last);
@@ -95,16 +99,19 @@ void writeCheckpoint(const fs::path& file, const std::string& fp, const RunnerSt
   w.putVector(flow.nodeUx());
   w.putVector(flow.nodeUy());
   w.putVector(flow.nodeSolid());
+  w.putVector(flow.nodeDepth());
   writeFileAtomic(file, w.bytes());
 }
 
 bool readCheckpoint(const fs::path& file, const std::string& fp, RunnerState& s, std::vector<SizeClass>& classes, DepositGrid& deposits,
                     MicromodelFlow& flow) {
   CheckpointReader r(readBinaryFile(file), file.string());
-  if (r.getString() != "mmval-micromodel-checkpoint-3") throw std::runtime_error("checkpoint " + file.string() + ": unknown format");
+  if (r.getString() != "mmval-micromodel-checkpoint-4") throw std::runtime_error("checkpoint " + file.string() + ": unknown format");
   if (r.getString() != fp) return false;  // another scene: start afresh
   s.next_frame = r.get<std::int64_t>(); s.next_id = r.get<std::int64_t>(); s.resolves = r.get<std::int64_t>();
-  s.closed_at_solve = r.get<std::int64_t>(); s.steps_at_checkpoint = r.get<std::int64_t>();
+  s.steps_at_checkpoint = r.get<std::int64_t>();
+  s.wall_deposits = r.get<std::int64_t>(); s.plate_deposits = r.get<std::int64_t>(); s.lost_at_solve = r.get<double>();
+  s.blocked_at = r.get<double>();
   s.k = r.get<double>(); s.k0 = r.get<double>(); s.speed_sum = r.get<double>(); s.solve_seconds = r.get<double>();
   s.wall_before = r.get<double>(); s.speed_n = r.get<std::int64_t>();
   s.rows = r.getVector<TrajRow>();
@@ -122,7 +129,9 @@ bool readCheckpoint(const fs::path& file, const std::string& fp, RunnerState& s,
   deposits.load(r);
   auto ux = r.getVector<double>(), uy = r.getVector<double>();
   auto solid = r.getVector<std::uint8_t>();
-  flow.restore(ux, uy, solid);
+  auto depth = r.getVector<double>();
+  if (depth.size() != ux.size()) throw std::runtime_error("checkpoint " + file.string() + ": flow depth of another size");
+  flow.restore(ux, uy, solid, depth);
   return true;
 }
 
@@ -236,7 +245,17 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   const double sample = c.real("particles.sample_fraction");
   const bool four_way = c.text("coupling.mode") == "four-way";
   const double weight = c.flag("coupling.parcel_weighting") ? 1.0 / sample : 1.0;
-  DepositGrid deposits(grains, pixel, h, c.real("coupling.fill_fraction"));
+  // Plate deposits (layer mode): a layer of the stated packing thins the aperture;
+  // a pixel closes below coupling.min_aperture (default: the largest diameter, the
+  // aperture no particle of the scene can pass).
+  const bool layers = c.text("coupling.plate_deposits") == "layer";
+  DepositLayerModel layer_model;
+  layer_model.packing = c.real("coupling.layer_packing");
+  layer_model.min_aperture = c.quantity("coupling.min_aperture") > 0 ? c.quantity("coupling.min_aperture") : d_max;
+  if (!(layer_model.min_aperture < h))
+    throw InputError(c.where("coupling.min_aperture"), "the closing aperture must be below the chip depth",
+                     fmt::format("{:.3g} um", layer_model.min_aperture * 1e6), fmt::format("< geometry.depth ({:.3g} um)", h * 1e6));
+  DepositGrid deposits(grains, pixel, h, c.real("coupling.fill_fraction"), layer_model);
   const auto pore_pixels = static_cast<std::int64_t>((grains == false).count());
   const auto resolve_pixels = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(c.real("coupling.resolve_threshold") * pore_pixels)));
 
@@ -286,24 +305,31 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
       if (k > 0) classes[ci].engine->advance(t);
       ps[ci] = classes[ci].engine->particles();
     }
-    // Four-way: every new deposit adds its (parcel) volume to the pixel columns.
+    // Four-way: every new deposit adds its (parcel) volume to the deposit grid:
+    // at a grain (in-plane gap to the wall below one radius: touching it, within
+    // the pixel staircase's resolution) it fills columns, elsewhere it lies on a
+    // plate and thins the aperture by up to a monolayer per pixel (layer mode).
     if (four_way) {
       for (std::size_t ci = 0; ci < classes.size(); ++ci) {
         auto& cl = classes[ci];
         const double vol = weight * kPi * cl.diameter * cl.diameter * cl.diameter / 6.0;
         for (std::size_t i = 0; i < ps[ci].size(); ++i)
           if (ps[ci][i].status == ParticleStatus::deposited && !(cl.accounted[i] & 1)) {
-            deposits.add(ps[ci][i].x.x(), ps[ci][i].x.y(), vol);
+            const Vec3& x = ps[ci][i].x;
+            const bool at_wall = flow.field()->wallDistance(x.x(), x.y()) < cl.diameter;
+            ++(at_wall ? s.wall_deposits : s.plate_deposits);
+            if (!layers || at_wall) deposits.add(x.x(), x.y(), vol);
+            else deposits.addLayer(x.x(), x.y(), vol, cl.diameter);
             cl.accounted[i] |= 1;
           }
       }
-      if (deposits.closedCount() - s.closed_at_solve >= resolve_pixels) {
-        const FlowSolveResult r = flow.solve(deposits.closed());
+      if (deposits.lostColumns() - s.lost_at_solve >= static_cast<double>(resolve_pixels)) {
+        const FlowSolveResult r = flow.solve(deposits.closed(), layers ? deposits.aperture() : std::vector<double>{});
         ++s.resolves;
         s.solve_seconds += r.seconds;
-        s.closed_at_solve = deposits.closedCount();
+        s.lost_at_solve = deposits.lostColumns();
         s.k = r.permeability;
-        if (r.blocked) out.details["blocked_at_s"] = t;
+        if (r.blocked && s.blocked_at < 0) s.blocked_at = t;
         for (std::size_t ci = 0; ci < classes.size(); ++ci) {
           classes[ci].engine->captureInSolid();
           ps[ci] = classes[ci].engine->particles();
@@ -476,7 +502,15 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
       }
     }
   }
+  if (s.blocked_at >= 0) {
+    // Clogging: the first re-solve that found no open path from inlet to outlet (k = 0).
+    out.metrics["time_to_clogging"] = s.blocked_at;
+    out.units["time_to_clogging"] = "s";
+    out.details["blocked_at_s"] = s.blocked_at;
+  }
   out.metrics["closed_pixels"] = static_cast<double>(deposits.closedCount());
+  // Mean loss of aperture over the pore pixels (closed pixels count as a whole column).
+  out.metrics["aperture_loss"] = pore_pixels > 0 ? deposits.lostColumns() / static_cast<double>(pore_pixels) : 0.0;
   out.metrics["wall_time"] = wall;
   out.units["wall_time"] = "s";
   out.metrics["fluid_solve_time"] = s.solve_seconds;
@@ -497,6 +531,11 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   out.details["parcel_weight"] = weight;
   out.details["coupling"] = {{"mode", four_way ? "four-way" : "one-way"},
                              {"resolve_threshold_pixels", resolve_pixels},
+                             {"plate_deposits", layers ? "layer" : "column"},
+                             {"layer_packing", layer_model.packing},
+                             {"min_aperture_um", layer_model.min_aperture * 1e6},
+                             {"deposits_at_walls", s.wall_deposits},
+                             {"deposits_on_plates", s.plate_deposits},
                              {"pore_pixels", pore_pixels},
                              {"pixel_capacity_um3", deposits.capacity() * 1e18},
                              {"deposited_volume_um3", deposits.depositedVolume() * 1e18},

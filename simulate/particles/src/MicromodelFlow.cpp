@@ -48,8 +48,10 @@ void MicromodelFlow::pixelOf(double x, double y, int& col, int& row) const {
   row = rows() - 1 - static_cast<int>(std::floor(y / m_opt.pixel));
 }
 
-FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid) {
+FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::vector<double>& aperture) {
   const auto t0 = std::chrono::steady_clock::now();
+  if (!aperture.empty() && aperture.size() != static_cast<std::size_t>(m_grains.size()))
+    throw std::invalid_argument("MicromodelFlow::solve: the aperture needs one value per pixel");
   PixelMask all = m_grains;
   if (extra_solid.size() > 0) {
     if (extra_solid.rows() != all.rows() || extra_solid.cols() != all.cols()) throw std::invalid_argument("MicromodelFlow::solve: extra solid has the wrong shape");
@@ -137,6 +139,29 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid) {
   }
   prob.shape = std::make_shared<simulate::MaskShape>(all, p);
   prob.method = simulate::ImmersedMethod::penalized;
+  if (!aperture.empty()) {
+    // Cell depth: mean aperture of the open pixels whose centres lie in the cell
+    // (the pixel under the cell centre when the cell is smaller than a pixel);
+    // cells without an open pixel keep the chip depth (they are solid anyway).
+    prob.depth_field = Eigen::ArrayXXd::Constant(ny, nx, m_opt.depth);
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        int ca = static_cast<int>(std::ceil(i * cw / p - 0.5)), cb = static_cast<int>(std::ceil((i + 1) * cw / p - 0.5)) - 1;
+        int ba = static_cast<int>(std::ceil(j * ch / p - 0.5)), bb = static_cast<int>(std::ceil((j + 1) * ch / p - 0.5)) - 1;
+        if (cb < ca) ca = cb = static_cast<int>(std::floor((i + 0.5) * cw / p));
+        if (bb < ba) ba = bb = static_cast<int>(std::floor((j + 0.5) * ch / p));
+        double sum = 0;
+        int n_open = 0;
+        for (int b = std::max(ba, 0); b <= std::min(bb, nr - 1); ++b)
+          for (int cc = std::max(ca, 0); cc <= std::min(cb, nc - 1); ++cc) {
+            const int row = nr - 1 - b;
+            if (all(row, cc)) continue;
+            sum += aperture[static_cast<std::size_t>(row) * nc + cc];
+            ++n_open;
+          }
+        if (n_open > 0 && sum > 0) prob.depth_field(j, i) = sum / n_open;
+      }
+  }
   simulate::SteadyFlowSolver solver(prob);
   solver.solve();
   FlowSolveResult r;
@@ -166,6 +191,7 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid) {
       const int col = std::clamp(i - 1, 0, nc - 1), row = nr - 1 - jb;
       if (all(row, col)) continue;
       m_solid[k] = 0;
+      if (!aperture.empty()) m_h[k] = aperture[static_cast<std::size_t>(row) * nc + col];
       const double x = (col + 0.5) * p, y = (jb + 0.5) * p;
       m_ux[k] = r.flux_scale * interp(cu, x, y);
       m_uy[k] = r.flux_scale * interp(cv, x, y);
@@ -175,11 +201,12 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid) {
   return r;
 }
 
-void MicromodelFlow::restore(const std::vector<double>& ux, const std::vector<double>& uy, const std::vector<std::uint8_t>& solid) {
+void MicromodelFlow::restore(const std::vector<double>& ux, const std::vector<double>& uy, const std::vector<std::uint8_t>& solid,
+                             const std::vector<double>& depth) {
   m_ux = ux;
   m_uy = uy;
   m_solid = solid;
-  m_h.assign(m_ux.size(), m_opt.depth);
+  m_h = depth;
   m_field->update(m_ux, m_uy, m_h, m_solid);
 }
 

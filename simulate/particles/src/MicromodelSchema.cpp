@@ -53,10 +53,24 @@ void declareMicromodel(Schema& s) {
       .def("auto");
   declarePhysicsAndDeposition(s, 1e-20);
   s.choice("coupling.mode", {"four-way", "one-way"},
-           "four-way: deposits close pixel columns and the flow is solved again; one-way: the flow never changes")
+           "four-way: deposits close pixel columns or thin the aperture and the flow is solved again; one-way: the flow never changes")
       .def("four-way");
-  s.real("coupling.fill_fraction", "A pore pixel's column closes when deposits fill this fraction of its volume").def(0.5).min(0.01).max(1.0);
-  s.real("coupling.resolve_threshold", "Re-solve the flow when this fraction of the pore pixels closed since the last solve")
+  s.choice("coupling.plate_deposits", {"layer", "column"},
+           "Deposits away from grains (on a plate): layer: a layer of coupling.layer_packing thins the pixel's aperture (the "
+           "solver's local depth), at most one monolayer per deposit and pixel, and the pixel closes below coupling.min_aperture; "
+           "column: they fill pixel columns like deposits at grains (coupling.fill_fraction)")
+      .def("layer");
+  s.real("coupling.fill_fraction", "A pore pixel's column closes when deposits at grains fill this fraction of its volume").def(0.5).min(0.01).max(1.0);
+  s.real("coupling.layer_packing",
+         "Solid volume fraction of a plate deposit layer. Default: a random (RSA) monolayer at its jamming coverage 0.547 "
+         "(Feder 1980) holds 0.547 x 2/3 d of solid per area, so a full monolayer is one diameter d thick")
+      .def(0.547 * 2.0 / 3.0).min(0.05).max(1.0);
+  s.quantity("coupling.min_aperture", "um",
+             "Layer mode: a pixel closes when its aperture falls below this; 0: the largest particle diameter (no particle passes)")
+      .def("0 um").nonNegative();
+  s.real("coupling.resolve_threshold",
+         "Re-solve the flow when the aperture lost since the last solve, summed over pore pixels in whole columns (a closed "
+         "pixel counts 1, a layer t thick t / depth), reaches this fraction of the pore pixels")
       .def(1e-3).min(0.0).max(1.0);
   s.boolean("coupling.parcel_weighting", "A deposit's volume is that of the 1 / sample_fraction particles it stands for").def(true);
   s.real("numerics.cells_per_pixel", "Fluid grid cells per image pixel").def(0.5).min(0.05).max(4);

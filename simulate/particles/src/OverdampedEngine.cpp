@@ -217,9 +217,12 @@ void OverdampedEngine::applyWallsAndCapture(ParticleState& p, const Vec3& before
   }
   if (!capture) return;
   const double cd = at.capture_distance;
-  if ((at.bottom && (touched_bottom || p.x.z() - a <= cd)) || (at.top && (touched_top || h - p.x.z() - a <= cd)) ||
-      (at.grains && (touched_grain || m_flow->wallDistance(p.x.x(), p.x.y()) - a <= cd)))
-    p.status = ParticleStatus::deposited;
+  const bool on_bottom = at.bottom && (touched_bottom || p.x.z() - a <= cd);
+  const bool on_top = at.top && (touched_top || h - p.x.z() - a <= cd);
+  bool plate = on_bottom || on_top;
+  // Torque balance (optional): a particle the shear would roll off the plate stays mobile.
+  if (plate && at.torque_balance) plate = m_model.plateAdhesionHolds(p.x, on_bottom);
+  if (plate || (at.grains && (touched_grain || m_flow->wallDistance(p.x.x(), p.x.y()) - a <= cd))) p.status = ParticleStatus::deposited;
 }
 
 void OverdampedEngine::resolveContacts() {
@@ -359,6 +362,9 @@ nlohmann::json OverdampedEngine::describe() const {
           {"faxen_curvature", c.faxen_curvature},
           {"capture_distance_um", c.attachment.capture_distance * 1e6},
           {"hamaker_J", c.attachment.hamaker},
+          {"plate_attachment", c.attachment.torque_balance ? "torque balance (GCB shear vs DMT adhesion)" : "capture distance"},
+          {"adhesion_separation_nm", c.attachment.adhesion_separation * 1e9},
+          {"contact_modulus_GPa", c.attachment.contact_modulus * 1e-9},
           {"max_step_fraction", c.max_step_fraction},
           {"seed", c.seed},
           {"contacts", "hard spheres, Heyes-Melrose overlap removal"}};

@@ -31,7 +31,8 @@
 //
 // Quasi-2D chips: a depth h adds the depth-averaged Hele-Shaw friction
 // -12 mu u / h^2 (plane Poiseuille profile across the depth), making the 2D
-// equations the Brinkman-Hele-Shaw model.
+// equations the Brinkman-Hele-Shaw model. The depth may vary per cell
+// (FlowProblem::depth_field): then continuity is div(h u) = 0.
 //
 // Solution. The coupled (u, v, p) system is assembled into one PETSc matrix.
 // Stokes is one linear solve; steady Navier-Stokes is Newton's method on the
@@ -85,6 +86,15 @@ struct FlowProblem {
   double density = 1000;             ///< kg/m3
   double viscosity = 1e-3;           ///< Pa s
   double depth = 0;                  ///< chip depth for the Hele-Shaw friction, m; 0: plane 2D
+  /// Optional local depth (aperture) h(x, y) per cell, m, ny x nx (row j = y cell, column i = x cell);
+  /// empty: `depth` everywhere. Needs depth > 0, which becomes the reference depth h_ref. Variable
+  /// aperture (Reynolds lubrication / Hele-Shaw, e.g. Zimmerman & Bodvarsson 1996): each face gets
+  /// the friction -12 mu u / h_f^2 of its own depth h_f, and continuity conserves the flux h u,
+  /// sum(h_f u_f A_f) = 0, so the friction-dominated limit is the Reynolds equation
+  /// div(h^3 grad p) = 0. h_f between two cells is the harmonic mean of h^3 (exact for a step in
+  /// depth at the face, in that limit); the Brinkman term stays mu lap(u). flowRate and
+  /// superficialVelocity then weight each face by h_f / h_ref (flux per unit reference depth).
+  Eigen::ArrayXXd depth_field;
   Eigen::Vector2d body_force{0, 0};  ///< N/m3 (a mean pressure gradient -dp/dx for periodic flow)
   std::shared_ptr<const Shape> shape;  ///< solids; null: all fluid
   ImmersedMethod method = ImmersedMethod::sharp;

@@ -9,6 +9,16 @@
 //   attraction       sphere-plate van der Waals A a / (6 gap^2) towards sticky
 //                    surfaces within `attraction_range` (AttachmentModel)
 //   capture          gap to a sticky surface <= capture distance
+//   plate adhesion   (optional) torque balance of a sphere resting on a plate in
+//                    the wall shear of the depth profile: Goldman, Cox & Brenner
+//                    (1967, Chem. Eng. Sci. 22:653) drag 1.7009 x 6 pi mu a^2 G and
+//                    torque 0.944 x 4 pi mu a^3 G (G the wall shear rate), moment about
+//                    the contact F a + T; against the DMT adhesion (Derjaguin, Muller
+//                    & Toporov 1975) F_A = A a / (6 z0^2) (+ net weight on the bottom
+//                    plate) acting at the Hertz/DMT contact radius (F_A a / K)^(1/3)
+//                    (Johnson, Contact Mechanics, 1985), as in colloid-detachment
+//                    models (Bergendahl & Grasso 2000; Torkzaban, Bradford & Walker
+//                    2007, Langmuir 23:9652).
 #pragma once
 #include <memory>
 #include <utility>
@@ -35,6 +45,9 @@ class HydroModel {
   Vec3 force(const Vec3& x) const;
   /// True when x is within the capture distance of a sticky plate, grain or side wall.
   bool captured(const Vec3& x) const;
+  /// Torque balance of a particle resting on the bottom (or top) plate at x (header
+  /// comment): true when adhesion holds it. `margin` receives adhesive / applied torque.
+  bool plateAdhesionHolds(const Vec3& x, bool bottom, double* margin = nullptr) const;
   /// Single-wall Brenner factor at surface gap `gap` (tabulated, log-interpolated; exact series in Physics.hpp).
   double perpendicularFactor(double gap) const;
 

@@ -7,8 +7,10 @@
 // experiment's concentration (optionally a random sample of it, each simulated
 // particle then a parcel for the deposit volume), move with the overdamped
 // colloid engine (Stokes number ~1e-5) and stick to grains, the bottom plate
-// and earlier deposits. Four-way: deposits close pixel columns (DepositGrid),
-// and the flow is solved again when enough closed since the last solve.
+// and earlier deposits. Four-way: deposits at grains fill pixel columns, deposits
+// on the plates thin the local aperture (the fluid solver's per-cell depth) and
+// close a pixel only below a minimum aperture (DepositGrid), and the flow is
+// solved again when enough aperture was lost since the last solve.
 //
 // Outputs (all written under temporary names and renamed):
 //   trajectories.csv  the tracker's tracks schema: frame, particle, x, y (pixels

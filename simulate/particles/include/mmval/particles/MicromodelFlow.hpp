@@ -4,9 +4,14 @@
 // Hele-Shaw friction -12 mu u / h^2 of the chip depth), scaled to a given Darcy
 // velocity, and handed to the particle engines as a GriddedFlow on the pixel
 // centres. Four-way coupling: cells the deposits have filled are added to the
-// solids and the flow is solved again (Stokes has no memory, so the new steady
-// field is the answer). Permeability by Darcy's law at a fixed pressure drop,
-//   k = mu q L / (W dp)   (q: flux per unit depth through the outlet),
+// solids, deposit layers on the plates thin the local aperture (the solver's
+// per-cell depth: Reynolds lubrication, div(h^3 grad p) = 0 in the friction
+// limit), and the flow is solved again (Stokes has no memory, so the new
+// steady field is the answer). The engines see the thinned aperture as the
+// local depth h(x, y), with z measured from the top of the layer.
+// Permeability by Darcy's law at a fixed pressure drop,
+//   k = mu q L / (W dp)   (q: flux through the outlet per unit chip depth, the
+//                          undisturbed depth, so that k/k0 sees the thinned aperture),
 // the definition of the image-permeability kind. Solids enter by the penalized
 // (volume-fraction) immersed boundary: with the sharp one, pixels closed by
 // deposits put face nodes exactly on the pixel staircase and the solve came out
@@ -48,9 +53,12 @@ class MicromodelFlow {
   MicromodelFlow(PixelMask grains, MicromodelFlowOptions options);
 
   /// Solves the flow with the grains plus `extra_solid` (same shape, may be empty
-  /// for none), fills field() and returns the permeability. Throws std::runtime_error
-  /// when the solver fails.
-  FlowSolveResult solve(const PixelMask& extra_solid);
+  /// for none) and the local aperture `aperture` (m per pixel, row-major from the
+  /// top row, as DepositGrid::aperture(); empty: the chip depth everywhere; a fluid
+  /// cell's depth is the mean over the open pixels it covers), fills field() and
+  /// returns the permeability. Throws std::runtime_error when the solver fails,
+  /// std::invalid_argument on wrong sizes.
+  FlowSolveResult solve(const PixelMask& extra_solid, const std::vector<double>& aperture = {});
 
   /// The field the engines see: nodes at pixel centres, padded by one node on
   /// every side (solid rows beyond the two side walls; copies of the first and
@@ -60,7 +68,9 @@ class MicromodelFlow {
   const std::vector<double>& nodeUx() const { return m_ux; }
   const std::vector<double>& nodeUy() const { return m_uy; }
   const std::vector<std::uint8_t>& nodeSolid() const { return m_solid; }
-  void restore(const std::vector<double>& ux, const std::vector<double>& uy, const std::vector<std::uint8_t>& solid);
+  const std::vector<double>& nodeDepth() const { return m_h; }
+  void restore(const std::vector<double>& ux, const std::vector<double>& uy, const std::vector<std::uint8_t>& solid,
+               const std::vector<double>& depth);
 
   int rows() const { return static_cast<int>(m_grains.rows()); }
   int cols() const { return static_cast<int>(m_grains.cols()); }

@@ -15,7 +15,9 @@
 // three pushes along the wall normal is refused: particles never squeeze
 // through a throat narrower than themselves (straining).
 // Attachment: a particle whose gap to a sticky surface falls below the capture
-// distance, or that would have penetrated it, deposits and stays.
+// distance, or that would have penetrated it, deposits and stays; on the plates
+// optionally only when the adhesive torque holds against the shear's
+// (AttachmentModel::torque_balance, HydroModel::plateAdhesionHolds).
 // Not modelled: the near-wall lag of a sphere in shear (Goldman, Cox & Brenner
 // 1967) beyond Faxen's far-field terms, in-plane hindrance by grains,
 // hydrodynamic interactions between particles, re-entrainment.

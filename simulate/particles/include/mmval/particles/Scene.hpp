@@ -33,6 +33,19 @@ struct AttachmentModel {
   bool deposited = true;             ///< already deposited particles (ripening, bridging)
   double hamaker = 0.0;              ///< J (1e-20 typical polystyrene-water-glass); 0: no attraction
   double attraction_range = 1e-6;    ///< m; vdW is cut off beyond this gap
+  /// Plates only: a particle that reaches a sticky plate attaches only if the
+  /// adhesive torque about its contact's edge holds against the shear's torque
+  /// (HydroModel::plateAdhesionHolds); otherwise it stays mobile and rolls on
+  /// (checked again every step). Off: the capture rule above alone.
+  bool torque_balance = false;
+  /// m; contact separation z0 of the DMT adhesion F_A = A a / (6 z0^2); 0.4 nm is
+  /// the convention of colloid-detachment studies (e.g. Bergendahl & Grasso 2000,
+  /// Chem. Eng. Sci. 55:1523), not a measured value for this chip.
+  double adhesion_separation = 0.4e-9;
+  /// Pa; composite modulus K = (4/3) / ((1 - nu1^2)/E1 + (1 - nu2^2)/E2) of the
+  /// contact. Default: polystyrene (E = 3.4 GPa, nu = 0.33) on glass (E = 70 GPa,
+  /// nu = 0.22), handbook values: 4.84 GPa.
+  double contact_modulus = 4.84e9;
 };
 
 struct SceneConfig {
