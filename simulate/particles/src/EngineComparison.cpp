@@ -30,57 +30,71 @@ nlohmann::json EngineComparison::toJson() const {
           {"steps_candidate", steps_candidate}};
 }
 
-EngineComparison compareEngines(ParticleEngine& reference, ParticleEngine& candidate, const std::vector<Vec3>& positions, double window,
-                                double interval) {
+std::vector<EngineComparison> compareEngines(ParticleEngine& reference, const std::vector<ParticleEngine*>& candidates, const std::vector<Vec3>& positions,
+                                             double window, double interval) {
   if (!(window > 0) || !(interval > 0) || interval > window) throw std::invalid_argument("compareEngines: need 0 < interval <= window");
-  if (!reference.particles().empty() || !candidate.particles().empty()) throw std::invalid_argument("compareEngines: engines must be empty");
+  if (!reference.particles().empty()) throw std::invalid_argument("compareEngines: engines must be empty");
+  for (auto* c : candidates)
+    if (c == nullptr || !c->particles().empty()) throw std::invalid_argument("compareEngines: engines must be empty");
   reference.insert(positions);
-  candidate.insert(positions);
-  EngineComparison r;
-  r.window_s = window;
-  r.particles = static_cast<int>(positions.size());
-  double sum2 = 0;
-  long n = 0;
+  for (auto* c : candidates) c->insert(positions);
+  std::vector<EngineComparison> out(candidates.size());
+  std::vector<double> sum2(candidates.size(), 0.0);
+  std::vector<long> n(candidates.size(), 0);
   const auto steps = static_cast<int>(std::llround(window / interval));
   for (int k = 1; k <= steps; ++k) {
     reference.advance(k * interval);
-    candidate.advance(k * interval);
-    const auto a = reference.particles(), b = candidate.particles();
+    const auto a = reference.particles();
+    for (std::size_t j = 0; j < candidates.size(); ++j) {
+      candidates[j]->advance(k * interval);
+      const auto b = candidates[j]->particles();
+      for (std::size_t i = 0; i < a.size(); ++i) {
+        if (a[i].status == ParticleStatus::left || b[i].status == ParticleStatus::left) continue;
+        const double d = (a[i].x - b[i].x).norm();
+        sum2[j] += d * d;
+        ++n[j];
+        out[j].max_position_difference = std::max(out[j].max_position_difference, d);
+      }
+    }
+  }
+  const auto a = reference.particles();
+  for (std::size_t j = 0; j < candidates.size(); ++j) {
+    EngineComparison& r = out[j];
+    const auto b = candidates[j]->particles();
+    r.window_s = window;
+    r.particles = static_cast<int>(positions.size());
+    r.rms_position_difference = n[j] ? std::sqrt(sum2[j] / n[j]) : 0.0;
+    std::vector<double> final_diff;
+    for (std::size_t i = 0; i < a.size(); ++i)
+      if (a[i].status != ParticleStatus::left && b[i].status != ParticleStatus::left) final_diff.push_back((a[i].x - b[i].x).norm());
+    if (!final_diff.empty()) {
+      std::nth_element(final_diff.begin(), final_diff.begin() + final_diff.size() / 2, final_diff.end());
+      r.median_final_difference = final_diff[final_diff.size() / 2];
+    }
+    double dt2 = 0;
     for (std::size_t i = 0; i < a.size(); ++i) {
-      if (a[i].status == ParticleStatus::left || b[i].status == ParticleStatus::left) continue;
-      const double d = (a[i].x - b[i].x).norm();
-      sum2 += d * d;
-      ++n;
-      r.max_position_difference = std::max(r.max_position_difference, d);
+      const bool ca = a[i].status == ParticleStatus::deposited, cb = b[i].status == ParticleStatus::deposited;
+      r.captured_reference += ca;
+      r.captured_candidate += cb;
+      if (ca && cb) {
+        ++r.captured_both;
+        dt2 += std::pow(a[i].t_event - b[i].t_event, 2);
+      }
     }
+    r.rms_capture_time_difference = r.captured_both ? std::sqrt(dt2 / r.captured_both) : 0.0;
+    r.retained_fraction_reference = a.empty() ? 0.0 : static_cast<double>(r.captured_reference) / a.size();
+    r.retained_fraction_candidate = b.empty() ? 0.0 : static_cast<double>(r.captured_candidate) / b.size();
+    r.wall_seconds_reference = reference.stats().wall_seconds;
+    r.wall_seconds_candidate = candidates[j]->stats().wall_seconds;
+    r.steps_reference = reference.stats().steps;
+    r.steps_candidate = candidates[j]->stats().steps;
   }
-  r.rms_position_difference = n ? std::sqrt(sum2 / n) : 0.0;
-  const auto a = reference.particles(), b = candidate.particles();
-  double dt2 = 0;
-  std::vector<double> final_diff;
-  for (std::size_t i = 0; i < a.size(); ++i)
-    if (a[i].status != ParticleStatus::left && b[i].status != ParticleStatus::left) final_diff.push_back((a[i].x - b[i].x).norm());
-  if (!final_diff.empty()) {
-    std::nth_element(final_diff.begin(), final_diff.begin() + final_diff.size() / 2, final_diff.end());
-    r.median_final_difference = final_diff[final_diff.size() / 2];
-  }
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    const bool ca = a[i].status == ParticleStatus::deposited, cb = b[i].status == ParticleStatus::deposited;
-    r.captured_reference += ca;
-    r.captured_candidate += cb;
-    if (ca && cb) {
-      ++r.captured_both;
-      dt2 += std::pow(a[i].t_event - b[i].t_event, 2);
-    }
-  }
-  r.rms_capture_time_difference = r.captured_both ? std::sqrt(dt2 / r.captured_both) : 0.0;
-  r.retained_fraction_reference = a.empty() ? 0.0 : static_cast<double>(r.captured_reference) / a.size();
-  r.retained_fraction_candidate = b.empty() ? 0.0 : static_cast<double>(r.captured_candidate) / b.size();
-  r.wall_seconds_reference = reference.stats().wall_seconds;
-  r.wall_seconds_candidate = candidate.stats().wall_seconds;
-  r.steps_reference = reference.stats().steps;
-  r.steps_candidate = candidate.stats().steps;
-  return r;
+  return out;
+}
+
+EngineComparison compareEngines(ParticleEngine& reference, ParticleEngine& candidate, const std::vector<Vec3>& positions, double window,
+                                double interval) {
+  return compareEngines(reference, std::vector<ParticleEngine*>{&candidate}, positions, window, interval).front();
 }
 
 std::vector<Vec3> samplePoreSpace(const FlowField& flow, double radius, int n, std::uint64_t seed) {
@@ -107,16 +121,21 @@ std::vector<Vec3> samplePoreSpace(const FlowField& flow, double radius, int n, s
   return out;
 }
 
-EngineComparison compareOnScene(std::shared_ptr<const FlowField> flow, SceneConfig config, const SceneWindow& w, const SceneConfig* candidate) {
+std::vector<EngineComparison> compareOnScene(std::shared_ptr<const FlowField> flow, SceneConfig config, const SceneWindow& w,
+                                             const std::vector<SceneConfig>& candidates) {
   config.brownian = false;
   config.gravity *= w.gravity_factor;
-  SceneConfig od = candidate ? *candidate : config;
-  od.brownian = false;
-  od.gravity = config.gravity;
   const auto positions = samplePoreSpace(*flow, config.particle.radius(), w.particles, w.seed);
   auto reference = makeEngine(EngineKind::liggghts, flow, config);
-  auto cheap = makeEngine(EngineKind::overdamped, flow, od);
-  return compareEngines(*reference, *cheap, positions, w.window, w.interval);
+  std::vector<std::unique_ptr<ParticleEngine>> cheap;
+  std::vector<ParticleEngine*> raw;
+  for (SceneConfig od : candidates.empty() ? std::vector<SceneConfig>{config} : candidates) {
+    od.brownian = false;
+    od.gravity = config.gravity;
+    cheap.push_back(makeEngine(EngineKind::overdamped, flow, od));
+    raw.push_back(cheap.back().get());
+  }
+  return compareEngines(*reference, raw, positions, w.window, w.interval);
 }
 
 }  // namespace mmval::particles

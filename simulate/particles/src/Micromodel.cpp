@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <functional>
 #include <cmath>
 #include <map>
 #include <limits>
@@ -17,6 +18,7 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Tracks.hpp"
 #include "mmval/particles/DepositGrid.hpp"
+#include "mmval/particles/EngineComparison.hpp"
 #include "mmval/particles/MicromodelFlow.hpp"
 #include "mmval/particles/OverdampedEngine.hpp"
 #include "mmval/particles/SceneSelection.hpp"
@@ -133,6 +135,49 @@ bool readCheckpoint(const fs::path& file, const std::string& fp, RunnerState& s,
   if (depth.size() != ux.size()) throw std::runtime_error("checkpoint " + file.string() + ": flow depth of another size");
   flow.restore(ux, uy, solid, depth);
   return true;
+}
+
+/// The "cheaper model against LIGGGHTS on a shared window of the same scene":
+/// particles of the first size class spread over this scene's pore space at t = 0,
+/// both engines on its flow field (grains an STL mesh wall for LIGGGHTS), one row per
+/// overdamped step setting into details.engine_comparison (the report's table), the
+/// first row's errors also as metrics.
+void compareEnginesOnTheScene(const Case& c, std::shared_ptr<const FlowField> field, const SceneConfig& scene, double diameter, RunOutput& out) {
+  SceneConfig ref = scene;
+  ref.particle.diameter = diameter;
+  ref.particle.youngs_modulus = c.quantity("engines.compare_youngs_modulus");
+  ref.work_dir = std::filesystem::temp_directory_path() / fmt::format("mmval-engines-{:016x}", std::hash<std::string>{}(fingerprint(c)));
+  SceneWindow w;
+  w.window = c.quantity("engines.compare_window");
+  w.interval = std::min(w.window, std::max(w.window / 20, c.quantity("run.output_interval") / 4));
+  w.particles = static_cast<int>(c.integer("engines.compare_particles"));
+  w.gravity_factor = c.real("engines.compare_gravity_factor");
+  w.seed = static_cast<std::uint64_t>(c.integer("run.seed"));
+  std::vector<double> fractions{scene.max_step_fraction};
+  if (c.has("engines.compare_step_fractions")) fractions = c.reals("engines.compare_step_fractions");
+  std::vector<SceneConfig> candidates;
+  for (double f : fractions) {
+    candidates.push_back(ref);
+    candidates.back().max_step_fraction = f;
+  }
+  const auto results = compareOnScene(field, ref, w, candidates);
+  nlohmann::json rows = nlohmann::json::array();
+  for (std::size_t i = 0; i < results.size(); ++i) {
+    const EngineComparison& r = results[i];
+    nlohmann::json row = r.toJson();
+    row["candidate"] = fmt::format("overdamped, step {:g} radii", fractions[i]);
+    row["gravity_factor"] = w.gravity_factor;
+    row["youngs_modulus_Pa"] = ref.particle.youngs_modulus;
+    rows.push_back(row);
+  }
+  const EngineComparison& r = results.front();
+  out.metrics["engines_rms_position_difference"] = r.rms_position_difference;  // SI; shown in um
+  out.units["engines_rms_position_difference"] = "um";
+  out.metrics["engines_captured_liggghts"] = r.captured_reference;
+  out.metrics["engines_captured_overdamped"] = r.captured_candidate;
+  out.metrics["engines_capture_difference"] = std::abs(r.captured_reference - r.captured_candidate);
+  out.metrics["engines_speedup"] = r.wall_seconds_reference / std::max(r.wall_seconds_candidate, 1e-9);
+  out.details["engine_comparison"] = rows;
 }
 
 RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
@@ -287,6 +332,7 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
     s.solve_seconds = r0.seconds;
   }
   out.details["resumed_from_frame"] = resumed ? s.next_frame : 0;
+  if (!resumed && c.quantity("engines.compare_window") > 0) compareEnginesOnTheScene(c, flow.field(), scene, classes[0].diameter, out);
   if (s.retention.empty()) s.retention = "t_s,injected,retained,left,inside\n";
   if (s.permeability.empty()) s.permeability = "t_s,k_m2,k_D,k_over_k0,resolves\n";
 

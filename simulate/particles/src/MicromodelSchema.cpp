@@ -75,6 +75,18 @@ void declareMicromodel(Schema& s) {
   s.boolean("coupling.parcel_weighting", "A deposit's volume is that of the 1 / sample_fraction particles it stands for").def(true);
   s.real("numerics.cells_per_pixel", "Fluid grid cells per image pixel").def(0.5).min(0.05).max(4);
   s.real("numerics.max_step_fraction", "Largest particle displacement per step, in radii").def(0.5).min(1e-4).max(1);
+  s.quantity("engines.compare_window", "s",
+             "Before the run: the overdamped engine against LIGGGHTS (Hertz contacts, grains as an STL mesh wall) on a shared window of "
+             "this scene's flow, from the same particles spread over the pore space, without Brownian motion; 0: no comparison")
+      .def("0 s")
+      .nonNegative();
+  s.integer("engines.compare_particles", "Particles of that window").def(40).min(1).max(2000);
+  s.real("engines.compare_gravity_factor", "Gravity multiplied by this in the window, so that particles reach the bottom plate within it").def(100).min(0).max(1e5);
+  s.quantity("engines.compare_youngs_modulus", "Pa", "Young's modulus of the window's particles (softened, as the paper does, for a longer DEM step)")
+      .def("1e5 Pa")
+      .positive();
+  s.realList("engines.compare_step_fractions", "Overdamped step settings compared (largest displacement per step, radii); empty: the scene's")
+      .optional();
   s.quantity("run.duration", "s", "Physical time simulated").def("20 min").positive();
   s.quantity("run.output_interval", "s", "Output (frame) interval").def("1 s").positive();
   s.integer("run.seed", "Random seed (Brownian motion, injection)").def(1).min(0);

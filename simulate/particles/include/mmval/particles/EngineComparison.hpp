@@ -27,8 +27,12 @@ struct EngineComparison {
   nlohmann::json toJson() const;
 };
 
-/// Inserts `positions` into both engines, advances both to k * interval for
-/// k = 1 .. window / interval and compares. Engines must be fresh (time 0, empty).
+/// Inserts `positions` into the reference and every candidate, advances all to
+/// k * interval for k = 1 .. window / interval and compares each candidate with the
+/// reference (which runs once). Engines must be fresh (time 0, empty).
+std::vector<EngineComparison> compareEngines(ParticleEngine& reference, const std::vector<ParticleEngine*>& candidates, const std::vector<Vec3>& positions,
+                                             double window, double interval);
+/// One candidate.
 EngineComparison compareEngines(ParticleEngine& reference, ParticleEngine& candidate, const std::vector<Vec3>& positions, double window,
                                 double interval);
 
@@ -52,10 +56,11 @@ struct SceneWindow {
 };
 
 /// LIGGGHTS (the reference: Hertz contacts, grains as an STL mesh wall) against
-/// the overdamped engine on `flow` with the scene's physics `config` (brownian is
-/// switched off for both; `candidate` may change the overdamped step settings).
-/// Throws InputError when this build has no LIGGGHTS.
-EngineComparison compareOnScene(std::shared_ptr<const FlowField> flow, SceneConfig config, const SceneWindow& w,
-                                const SceneConfig* candidate = nullptr);
+/// the overdamped engine on `flow` with the scene's physics `config`, once per entry of
+/// `candidates` (the overdamped settings; empty: `config` itself); Brownian motion is
+/// off and gravity scaled for all. LIGGGHTS runs once. Throws InputError when this
+/// build has no LIGGGHTS.
+std::vector<EngineComparison> compareOnScene(std::shared_ptr<const FlowField> flow, SceneConfig config, const SceneWindow& w,
+                                             const std::vector<SceneConfig>& candidates = {});
 
 }  // namespace mmval::particles
