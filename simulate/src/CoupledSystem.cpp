@@ -9,19 +9,12 @@
 #include <fmt/format.h>
 #include <petscksp.h>
 
+#include "SolverUtil.hpp"
+
 namespace mmval::simulate {
 
-namespace {
-
-void check(PetscErrorCode ierr, const char* what) {
-  if (ierr != 0) throw std::runtime_error(fmt::format("PETSc error {} in {}", static_cast<int>(ierr), what));
-}
-
-double seconds(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
+using detail::check;
+using detail::secondsSince;
 
 struct CoupledSystem::Impl {
   SolverOptions opt;
@@ -142,7 +135,7 @@ struct CoupledSystem::Impl {
     check(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY), "assembly");
     check(VecAssemblyBegin(b), "vec assembly");
     check(VecAssemblyEnd(b), "vec assembly");
-    stats.assemble_seconds += seconds(t0);
+    stats.assemble_seconds += secondsSince(t0);
     t0 = std::chrono::steady_clock::now();
     check(KSPSetOperators(ksp, A, A), "KSPSetOperators");
     if (mass_schur && Sp == nullptr) buildMassSchur(op, lo, hi);
@@ -182,7 +175,7 @@ struct CoupledSystem::Impl {
     KSPGetIterationNumber(ksp, &its);
     stats.linear_iterations += std::max<PetscInt>(its, 1);
     if (lag_max_its > 0) refactor = its > lag_max_its;
-    stats.solve_seconds += seconds(t0);
+    stats.solve_seconds += secondsSince(t0);
     gather(op, state);
   }
 

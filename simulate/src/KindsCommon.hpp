@@ -11,6 +11,8 @@
 #include "mmval/core/CaseKind.hpp"
 #include "mmval/simulate/FlowSolver.hpp"
 
+#include "SolverUtil.hpp"
+
 namespace mmval::simulate::detail {
 
 inline constexpr const char* kSolverName = "mmval simulate (MAC, immersed boundary, PETSc)";
@@ -34,8 +36,5 @@ void declareUnsteadyCylinderKeys(Schema& s);
 RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::function<FlowProblem(int level)>& make_problem, double coef, double Uref,
                               double D, double cx, double cy);
 
-inline double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 }  // namespace mmval::simulate::detail

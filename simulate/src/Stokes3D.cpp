@@ -10,19 +10,15 @@
 #include <fmt/format.h>
 #include <petscksp.h>
 
+#include "SolverUtil.hpp"
 #include "mmval/simulate/Petsc.hpp"
 
 namespace mmval::simulate {
 
+using detail::check;
+using detail::secondsSince;
+
 namespace {
-
-void check(PetscErrorCode ierr, const char* what) {
-  if (ierr != 0) throw std::runtime_error(fmt::format("PETSc error {} in {} (3D Stokes)", static_cast<int>(ierr), what));
-}
-
-double secondsFrom(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 using Index3 = std::array<int, 3>;
 
@@ -276,7 +272,7 @@ struct Stokes3DSolver::Impl {
       check(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY), "assembly");
       check(VecAssemblyBegin(b), "vec assembly");
       check(VecAssemblyEnd(b), "vec assembly");
-      st.assemble_seconds = secondsFrom(t0);
+      st.assemble_seconds = secondsSince(t0);
       t0 = std::chrono::steady_clock::now();
 
       check(KSPCreate(comm, &ksp), "KSPCreate");
@@ -332,7 +328,7 @@ struct Stokes3DSolver::Impl {
       if (reason < 0)
         throw std::runtime_error(fmt::format("the 3D Stokes solve did not converge ({} after {} FGMRES iterations)", KSPConvergedReasons[reason], its));
       gather(xs);
-      st.solve_seconds = secondsFrom(t0);
+      st.solve_seconds = secondsSince(t0);
     } catch (...) {
       cleanup();
       throw;
