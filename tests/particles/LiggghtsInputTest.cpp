@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <fmt/format.h>
 
+#include "GridField.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/particles/LiggghtsInput.hpp"
 
@@ -71,13 +72,7 @@ TEST(LiggghtsInput, BadValuesAreInputErrorsBeforeAnyCommand) {
 
 /// A field of nx x ny nodes 10 um apart, at rest, 20 um deep, solid at the listed nodes.
 GriddedFlow gridWith(int nx, int ny, const std::vector<std::pair<int, int>>& solid_nodes) {
-  GriddedFlow g(nx, ny, 0, 0, 10e-6, 10e-6);
-  const auto n = static_cast<std::size_t>(nx) * ny;
-  std::vector<double> z(n, 0.0), h(n, 20e-6);
-  std::vector<std::uint8_t> solid(n, 0);
-  for (const auto& [i, j] : solid_nodes) solid[static_cast<std::size_t>(j) * nx + i] = 1;
-  g.update(z, z, h, solid);
-  return g;
+  return *testing::gridField(nx, ny, 0.0, 20e-6, [&](int i, int j) { return std::find(solid_nodes.begin(), solid_nodes.end(), std::pair{i, j}) != solid_nodes.end(); });
 }
 
 /// Total area of the triangles of an ASCII STL and the largest edge ratio of one triangle.

@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "GridField.hpp"
 #include "mmval/particles/LiggghtsEngine.hpp"
 
 namespace mmval::particles {
@@ -46,17 +47,7 @@ std::vector<ParticleState> runChannel(bool world) {
 std::vector<ParticleState> runGrains(bool world) {
   // A 40 x 12 node field 10 um apart, uniform flow along x, a 4 x 4 node grain in the middle
   // straddling the subdomain boundary; particles released upstream of it.
-  const int nx = 40, ny = 12;
-  auto flow = std::make_shared<GriddedFlow>(nx, ny, 0, 0, 10e-6, 10e-6);
-  const auto n = static_cast<std::size_t>(nx) * ny;
-  std::vector<double> ux(n, 7e-4), uy(n, 0.0), h(n, 20e-6);
-  std::vector<std::uint8_t> solid(n, 0);
-  for (int j = 4; j < 8; ++j)
-    for (int i = 18; i < 22; ++i) {
-      solid[static_cast<std::size_t>(j) * nx + i] = 1;
-      ux[static_cast<std::size_t>(j) * nx + i] = 0;
-    }
-  flow->update(ux, uy, h, solid);
+  auto flow = testing::gridField(40, 12, 7e-4, 20e-6, [](int i, int j) { return i >= 18 && i < 22 && j >= 4 && j < 8; });
   SceneConfig c = sceneConfig("grains", world);
   c.gravity = 0;                      // stay at their heights: carried into the grain
   c.attachment.capture_distance = 0;  // nothing sticks: the mesh wall alone stops them

@@ -6,6 +6,7 @@
 
 #include <iostream>
 
+#include "GridField.hpp"
 #include "mmval/particles/EngineComparison.hpp"
 #include "mmval/particles/LiggghtsEngine.hpp"
 #include "mmval/particles/OverdampedEngine.hpp"
@@ -128,16 +129,7 @@ TEST(Liggghts, TimeStepFollowsTheFastestParticle) {
 // rule differ by ~0.7 um whatever the step; on the micromodel's Stokes flow the error
 // falls with the step: cases/particles-micromodel-engines.toml.)
 TEST(EngineComparison, SceneWindowRunsLiggghtsOnceForEveryStepSetting) {
-  const int nx = 40, ny = 16;
-  auto flow = std::make_shared<GriddedFlow>(nx, ny, 0, 0, 10e-6, 10e-6);
-  const auto n = static_cast<std::size_t>(nx) * ny;
-  std::vector<double> ux(n, 5e-4), uy(n, 0.0), h(n, 20e-6);
-  std::vector<std::uint8_t> solid(n, 0);
-  for (int j = 6; j < 10; ++j)
-    for (int i = 20; i < 24; ++i) solid[static_cast<std::size_t>(j) * nx + i] = 1;
-  for (std::size_t k = 0; k < n; ++k)
-    if (solid[k]) ux[k] = 0;
-  flow->update(ux, uy, h, solid);
+  auto flow = testing::gridField(40, 16, 5e-4, 20e-6, [](int i, int j) { return i >= 20 && i < 24 && j >= 6 && j < 10; });
   SceneConfig c = quietScene("scene-window");
   c.gravity = 9.81;
   c.particle.youngs_modulus = 1e5;
@@ -169,15 +161,8 @@ TEST(EngineComparison, SceneWindowRunsLiggghtsOnceForEveryStepSetting) {
 // the impact (~0.5 um at 0.05 m/s, E = 1e6 Pa; more than half of it with damping), and leaves with the material's
 // coefficient of restitution (LIGGGHTS derives the Hertz damping from it).
 TEST(Liggghts, SphereBouncesOffAGridGrainWithItsRestitution) {
-  const int nx = 30, ny = 12;
   const double dx = 10e-6, h = 20e-6;
-  auto flow = std::make_shared<GriddedFlow>(nx, ny, 0, 0, dx, dx);
-  const auto n = static_cast<std::size_t>(nx) * ny;
-  std::vector<double> z(n, 0.0), depth(n, h);
-  std::vector<std::uint8_t> solid(n, 0);
-  for (int j = 0; j < ny; ++j)
-    for (int i = 22; i < nx; ++i) solid[static_cast<std::size_t>(j) * nx + i] = 1;
-  flow->update(z, z, depth, solid);
+  auto flow = testing::gridField(30, 12, 0.0, h, [](int i, int) { return i >= 22; });
   SceneConfig c = quietScene("grain-bounce");
   c.fluid.viscosity = 1e-12;
   LiggghtsEngine e(flow, c);
