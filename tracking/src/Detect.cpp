@@ -5,9 +5,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include <Eigen/Dense>
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace mmval::tracking {
@@ -193,10 +195,11 @@ void refineCentre(const cv::Mat& signal, const cv::Mat& zero_mean, const DetectO
     // k = m^2 / (m^2 + s^2 + b^2) (s = m here); stepping 1 / (1 - k) of the move reaches
     // the same fixed point in far fewer iterations.
     const double omega = 1.0 / (1.0 - sm * sm / (2 * sm * sm + o.blur_sigma * o.blur_sigma));
+    const double a = 1 / (2 * sm * sm), c = std::exp(-2 * a);
     for (int it = 0; it < 20; ++it) {
       const int cx = static_cast<int>(std::lround(d.x)), cy = static_cast<int>(std::lround(d.y));
-      gaussianRow(ex, 2 * r + 1, cx - r, d.x, 1 / (2 * sm * sm));
-      gaussianRow(ey, 2 * r + 1, cy - r, d.y, 1 / (2 * sm * sm));
+      gaussianRow(ex, 2 * r + 1, cx - r, d.x, a, c);
+      gaussianRow(ey, 2 * r + 1, cy - r, d.y, a, c);
       double sw = 0, sx = 0, sy = 0;
       maskedSums(zero_mean, cx, cy, r, ex, ey, sw, sx, sy);
       if (sw <= 0) break;
@@ -231,6 +234,62 @@ void refineCentre(const cv::Mat& signal, const cv::Mat& zero_mean, const DetectO
       cy = ny;
     }
   }
+}
+
+/// The element nth_element would put at v.size() / 2 (v not empty), found through a
+/// histogram of the values: only the values in the median's bin are partially sorted.
+float middleElement(const std::vector<float>& v) {
+  const std::size_t k = v.size() / 2, m = v.size();
+  // Extremes and bins 4 values at a time; the counts in 4 interleaved histograms (no
+  // increment waits for the one before).
+  std::size_t i = 0;
+  cv::v_float32x4 lo4 = cv::v_setall_f32(v[0]), hi4 = lo4;
+  for (; i + 4 <= m; i += 4) {
+    const cv::v_float32x4 x = cv::v_load(v.data() + i);
+    lo4 = cv::v_min(lo4, x);
+    hi4 = cv::v_max(hi4, x);
+  }
+  float lo = cv::v_reduce_min(lo4), hi = cv::v_reduce_max(hi4);
+  for (; i < m; ++i) {
+    lo = std::min(lo, v[i]);
+    hi = std::max(hi, v[i]);
+  }
+  constexpr int kBins = 1024;
+  thread_local std::vector<float> in_bin;
+  if (!(hi > lo) || !std::isfinite(hi - lo)) {
+    in_bin.assign(v.begin(), v.end());
+    std::nth_element(in_bin.begin(), in_bin.begin() + static_cast<std::ptrdiff_t>(k), in_bin.end());
+    return in_bin[k];
+  }
+  const float scale = (kBins - 1) / (hi - lo);
+  auto bin = [&](float x) { return std::clamp(static_cast<int>((x - lo) * scale), 0, kBins - 1); };
+  thread_local std::vector<int> bins;
+  bins.resize(m);
+  {
+    const cv::v_float32x4 vlo = cv::v_setall_f32(lo), vscale = cv::v_setall_f32(scale);
+    const cv::v_int32x4 zero = cv::v_setzero_s32(), top = cv::v_setall_s32(kBins - 1);
+    for (i = 0; i + 4 <= m; i += 4)
+      cv::v_store(bins.data() + i, cv::v_min(cv::v_max(cv::v_trunc((cv::v_load(v.data() + i) - vlo) * vscale), zero), top));
+    for (; i < m; ++i) bins[i] = bin(v[i]);
+  }
+  std::array<std::array<std::size_t, 4>, kBins> counts{};
+  for (i = 0; i + 4 <= m; i += 4) {
+    ++counts[bins[i]][0];
+    ++counts[bins[i + 1]][1];
+    ++counts[bins[i + 2]][2];
+    ++counts[bins[i + 3]][3];
+  }
+  for (; i < m; ++i) ++counts[bins[i]][0];
+  auto count = [&](int b) { return counts[b][0] + counts[b][1] + counts[b][2] + counts[b][3]; };
+  std::size_t below = 0;
+  int b = 0;
+  while (below + count(b) <= k) below += count(b++);
+  // Bins are monotone in the value, so the median is the (k - below)-th of bin b's values.
+  in_bin.clear();
+  for (i = 0; i < m; ++i)
+    if (bins[i] == b) in_bin.push_back(v[i]);
+  std::nth_element(in_bin.begin(), in_bin.begin() + static_cast<std::ptrdiff_t>(k - below), in_bin.end());
+  return in_bin[k - below];
 }
 
 /// Seeds from contours of the thresholded signal (the paper's pipeline).
@@ -298,38 +357,98 @@ std::vector<Detection> peakSeeds(const cv::Mat& smooth, double floor_level, cons
   const int sep = o.separation > 0 ? o.separation : std::max(1, o.refine_radius);
   double level = std::max(o.min_contrast, floor_level);
   if (o.threshold == ThresholdMode::manual) level = std::max(level, o.threshold_value);
-  thread_local cv::Mat dil;
-  // Maxima of the square inscribed in the disc of radius `sep` (a square dilation is
-  // separable and fast); the greedy suppression below then enforces the round distance.
+  // Maxima of the square inscribed in the disc of radius `sep` (clipped to the frame); the
+  // greedy suppression below then enforces the round distance. Only pixels above `level`
+  // (a few percent of the frame) have their square searched: cheaper than a dilation.
   const int half = std::max(1, static_cast<int>(sep / std::sqrt(2.0)));
-  cv::dilate(smooth, dil, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * half + 1, 2 * half + 1)));
   struct Peak {
     int x, y;
     float v;
   };
-  std::vector<Peak> peaks;
+  thread_local std::vector<Peak> peaks;
+  peaks.clear();
+  // v > level in float: v > lf for the largest float lf <= level (exactly the same test).
+  float lf = static_cast<float>(level);
+  if (static_cast<double>(lf) > level) lf = std::nextafter(lf, -std::numeric_limits<float>::infinity());
+  const int cols = smooth.cols;
+  const cv::v_float32x4 vl = cv::v_setall_f32(lf);
   for (int y = 0; y < smooth.rows; ++y) {
     const float* s = smooth.ptr<float>(y);
-    const float* m = dil.ptr<float>(y);
-    for (int x = 0; x < smooth.cols; ++x)
-      if (s[x] > level && s[x] >= m[x]) peaks.push_back({x, y, s[x]});
+    const int y0 = std::max(0, y - half), y1 = std::min(smooth.rows - 1, y + half);
+    // A pixel above the level and not below its row neighbours (few: tested 4 at a time)
+    // has its whole square searched.
+    auto consider = [&](int x) {
+      const float v = s[x];
+      // Column neighbours next (cheap rejections), then the whole square.
+      if ((y > 0 && smooth.ptr<float>(y - 1)[x] > v) || (y + 1 < smooth.rows && smooth.ptr<float>(y + 1)[x] > v)) return;
+      const int x0 = std::max(0, x - half), x1 = std::min(cols - 1, x + half);
+      bool top = true;
+      for (int yy = y0; yy <= y1 && top; ++yy) {
+        const float* q = smooth.ptr<float>(yy);
+        for (int xx = x0; xx <= x1; ++xx) top = top && !(q[xx] > v);
+      }
+      if (top) peaks.push_back({x, y, v});
+    };
+    auto scalar = [&](int x) {
+      if (s[x] > lf && !(x > 0 && s[x - 1] > s[x]) && !(x + 1 < cols && s[x + 1] > s[x])) consider(x);
+    };
+    int x = 0;
+    for (; x < std::min(1, cols); ++x) scalar(x);
+    for (; x + 5 <= cols; x += 4) {
+      if (x % 16 == 0 && x + 17 <= cols &&
+          !cv::v_check_any(cv::v_max(cv::v_max(cv::v_load(s + x), cv::v_load(s + x + 4)), cv::v_max(cv::v_load(s + x + 8), cv::v_load(s + x + 12))) > vl)) {
+        x += 12;  // 16 pixels below the level
+        continue;
+      }
+      const cv::v_float32x4 v = cv::v_load(s + x);
+      int bits = cv::v_signmask((v > vl) & (v >= cv::v_load(s + x - 1)) & (v >= cv::v_load(s + x + 1)));
+      for (int k = 0; bits; ++k, bits >>= 1)
+        if (bits & 1) consider(x + k);
+    }
+    for (; x < cols; ++x) scalar(x);
   }
   // Flat tops give several equal maxima: keep the first of any group closer than `sep`.
   std::sort(peaks.begin(), peaks.end(), [](const Peak& a, const Peak& b) { return a.v > b.v; });
-  thread_local cv::Mat taken;
-  taken.create(smooth.size(), CV_8U);
-  taken.setTo(0);
+  // A peak is taken when it lies in the disc that cv::circle fills around a kept peak
+  // (drawn once here; kept peaks found through a grid of cell `sep`).
+  thread_local cv::Mat stamp;
+  stamp.create(2 * sep + 1, 2 * sep + 1, CV_8U);
+  stamp.setTo(0);
+  cv::circle(stamp, {sep, sep}, sep, cv::Scalar(1), -1);
+  const int gw = smooth.cols / sep + 1, gh = smooth.rows / sep + 1;
+  thread_local std::vector<int> head, chain;
+  thread_local std::vector<Peak> kept;
+  head.assign(static_cast<std::size_t>(gw) * gh, -1);
+  chain.clear();
+  kept.clear();
+  auto taken = [&](const Peak& p) {
+    const int gx = p.x / sep, gy = p.y / sep;
+    for (int cy = std::max(0, gy - 1); cy <= std::min(gh - 1, gy + 1); ++cy)
+      for (int cx = std::max(0, gx - 1); cx <= std::min(gw - 1, gx + 1); ++cx)
+        for (int k = head[cy * gw + cx]; k >= 0; k = chain[k]) {
+          const int dx = p.x - kept[k].x, dy = p.y - kept[k].y;
+          if (std::abs(dx) <= sep && std::abs(dy) <= sep && stamp.at<unsigned char>(dy + sep, dx + sep)) return true;
+        }
+    return false;
+  };
   std::vector<Detection> out;
   for (const auto& p : peaks) {
-    if (taken.at<unsigned char>(p.y, p.x)) continue;
-    cv::circle(taken, {p.x, p.y}, sep, cv::Scalar(1), -1);
+    if (taken(p)) continue;
+    const int cell = (p.y / sep) * gw + p.x / sep;
+    chain.push_back(head[cell]);
+    head[cell] = static_cast<int>(kept.size());
+    kept.push_back(p);
     Detection d;
     d.x = p.x;
     d.y = p.y;
     // Area: pixels within the separation above half the peak (the spot's FWHM area).
-    for (int y = std::max(0, p.y - sep); y <= std::min(smooth.rows - 1, p.y + sep); ++y)
-      for (int x = std::max(0, p.x - sep); x <= std::min(smooth.cols - 1, p.x + sep); ++x)
-        if (smooth.at<float>(y, x) >= 0.5f * p.v) d.area += 1;
+    int area = 0;
+    const int x0 = std::max(0, p.x - sep), x1 = std::min(smooth.cols - 1, p.x + sep);
+    for (int y = std::max(0, p.y - sep); y <= std::min(smooth.rows - 1, p.y + sep); ++y) {
+      const float* row = smooth.ptr<float>(y);
+      for (int x = x0; x <= x1; ++x) area += row[x] >= 0.5f * p.v;
+    }
+    d.area = area;
     if (d.area < o.min_area || d.area > o.max_area) continue;
     out.push_back(d);
   }
@@ -359,32 +478,31 @@ std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, P
   }
   if (o.blur_sigma > 0) cv::GaussianBlur(signal, smooth_buf, cv::Size(0, 0), o.blur_sigma);
   else signal.copyTo(smooth_buf);
-  cv::Mat& smooth = smooth_buf;
   // Noise floor of the smoothed signal from its median absolute deviation (robust to the
   // particles themselves): nothing fainter than min_snr times it counts as a particle.
   double floor_level = 0, noise_std = 0;
   {
     thread_local std::vector<float> v;
     v.clear();
-    const int step = std::max(1, static_cast<int>(smooth.total() / 20000));
-    for (std::size_t i = 0; i < smooth.total(); i += step) v.push_back(smooth.at<float>(static_cast<int>(i)));
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    const double med = v[v.size() / 2];
+    const int step = std::max(1, static_cast<int>(smooth_buf.total() / 20000));
+    const float* all = smooth_buf.ptr<float>();  // continuous: allocated by the blur or the copy
+    v.resize((smooth_buf.total() + step - 1) / step);
+    for (std::size_t i = 0, k = 0; i < smooth_buf.total(); i += step, ++k) v[k] = all[i];
+    const double med = middleElement(v);
     for (auto& x : v) x = static_cast<float>(std::abs(x - med));
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    noise_std = 1.4826 * v[v.size() / 2];
+    noise_std = 1.4826 * middleElement(v);
     if (o.min_snr > 0) floor_level = med + o.min_snr * noise_std;
   }
   // The centroids are taken on the smoothed signal before clipping at zero (its noise
   // averages out); measured on the SNR 4 scene this localises as well as the raw signal
   // and keeps faint spots from jittering between frames.
-  thread_local cv::Mat zero_mean_buf;
-  smooth.copyTo(zero_mean_buf);
-  const cv::Mat& zero_mean = zero_mean_buf;
+  const cv::Mat& zero_mean = smooth_buf;
   // Pixel noise of that smoothed signal, the unit of the split test's residual sums (see
   // deblend): the robust std behind the floor above (the same image, so the same number).
   double noise = noise_std;
-  cv::max(smooth, 0.0, smooth);
+  thread_local cv::Mat clipped_buf;
+  cv::max(smooth_buf, 0.0, clipped_buf);
+  const cv::Mat& smooth = clipped_buf;
   std::vector<Detection> seeds = o.method == SeedMethod::peaks ? peakSeeds(smooth, floor_level, o) : contourSeeds(smooth, floor_level, o);
   DetectOptions refine = o;
   if (o.refine_sigma <= 0 && o.method == SeedMethod::peaks && !seeds.empty()) {
@@ -414,9 +532,13 @@ std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, P
     if (d.peak < o.min_contrast || d.peak < floor_level) continue;
     double mass = 0;
     const int r = o.refine_radius;
-    for (int y = std::max(0, py - r); y <= std::min(signal.rows - 1, py + r); ++y)
-      for (int x = std::max(0, px - r); x <= std::min(signal.cols - 1, px + r); ++x)
-        if ((x - px) * (x - px) + (y - py) * (y - py) <= r * r) mass += smooth.at<float>(y, x);
+    for (int y = std::max(0, py - r); y <= std::min(signal.rows - 1, py + r); ++y) {
+      // The disc's row: |x - px| <= w with w^2 <= r^2 - (y - py)^2.
+      int w = 0;
+      while ((w + 1) * (w + 1) + (y - py) * (y - py) <= r * r) ++w;
+      const float* row = smooth.ptr<float>(y);
+      for (int x = std::max(0, px - w); x <= std::min(signal.cols - 1, px + w); ++x) mass += row[x];
+    }
     d.mass = mass;
     if (d.mass < o.min_mass) continue;
     out.push_back(d);
