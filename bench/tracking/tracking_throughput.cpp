@@ -5,8 +5,10 @@
 //
 //   BM_Pipeline/<scene>/<threads>  whole tracker from PNG files on disk (decode,
 //                                  detection, linking), no background removal
-//   BM_PipelineMemory/<scene>/<threads>  detection + linking of the same frames already
-//                                  decoded in memory (what the target counts)
+//   BM_PipelineMemory/<scene>/<threads>/<deblend>  detection + linking of the same frames
+//                                  already decoded in memory (what the target counts),
+//                                  with the default joint fit of overlapping spots or without
+//                                  it (the work trackpy's locate does)
 //   BM_Detect/<scene>/<deblend>    detection of one in-memory frame, with the joint fit of
 //                                  overlapping spots (the default) or without it
 //   BM_Link/<scene>/<linker>       linking of the scene's detections (0 global, 1 paper)
@@ -152,14 +154,15 @@ std::size_t detectAndLink(const std::vector<cv::Mat>& frames, const TrackConfig&
 
 void BM_PipelineMemory(benchmark::State& state) {
   const std::vector<cv::Mat>& frames = decoded(static_cast<int>(state.range(0)));
-  const TrackConfig c = config(static_cast<int>(state.range(1)));
+  TrackConfig c = config(static_cast<int>(state.range(1)));
+  c.detect.deblend = state.range(2) != 0;  // 0: no joint fit of overlapping spots, like trackpy's locate
   const CvThreads cv_threads(c.threads);
   std::size_t points = 0;
   for (auto _ : state) points = detectAndLink(frames, c);
   state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(frames.size()), benchmark::Counter::kIsIterationInvariantRate);
   state.counters["particles_per_frame"] = frames.empty() ? 0.0 : static_cast<double>(points) / frames.size();
 }
-BENCHMARK(BM_PipelineMemory)->ArgsProduct({{0, 1}, {1, 2}})->ArgNames({"scene", "threads"})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_PipelineMemory)->ArgsProduct({{0, 1}, {1, 2}, {1, 0}})->ArgNames({"scene", "threads", "deblend"})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 const std::vector<std::vector<Detection>>& detections(int which) {
   static std::map<int, std::vector<std::vector<Detection>>> cache;
