@@ -56,6 +56,11 @@ void declareTrackerKeys(Schema& s) {
   s.real("link.search_radius", "Search radius, px per frame").def(8).min(0.1);
   s.integer("link.memory", "Frames a particle may be missed (gap closing)").def(2).min(0).max(100);
   s.real("link.velocity_smoothing", "Weight of the previous velocity in the prediction's exponential filter (0: last step only)").def(0.7).min(0).max(0.95);
+  s.real("link.neighbour_radius",
+         "px: a track too new to have a velocity predicts with the mean velocity of the tracks within this distance (particles in a "
+         "pore flow follow nearby streamlines); 0: no prediction before its second point")
+      .def(0)
+      .min(0);
   s.integer("link.smooth_frames",
             "Half-width, frames, of a quadratic fit along each moving track that refines its positions (localisation error "
             "x 0.70 at 2, x 0.58 at 3); for particles carried by a flow, not for Brownian motion (0: positions as detected)")
@@ -100,6 +105,7 @@ TrackConfig trackerConfig(const Case& c) {
   t.link.search_radius = c.real("link.search_radius");
   t.link.memory = static_cast<int>(c.integer("link.memory"));
   t.link.velocity_smoothing = c.real("link.velocity_smoothing");
+  t.link.neighbour_radius = c.real("link.neighbour_radius");
   t.smooth_frames = static_cast<int>(c.integer("link.smooth_frames"));
   t.analysis.immobile_distance = c.quantity("analysis.immobile_distance");
   t.analysis.stuck_distance = c.quantity("analysis.stuck_distance");

@@ -74,13 +74,50 @@ void TrackLinker::push(int frame, const std::vector<Detection>& dets) {
   m_active.erase(std::remove_if(m_active.begin(), m_active.end(), [&](const Track& t) { return frame - t.last_frame > m_o.memory + 1; }),
                  m_active.end());
   const Grid grid(dets, m_o.search_radius);
+  // Velocities for the prediction: the track's own, or for a track without one the mean of
+  // the tracks with one within neighbour_radius.
+  std::vector<double> pvx(m_active.size(), 0.0), pvy(m_active.size(), 0.0);
+  std::vector<char> predicted(m_active.size(), 0);
+  if (m_o.predict) {
+    std::vector<Detection> moving;
+    std::vector<int> moving_track;
+    for (int ti = 0; ti < static_cast<int>(m_active.size()); ++ti) {
+      const Track& t = m_active[ti];
+      if (!t.has_velocity) continue;
+      pvx[ti] = t.vx;
+      pvy[ti] = t.vy;
+      predicted[ti] = 1;
+      Detection d;
+      d.x = t.x;
+      d.y = t.y;
+      moving.push_back(d);
+      moving_track.push_back(ti);
+    }
+    if (m_o.neighbour_radius > 0 && !moving.empty()) {
+      const Grid neighbours(moving, m_o.neighbour_radius);
+      for (int ti = 0; ti < static_cast<int>(m_active.size()); ++ti) {
+        if (predicted[ti]) continue;
+        double sx = 0, sy = 0;
+        int n = 0;
+        neighbours.near(m_active[ti].x, m_active[ti].y, m_o.neighbour_radius, [&](int k, double) {
+          sx += m_active[moving_track[k]].vx;
+          sy += m_active[moving_track[k]].vy;
+          ++n;
+        });
+        if (n == 0) continue;
+        pvx[ti] = sx / n;
+        pvy[ti] = sy / n;
+        predicted[ti] = 1;
+        ++m_stats.neighbour_predictions;
+      }
+    }
+  }
   std::vector<Candidate> cands;
   for (int ti = 0; ti < static_cast<int>(m_active.size()); ++ti) {
     const Track& t = m_active[ti];
     const int gap = frame - t.last_frame;
-    const double px = t.x + (m_o.predict && t.has_velocity ? t.vx * gap : 0.0);
-    const double py = t.y + (m_o.predict && t.has_velocity ? t.vy * gap : 0.0);
-    const double radius = m_o.search_radius * (m_o.predict && t.has_velocity ? 1.0 : static_cast<double>(gap));
+    const double px = t.x + pvx[ti] * gap, py = t.y + pvy[ti] * gap;
+    const double radius = m_o.search_radius * (predicted[ti] ? 1.0 : static_cast<double>(gap));
     grid.near(px, py, radius, [&](int di, double dist) {
       double cost;
       if (m_o.method == Linker::paper) {

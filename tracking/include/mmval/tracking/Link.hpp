@@ -8,7 +8,9 @@
 //  - global: one optimal assignment per frame (Hungarian method on each
 //    connected component of the sparse candidate graph, with a "no link"
 //    alternative for every track), motion prediction from the track's
-//    velocity, and gap closing over up to `memory` missed frames.
+//    velocity (a track too new to have one borrows the mean velocity of the
+//    tracks around it: in a pore flow, neighbours follow nearby streamlines),
+//    and gap closing over up to `memory` missed frames.
 // Both find candidates through a uniform grid, so dense frames (thousands of
 // particles) cost O(N) candidate searches, not O(N^2).
 #pragma once
@@ -30,6 +32,9 @@ struct LinkOptions {
   /// weight of the previous velocity in the prediction's exponential filter (0: last step only)
   double velocity_smoothing = 0.7;
   int max_component = 400;     ///< larger candidate components fall back to greedy (logged in stats)
+  /// px: a track without a velocity of its own predicts with the mean velocity of the tracks
+  /// that have one within this distance (0: no prediction until its second point)
+  double neighbour_radius = 0.0;
 };
 
 struct LinkedPoint {
@@ -41,6 +46,7 @@ struct LinkedPoint {
 
 struct LinkStats {
   long long links = 0, new_tracks = 0, gap_closures = 0, greedy_components = 0, largest_component = 0;
+  long long neighbour_predictions = 0;  ///< candidate searches of new tracks led by their neighbours' velocity
 };
 
 class TrackLinker {
