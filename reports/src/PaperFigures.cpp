@@ -44,9 +44,11 @@ PermeabilityFigure permeabilityFigure(const ReportInput& input, const fs::path& 
         paper.y.push_back(1 - *ref / 100);
         p.labels.push_back({t.back(), 1 - *ref / 100, fmt::format("case {}: -{:g} %", roman, *ref)});
       }
-      reduction_rows.push_back({name, roman.empty() ? "-" : roman, fmt::format("{:.4g}", t.back()), fmt::format("{:.4f}", final_ratio),
-                                fmt::format("{:.2f} %", 100 * (1 - final_ratio)), ref ? fmt::format("{:g} %", *ref) : "-",
-                                ref ? fmt::format("{:+.2f} points", 100 * (1 - final_ratio) - *ref) : "-"});
+      std::vector<std::string> row{name, roman.empty() ? "-" : roman, fmt::format("{:.4g}", t.back()), fmt::format("{:.4f}", final_ratio),
+                                   fmt::format("{:.2f} %", 100 * (1 - final_ratio)), ref ? fmt::format("{:g} %", *ref) : "-",
+                                   ref ? fmt::format("{:+.2f} points", 100 * (1 - final_ratio) - *ref) : "-"};
+      for (auto& cell : table3TimeColumns(r)) row.push_back(std::move(cell));
+      reduction_rows.push_back(row);
       nlohmann::json m{{"case", name}, {"name", "permeability_reduction"}, {"value", 100 * (1 - final_ratio)}, {"unit", "%"},
                        {"reference", ref ? nlohmann::json(*ref) : nlohmann::json(nullptr)}, {"error", ref ? nlohmann::json(100 * (1 - final_ratio) - *ref) : nlohmann::json(nullptr)},
                        {"error_kind", "absolute"}, {"tolerance", nullptr}, {"pass", nullptr},

@@ -238,10 +238,11 @@ int writeReport(const ReportInput& input, const fs::path& out) {
     t.id = "table3";
     t.title = "Permeability reduction (the paper's Table 3 cases)";
     t.note = "Runs that wrote permeability.csv; the paper's value when the run name names a Table 3 case (case-I ... case-V).";
-    t.header = {"run", "Table 3 case", "t end (s)", "k/k0 at end", "reduction", "paper", "difference"};
+    t.header = {"run", "Table 3 case", "t end (s)", "k/k0 at end", "reduction", "paper", "difference", "first 10 % loss (s)", "clogged (s)"};
     t.rows = reduction_rows;
     tables.push_back(t);
   }
+  if (auto t = table3TrendsTable(input, refdir)) tables.push_back(*t);
   for (const auto& c : input.comparisons) {
     if (!c.metrics.contains("regions")) continue;
     const auto& g = c.metrics["regions"];

@@ -195,6 +195,61 @@ std::optional<Table> chipTable(const ReportInput& input, const fs::path& dir) {
   return t;
 }
 
+std::vector<std::string> table3TimeColumns(const nlohmann::json& run) {
+  const auto t10 = metricValue(run, "time_to_10pct_reduction"), tc = metricValue(run, "time_to_clogging");
+  return {t10 ? num(*t10, 4) : "-", tc ? num(*tc, 4) : "-"};
+}
+
+std::optional<Table> table3TrendsTable(const ReportInput& input, const fs::path& dir) {
+  struct Case {
+    double reduction = NAN, t10 = NAN;
+  };
+  std::map<std::string, Case> ours;
+  for (const auto& r : input.summary.results) {
+    const std::string roman = table3CaseOf(r["case"]["name"].get<std::string>(), r.value("details", nlohmann::json::object()));
+    const auto red = metricValue(r, "permeability_reduction");
+    if (roman.empty() || !red) continue;
+    const auto t10 = metricValue(r, "time_to_10pct_reduction");
+    ours[roman] = {*red, t10 ? *t10 : INFINITY};  // result.json holds metrics in their display unit (%)
+  }
+  const auto have = [&](std::initializer_list<const char*> keys) {
+    for (const char* k : keys)
+      if (!ours.count(k)) return false;
+    return true;
+  };
+  const auto pct = [](double v) { return fmt::format("{:.3g} %", v); };
+  const auto sec = [](double v) { return std::isfinite(v) ? fmt::format("{:.3g} s", v) : std::string("never"); };
+  const auto paper = [&](const AtMap& at) { return reference(dir, "fines-cases-table3.toml", "permeability_reduction", at); };
+  Table t;
+  t.id = "table3-trends";
+  t.title = "The paper's Table 3 trends, checked on our runs";
+  t.note = "Reductions are 1 - k/k0 at the end of each run. The paper's particle-size results (Fig. 19) are at 0.24 cm/min; Table 3 lists the "
+           "5 um-only (IV) and 10 um-only (V) cases at 0.024 cm/min, which is what our cases run.";
+  t.header = {"trend", "paper", "ours", "ours follow"};
+  if (have({"I", "II", "III"})) {
+    const auto p1 = table3Reduction(dir, "I"), p2 = table3Reduction(dir, "II"), p3 = table3Reduction(dir, "III");
+    const Case &a = ours["I"], &b = ours["II"], &c = ours["III"];
+    t.rows.push_back({"more reduction at higher velocity: I (0.024) < II (0.048) < III (0.24 cm/min)",
+                      p1 && p2 && p3 ? pct(*p1) + " < " + pct(*p2) + " < " + pct(*p3) : "-", pct(a.reduction) + " / " + pct(b.reduction) + " / " + pct(c.reduction),
+                      a.reduction < b.reduction && b.reduction < c.reduction ? "yes" : "no"});
+    t.rows.push_back({"bridging sooner at higher velocity: time to the first 10 % loss, I > II > III", "Fig. 18 (curves)",
+                      sec(a.t10) + " / " + sec(b.t10) + " / " + sec(c.t10), a.t10 > b.t10 && b.t10 > c.t10 ? "yes" : "no"});
+  }
+  if (have({"IV", "V"})) {
+    const auto p4 = paper({{"fines", std::string("5 um only")}}), p5 = paper({{"fines", std::string("10 um only")}});
+    t.rows.push_back({"larger particles reduce more: 5 um only (IV) < 10 um only (V)", p4 && p5 ? pct(*p4) + " < " + pct(*p5) : "-",
+                      pct(ours["IV"].reduction) + " / " + pct(ours["V"].reduction), ours["IV"].reduction < ours["V"].reduction ? "yes" : "no"});
+    if (ours.count("I")) {
+      const auto p3 = table3Reduction(dir, "III");
+      t.rows.push_back({"polydisperse reduces most at one velocity: I >= IV and V", p3 && p4 && p5 ? pct(*p3) + " vs " + pct(*p4) + ", " + pct(*p5) : "-",
+                        pct(ours["I"].reduction) + " vs " + pct(ours["IV"].reduction) + ", " + pct(ours["V"].reduction),
+                        ours["I"].reduction >= ours["IV"].reduction && ours["I"].reduction >= ours["V"].reduction ? "yes" : "no"});
+    }
+  }
+  if (t.rows.empty()) return std::nullopt;
+  return t;
+}
+
 std::optional<Table> engineComparisonTable(const ReportInput& input) {
   Table t;
   t.id = "engines";

@@ -197,6 +197,32 @@ TEST(Report, Table3CaseFromTheRunName) {
   EXPECT_FALSE(table3Reduction(ref, "IV").has_value());  // the paper gives no case label for its 5 um-only result
 }
 
+TEST(Report, Table3TrendsAgainstThePaper) {
+  // Five Table 3 runs: velocity trend broken (I reduces more than II), the rest followed.
+  const fs::path dir = fs::path(MMVAL_BINARY_DIR) / "test-output" / "report-trends";
+  fs::remove_all(dir);
+  const std::vector<std::tuple<std::string, double, double>> runs{
+      {"particles-table3-i", 30.0, 40.0}, {"particles-table3-ii", 20.0, 30.0}, {"particles-table3-iii", 25.0, 5.0}, {"particles-table3-iv", 2.0, -1.0},
+      {"particles-table3-v", 10.0, 50.0}};
+  for (const auto& [name, red, t10] : runs) {
+    nlohmann::json m = nlohmann::json::array({info("permeability_reduction", red, "%")});
+    if (t10 > 0) m.push_back(info("time_to_10pct_reduction", t10, "s"));
+    fakeRun(dir / "runs" / name, name, "particles-micromodel", m);
+  }
+  const ReportInput input = collect({dir});
+  const auto t = table3TrendsTable(input, fs::path(MMVAL_SOURCE_DIR) / "reference-data");
+  ASSERT_TRUE(t.has_value());
+  ASSERT_EQ(t->rows.size(), 4u);
+  EXPECT_EQ(t->rows[0][1], "3.2 % < 5.9 % < 23.2 %");  // the paper's Fig. 18 reductions
+  EXPECT_EQ(t->rows[0][2], "30 % / 20 % / 25 %");
+  EXPECT_EQ(t->rows[0][3], "no");
+  EXPECT_EQ(t->rows[1][2], "40 s / 30 s / 5 s");
+  EXPECT_EQ(t->rows[1][3], "yes");
+  EXPECT_EQ(t->rows[2][1], "20 % < 22.5 %");  // Fig. 19, 5 um only and 10 um only
+  EXPECT_EQ(t->rows[2][3], "yes");
+  EXPECT_EQ(t->rows[3][3], "yes");  // I (30 %) above IV (2 %) and V (10 %)
+}
+
 TEST(Report, NoTablesWithoutTheirRuns) {
   // Only an experiment-vs-simulation comparison: no paper tables, no permeability or retention-from-runs figure.
   const fs::path dir = fs::path(MMVAL_BINARY_DIR) / "test-output" / "report-bare";

@@ -45,6 +45,17 @@ std::optional<Table> cylinderDragTable(const ReportInput& input, const std::file
 /// with every image-permeability run present.
 std::optional<Table> chipTable(const ReportInput& input, const std::filesystem::path& reference_dir);
 
+/// The paper's Table 3 trends checked on the Table 3 runs present (cases named I..V):
+/// more reduction at higher velocity (I < II < III), bridging sooner at higher velocity
+/// (time to the first 10 % loss), larger particles reducing more (IV < V), polydisperse
+/// reducing most at one velocity (I against IV and V); the paper's numbers beside ours
+/// and whether ours follow. None when fewer than two cases of a trend ran.
+std::optional<Table> table3TrendsTable(const ReportInput& input, const std::filesystem::path& reference_dir);
+
+/// Extra columns of a Table 3 row from a run's metrics: time to the first 10 %
+/// permeability loss and time to clogging (k = 0), in s, "-" when it never happened.
+std::vector<std::string> table3TimeColumns(const nlohmann::json& run);
+
 /// The cheaper particle model against LIGGGHTS on a scene's shared window: one row
 /// per entry of a run's details.engine_comparison (EngineComparison::toJson plus a
 /// "candidate" label); none: no table.
