@@ -207,22 +207,7 @@ struct CoupledSystem::Impl {
     check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_USER, Sp), "schur pre user");
   }
 
-  void gather(const FlowOperator& op, std::vector<double>& state) {
-    VecScatter sc;
-    Vec all;
-    check(VecScatterCreateToAll(x, &sc, &all), "scatter");
-    check(VecScatterBegin(sc, x, all, INSERT_VALUES, SCATTER_FORWARD), "scatter");
-    check(VecScatterEnd(sc, x, all, INSERT_VALUES, SCATTER_FORWARD), "scatter");
-    const PetscScalar* a = nullptr;
-    VecGetArrayRead(all, &a);
-    bool finite = true;
-    for (PetscInt k = 0; k < op.unknowns(); ++k) finite = finite && std::isfinite(a[k]);
-    if (finite) state.assign(a, a + op.unknowns());
-    VecRestoreArrayRead(all, &a);
-    VecScatterDestroy(&sc);
-    VecDestroy(&all);
-    if (!finite) throw std::runtime_error("the fluid solution is not finite (NaN or Inf)");
-  }
+  void gather(const FlowOperator& op, std::vector<double>& state) { detail::gatherToAll(x, op.unknowns(), state, "the fluid solution"); }
 };
 
 CoupledSystem::CoupledSystem(const FlowOperator& op, const SolverOptions& options, MPI_Comm comm) : m(std::make_unique<Impl>()) {

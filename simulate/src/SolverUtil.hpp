@@ -1,17 +1,41 @@
 // Small pieces shared by the PETSc-based solvers and the case kinds: PETSc error
-// codes as exceptions, and wall-clock seconds since a time point.
+// codes as exceptions, a distributed solution gathered on every rank, and
+// wall-clock seconds since a time point.
 #pragma once
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include <fmt/format.h>
-#include <petscsys.h>
+#include <petscvec.h>
 
 namespace mmval::simulate::detail {
 
 /// Throws std::runtime_error naming the PETSc call when `ierr` is not 0.
 inline void check(PetscErrorCode ierr, const char* what) {
   if (ierr != 0) throw std::runtime_error(fmt::format("PETSc error {} in {}", static_cast<int>(ierr), what));
+}
+
+/// The first `n` entries of the distributed vector `v`, on every rank, into `out`.
+/// Throws std::runtime_error naming `what` (and leaves `out` as it was) when any is
+/// not finite.
+inline void gatherToAll(Vec v, long long n, std::vector<double>& out, const std::string& what) {
+  VecScatter sc;
+  Vec all;
+  check(VecScatterCreateToAll(v, &sc, &all), "scatter");
+  check(VecScatterBegin(sc, v, all, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+  check(VecScatterEnd(sc, v, all, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+  const PetscScalar* a = nullptr;
+  VecGetArrayRead(all, &a);
+  bool finite = true;
+  for (long long k = 0; k < n; ++k) finite = finite && std::isfinite(a[k]);
+  if (finite) out.assign(a, a + n);
+  VecRestoreArrayRead(all, &a);
+  VecScatterDestroy(&sc);
+  VecDestroy(&all);
+  if (!finite) throw std::runtime_error(what + " is not finite (NaN or Inf)");
 }
 
 inline double secondsSince(std::chrono::steady_clock::time_point t0) {

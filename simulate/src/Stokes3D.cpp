@@ -336,22 +336,7 @@ struct Stokes3DSolver::Impl {
     cleanup();
   }
 
-  void gather(Vec xs) {
-    VecScatter sc;
-    Vec all;
-    check(VecScatterCreateToAll(xs, &sc, &all), "scatter");
-    check(VecScatterBegin(sc, xs, all, INSERT_VALUES, SCATTER_FORWARD), "scatter");
-    check(VecScatterEnd(sc, xs, all, INSERT_VALUES, SCATTER_FORWARD), "scatter");
-    const PetscScalar* a = nullptr;
-    VecGetArrayRead(all, &a);
-    bool finite = true;
-    for (int k = 0; k < n_all; ++k) finite = finite && std::isfinite(a[k]);
-    if (finite) x.assign(a, a + n_all);
-    VecRestoreArrayRead(all, &a);
-    VecScatterDestroy(&sc);
-    VecDestroy(&all);
-    if (!finite) throw std::runtime_error("the 3D Stokes solution is not finite (NaN or Inf)");
-  }
+  void gather(Vec xs) { detail::gatherToAll(xs, n_all, x, "the 3D Stokes solution"); }
 
   double nodeValue(int d, const Index3& a) const {
     for (int b = 0; b < 3; ++b)
