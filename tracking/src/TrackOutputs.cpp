@@ -1,0 +1,162 @@
+#include "mmval/tracking/Pipeline.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include <fmt/format.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "mmval/core/AtomicFile.hpp"
+#include "mmval/tracking/TrackImages.hpp"
+
+namespace mmval::tracking {
+
+std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfig& c, const std::filesystem::path& dir,
+                                           const nlohmann::json& extra) {
+  std::filesystem::create_directories(dir);
+  std::vector<std::string> files;
+  auto put = [&](const std::string& name, const std::string& text) {
+    writeFileAtomic(dir / name, text);
+    files.push_back(name);
+  };
+  std::string det = "frame,t_s,x_px,y_px,x_um,y_um,area_px2,mass,peak\n";
+  for (std::size_t k = 0; k < run.detections.size(); ++k)
+    for (const auto& d : run.detections[k])
+      det += fmt::format("{},{:.6g},{:.4f},{:.4f},{:.4f},{:.4f},{:.1f},{:.4g},{:.4g}\n", run.frame_index[k], run.frame_index[k] / c.fps, d.x, d.y,
+                         d.x * c.pixel_size * 1e6, d.y * c.pixel_size * 1e6, d.area, d.mass, d.peak);
+  put("detections.csv", det);
+  // Resting ends labelled (idempotent: runTracker has done it), so that every reader of
+  // tracks.csv (compare) sees where a deposited particle stopped.
+  Tracks labelled = run.tracks;
+  markDeposits(labelled, c.analysis);
+  const TrackStats s = analyseTracks(labelled, c.analysis);
+  {
+    // state per point: the track's state, except that a deposited track is "mobile" up to
+    // where it stopped and "deposited" from there on (and a mobile one "deposited" where it rested).
+    std::map<std::int64_t, std::string> state;
+    for (const auto& t : s.tracks) state[t.particle] = t.state;
+    for (auto& p : labelled.points) {
+      const std::string& track = state[p.particle];
+      // A mobile track keeps the "deposited" labels of stretches where it rested mid-track
+      // (markDeposits), so that readers of tracks.csv leave those steps out too.
+      p.state = track != "deposited" && track != "mobile" ? track : (p.state == "deposited" ? "deposited" : "mobile");
+    }
+    writeTracksCsv(dir / "tracks.csv", labelled, c.pixel_size);
+    files.push_back("tracks.csv");
+  }
+  std::string summ = "particle,points,duration_s,mean_speed_um_per_s,path_length_um,net_displacement_um,straightness,state\n";
+  for (const auto& t : s.tracks)
+    summ += fmt::format("{},{},{:.6g},{:.5g},{:.5g},{:.5g},{:.4f},{}\n", t.particle, t.points, t.duration, t.mean_speed * 1e6, t.path_length * 1e6,
+                        t.net_displacement * 1e6, t.straightness, t.state);
+  put("track_summary.csv", summ);
+  std::string vel = "particle,t_s,x_um,y_um,vx_um_per_s,vy_um_per_s,speed_um_per_s\n";
+  for (const auto& st : s.steps)
+    vel += fmt::format("{},{:.6g},{:.4f},{:.4f},{:.5g},{:.5g},{:.5g}\n", st.particle, st.t, st.x * 1e6, st.y * 1e6, st.vx * 1e6, st.vy * 1e6,
+                       st.speed * 1e6);
+  put("velocities.csv", vel);
+  std::string disp = "frame,t_s,count,mean_x_um,mean_y_um,sigma_x_um,sigma_y_um\n";
+  for (const auto& f : s.frames)
+    disp += fmt::format("{},{:.6g},{},{:.5g},{:.5g},{:.5g},{:.5g}\n", f.frame, f.t, f.count, f.mean_x * 1e6, f.mean_y * 1e6, f.sigma_x * 1e6,
+                        f.sigma_y * 1e6);
+  put("dispersion.csv", disp);
+  std::string msd = "lag_s,msd_um2,samples\n";
+  for (std::size_t i = 0; i < s.msd.lag.size(); ++i) msd += fmt::format("{:.6g},{:.6g},{}\n", s.msd.lag[i], s.msd.msd[i] * 1e12, s.msd.samples[i]);
+  put("msd.csv", msd);
+  std::string speed = "t_s,mean_speed_um_per_s,median_speed_um_per_s,sigma_x_um,sigma_y_um,steps\n";
+  for (std::size_t i = 0; i < s.series.t.size(); ++i)
+    speed += fmt::format("{:.6g},{:.5g},{:.5g},{:.5g},{:.5g},{}\n", s.series.t[i], s.series.mean_speed[i] * 1e6, s.series.median_speed[i] * 1e6,
+                         s.series.sigma_x[i] * 1e6, s.series.sigma_y[i] * 1e6, s.series.count[i]);
+  put("speed_time.csv", speed);
+  // Deposited over time: mobile particles whose track has ended in a stop by time t.
+  std::string ret = "quantity,value\n";
+  ret += fmt::format("particles,{}\nimmobile,{}\nmobile,{}\nentered,{}\nretained,{}\nretained_fraction,{:.5g}\n", s.particles, s.immobile, s.mobile,
+                     s.entered, s.retained, s.retained_fraction);
+  put("retention.csv", ret);
+  {
+    // Deposited over time: a deposited particle counts from the time it stopped for good.
+    std::vector<double> stop_times;
+    for (const auto& t : s.tracks)
+      if (t.state == "deposited" && std::isfinite(t.stop_time)) stop_times.push_back(t.stop_time);
+    std::sort(stop_times.begin(), stop_times.end());
+    std::string rt = "frame,t_s,deposited\n";
+    std::size_t n = 0;
+    for (int f : run.frame_index) {
+      const double t = f / c.fps;
+      while (n < stop_times.size() && stop_times[n] <= t + 1e-12) ++n;
+      rt += fmt::format("{},{:.6g},{}\n", f, t, n);
+    }
+    put("retention_time.csv", rt);
+  }
+  // Streamline composite: every position of every frame, over the background.
+  if (!run.detections.empty()) {
+    cv::Mat base;
+    if (!run.background.empty()) {
+      run.background.convertTo(base, CV_8U, 255.0);
+    } else {
+      int w = 1, h = 1;
+      for (const auto& p : run.tracks.points) {
+        w = std::max(w, static_cast<int>(p.x_px) + 2);
+        h = std::max(h, static_cast<int>(p.y_px) + 2);
+      }
+      base = cv::Mat(h, w, CV_8U, cv::Scalar(255));
+    }
+    cv::Mat img;
+    cv::cvtColor(base, img, cv::COLOR_GRAY2BGR);
+    img = img * 0.6;
+    for (std::size_t i = 1; i < run.tracks.points.size(); ++i) {
+      const auto& a = run.tracks.points[i - 1];
+      const auto& b = run.tracks.points[i];
+      if (a.particle != b.particle) continue;
+      const cv::Scalar colour((a.particle * 67) % 200 + 55, (a.particle * 131) % 200 + 55, (a.particle * 29) % 200 + 55);
+      cv::line(img, cv::Point2d(a.x_px, a.y_px), cv::Point2d(b.x_px, b.y_px), colour, 1, cv::LINE_AA);
+    }
+    const auto png = [&](const std::string& name, const cv::Mat& m) {
+      const auto t = temporaryPathFor(dir / name);
+      cv::imwrite(t.string(), m);
+      commitTemporary(t, dir / name);
+      files.push_back(name);
+    };
+    png("streamlines.png", img);
+    // Steps coloured by speed, and the mean speed binned on the pore space (bins of
+    // about two particle diameters).
+    png("velocity_overlay.png", velocityOverlay(base, s, c.pixel_size, 1.0 / c.fps));
+    png("speed_map.png", speedMap(base, s, c.pixel_size, std::max(4, 2 * c.detect.refine_radius)));
+  }
+  nlohmann::json summary = extra;
+  summary["frames"] = run.frame_index.size();
+  summary["tracks"] = s.particles;
+  summary["immobile"] = s.immobile;
+  summary["retained"] = s.retained;
+  summary["entered"] = s.entered;
+  summary["retained_fraction"] = s.retained_fraction;
+  summary["mean_speed_um_per_s"] = s.mean_speed * 1e6;
+  summary["median_speed_um_per_s"] = s.median_speed * 1e6;
+  summary["polarity"] = run.polarity == Polarity::dark ? "dark" : "bright";
+  summary["links"] = run.link.links;
+  summary["gap_closures"] = run.link.gap_closures;
+  summary["largest_component"] = run.link.largest_component;
+  summary["greedy_components"] = run.link.greedy_components;
+  summary["msd_exponent"] = s.msd.alpha;
+  summary["msd_D_power_um2_per_s"] = s.msd.d_power * 1e12;
+  summary["msd_D_linear_um2_per_s"] = s.msd.d_linear * 1e12;
+  summary["parameters"] = {{"pixel_size_um", c.pixel_size * 1e6}, {"fps", c.fps}, {"blur_sigma", c.detect.blur_sigma},
+                           {"subtract_background", c.detect.subtract_background}, {"search_radius_px", c.link.search_radius},
+                           {"memory", c.link.memory}, {"linker", c.link.method == Linker::global ? "global" : "paper"},
+                           {"seeds", c.detect.method == SeedMethod::peaks ? "peaks" : "contours"}, {"threads", c.threads},
+                           {"smooth_frames", c.smooth_frames}, {"background_quantile", c.background_quantile},
+                           {"background_window", c.background_window}};
+  summary["stuck_found_in_background"] = run.stuck_found;
+  summary["deposits_joined_from_background"] = run.deposits_joined;
+  summary["deposits_not_joined"] = run.deposits_unjoined;
+  summary["cluster_arrivals"] = run.cluster_arrivals;
+  summary["deposits_found_by_reference_frames"] = run.deposits_by_reference;
+  summary["smoothed_points"] = run.smoothed_points;
+  summary["seconds"] = run.seconds;
+  summary["frames_per_second"] = run.seconds > 0 ? run.frame_index.size() / run.seconds : 0.0;
+  put("summary.json", summary.dump(2) + "\n");
+  return files;
+}
+
+}  // namespace mmval::tracking
