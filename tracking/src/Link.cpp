@@ -79,21 +79,24 @@ void TrackLinker::push(int frame, const std::vector<Detection>& dets) {
   std::vector<double> pvx(m_active.size(), 0.0), pvy(m_active.size(), 0.0);
   std::vector<char> predicted(m_active.size(), 0);
   if (m_o.predict) {
-    std::vector<Detection> moving;
-    std::vector<int> moving_track;
     for (int ti = 0; ti < static_cast<int>(m_active.size()); ++ti) {
       const Track& t = m_active[ti];
       if (!t.has_velocity) continue;
       pvx[ti] = t.vx;
       pvy[ti] = t.vy;
       predicted[ti] = 1;
-      Detection d;
-      d.x = t.x;
-      d.y = t.y;
-      moving.push_back(d);
-      moving_track.push_back(ti);
     }
-    if (m_o.neighbour_radius > 0 && !moving.empty()) {
+    if (m_o.neighbour_radius > 0) {
+      std::vector<Detection> moving;  // positions of the tracks with a velocity, for the radius search
+      std::vector<int> moving_track;
+      for (int ti = 0; ti < static_cast<int>(m_active.size()); ++ti) {
+        if (!m_active[ti].has_velocity) continue;
+        Detection d;
+        d.x = m_active[ti].x;
+        d.y = m_active[ti].y;
+        moving.push_back(d);
+        moving_track.push_back(ti);
+      }
       const Grid neighbours(moving, m_o.neighbour_radius);
       for (int ti = 0; ti < static_cast<int>(m_active.size()); ++ti) {
         if (predicted[ti]) continue;
