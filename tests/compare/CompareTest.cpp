@@ -8,21 +8,13 @@
 
 #include "mmval/compare/Compare.hpp"
 #include "mmval/tracking/Statistics.hpp"
+#include "TrackPoints.hpp"
 #include "mmval/core/Error.hpp"
 
 namespace mmval::compare {
 namespace {
 
-/// A track point without the optional columns.
-TrackPoint pt(std::int64_t frame, std::int64_t particle, double t, double x, double y) {
-  TrackPoint q;
-  q.frame = frame;
-  q.particle = particle;
-  q.t = t;
-  q.x = x;
-  q.y = y;
-  return q;
-}
+using test_support::pt;
 
 using namespace mmval::tracking;
 

@@ -9,21 +9,13 @@
 
 #include "mmval/compare/Compare.hpp"
 #include "mmval/compare/Regions.hpp"
+#include "TrackPoints.hpp"
 #include "mmval/core/Error.hpp"
 
 namespace mmval::compare {
 namespace {
 
-/// A track point without the optional columns.
-TrackPoint pt(std::int64_t frame, std::int64_t particle, double t, double x, double y) {
-  TrackPoint q;
-  q.frame = frame;
-  q.particle = particle;
-  q.t = t;
-  q.x = x;
-  q.y = y;
-  return q;
-}
+using test_support::pt;
 
 /// 400 x 120 px at 2 um: three 60 x 60 px chambers joined by 10 px high
 /// channels on the mid-line (rows 55-64), open to the left and right edges.

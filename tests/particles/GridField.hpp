@@ -9,7 +9,7 @@
 
 #include "mmval/particles/FlowField.hpp"
 
-namespace mmval::particles::testing {
+namespace mmval::particles::test_support {
 
 inline std::shared_ptr<GriddedFlow> gridField(int nx, int ny, double ux, double depth, const std::function<bool(int, int)>& solid) {
   auto g = std::make_shared<GriddedFlow>(nx, ny, 0, 0, 10e-6, 10e-6);
@@ -27,4 +27,4 @@ inline std::shared_ptr<GriddedFlow> gridField(int nx, int ny, double ux, double 
   return g;
 }
 
-}  // namespace mmval::particles::testing
+}  // namespace mmval::particles::test_support

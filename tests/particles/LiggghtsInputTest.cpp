@@ -72,7 +72,7 @@ TEST(LiggghtsInput, BadValuesAreInputErrorsBeforeAnyCommand) {
 
 /// A field of nx x ny nodes 10 um apart, at rest, 20 um deep, solid at the listed nodes.
 GriddedFlow gridWith(int nx, int ny, const std::vector<std::pair<int, int>>& solid_nodes) {
-  return *testing::gridField(nx, ny, 0.0, 20e-6, [&](int i, int j) { return std::find(solid_nodes.begin(), solid_nodes.end(), std::pair{i, j}) != solid_nodes.end(); });
+  return *test_support::gridField(nx, ny, 0.0, 20e-6, [&](int i, int j) { return std::find(solid_nodes.begin(), solid_nodes.end(), std::pair{i, j}) != solid_nodes.end(); });
 }
 
 /// Total area of the triangles of an ASCII STL and the largest edge ratio of one triangle.

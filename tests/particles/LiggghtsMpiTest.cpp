@@ -47,7 +47,7 @@ std::vector<ParticleState> runChannel(bool world) {
 std::vector<ParticleState> runGrains(bool world) {
   // A 40 x 12 node field 10 um apart, uniform flow along x, a 4 x 4 node grain in the middle
   // straddling the subdomain boundary; particles released upstream of it.
-  auto flow = testing::gridField(40, 12, 7e-4, 20e-6, [](int i, int j) { return i >= 18 && i < 22 && j >= 4 && j < 8; });
+  auto flow = test_support::gridField(40, 12, 7e-4, 20e-6, [](int i, int j) { return i >= 18 && i < 22 && j >= 4 && j < 8; });
   SceneConfig c = sceneConfig("grains", world);
   c.gravity = 0;                      // stay at their heights: carried into the grain
   c.attachment.capture_distance = 0;  // nothing sticks: the mesh wall alone stops them

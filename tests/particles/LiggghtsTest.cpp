@@ -129,7 +129,7 @@ TEST(Liggghts, TimeStepFollowsTheFastestParticle) {
 // rule differ by ~0.7 um whatever the step; on the micromodel's Stokes flow the error
 // falls with the step: cases/particles-micromodel-engines.toml.)
 TEST(EngineComparison, SceneWindowRunsLiggghtsOnceForEveryStepSetting) {
-  auto flow = testing::gridField(40, 16, 5e-4, 20e-6, [](int i, int j) { return i >= 20 && i < 24 && j >= 6 && j < 10; });
+  auto flow = test_support::gridField(40, 16, 5e-4, 20e-6, [](int i, int j) { return i >= 20 && i < 24 && j >= 6 && j < 10; });
   SceneConfig c = quietScene("scene-window");
   c.gravity = 9.81;
   c.particle.youngs_modulus = 1e5;
@@ -162,7 +162,7 @@ TEST(EngineComparison, SceneWindowRunsLiggghtsOnceForEveryStepSetting) {
 // coefficient of restitution (LIGGGHTS derives the Hertz damping from it).
 TEST(Liggghts, SphereBouncesOffAGridGrainWithItsRestitution) {
   const double dx = 10e-6, h = 20e-6;
-  auto flow = testing::gridField(30, 12, 0.0, h, [](int i, int) { return i >= 22; });
+  auto flow = test_support::gridField(30, 12, 0.0, h, [](int i, int) { return i >= 22; });
   SceneConfig c = quietScene("grain-bounce");
   c.fluid.viscosity = 1e-12;
   LiggghtsEngine e(flow, c);
