@@ -5,62 +5,14 @@
 #include <numeric>
 #include <unordered_map>
 
+#include "DetectionGrid.hpp"
 #include "mmval/tracking/Assignment.hpp"
 
 namespace mmval::tracking {
 
+using detail::DetectionGrid;
+
 namespace {
-
-/// Uniform grid over detections for radius queries: cells over the detections' bounding
-/// box, filled by a counting sort into one flat array (no per-cell allocations).
-class Grid {
- public:
-  Grid(const std::vector<Detection>& d, double cell) : m_d(d), m_cell(std::max(cell, 1e-9)) {
-    if (d.empty()) return;
-    double x0 = d[0].x, y0 = d[0].y, x1 = x0, y1 = y0;
-    for (const auto& p : d) {
-      x0 = std::min(x0, p.x);
-      y0 = std::min(y0, p.y);
-      x1 = std::max(x1, p.x);
-      y1 = std::max(y1, p.y);
-    }
-    m_x0 = x0;
-    m_y0 = y0;
-    m_w = static_cast<long>((x1 - x0) / m_cell) + 1;
-    m_h = static_cast<long>((y1 - y0) / m_cell) + 1;
-    m_start.assign(static_cast<std::size_t>(m_w * m_h + 1), 0);
-    std::vector<long> c(d.size());
-    for (std::size_t i = 0; i < d.size(); ++i) {
-      c[i] = cy(d[i].y) * m_w + cx(d[i].x);
-      ++m_start[c[i] + 1];
-    }
-    for (std::size_t k = 1; k < m_start.size(); ++k) m_start[k] += m_start[k - 1];
-    m_items.resize(d.size());
-    std::vector<int> fill(m_start.begin(), m_start.end() - 1);
-    for (std::size_t i = 0; i < d.size(); ++i) m_items[fill[c[i]]++] = static_cast<int>(i);
-  }
-  template <class F>
-  void near(double x, double y, double r, F&& f) const {
-    if (m_d.empty()) return;
-    const long gx0 = std::max(0L, cx(x - r)), gx1 = std::min(m_w - 1, cx(x + r));
-    const long gy0 = std::max(0L, cy(y - r)), gy1 = std::min(m_h - 1, cy(y + r));
-    for (long gy = gy0; gy <= gy1; ++gy)
-      for (long gx = gx0; gx <= gx1; ++gx)
-        for (int k = m_start[gy * m_w + gx]; k < m_start[gy * m_w + gx + 1]; ++k) {
-          const int i = m_items[k];
-          const double dx = m_d[i].x - x, dy = m_d[i].y - y;
-          if (dx * dx + dy * dy <= r * r) f(i, std::sqrt(dx * dx + dy * dy));
-        }
-  }
-
- private:
-  long cx(double v) const { return std::clamp(static_cast<long>(std::floor((v - m_x0) / m_cell)), -1L, m_w); }
-  long cy(double v) const { return std::clamp(static_cast<long>(std::floor((v - m_y0) / m_cell)), -1L, m_h); }
-  const std::vector<Detection>& m_d;
-  double m_cell, m_x0 = 0, m_y0 = 0;
-  long m_w = 0, m_h = 0;
-  std::vector<int> m_start, m_items;
-};
 
 struct Candidate {
   int track, det;
@@ -73,7 +25,7 @@ void TrackLinker::push(int frame, const std::vector<Detection>& dets) {
   // Forget tracks beyond memory.
   m_active.erase(std::remove_if(m_active.begin(), m_active.end(), [&](const Track& t) { return frame - t.last_frame > m_o.memory + 1; }),
                  m_active.end());
-  const Grid grid(dets, m_o.search_radius);
+  const DetectionGrid grid(dets, m_o.search_radius);
   // Velocities for the prediction: the track's own, or for a track without one the mean of
   // the tracks with one within neighbour_radius.
   std::vector<double> pvx(m_active.size(), 0.0), pvy(m_active.size(), 0.0);
@@ -97,7 +49,7 @@ void TrackLinker::push(int frame, const std::vector<Detection>& dets) {
         moving.push_back(d);
         moving_track.push_back(ti);
       }
-      const Grid neighbours(moving, m_o.neighbour_radius);
+      const DetectionGrid neighbours(moving, m_o.neighbour_radius);
       for (int ti = 0; ti < static_cast<int>(m_active.size()); ++ti) {
         if (predicted[ti]) continue;
         double sx = 0, sy = 0;

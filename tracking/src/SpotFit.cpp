@@ -8,6 +8,8 @@
 #include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "DetectionGrid.hpp"
+
 namespace mmval::tracking::detail {
 
 namespace {
@@ -216,42 +218,19 @@ void deblend(const cv::Mat& zero_mean, double sm, double blur, double level, int
     return moved;
   };
   // Neighbour lists (spots closer than `reach`) in compressed rows: spot i's are
-  // list[first[i]] .. list[first[i + 1] - 1], in the order of a scan of the 3 x 3 cells of
-  // a uniform grid of cell `reach` around it; built in O(N).
+  // list[first[i]] .. list[first[i + 1] - 1], found through a grid of cell `reach`; O(N).
   struct Neighbours {
     std::vector<int> first, list;
     bool none(std::size_t i) const { return first[i] == first[i + 1]; }
   };
-  const int gw = static_cast<int>(W / reach) + 1, gh = static_cast<int>(H / reach) + 1;
-  std::vector<int> cell_first, cell_items, cell_of;
   auto neighbours = [&]() {
-    const std::size_t m = dets.size();
-    auto cell = [&](double v, int cells) { return std::clamp(static_cast<int>(v / reach), 0, cells - 1); };
-    cell_of.resize(m);
-    cell_first.assign(static_cast<std::size_t>(gw * gh) + 1, 0);
-    for (std::size_t i = 0; i < m; ++i) {
-      cell_of[i] = cell(dets[i].y, gh) * gw + cell(dets[i].x, gw);
-      ++cell_first[cell_of[i] + 1];
-    }
-    for (std::size_t c = 1; c < cell_first.size(); ++c) cell_first[c] += cell_first[c - 1];
-    cell_items.resize(m);
-    {
-      std::vector<int> fill(cell_first.begin(), cell_first.end() - 1);
-      for (std::size_t i = 0; i < m; ++i) cell_items[fill[cell_of[i]]++] = static_cast<int>(i);  // ascending within a cell
-    }
+    const DetectionGrid grid(dets, reach);
     Neighbours nb;
-    nb.first.assign(m + 1, 0);
-    nb.list.clear();
-    for (std::size_t i = 0; i < m; ++i) {
-      const int gx = cell_of[i] % gw, gy = cell_of[i] / gw;
-      for (int yy = std::max(0, gy - 1); yy <= std::min(gh - 1, gy + 1); ++yy)
-        for (int xx = std::max(0, gx - 1); xx <= std::min(gw - 1, gx + 1); ++xx)
-          for (int k = cell_first[yy * gw + xx]; k < cell_first[yy * gw + xx + 1]; ++k) {
-            const int j = cell_items[k];
-            if (j != static_cast<int>(i) &&
-                (dets[j].x - dets[i].x) * (dets[j].x - dets[i].x) + (dets[j].y - dets[i].y) * (dets[j].y - dets[i].y) < reach * reach)
-              nb.list.push_back(j);
-          }
+    nb.first.assign(dets.size() + 1, 0);
+    for (std::size_t i = 0; i < dets.size(); ++i) {
+      grid.near(dets[i].x, dets[i].y, reach, [&](int j, double dist) {
+        if (j != static_cast<int>(i) && dist < reach) nb.list.push_back(j);
+      });
       nb.first[i + 1] = static_cast<int>(nb.list.size());
     }
     return nb;
