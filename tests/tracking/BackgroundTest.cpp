@@ -67,7 +67,9 @@ TEST(Background, RollingFollowsAnIlluminationDriftTheMedianCannot) {
     const double truth = std::round(255 * (0.35 + 0.5 * fr / 119.0)) / 255;
     const double rolling = rb.at(fr).at<float>(75, 60), single = global.at<float>(75, 60);
     EXPECT_NEAR(rolling, truth, 0.05) << "frame " << fr;
-    if (fr != 60) EXPECT_GT(std::abs(single - truth), 0.2) << "frame " << fr;
+    if (fr != 60) {
+      EXPECT_GT(std::abs(single - truth), 0.2) << "frame " << fr;
+    }
   }
   // Between block centres the blend is linear: exact halfway between two blocks.
   const int a = rb.centres[2], b = rb.centres[3];
@@ -92,7 +94,9 @@ TEST(Background, TrackerWithRollingBackgroundFindsEverySpotOfADriftingVideo) {
       total += d.size();
     }
     std::printf("background window %d: %d of %zu frames with exactly the 6 spots, %zu detections\n", window, exact, run.detections.size(), total);
-    if (window > 0) EXPECT_EQ(exact, static_cast<int>(run.detections.size()));
+    if (window > 0) {
+      EXPECT_EQ(exact, static_cast<int>(run.detections.size()));
+    }
   }
 }
 

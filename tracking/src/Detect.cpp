@@ -12,6 +12,8 @@
 #include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "mmval/tracking/Background.hpp"
+
 namespace mmval::tracking {
 
 std::vector<cv::Mat> sampleFrames(FrameSource& source, int samples) {
@@ -29,25 +31,6 @@ std::vector<cv::Mat> sampleFrames(FrameSource& source, int samples) {
   return frames;
 }
 
-namespace {
-
-cv::Mat medianOfFrames(const std::vector<cv::Mat>& frames) {
-  if (frames.empty()) return {};
-  cv::Mat bg(frames[0].size(), CV_32F);
-  std::vector<float> v(frames.size());
-  for (int r = 0; r < bg.rows; ++r)
-    for (int c = 0; c < bg.cols; ++c) {
-      for (std::size_t i = 0; i < frames.size(); ++i) v[i] = frames[i].at<float>(r, c);
-      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-      bg.at<float>(r, c) = v[v.size() / 2];
-    }
-  return bg;
-}
-
-}  // namespace
-
-cv::Mat medianBackground(FrameSource& source, int samples) { return medianOfFrames(sampleFrames(source, samples)); }
-
 Polarity guessPolarity(const std::vector<cv::Mat>& frames, const cv::Mat& background) {
   if (frames.empty()) return Polarity::dark;
   if (frames.size() == 1 && background.empty()) return guessPolarity(frames[0], background);
@@ -58,7 +41,7 @@ Polarity guessPolarity(const std::vector<cv::Mat>& frames, const cv::Mat& backgr
   // the frames is static, not a passing particle: a deposit that the median background
   // holds but that has not arrived yet in the early frames looks like a bright spot
   // there (the micromodel video's first frame: +0.875 against -0.27), so it is skipped.
-  const cv::Mat bg = background.empty() ? medianOfFrames(frames) : background;
+  const cv::Mat bg = background.empty() ? quantileOfFrames(frames, 0.5) : background;
   std::vector<cv::Mat> fg(frames.size());
   std::vector<double> noise(frames.size());
   cv::Mat above(bg.size(), CV_32S, cv::Scalar(0)), below(bg.size(), CV_32S, cv::Scalar(0));

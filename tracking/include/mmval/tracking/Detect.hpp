@@ -76,9 +76,6 @@ struct Detection {
   double peak = 0;      ///< peak signal
 };
 
-/// Temporal median of up to `samples` frames spread over the source (rewinds it).
-cv::Mat medianBackground(FrameSource& source, int samples);
-
 /// Up to `samples` frames spread evenly over the source (rewinds it).
 std::vector<cv::Mat> sampleFrames(FrameSource& source, int samples);
 
