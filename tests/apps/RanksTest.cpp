@@ -83,8 +83,9 @@ TEST(Ranks, MicromodelSceneIsDeterministicAndTwoRanksGiveTheOneRankScene) {
     for (std::size_t k = 0; k < head.size(); ++k) {
       if (head[k] == "x_um" || head[k] == "y_um" || head[k] == "z_um")
         worst = std::max(worst, std::abs(std::stod(one[r][k]) - std::stod(two[r][k])));
-      else if (head[k] == "frame" || head[k] == "particle" || head[k] == "state")
+      else if (head[k] == "frame" || head[k] == "particle" || head[k] == "state") {
         ASSERT_EQ(one[r][k], two[r][k]) << "row " << r << " column " << head[k];
+      }
     }
   }
   std::printf("1 vs 2 ranks: %zu trajectory rows, largest position difference %.3g um\n", one.size() - 1, worst);
