@@ -90,11 +90,7 @@ struct CoupledSystem::Impl {
       check(PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR), "schur");
       check(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER), "schur fact");
       if (!mass_schur) check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELFP, nullptr), "selfp");
-      auto def = [](const char* k, const char* v) {
-        PetscBool has = PETSC_FALSE;
-        PetscOptionsHasName(nullptr, nullptr, k, &has);
-        if (!has) PetscOptionsSetValue(nullptr, k, v);
-      };
+      const auto def = detail::defaultOption;
       def("-fluid_fieldsplit_0_ksp_type", "preonly");
       def("-fluid_fieldsplit_0_pc_type", "gamg");
       def("-fluid_fieldsplit_1_ksp_type", "preonly");

@@ -1,6 +1,6 @@
 // Small pieces shared by the PETSc-based solvers and the case kinds: PETSc error
-// codes as exceptions, a distributed solution gathered on every rank, and
-// wall-clock seconds since a time point.
+// codes as exceptions, default options the user may override, a distributed
+// solution gathered on every rank, and wall-clock seconds since a time point.
 #pragma once
 #include <chrono>
 #include <cmath>
@@ -16,6 +16,14 @@ namespace mmval::simulate::detail {
 /// Throws std::runtime_error naming the PETSc call when `ierr` is not 0.
 inline void check(PetscErrorCode ierr, const char* what) {
   if (ierr != 0) throw std::runtime_error(fmt::format("PETSc error {} in {}", static_cast<int>(ierr), what));
+}
+
+/// Sets a PETSc option unless the user gave it (command line or PETSC_OPTIONS): the
+/// solvers' defaults, overridable.
+inline void defaultOption(const std::string& key, const char* value) {
+  PetscBool has = PETSC_FALSE;
+  PetscOptionsHasName(nullptr, nullptr, key.c_str(), &has);
+  if (!has) PetscOptionsSetValue(nullptr, key.c_str(), value);
 }
 
 /// The first `n` entries of the distributed vector `v`, on every rank, into `out`.

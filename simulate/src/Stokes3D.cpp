@@ -307,11 +307,7 @@ struct Stokes3DSolver::Impl {
         // LSC works on the Schur complement operator itself (A10 A01 and A10 A00 A01 products).
         check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELF, nullptr), "self");
       }
-      auto def = [](const std::string& k, const char* v) {
-        PetscBool has = PETSC_FALSE;
-        PetscOptionsHasName(nullptr, nullptr, k.c_str(), &has);
-        if (!has) PetscOptionsSetValue(nullptr, k.c_str(), v);
-      };
+      const auto def = detail::defaultOption;
       const std::string pre = std::string("-") + prefix();
       def(pre + "fieldsplit_0_ksp_type", "preonly");
       def(pre + "fieldsplit_0_pc_type", "hypre");
