@@ -128,6 +128,9 @@ FlowOperator::FlowOperator(FlowProblem problem) : m_p(std::move(problem)) {
         }
     }
   }
+  if (!m_p.body_motion.empty() && (shape == nullptr || static_cast<int>(m_p.body_motion.size()) != shape->bodies()))
+    throw std::invalid_argument("body_motion needs one rigid motion per body of the shape");
+  applyMotion();
   // Cells whose faces are all prescribed carry no pressure information: pin them.
   m_pinned.assign(static_cast<std::size_t>(m_N[0] * m_N[1]), 0);
   bool has_pressure = false;
@@ -209,8 +212,10 @@ bool FlowOperator::isMomentumRow(int r) const { return r < m_off[2]; }
 
 double FlowOperator::maxPrescribedVelocity() const {
   double m = 0;
-  for (int d = 0; d < 2; ++d)
-    for (double v : m_value[d]) m = std::max(m, std::abs(v));
+  for (int d = 0; d < 2; ++d) {
+    for (double v : m_value[d]) m = std::max(m, std::abs(m_drive * v));
+    for (double v : m_rigid[d]) m = std::max(m, std::abs(v));
+  }
   return m;
 }
 
@@ -274,9 +279,9 @@ void FlowOperator::momentumRow(int d, int n, int t, bool standard, RowTerms& R) 
   const double mu = m_p.viscosity, rho = m_p.density;
   double diag = 0;
   // Pressure force (outward normal times p on the two normal faces).
-  if (hi_b) R.rhs -= side(d, true).pressure * wt;
+  if (hi_b) R.rhs -= m_drive * side(d, true).pressure * wt;
   else R.lin.emplace_back(pcell(d, n, t), wt);
-  if (lo_b) R.rhs += side(d, false).pressure * wt;
+  if (lo_b) R.rhs += m_drive * side(d, false).pressure * wt;
   else R.lin.emplace_back(pcell(d, n - 1, t), -wt);
   // Viscous fluxes mu A (u_P - u_Q) / dist.
   const auto& cut = m_cut[d][q];
@@ -293,7 +298,8 @@ void FlowOperator::momentumRow(int d, int n, int t, bool standard, RowTerms& R) 
     const double dist = s == 0 ? W(d, n - 1) : s == 1 ? W(d, n) : std::abs(C(b, tt) - C(b, t));
     const double theta = standard ? 0.0 : cut[static_cast<std::size_t>(s)];
     if (theta > 0) {
-      diag += mu * A / (theta * dist);  // wall (body velocity zero) at theta * dist
+      diag += mu * A / (theta * dist);  // wall (moving with the body) at theta * dist
+      R.rhs += mu * A / (theta * dist) * m_cutWall[d][q][static_cast<std::size_t>(s)];
     } else {
       diag += mu * A / dist;
       R.lin.emplace_back(Q, -mu * A / dist);
@@ -334,13 +340,15 @@ void FlowOperator::momentumRow(int d, int n, int t, bool standard, RowTerms& R) 
     // becomes (1 - chi) [momentum] + chi a_P u = 0 with a_P the row's own
     // diagonal, i.e. a penalty a_P chi / (1 - chi) (capped where chi -> 1).
     const double chi = m_chi[d][q];
-    diag += diag * chi / std::max(1.0 - chi, m_p.penalty);
+    const double pen = diag * chi / std::max(1.0 - chi, m_p.penalty);
+    diag += pen;
+    R.rhs += pen * m_rigid[d][q];
   }
   if (m_tcoef > 0) {
     diag += m_tcoef * vol;
     R.rhs += vol * (*m_told)[static_cast<std::size_t>(P)];
   }
-  R.rhs += m_p.body_force[d] * vol;
+  R.rhs += m_drive * m_p.body_force[d] * vol;
   R.lin.emplace_back(P, diag);
 }
 
@@ -386,7 +394,7 @@ double FlowOperator::linearRow(int r, Linearisation mode, const std::vector<doub
     if (k == kDirichlet || k == kSolid) {
       const double mu = m_p.viscosity;
       entries.emplace_back(r, mu);
-      return mu * (k == kDirichlet ? m_value[d][static_cast<std::size_t>(loc)] : 0.0);
+      return mu * (k == kDirichlet ? m_drive * m_value[d][static_cast<std::size_t>(loc)] : m_rigid[d][static_cast<std::size_t>(loc)]);
     }
     momentumRow(d, n, t, false, R);
   }
@@ -409,6 +417,52 @@ double FlowOperator::linearRow(int r, Linearisation mode, const std::vector<doub
   }
   entries.resize(w);
   return rhs;
+}
+
+double FlowOperator::rigidVelocity(int body, int d, const Eigen::Vector2d& X) const {
+  if (body < 0 || m_p.body_motion.empty()) return 0.0;
+  const RigidMotion& M = m_p.body_motion[static_cast<std::size_t>(body)];
+  Eigen::Vector2d r = X - m_p.shape->centre(body);
+  for (int a = 0; a < 2; ++a)
+    if (m_per[a]) r[a] -= ax(a).length() * std::round(r[a] / ax(a).length());
+  return d == 0 ? M.velocity.x() - M.spin * r.y() : M.velocity.y() + M.spin * r.x();
+}
+
+void FlowOperator::setBodyMotion(std::vector<RigidMotion> motion) {
+  if (!motion.empty() && (m_p.shape == nullptr || static_cast<int>(motion.size()) != m_p.shape->bodies()))
+    throw std::invalid_argument("setBodyMotion needs one rigid motion per body of the shape");
+  m_p.body_motion = std::move(motion);
+  applyMotion();
+}
+
+void FlowOperator::applyMotion() {
+  for (int d = 0; d < 2; ++d) {
+    const int b = 1 - d;
+    m_rigid[d].assign(m_kind[d].size(), 0.0);
+    m_cutWall[d].assign(m_kind[d].size(), {0, 0, 0, 0});
+    if (m_p.body_motion.empty()) continue;
+    for (int t = 0; t < m_N[b]; ++t)
+      for (int n = 0; n < m_nn[d]; ++n) {
+        const std::size_t q = static_cast<std::size_t>(local(d, n, t));
+        const int body = m_body[d][q];
+        if (body < 0 || m_base[d][q] == kDirichlet) continue;
+        const Eigen::Vector2d P = position(d, n, t);
+        m_rigid[d][q] = rigidVelocity(body, d, P);
+        for (int s = 0; s < 4; ++s) {
+          const double theta = m_cut[d][q][static_cast<std::size_t>(s)];
+          if (theta <= 0) continue;
+          // The surface point of the slot: theta of the way to the solid neighbour.
+          const int axis = s < 2 ? d : b, sign = (s % 2 == 0) ? -1 : 1;
+          const double dist = s == 0 ? W(d, n - 1) : s == 1 ? W(d, n) : std::abs(C(b, s == 2 ? t - 1 : t + 1) - C(b, t));
+          Eigen::Vector2d X = P;
+          X[axis] += sign * theta * dist;
+          // The solid neighbour's body (a node between two bodies sees each on its own side).
+          const int qn = unknown(d, s == 0 ? n - 1 : s == 1 ? n + 1 : n, s == 2 ? t - 1 : s == 3 ? t + 1 : t);
+          const int nb = qn >= 0 ? m_body[d][static_cast<std::size_t>(qn - m_off[d])] : body;
+          m_cutWall[d][q][static_cast<std::size_t>(s)] = rigidVelocity(nb >= 0 ? nb : body, d, X);
+        }
+      }
+  }
 }
 
 std::vector<BodyLoad> FlowOperator::bodyLoads(const std::vector<double>& s) const {

@@ -72,6 +72,12 @@ class FlowOperator {
 
   /// Replaces the uniform body force (N/m3), e.g. a time-dependent drive.
   void setBodyForce(const Eigen::Vector2d& f) { m_p.body_force = f; }
+  /// Replaces the bodies' rigid motions (FlowProblem::body_motion) without rebuilding the geometry:
+  /// only right-hand sides change, so one factorisation serves many motions.
+  void setBodyMotion(std::vector<RigidMotion> motion);
+  /// Scales everything that drives the flow from outside the bodies (boundary velocities and
+  /// pressures, the body force): 1 as given, 0 for the bodies' own motion alone.
+  void setDriveScale(double scale) { m_drive = scale; }
   /// Largest |prescribed velocity| on the domain boundary (velocity sides), m/s.
   double maxPrescribedVelocity() const;
   /// True for velocity nodes the solver fixes (walls, inflow, sharp-solid nodes).
@@ -111,6 +117,10 @@ class FlowOperator {
   Lin advecting(int d, int n, int face_t, Kind base) const;
   Lin advected(int d, int n, int t, int t2) const;
   bool bilinearPressure(const std::vector<double>& s, double x, double y, double& out) const;
+  /// Component d of body's rigid velocity at point X (zero at rest or without motions).
+  double rigidVelocity(int body, int d, const Eigen::Vector2d& X) const;
+  /// Fills m_rigid and m_cutWall from m_p.body_motion.
+  void applyMotion();
 
   FlowProblem m_p;
   std::array<int, 2> m_N{}, m_nn{};
@@ -120,6 +130,9 @@ class FlowOperator {
   std::array<std::vector<double>, 2> m_value, m_chi;
   std::array<std::vector<int>, 2> m_body;
   std::array<std::vector<std::array<double, 4>>, 2> m_cut;  ///< theta per neighbour slot (n-1, n+1, t-1, t+1); 0: no cut
+  std::array<std::vector<double>, 2> m_rigid;                 ///< body velocity at solid (sharp) / forced (penalized) nodes
+  std::array<std::vector<std::array<double, 4>>, 2> m_cutWall;  ///< body velocity at the surface point of each cut slot
+  double m_drive = 1.0;                                       ///< see setDriveScale
   std::array<std::vector<double>, 2> m_hface;  ///< depth field only: face depth h_f per velocity node, m
   /// Face depth of node (d, q): the face's own with a depth field, else the scalar depth.
   double faceDepth(int d, std::size_t q) const { return m_hface[d].empty() ? m_p.depth : m_hface[d][q]; }

@@ -80,6 +80,12 @@ struct Boundary {
 
 enum class ImmersedMethod { penalized, sharp };
 
+/// Rigid motion of one body: velocity of its reference point (Shape::centre) and spin about it.
+struct RigidMotion {
+  Eigen::Vector2d velocity{0, 0};  ///< m/s
+  double spin = 0;                 ///< rad/s, counter-clockwise
+};
+
 struct FlowProblem {
   Axis x, y;
   std::array<Boundary, 4> boundary;  ///< indexed by Side
@@ -97,6 +103,11 @@ struct FlowProblem {
   Eigen::ArrayXXd depth_field;
   Eigen::Vector2d body_force{0, 0};  ///< N/m3 (a mean pressure gradient -dp/dx for periodic flow)
   std::shared_ptr<const Shape> shape;  ///< solids; null: all fluid
+  /// Rigid motion per body of `shape` (empty: all at rest). The no-slip condition on a body is then
+  /// u = U + spin x (x - centre): sharp nodes inside the body take it, and a cut viscous flux takes
+  /// it at the surface point; the penalized forcing drives towards it. Creeping-flow use (the mobility
+  /// problems of ResolvedStokes); an unsteady run keeps its bodies at rest.
+  std::vector<RigidMotion> body_motion;
   ImmersedMethod method = ImmersedMethod::sharp;
   int supersample = 6;               ///< penalized: samples per face control volume and direction
   double penalty = 1e-8;             ///< penalized: floor of 1 - chi (caps the penalty in fully solid faces)
