@@ -44,6 +44,12 @@ Snapshot snapshot(const UnsteadyFlowSolver& s) {
   return {s.problem(), s.nx(), s.ny(), p, s.cellVelocity(0), s.cellVelocity(1), s.cellSolidFraction()};
 }
 
+Snapshot snapshot(const ResolvedStokes& s) {
+  Eigen::ArrayXXd u, v, p;
+  s.fields(u, v, p);
+  return {s.problem(), static_cast<int>(p.cols()), static_cast<int>(p.rows()), p, s.cellVelocity(0), s.cellVelocity(1), s.cellSolidFraction()};
+}
+
 void writeVtrOf(const Snapshot& s, const std::filesystem::path& file) {
   const FlowProblem& pr = s.pr;
   const int nx = s.nx, ny = s.ny;
@@ -166,5 +172,7 @@ void writeVtr(const SteadyFlowSolver& s, const std::filesystem::path& file) { wr
 void writeVtr(const UnsteadyFlowSolver& s, const std::filesystem::path& file) { writeVtrOf(snapshot(s), file); }
 void writeSpeedPng(const SteadyFlowSolver& s, const std::filesystem::path& file, int max_pixels) { writeSpeedPngOf(snapshot(s), file, max_pixels); }
 void writeSpeedPng(const UnsteadyFlowSolver& s, const std::filesystem::path& file, int max_pixels) { writeSpeedPngOf(snapshot(s), file, max_pixels); }
+void writeVtr(const ResolvedStokes& s, const std::filesystem::path& file) { writeVtrOf(snapshot(s), file); }
+void writeSpeedPng(const ResolvedStokes& s, const std::filesystem::path& file, int max_pixels) { writeSpeedPngOf(snapshot(s), file, max_pixels); }
 
 }  // namespace mmval::simulate

@@ -62,9 +62,12 @@ struct ResolvedStokes::Impl {
     op = std::make_unique<FlowOperator>(base);
     if (!sys) {
       sys = std::make_unique<CoupledSystem>(*op, opt, comm);
-      // One matrix, many right-hand sides; after a move the old factors precondition the new matrix.
+      // One matrix, many right-hand sides: the factors of the first solve serve the rest.
       sys->setLaggedFactorisation(12, 1e-12);
     }
+    // A moved body changes which nodes are solid: the old factors are then a poor preconditioner
+    // (measured: GMRES ran out of its 96 iterations at every move of half a cell), so refactorise.
+    sys->invalidate();
     state.assign(static_cast<std::size_t>(op->unknowns()), 0.0);
   }
 
@@ -111,6 +114,7 @@ MobilityResult ResolvedStokes::freeMotion(const std::vector<BodyLoad>& external,
   for (int k = 0; k < nb; ++k)
     if (free[static_cast<std::size_t>(k)]) idx.push_back(k);
   MobilityResult res;
+  const int solves0 = m->solves;
   const std::vector<RigidMotion> rest(static_cast<std::size_t>(nb));
   res.rest_loads = m->solveLoads(rest, 1.0);
   const int n = 3 * static_cast<int>(idx.size());
@@ -155,7 +159,7 @@ MobilityResult ResolvedStokes::freeMotion(const std::vector<BodyLoad>& external,
     M.spin = X(3 * static_cast<int>(c) + 2);
   }
   m->solveLoads(res.motion, 1.0);  // the flow of the free motion, for output
-  res.solves = m->solves;
+  res.solves = m->solves - solves0;
   res.factorisations = m->sys->factorisations();
   return res;
 }
@@ -164,6 +168,7 @@ const FlowProblem& ResolvedStokes::problem() const { return m->op->problem(); }
 const FlowStats& ResolvedStokes::stats() const { return m->stats; }
 void ResolvedStokes::fields(Eigen::ArrayXXd& u, Eigen::ArrayXXd& v, Eigen::ArrayXXd& p) const { m->op->unpack(m->state, u, v, p); }
 Eigen::ArrayXXd ResolvedStokes::cellSolidFraction() const { return m->op->cellSolidFraction(); }
+Eigen::ArrayXXd ResolvedStokes::cellVelocity(int component) const { return m->op->cellVelocity(m->state, component); }
 int ResolvedStokes::factorisations() const { return m->sys->factorisations(); }
 
 }  // namespace mmval::simulate

@@ -218,6 +218,7 @@ void registerParticleKinds(CaseKindRegistry& registry) {
   k.run = runChannel;
   registry.add(k);
   registry.add(micromodelKind());
+  registry.add(resolvedKind());
 }
 
 void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {

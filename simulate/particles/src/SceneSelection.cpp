@@ -72,6 +72,9 @@ EngineChoice chooseEngine(const SceneScales& s, const SelectionThresholds& t) {
   else if (n.d_over_dx >= 1.0) c.coupling = CouplingMode::dilated;
   else c.coupling = CouplingMode::unresolved;
   c.reason += fmt::format("; coupling {} (d/dx = {:.3g})", couplingName(c.coupling), n.d_over_dx);
+  if (c.coupling == CouplingMode::resolved)
+    c.reason += " (the kind particles-resolved solves such particles on the grid; the depth-averaged scenes move every particle "
+                "with the local flow and its wall corrections and dilate deposits onto the grid)";
   c.wall_hindrance = n.d_over_h >= t.d_over_h_hindrance;
   c.reason += fmt::format("; wall hindrance {} (d/h = {:.3g})", c.wall_hindrance ? "on" : "off", n.d_over_h);
   c.brownian = n.peclet < t.peclet_brownian || n.settling_peclet < t.peclet_brownian;

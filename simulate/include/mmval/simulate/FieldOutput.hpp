@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "mmval/simulate/FlowSolver.hpp"
+#include "mmval/simulate/ResolvedStokes.hpp"
 #include "mmval/simulate/Stokes3D.hpp"
 #include "mmval/simulate/UnsteadyFlowSolver.hpp"
 
@@ -21,6 +22,9 @@ void writeVtr(const UnsteadyFlowSolver& solver, const std::filesystem::path& fil
 /// the long side (uniform in physical space, so stretched grids look right).
 void writeSpeedPng(const SteadyFlowSolver& solver, const std::filesystem::path& file, int max_pixels = 1200);
 void writeSpeedPng(const UnsteadyFlowSolver& solver, const std::filesystem::path& file, int max_pixels = 1200);
+/// The flow of the last solve of moving bodies (the bodies drawn grey).
+void writeVtr(const ResolvedStokes& solver, const std::filesystem::path& file);
+void writeSpeedPng(const ResolvedStokes& solver, const std::filesystem::path& file, int max_pixels = 1200);
 
 /// A 3D Stokes solution as a .vtr over its nx x ny x nz cells: cell pressure,
 /// cell-centred velocity (mean of the two faces per axis) and a solid flag.

@@ -16,7 +16,8 @@
 // motion of force- and torque-free bodies (or bodies under external loads:
 // gravity, contact) is X = -R^-1 (L0 + F_ext). All 3 m + 1 solves share one
 // matrix: the geometry is the same, only right-hand sides change, so the
-// direct solver's factorisation is reused (lagged GMRES, tolerance 1e-12).
+// direct solver factorises once per geometry (then GMRES on the factors,
+// tolerance 1e-12, converges in one iteration per right-hand side).
 #pragma once
 #include <memory>
 #include <vector>
@@ -48,7 +49,7 @@ struct MobilityResult {
   std::vector<RigidMotion> motion;  ///< per body (held bodies: at rest)
   std::vector<BodyLoad> rest_loads; ///< hydrodynamic loads with every body held at rest in the driven flow (L0)
   Eigen::MatrixXd resistance;       ///< 3 m x 3 m over the free bodies, rows/columns (Fx, Fy, T) per body; loads per unit motion
-  int solves = 0;
+  int solves = 0;                   ///< Stokes solves of this call
   int factorisations = 0;           ///< of the direct solver so far
 };
 
@@ -61,8 +62,7 @@ class ResolvedStokes {
   ResolvedStokes(const ResolvedStokes&) = delete;
   ResolvedStokes& operator=(const ResolvedStokes&) = delete;
 
-  /// New body positions (same grid). The previous factorisation preconditions the next solves
-  /// and is renewed when it no longer converges within a few iterations.
+  /// New body positions (same grid): the next solve refactorises.
   void setShape(std::shared_ptr<const Shape> shape);
 
   /// Loads on every body for prescribed rigid motions, with the outside drive scaled by `drive`
@@ -79,6 +79,8 @@ class ResolvedStokes {
   /// Face velocities and cell pressures of the last solve (layout as SteadyFlowSolver).
   void fields(Eigen::ArrayXXd& u, Eigen::ArrayXXd& v, Eigen::ArrayXXd& p) const;
   Eigen::ArrayXXd cellSolidFraction() const;
+  /// Cell-centred velocity component of the last solve, ny x nx.
+  Eigen::ArrayXXd cellVelocity(int component) const;
   int factorisations() const;
 
  private:

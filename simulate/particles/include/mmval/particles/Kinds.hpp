@@ -9,6 +9,9 @@ namespace mmval::particles {
 /// deposition; writes trajectories.csv (shared tracks schema), retention.csv.
 /// "particles-micromodel": the coupled validation scene on a pore image
 /// (Micromodel.hpp): trajectories.csv, retention.csv, permeability.csv.
+/// "particles-resolved": particles spanning many cells, moved by the resolved
+/// immersed boundary (Resolved.cpp): trajectories.csv, permeability.csv.
 void registerParticleKinds(CaseKindRegistry& registry);
+CaseKind resolvedKind();
 
 }  // namespace mmval::particles
