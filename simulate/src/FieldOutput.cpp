@@ -74,7 +74,7 @@ void writeVtrOf(const Snapshot& s, const std::filesystem::path& file) {
   writeFileAtomic(file, o.str());
 }
 
-void writeSpeedPngOf(const Snapshot& s, const std::filesystem::path& file, int max_pixels) {
+void writeSpeedPngOf(const Snapshot& s, const std::filesystem::path& file, int max_pixels, const std::vector<std::vector<Eigen::Vector2d>>& paths = {}) {
   const FlowProblem& pr = s.pr;
   const Eigen::ArrayXXd &ux = s.ux, &uy = s.uy, &chi = s.chi;
   const Eigen::ArrayXXd speed = (ux.square() + uy.square()).sqrt();
@@ -93,6 +93,17 @@ void writeSpeedPngOf(const Snapshot& s, const std::filesystem::path& file, int m
   cv::Mat color;
   cv::applyColorMap(gray, color, cv::COLORMAP_VIRIDIS);
   color.setTo(cv::Scalar(128, 128, 128), solid);
+  // Particle paths in white, start marked by a ring, end by a dot.
+  const auto pixelOf = [&](const Eigen::Vector2d& X) {
+    return cv::Point(static_cast<int>(std::lround((X.x() - pr.x.lo()) / lx * w)), static_cast<int>(std::lround((pr.y.hi() - X.y()) / ly * h)));
+  };
+  const int thick = std::max(1, std::max(w, h) / 400);
+  for (const auto& path : paths) {
+    if (path.empty()) continue;
+    for (std::size_t k = 1; k < path.size(); ++k) cv::line(color, pixelOf(path[k - 1]), pixelOf(path[k]), cv::Scalar(255, 255, 255), thick, cv::LINE_AA);
+    cv::circle(color, pixelOf(path.front()), 3 * thick, cv::Scalar(255, 255, 255), thick, cv::LINE_AA);
+    cv::circle(color, pixelOf(path.back()), 2 * thick, cv::Scalar(255, 255, 255), cv::FILLED, cv::LINE_AA);
+  }
   std::vector<unsigned char> buf;
   if (!cv::imencode(".png", color, buf)) throw std::runtime_error("PNG encoding failed for " + file.string());
   writeFileAtomic(file, std::string_view(reinterpret_cast<const char*>(buf.data()), buf.size()));
@@ -173,6 +184,8 @@ void writeVtr(const UnsteadyFlowSolver& s, const std::filesystem::path& file) { 
 void writeSpeedPng(const SteadyFlowSolver& s, const std::filesystem::path& file, int max_pixels) { writeSpeedPngOf(snapshot(s), file, max_pixels); }
 void writeSpeedPng(const UnsteadyFlowSolver& s, const std::filesystem::path& file, int max_pixels) { writeSpeedPngOf(snapshot(s), file, max_pixels); }
 void writeVtr(const ResolvedStokes& s, const std::filesystem::path& file) { writeVtrOf(snapshot(s), file); }
-void writeSpeedPng(const ResolvedStokes& s, const std::filesystem::path& file, int max_pixels) { writeSpeedPngOf(snapshot(s), file, max_pixels); }
+void writeSpeedPng(const ResolvedStokes& s, const std::filesystem::path& file, int max_pixels, const std::vector<std::vector<Eigen::Vector2d>>& paths) {
+  writeSpeedPngOf(snapshot(s), file, max_pixels, paths);
+}
 
 }  // namespace mmval::simulate

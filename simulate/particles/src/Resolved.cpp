@@ -28,6 +28,7 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Tracks.hpp"
+#include "MicromodelDetail.hpp"
 #include "mmval/particles/Kinds.hpp"
 #include "mmval/simulate/FieldOutput.hpp"
 #include "mmval/simulate/ResolvedStokes.hpp"
@@ -40,6 +41,13 @@ namespace sim = mmval::simulate;
 constexpr double kPi = 3.14159265358979323846;
 
 void declareResolved(Schema& s) {
+  s.path("geometry.mask", "Grains from a binary image (PNG, TIFF) of the pore geometry, relative to the case file (or the folder above it); "
+                          "it then sets the channel's length and width (absent: a plain channel with channel.length x channel.width)")
+      .optional();
+  s.quantity("geometry.pixel_size", "um", "Size of one image pixel").def("1 um").positive();
+  s.choice("geometry.grains", {"dark", "bright"}, "Which pixels are grains").def("dark");
+  s.integer("geometry.dilate", "Grow the grains by this many pixels; 0: as drawn").def(0).min(0).max(1000);
+  s.integerList("geometry.crop", "Window of the image [first column, first row, columns, rows]; absent: the whole image").optional();
   s.quantity("channel.length", "um", "Channel length along x (inlet x = 0, outlet x = length)").def("160 um").positive();
   s.quantity("channel.width", "um", "Channel width (walls at y = 0 and y = width)").def("40 um").positive();
   s.quantity("channel.mean_velocity", "mm/s",
@@ -60,7 +68,7 @@ void declareResolved(Schema& s) {
   s.quantity("physics.gravity_y", "m/s2", "Gravity along +y (towards the wall y = 0: -9.81)").def(0.0);
   s.quantity("deposition.capture_distance", "um", "Surface gap at which a particle sticks to a wall, obstacle or deposit (0: never)").def(0.0).nonNegative();
   s.integer("numerics.cells_per_diameter", "Grid cells across a particle diameter (the paper's rule: ~8 at least)").def(16).min(4).max(200);
-  s.real("numerics.max_step_fraction", "Largest particle displacement per step, in cells").def(0.5).min(0.01).max(2);
+  s.real("numerics.max_step_fraction", "Largest particle displacement per step near a surface, in cells (up to 4 x this in open pores)").def(0.5).min(0.01).max(2);
   s.real("numerics.contact_gap", "Smallest surface gap kept between a moving particle and any surface, in cells").def(1.0).min(0.5).max(4);
   s.quantity("run.duration", "s", "Physical time simulated").def("5 s").positive();
   s.quantity("run.output_interval", "s", "Output (frame) interval").def("0.5 s").positive();
@@ -78,52 +86,32 @@ struct Disk {
 
 struct Scene {
   double L = 0, W = 0, U = 0, h = 0;
+  std::shared_ptr<const sim::MaskShape> grains;  ///< from geometry.mask (body 0), or null
   std::vector<sim::Circle> obstacles;
   std::vector<Disk> disks;
   double contact_gap = 0, capture = 0;
   Eigen::Vector2d weight{0, 0};  ///< net gravity force per unit depth on one disk, N/m
 };
 
-/// The shape the fluid sees: obstacles (bodies 0..no-1), then every particle still inside.
+/// Fixed bodies: the grain image (one body) and the circular obstacles.
+int fixedBodies(const Scene& sc) { return (sc.grains ? 1 : 0) + static_cast<int>(sc.obstacles.size()); }
+
+/// The shape the fluid sees: grains, obstacles, then every particle still inside.
 std::shared_ptr<const sim::Shape> shapeOf(const Scene& sc, std::vector<int>& body_of_disk) {
   std::vector<sim::Circle> parts;
   body_of_disk.assign(sc.disks.size(), -1);
-  int next = static_cast<int>(sc.obstacles.size());
+  int next = fixedBodies(sc);
   for (std::size_t k = 0; k < sc.disks.size(); ++k) {
     if (sc.disks[k].state == State::left) continue;
     parts.push_back({sc.disks[k].x.x(), sc.disks[k].x.y(), sc.disks[k].a});
     body_of_disk[k] = next++;
   }
   std::vector<std::shared_ptr<const sim::Shape>> all;
+  if (sc.grains) all.push_back(sc.grains);
   if (!sc.obstacles.empty()) all.push_back(std::make_shared<sim::Circles>(sc.obstacles));
   if (!parts.empty()) all.push_back(std::make_shared<sim::Circles>(parts));
   if (all.empty()) return nullptr;
   return std::make_shared<sim::ShapeUnion>(std::move(all));
-}
-
-/// Velocities of the disks (zero for deposited and left ones) at the current positions.
-std::vector<Eigen::Vector2d> velocities(sim::ResolvedStokes& fluid, const Scene& sc, int& solves) {
-  std::vector<int> body;
-  fluid.setShape(shapeOf(sc, body));
-  const int nb = static_cast<int>(sc.obstacles.size()) + static_cast<int>(std::count_if(body.begin(), body.end(), [](int b) { return b >= 0; }));
-  std::vector<sim::BodyLoad> ext(static_cast<std::size_t>(nb));
-  std::vector<bool> free(static_cast<std::size_t>(nb), false);
-  for (std::size_t k = 0; k < sc.disks.size(); ++k) {
-    if (body[k] < 0 || sc.disks[k].state != State::mobile) continue;
-    ext[static_cast<std::size_t>(body[k])].force = sc.weight;
-    free[static_cast<std::size_t>(body[k])] = true;
-  }
-  std::vector<Eigen::Vector2d> v(sc.disks.size(), Eigen::Vector2d::Zero());
-  if (std::none_of(free.begin(), free.end(), [](bool f) { return f; })) {
-    fluid.loads(std::vector<sim::RigidMotion>(static_cast<std::size_t>(nb)), 1.0);
-    ++solves;
-    return v;
-  }
-  const sim::MobilityResult r = fluid.freeMotion(ext, free);
-  solves += r.solves;
-  for (std::size_t k = 0; k < sc.disks.size(); ++k)
-    if (body[k] >= 0 && sc.disks[k].state == State::mobile) v[k] = r.motion[static_cast<std::size_t>(body[k])].velocity;
-  return v;
 }
 
 /// Nearest surface to disk k: gap (m), outward unit normal from the surface to the disk, and what it is.
@@ -145,6 +133,24 @@ Nearest nearestSurface(const Scene& sc, std::size_t k) {
     consider(D.x.x() - D.a, {1, 0}, -1);
     consider(sc.L - D.x.x() - D.a, {-1, 0}, -1);
   }
+  if (sc.grains) {
+    // Grain pixels near the disk: the gap to the closest point of each pixel square.
+    const auto& m = sc.grains->mask();
+    const double px = sc.grains->pixel(), reach = D.a + 2 * std::max(sc.contact_gap, sc.capture) + px;  // farther grains decide nothing
+    const int rows = static_cast<int>(m.rows()), cols = static_cast<int>(m.cols());
+    const int c0 = std::max(0, static_cast<int>(std::floor((D.x.x() - reach) / px))), c1 = std::min(cols - 1, static_cast<int>(std::floor((D.x.x() + reach) / px)));
+    // Row 0 is the image's top: y = (rows - r) px at its upper edge.
+    const int r0 = std::max(0, static_cast<int>(std::floor(rows - (D.x.y() + reach) / px))), r1 = std::min(rows - 1, static_cast<int>(std::floor(rows - (D.x.y() - reach) / px)));
+    for (int r = r0; r <= r1; ++r)
+      for (int col = c0; col <= c1; ++col) {
+        if (!m(r, col)) continue;
+        const Eigen::Vector2d lo(col * px, (rows - r - 1) * px);
+        const Eigen::Vector2d q(std::clamp(D.x.x(), lo.x(), lo.x() + px), std::clamp(D.x.y(), lo.y(), lo.y() + px));
+        const Eigen::Vector2d rr = D.x - q;
+        const double dist = rr.norm();
+        consider(dist - D.a, dist > 0 ? Eigen::Vector2d(rr / dist) : Eigen::Vector2d(0, 1), -1);
+      }
+  }
   for (const auto& o : sc.obstacles) {
     const Eigen::Vector2d r = D.x - Eigen::Vector2d(o.x, o.y);
     const double dist = r.norm();
@@ -159,13 +165,48 @@ Nearest nearestSurface(const Scene& sc, std::size_t k) {
   return n;
 }
 
+/// Velocities of the disks (zero for deposited and left ones) at the current positions.
+std::vector<Eigen::Vector2d> velocities(sim::ResolvedStokes& fluid, const Scene& sc, int& solves) {
+  std::vector<int> body;
+  fluid.setShape(shapeOf(sc, body));
+  const int nb = fixedBodies(sc) + static_cast<int>(std::count_if(body.begin(), body.end(), [](int b) { return b >= 0; }));
+  std::vector<sim::BodyLoad> ext(static_cast<std::size_t>(nb));
+  std::vector<bool> free(static_cast<std::size_t>(nb), false);
+  for (std::size_t k = 0; k < sc.disks.size(); ++k) {
+    if (body[k] < 0 || sc.disks[k].state != State::mobile) continue;
+    ext[static_cast<std::size_t>(body[k])].force = sc.weight;
+    free[static_cast<std::size_t>(body[k])] = true;
+  }
+  std::vector<Eigen::Vector2d> v(sc.disks.size(), Eigen::Vector2d::Zero());
+  if (std::none_of(free.begin(), free.end(), [](bool f) { return f; })) {
+    fluid.loads(std::vector<sim::RigidMotion>(static_cast<std::size_t>(nb)), 1.0);
+    ++solves;
+    return v;
+  }
+  sim::MobilityResult r;
+  try {
+    r = fluid.freeMotion(ext, free);
+  } catch (const std::runtime_error& e) {
+    std::string where;
+    for (std::size_t k = 0; k < sc.disks.size(); ++k)
+      if (sc.disks[k].state == State::mobile)
+        where += fmt::format("{}particle {} at ({:.4g}, {:.4g}) um, gap {:.3g} um", where.empty() ? "" : "; ", k + 1, sc.disks[k].x.x() * 1e6,
+                             sc.disks[k].x.y() * 1e6, nearestSurface(sc, k).gap * 1e6);
+    throw std::runtime_error(fmt::format("{} [{}]", e.what(), where));
+  }
+  solves += r.solves;
+  for (std::size_t k = 0; k < sc.disks.size(); ++k)
+    if (body[k] >= 0 && sc.disks[k].state == State::mobile) v[k] = r.motion[static_cast<std::size_t>(body[k])].velocity;
+  return v;
+}
+
 /// Attachment, hard-core contacts and the outlet after a step. Returns the number of contacts resolved.
 int settleContacts(Scene& sc, double t, int& attached) {
   int contacts = 0;
   for (std::size_t k = 0; k < sc.disks.size(); ++k) {
     Disk& D = sc.disks[k];
     if (D.state != State::mobile) continue;
-    if (sc.U > 0 && D.x.x() - D.a > sc.L) {
+    if (sc.U > 0 && D.x.x() + D.a >= sc.L) {  // its leading edge reaches the outlet: beyond, the grid cannot hold it
       D.state = State::left;
       continue;
     }
@@ -214,6 +255,16 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   Scene sc;
   sc.L = c.quantity("channel.length");
   sc.W = c.quantity("channel.width");
+  nlohmann::json geometry = nlohmann::json::object();
+  if (c.has("geometry.mask")) {
+    double porosity = 0;
+    const PixelMask solid = detail::loadGeometry(c, geometry, porosity);
+    const double px = c.quantity("geometry.pixel_size");
+    sc.grains = std::make_shared<sim::MaskShape>(solid, px);
+    sc.L = static_cast<double>(solid.cols()) * px;
+    sc.W = static_cast<double>(solid.rows()) * px;
+    geometry["porosity_connected"] = porosity;
+  }
   sc.U = c.quantity("channel.mean_velocity");
   sc.h = c.quantity("channel.depth");
   const double mu = c.quantity("fluid.viscosity"), rho_f = c.quantity("fluid.density");
@@ -251,7 +302,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
     const Nearest n = nearestSurface(sc, k);
     const bool inside = D.x.x() >= a && D.x.x() <= sc.L - a && D.x.y() >= a && D.x.y() <= sc.W - a;
     if (!inside || n.gap < sc.contact_gap)
-      throw InputError(c.where("particles.x"), fmt::format("particle {} at ({:.4g}, {:.4g}) um overlaps a wall, an obstacle or another particle", k + 1,
+      throw InputError(c.where("particles.x"), fmt::format("particle {} at ({:.4g}, {:.4g}) um overlaps a grain, a wall, an obstacle or another particle", k + 1,
                                                          px[k] * 1e6, py[k] * 1e6),
                        fmt::format("surface gap {:.3g} um", n.gap * 1e6), fmt::format(">= the contact gap {:.3g} um (numerics.contact_gap cells)", sc.contact_gap * 1e6));
   }
@@ -281,7 +332,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
     clean.disks.clear();
     std::vector<int> body;
     fluid.setShape(shapeOf(clean, body));
-    fluid.loads(std::vector<sim::RigidMotion>(clean.obstacles.size()), 1.0);
+    fluid.loads(std::vector<sim::RigidMotion>(static_cast<std::size_t>(fixedBodies(clean))), 1.0);
     dp0 = pressureDrop(fluid);
   }
 
@@ -321,10 +372,15 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   for (std::int64_t f = 1; f <= frames; ++f) {
     const double t_next = f * dt_out;
     while (t < t_next - 1e-12 * dt_out) {
-      double vmax = 0;
-      for (const auto& w : v) vmax = std::max(vmax, w.norm());
+      // Each particle may move max_move, or a quarter of its distance to the nearest surface when
+      // that is larger (at most 4 max_move): long steps in open pores, short ones near contacts.
       double dt = t_next - t;
-      if (vmax > 0) dt = std::min(dt, max_move / vmax);
+      for (std::size_t k = 0; k < sc.disks.size(); ++k) {
+        const double speed = v[k].norm();
+        if (speed <= 0 || sc.disks[k].state != State::mobile) continue;
+        const double allowed = std::clamp(0.25 * (nearestSurface(sc, k).gap - sc.contact_gap), max_move, 4 * max_move);
+        dt = std::min(dt, allowed / speed);
+      }
       // Explicit midpoint: the velocity at the half step moves the particles.
       const std::vector<Eigen::Vector2d> x0 = [&] {
         std::vector<Eigen::Vector2d> x;
@@ -353,7 +409,9 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   });
   writeTracksCsv(ctx.out_dir / "trajectories.csv", traj, pixel);
   writeFileAtomic(ctx.out_dir / "permeability.csv", perm.str());
-  sim::writeSpeedPng(fluid, ctx.out_dir / "speed.png");
+  std::vector<std::vector<Eigen::Vector2d>> paths(sc.disks.size());
+  for (const auto& tp : traj.points) paths[static_cast<std::size_t>(tp.particle)].emplace_back(tp.x, tp.y);
+  sim::writeSpeedPng(fluid, ctx.out_dir / "speed.png", 1200, paths);
   sim::writeVtr(fluid, ctx.out_dir / "fields.vtr");
 
   RunOutput out;
@@ -393,6 +451,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   out.details["coupling"] = fmt::format("resolved immersed boundary: {} cells per diameter (grid {} x {}, cell {:.3g} um), Stokes mobility of free rigid disks",
                                         per_d, prob.x.cells(), prob.y.cells(), dx * 1e6);
   if (per_d < 8) out.details["warning"] = fmt::format("{} cells per diameter is below the ~8 a resolved particle needs: forces are coarse", per_d);
+  if (sc.grains) out.details["geometry"] = geometry;
   out.details["steps"] = steps;
   out.details["stokes_solves"] = solves;
   out.details["factorisations"] = fluid.factorisations();

@@ -5,6 +5,7 @@
 // from one MPI rank only.
 #pragma once
 #include <filesystem>
+#include <vector>
 
 #include "mmval/simulate/FlowSolver.hpp"
 #include "mmval/simulate/ResolvedStokes.hpp"
@@ -22,9 +23,11 @@ void writeVtr(const UnsteadyFlowSolver& solver, const std::filesystem::path& fil
 /// the long side (uniform in physical space, so stretched grids look right).
 void writeSpeedPng(const SteadyFlowSolver& solver, const std::filesystem::path& file, int max_pixels = 1200);
 void writeSpeedPng(const UnsteadyFlowSolver& solver, const std::filesystem::path& file, int max_pixels = 1200);
-/// The flow of the last solve of moving bodies (the bodies drawn grey).
+/// The flow of the last solve of moving bodies (the bodies drawn grey); `paths` (m) are drawn over it
+/// in white, each start ringed and each end dotted.
 void writeVtr(const ResolvedStokes& solver, const std::filesystem::path& file);
-void writeSpeedPng(const ResolvedStokes& solver, const std::filesystem::path& file, int max_pixels = 1200);
+void writeSpeedPng(const ResolvedStokes& solver, const std::filesystem::path& file, int max_pixels = 1200,
+                   const std::vector<std::vector<Eigen::Vector2d>>& paths = {});
 
 /// A 3D Stokes solution as a .vtr over its nx x ny x nz cells: cell pressure,
 /// cell-centred velocity (mean of the two faces per axis) and a solid flag.
