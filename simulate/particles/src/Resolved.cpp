@@ -29,7 +29,9 @@
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Tracks.hpp"
 #include "MicromodelDetail.hpp"
+#include "mmval/particles/Checkpoint.hpp"
 #include "mmval/particles/Kinds.hpp"
+#include "mmval/particles/Micromodel.hpp"
 #include "mmval/simulate/FieldOutput.hpp"
 #include "mmval/simulate/ResolvedStokes.hpp"
 
@@ -73,6 +75,18 @@ void declareResolved(Schema& s) {
   s.quantity("run.duration", "s", "Physical time simulated").def("5 s").positive();
   s.quantity("run.output_interval", "s", "Output (frame) interval").def("0.5 s").positive();
   s.quantity("output.pixel_size", "um", "Pixel size for the pixel columns of trajectories.csv (0: none)").def(0.0).nonNegative();
+  s.integer("run.checkpoint_every", "Write checkpoint.json every this many output frames (0: never); `mmval run --resume` continues from it").def(10).min(0);
+  s.integer("run.stop_after_frames", "Stop (as if killed) after this many output frames, leaving a checkpoint (0: run to the end; tests)").def(0).min(0);
+}
+
+/// The case as a checkpoint must match it: everything but the checkpoint and stop settings.
+std::string scenarioHash(const Case& c) {
+  nlohmann::json j = c.resolvedJson();
+  if (j.contains("run")) {
+    j["run"].erase("checkpoint_every");
+    j["run"].erase("stop_after_frames");
+  }
+  return j.dump();
 }
 
 enum class State { mobile, deposited, left };
@@ -336,6 +350,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
     dp0 = pressureDrop(fluid);
   }
 
+  std::int64_t out_resumed_from = 0;
   Tracks traj;
   std::ostringstream perm;
   perm << "t_s,pressure_drop_pa,normalised_permeability,deposited\n";
@@ -346,9 +361,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   const auto frames = static_cast<std::int64_t>(std::llround(duration / dt_out));
   Progress progress("particles-resolved", static_cast<std::size_t>(frames), ctx.quiet);
   const double max_move = c.real("numerics.max_step_fraction") * dx;
-  std::vector<Eigen::Vector2d> v = velocities(fluid, sc, solves);
   const auto t0 = std::chrono::steady_clock::now();
-  std::vector<double> last_speed(sc.disks.size(), 0.0);
   auto record = [&]() {
     for (std::size_t k = 0; k < sc.disks.size(); ++k) {
       const Disk& D = sc.disks[k];
@@ -368,8 +381,70 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
     perm << fmt::format("{:.9g},{:.9g},{:.9g},{}\n", t, dp, (sc.U > 0 && dp != 0) ? dp0 / dp : 1.0, dep);
     ++frame;
   };
-  record();
-  for (std::int64_t f = 1; f <= frames; ++f) {
+  // Checkpoint: positions, states, counters and the outputs so far, as JSON (doubles round-trip exactly).
+  const std::filesystem::path ckpt = ctx.out_dir / "checkpoint.json";
+  const std::int64_t checkpoint_every = c.integer("run.checkpoint_every"), stop_after = c.integer("run.stop_after_frames");
+  auto saveCheckpoint = [&](std::int64_t f) {
+    nlohmann::json j;
+    j["format"] = "mmval-resolved-checkpoint-1";
+    j["scenario"] = scenarioHash(c);
+    j["frame"] = f;
+    j["t"] = t;
+    j["counters"] = {solves, steps, contacts, attached};
+    for (const auto& D : sc.disks) j["disks"].push_back({D.x.x(), D.x.y(), static_cast<int>(D.state), D.attached_at});
+    for (const auto& tp : traj.points)
+      j["trajectory"].push_back({tp.frame, tp.particle, tp.t, tp.x, tp.y, tp.state == "mobile" ? 0 : 1});
+    j["permeability_csv"] = perm.str();
+    writeFileAtomic(ckpt, j.dump());
+  };
+  std::int64_t first = 1;
+  std::vector<Eigen::Vector2d> v;
+  if (ctx.resume && std::filesystem::exists(ckpt)) {
+    try {
+      const nlohmann::json j = nlohmann::json::parse(readBinaryFile(ckpt));
+      if (j.at("format") != "mmval-resolved-checkpoint-1") throw std::runtime_error("unknown format");
+      if (j.at("scenario").get<std::string>() != scenarioHash(c)) throw std::runtime_error("it belongs to another version of this case");
+      if (j.at("disks").size() != sc.disks.size()) throw std::runtime_error("other number of particles");
+      first = j.at("frame").get<std::int64_t>() + 1;
+      frame = first;
+      t = j.at("t").get<double>();
+      const auto& n = j.at("counters");
+      solves = n[0];
+      steps = n[1];
+      contacts = n[2];
+      attached = n[3];
+      for (std::size_t k = 0; k < sc.disks.size(); ++k) {
+        const auto& d = j["disks"][k];
+        sc.disks[k].x = {d[0].get<double>(), d[1].get<double>()};
+        sc.disks[k].state = static_cast<State>(d[2].get<int>());
+        sc.disks[k].attached_at = d[3].get<double>();
+      }
+      for (const auto& p : j.at("trajectory")) {
+        TrackPoint tp;
+        tp.frame = p[0];
+        tp.particle = p[1];
+        tp.t = p[2];
+        tp.x = p[3];
+        tp.y = p[4];
+        tp.z = 0.5 * sc.h;
+        tp.state = p[5].get<int>() == 0 ? "mobile" : "deposited";
+        traj.points.push_back(tp);
+      }
+      perm.str(j.at("permeability_csv").get<std::string>());
+      perm.seekp(0, std::ios::end);
+    } catch (const std::exception& e) {
+      throw InputError(c.where("run.checkpoint_every"), fmt::format("cannot resume from {}: {}", ckpt.string(), e.what()), {},
+                       "delete the checkpoint (or the .partial folder) to start afresh");
+    }
+    const int counted = solves;
+    v = velocities(fluid, sc, solves);  // the same solve the interrupted run ended its frame with
+    solves = counted;
+  } else {
+    v = velocities(fluid, sc, solves);
+    record();
+  }
+  out_resumed_from = first - 1;
+  for (std::int64_t f = first; f <= frames; ++f) {
     const double t_next = f * dt_out;
     while (t < t_next - 1e-12 * dt_out) {
       // Each particle may move max_move, or a quarter of its distance to the nearest surface when
@@ -398,9 +473,13 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
       v = velocities(fluid, sc, solves);
     }
     t = t_next;
-    for (std::size_t k = 0; k < sc.disks.size(); ++k) last_speed[k] = v[k].norm();
     record();
     progress.update(static_cast<std::size_t>(f));
+    if (f < frames && ((checkpoint_every > 0 && f % checkpoint_every == 0) || f == stop_after)) saveCheckpoint(f);
+    if (f == stop_after && f < frames)
+      throw RunStopped(fmt::format("stopped after {} output frames as asked (run.stop_after_frames); {} holds the checkpoint, "
+                                   "continue with `mmval run --resume`",
+                                   f, ckpt.string()));
   }
   progress.finish();
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -413,9 +492,11 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   for (const auto& tp : traj.points) paths[static_cast<std::size_t>(tp.particle)].emplace_back(tp.x, tp.y);
   sim::writeSpeedPng(fluid, ctx.out_dir / "speed.png", 1200, paths);
   sim::writeVtr(fluid, ctx.out_dir / "fields.vtr");
+  std::filesystem::remove(ckpt);  // complete: nothing to resume
 
   RunOutput out;
   out.files = {"trajectories.csv", "permeability.csv", "speed.png", "fields.vtr"};
+  out.details["resumed_from_frame"] = out_resumed_from;
   // First particle's velocity at the end: the terminal velocity of a settling scene.
   const Eigen::Vector2d v0 = sc.disks[0].state == State::mobile ? v[0] : Eigen::Vector2d::Zero();
   out.metrics["final_velocity_x"] = v0.x();
