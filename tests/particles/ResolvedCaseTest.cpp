@@ -148,8 +148,8 @@ output_interval = "0.5 s"
                           "deposit");
   EXPECT_EQ(r.metrics.at("deposited"), 1);
   EXPECT_EQ(r.metrics.at("inside"), 0);
-  EXPECT_LT(r.metrics.at("normalised_permeability"), 0.97);
-  EXPECT_GT(r.metrics.at("normalised_permeability"), 0.3);
+  EXPECT_LT(r.metrics.at("k_over_k0"), 0.97);
+  EXPECT_GT(r.metrics.at("k_over_k0"), 0.3);
 }
 
 std::string readText(const fs::path& p) {

@@ -353,7 +353,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   std::int64_t out_resumed_from = 0;
   Tracks traj;
   std::ostringstream perm;
-  perm << "t_s,pressure_drop_pa,normalised_permeability,deposited\n";
+  perm << "t_s,pressure_drop_pa,k_over_k0,deposited\n";
   const double pixel = c.quantity("output.pixel_size");
   int solves = 0, steps = 0, contacts = 0, attached = 0;
   double t = 0;
@@ -487,7 +487,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
     return p.particle != q.particle ? p.particle < q.particle : p.frame < q.frame;
   });
   writeTracksCsv(ctx.out_dir / "trajectories.csv", traj, pixel);
-  writeFileAtomic(ctx.out_dir / "permeability.csv", perm.str());
+  if (sc.U > 0) writeFileAtomic(ctx.out_dir / "permeability.csv", perm.str());  // a closed box has no flow through it
   std::vector<std::vector<Eigen::Vector2d>> paths(sc.disks.size());
   for (const auto& tp : traj.points) paths[static_cast<std::size_t>(tp.particle)].emplace_back(tp.x, tp.y);
   sim::writeSpeedPng(fluid, ctx.out_dir / "speed.png", 1200, paths);
@@ -495,7 +495,8 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   std::filesystem::remove(ckpt);  // complete: nothing to resume
 
   RunOutput out;
-  out.files = {"trajectories.csv", "permeability.csv", "speed.png", "fields.vtr"};
+  out.files = {"trajectories.csv", "speed.png", "fields.vtr"};
+  if (sc.U > 0) out.files.push_back("permeability.csv");
   out.details["resumed_from_frame"] = out_resumed_from;
   // First particle's velocity at the end: the terminal velocity of a settling scene.
   const Eigen::Vector2d v0 = sc.disks[0].state == State::mobile ? v[0] : Eigen::Vector2d::Zero();
@@ -523,7 +524,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   out.metrics["retained_fraction"] = static_cast<double>(dep) / static_cast<double>(sc.disks.size());
   if (sc.U > 0) {
     const double dp = pressureDrop(fluid);
-    out.metrics["normalised_permeability"] = dp != 0 ? dp0 / dp : 1.0;
+    out.metrics["k_over_k0"] = dp != 0 ? dp0 / dp : 1.0;
     out.details["pressure_drop_clean_pa"] = dp0;
     out.details["pressure_drop_final_pa"] = dp;
   }
