@@ -7,20 +7,14 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Tracks.hpp"
 #include "mmval/particles/Kinds.hpp"
+#include "ParticleRegistry.hpp"
 
 namespace mmval::particles {
 namespace {
 
 namespace fs = std::filesystem;
 
-CaseKindRegistry& registry() {
-  static CaseKindRegistry r = [] {
-    CaseKindRegistry reg;
-    registerParticleKinds(reg);
-    return reg;
-  }();
-  return r;
-}
+CaseKindRegistry& registry() { return test_support::particleRegistry(); }
 
 constexpr const char* kCase = R"(
 [case]

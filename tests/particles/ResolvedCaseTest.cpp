@@ -15,6 +15,7 @@
 #include "mmval/core/Run.hpp"
 #include "mmval/core/Tracks.hpp"
 #include "mmval/particles/Kinds.hpp"
+#include "ParticleRegistry.hpp"
 #include "mmval/particles/Micromodel.hpp"
 #include "mmval/simulate/Geometry.hpp"
 
@@ -23,14 +24,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-CaseKindRegistry& registry() {
-  static CaseKindRegistry r = [] {
-    CaseKindRegistry reg;
-    registerParticleKinds(reg);
-    return reg;
-  }();
-  return r;
-}
+CaseKindRegistry& registry() { return test_support::particleRegistry(); }
 
 RunOutput run(const std::string& text, const std::string& name) {
   const Case c = Case::parse(text, "cases/" + name + ".toml", registry());
