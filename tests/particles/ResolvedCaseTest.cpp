@@ -111,34 +111,40 @@ output_interval = "0.2 s"
   EXPECT_GT(a.points[n - 1].x, a.points[0].x + 10e-6);  // carried downstream
 }
 
-TEST(ResolvedKind, DepositOnAnObstacleLowersThePermeability) {
-  // A disk on the centre line meets a fixed obstacle and sticks in front of it: a fixed body more in
-  // the flow, so the pressure drop rises (four-way coupling).
-  const RunOutput r = run(R"(
+/// A channel 40 um wide with one grain on its centre line, creeping inflow, every surface sticky within 0.5 um.
+std::string grainChannel(const std::string& length, const std::string& diameter, const std::string& xs, const std::string& ys,
+                         const std::string& grain_x, const std::string& grain_d, const std::string& run_table) {
+  return fmt::format(R"(
 [case]
-name = "deposit"
+name = "grain-channel"
 kind = "particles-resolved"
 [channel]
-length = "80 um"
+length = "{}"
 width = "40 um"
 mean_velocity = "0.05 mm/s"
 [particles]
-diameter = "8 um"
-x = ["15 um"]
-y = ["20 um"]
+diameter = "{}"
+x = [{}]
+y = [{}]
 [obstacles]
-x = ["45 um"]
+x = ["{}"]
 y = ["20 um"]
-diameter = ["12 um"]
+diameter = ["{}"]
 [deposition]
 capture_distance = "0.5 um"
 [numerics]
 cells_per_diameter = 8
 max_step_fraction = 1.0
 [run]
-duration = "2 s"
-output_interval = "0.5 s"
+{}
 )",
+                     length, diameter, xs, ys, grain_x, grain_d, run_table);
+}
+
+TEST(ResolvedKind, DepositOnAnObstacleLowersThePermeability) {
+  // A disk on the centre line meets a fixed obstacle and sticks in front of it: a fixed body more in
+  // the flow, so the pressure drop rises (four-way coupling).
+  const RunOutput r = run(grainChannel("80 um", "8 um", "\"15 um\"", "\"20 um\"", "45 um", "12 um", "duration = \"2 s\"\noutput_interval = \"0.5 s\""),
                           "deposit");
   EXPECT_EQ(r.metrics.at("deposited"), 1);
   EXPECT_EQ(r.metrics.at("inside"), 0);
@@ -156,32 +162,8 @@ std::string readText(const fs::path& p) {
 TEST(ResolvedKind, ResumeAfterAStopEqualsTheUninterruptedRun) {
   // Three particles meet a grain and deposit between 0.5 and 0.75 s: stopped at frame 2 (0.5 s),
   // resumed from the checkpoint, the outputs must be the uninterrupted run's, byte for byte.
-  const std::string text = R"(
-[case]
-name = "resume"
-kind = "particles-resolved"
-[channel]
-length = "120 um"
-width = "40 um"
-mean_velocity = "0.05 mm/s"
-[particles]
-diameter = "10 um"
-x = ["15 um", "15 um", "32 um"]
-y = ["20.5 um", "33 um", "9 um"]
-[obstacles]
-x = ["60 um"]
-y = ["20 um"]
-diameter = ["16 um"]
-[deposition]
-capture_distance = "0.5 um"
-[numerics]
-cells_per_diameter = 8
-max_step_fraction = 1.0
-[run]
-duration = "1 s"
-output_interval = "0.25 s"
-checkpoint_every = 1
-)";
+  const std::string text = grainChannel("120 um", "10 um", "\"15 um\", \"15 um\", \"32 um\"", "\"20.5 um\", \"33 um\", \"9 um\"", "60 um", "16 um",
+                                         "duration = \"1 s\"\noutput_interval = \"0.25 s\"\ncheckpoint_every = 1");
   const fs::path dir = fs::temp_directory_path() / "mmval-resolved-resume";
   fs::remove_all(dir);
   const Case whole = Case::parse(text, dir / "whole.toml", registry());
