@@ -227,6 +227,28 @@ y = ["5 um"]
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("channel.width"), std::string::npos) << e.what();
   }
+  // A grid the direct solver cannot hold: a 5 mm channel at 32 cells per 10 um particle.
+  try {
+    run(R"(
+[case]
+name = "bad4"
+kind = "particles-resolved"
+[channel]
+length = "5000 um"
+width = "2000 um"
+[particles]
+diameter = "10 um"
+x = ["50 um"]
+y = ["50 um"]
+[numerics]
+cells_per_diameter = 32
+)",
+        "bad4");
+    FAIL() << "a 1e8-cell grid was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("numerics.cells_per_diameter"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("geometry.crop"), std::string::npos) << e.what();
+  }
   // Lists of different lengths.
   try {
     run(base + "x = [\"50 um\", \"80 um\"]\ny = [\"20 um\"]\n", "bad3");

@@ -325,6 +325,14 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   const double duration = c.quantity("run.duration"), dt_out = c.quantity("run.output_interval");
   if (dt_out > duration) throw InputError(c.where("run.output_interval"), "longer than the run", fmt::format("{:g} s", dt_out), fmt::format("<= run.duration ({:g} s)", duration));
 
+  // Every move refactorises the coupled Stokes matrix (3 unknowns per cell): beyond ~1e6 cells the
+  // direct solver's memory and time leave this machine's range, so say so before starting.
+  const double cells = std::ceil(sc.L / dx) * std::ceil(sc.W / dx);
+  constexpr double kMaxCells = 1e6;
+  if (cells > kMaxCells)
+    throw InputError(c.where("numerics.cells_per_diameter"), "the resolved grid is too large for the direct Stokes solver",
+                     fmt::format("{:.3g} cells ({:.4g} x {:.4g} um at {:.3g} um per cell)", cells, sc.L * 1e6, sc.W * 1e6, dx * 1e6),
+                     fmt::format("at most {:.0e} cells: crop the image (geometry.crop), shorten the channel, or fewer cells per diameter", kMaxCells));
   sim::FlowProblem prob;
   prob.x = sim::uniformAxis(0, sc.L, std::max(4, static_cast<int>(std::lround(sc.L / dx))));
   prob.y = sim::uniformAxis(0, sc.W, std::max(4, static_cast<int>(std::lround(sc.W / dx))));
