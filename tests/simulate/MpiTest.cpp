@@ -9,6 +9,7 @@
 
 #include "mmval/simulate/FlowSolver.hpp"
 #include "mmval/simulate/Petsc.hpp"
+#include "mmval/simulate/ResolvedStokes.hpp"
 #include "mmval/simulate/UnsteadyFlowSolver.hpp"
 
 using namespace mmval::simulate;
@@ -88,4 +89,32 @@ TEST(Mpi, TwoRanksIterativeStokesGiveTheOneRankDirectAnswer) {
   const double a = serial.superficialVelocity(), b = parallel.superficialVelocity();
   if (PetscSession::rank() == 0) std::printf("iterative Stokes on %d ranks vs serial LU: Darcy velocity ratio - 1 = %.3e\n", PetscSession::size(), b / a - 1);
   EXPECT_NEAR(b / a, 1.0, 1e-7);
+}
+
+TEST(Mpi, TwoRanksGiveTheOneRankParticleMobility) {
+  // Resolved particles: two free cylinders near a fixed one in a channel flow, the mobility problem
+  // (7 solves on one factorisation each way) on 1 and on 2 ranks.
+  PetscSession::ensure();
+  FlowProblem p;
+  const double W = 40e-6;
+  p.x = uniformAxis(0, 100e-6, 100);
+  p.y = uniformAxis(0, W, 40);
+  p.boundary[0].type = BoundaryType::velocity;
+  p.boundary[0].velocity = [=](double y) { return 6 * 1e-4 * y * (W - y) / (W * W); };
+  p.boundary[1].type = BoundaryType::pressure;
+  p.shape = std::make_shared<Circles>(std::vector<Circle>{{50e-6, 20e-6, 8e-6}, {30e-6, 14e-6, 5e-6}, {32e-6, 29e-6, 5e-6}});
+  ResolvedStokes serial(p, {}, MPI_COMM_SELF), parallel(p, {}, MPI_COMM_WORLD);
+  const std::vector<BodyLoad> ext(3);
+  const std::vector<bool> free = {false, true, true};
+  const MobilityResult a = serial.freeMotion(ext, free), b = parallel.freeMotion(ext, free);
+  for (int k = 1; k < 3; ++k) {
+    const auto& A = a.motion[static_cast<std::size_t>(k)];
+    const auto& B = b.motion[static_cast<std::size_t>(k)];
+    if (PetscSession::rank() == 0)
+      std::printf("mobility 1 vs %d ranks, body %d: U (%.6e, %.6e) vs (%.6e, %.6e)\n", PetscSession::size(), k, A.velocity.x(), A.velocity.y(),
+                  B.velocity.x(), B.velocity.y());
+    EXPECT_NEAR((B.velocity - A.velocity).norm() / A.velocity.norm(), 0.0, 1e-8);
+    EXPECT_NEAR(B.spin, A.spin, 1e-8 * std::abs(A.spin) + 1e-12);
+  }
+  EXPECT_GT(a.motion[1].velocity.x(), 0.0);  // carried downstream
 }
