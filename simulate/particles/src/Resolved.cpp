@@ -508,9 +508,11 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   out.details["resumed_from_frame"] = out_resumed_from;
   // First particle's velocity at the end: the terminal velocity of a settling scene.
   const Eigen::Vector2d v0 = sc.disks[0].state == State::mobile ? v[0] : Eigen::Vector2d::Zero();
-  out.metrics["final_velocity_x"] = v0.x();
-  out.metrics["final_velocity_y"] = v0.y();
-  out.units["final_velocity_x"] = out.units["final_velocity_y"] = "um/s";
+  if (sc.disks[0].state == State::mobile) {  // a deposited or departed particle has no velocity to report
+    out.metrics["final_velocity_x"] = v0.x();
+    out.metrics["final_velocity_y"] = v0.y();
+    out.units["final_velocity_x"] = out.units["final_velocity_y"] = "um/s";
+  }
   // Faxen's cylinder midway between two plates (Happel & Brenner 1965), for a particle settling
   // along x in a channel of half-width l = W/2 at rest: U = F / (4 pi mu) * (ln(l/a) - 0.9157 + 1.7244 k^2
   // - 1.7302 k^4 + 2.4056 k^6 - 4.5913 k^8), k = a / l (plane 2D only).
