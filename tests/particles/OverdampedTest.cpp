@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <iostream>
 
 #include "mmval/core/Error.hpp"
@@ -217,6 +218,58 @@ TEST(Overdamped, ContactWithDepositedParticleAttachesWithoutOverlap) {
   const auto ps = e.particles();
   EXPECT_EQ(ps[1].status, ParticleStatus::deposited);
   EXPECT_GE((ps[0].x - ps[1].x).norm(), 2 * a * (1 - 1e-9));
+}
+
+}  // namespace
+}  // namespace mmval::particles
+
+namespace mmval::particles {
+namespace {
+
+// Attachment efficiency alpha on the plate: 400 particles settle onto the sticky bottom in still
+// fluid; each arrival attaches with probability alpha, so the attached count is binomial
+// (400, alpha): 4 standard deviations (0.1 at alpha = 0.5) bound it. The rejected ones stay mobile
+// on the plate, and the same seed draws the same particles.
+std::vector<ParticleState> settleMany(double alpha, std::uint64_t seed) {
+  SceneConfig c = still();
+  c.gravity = 9.81;
+  c.attachment.capture_distance = 0.05e-6;
+  c.attachment.grains = false;
+  c.attachment.deposited = false;
+  c.attachment.plate_efficiency = alpha;
+  c.seed = seed;
+  const double a = c.particle.radius(), h = 20e-6 + 2 * a;
+  auto flow = std::make_shared<UniformFlow>(Vec2(0, 0), h);
+  OverdampedEngine e(flow, c);
+  std::vector<Vec3> xs;
+  for (int i = 0; i < 20; ++i)
+    for (int j = 0; j < 20; ++j) xs.emplace_back(i * 20e-6, j * 20e-6, h - a - 1e-6);
+  e.insert(xs);
+  e.advance(40.0);  // 28 s to settle 20 um
+  return e.particles();
+}
+
+TEST(Overdamped, PlateAttachmentEfficiencyIsTheFractionOfArrivalsThatStick) {
+  for (double alpha : {0.0, 0.5, 1.0}) {
+    const auto ps = settleMany(alpha, 7);
+    const double a = still().particle.radius();
+    int stuck = 0, on_plate = 0;
+    for (const auto& p : ps) {
+      stuck += p.status == ParticleStatus::deposited ? 1 : 0;
+      on_plate += (p.status == ParticleStatus::mobile && p.x.z() < a + 0.05e-6 && p.plate_rejected) ? 1 : 0;
+    }
+    std::printf("alpha %.2f: %d of 400 attached\n", alpha, stuck);
+    EXPECT_NEAR(stuck / 400.0, alpha, 0.1) << "alpha " << alpha;
+    EXPECT_EQ(stuck + on_plate, 400) << "every particle arrived once; the rejected ones wait on the plate";
+  }
+  const auto a = settleMany(0.5, 7), b = settleMany(0.5, 7), c = settleMany(0.5, 8);
+  int same = 0, differ = 0;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    same += a[k].status == b[k].status ? 1 : 0;
+    differ += a[k].status != c[k].status ? 1 : 0;
+  }
+  EXPECT_EQ(same, 400);
+  EXPECT_GT(differ, 100) << "another seed draws other particles";
 }
 
 }  // namespace

@@ -238,6 +238,13 @@ void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {
            "only if the DMT adhesion torque (Hamaker constant, adhesion_separation, contact_modulus) holds against the "
            "Goldman-Cox-Brenner drag and torque of the local wall shear, else the particle rolls on")
       .def("capture");
+  s.real("deposition.plate_attachment_efficiency",
+         "Overdamped engine: probability that a particle arriving on a sticky plate attaches (colloid filtration theory's alpha), "
+         "drawn once per arrival; a rejected particle rolls on. 1: every arrival sticks. A calibration parameter (no surface "
+         "chemistry is known to compute it from); the LIGGGHTS engine's cohesion decides attachment itself")
+      .def(1.0)
+      .min(0)
+      .max(1);
   s.quantity("deposition.adhesion_separation", "nm", "Contact separation z0 of the adhesion A a / (6 z0^2) (0.4 nm: the usual convention)")
       .def("0.4 nm").positive();
   s.quantity("deposition.contact_modulus", "GPa",
@@ -258,6 +265,11 @@ void physicsAndDepositionFromCase(const Case& c, const EngineChoice& choice, Sce
   s.attachment.hamaker = c.quantity("deposition.hamaker");
   s.attachment.attraction_range = c.quantity("deposition.attraction_range");
   s.attachment.torque_balance = c.text("deposition.plate_rule") == "torque-balance";
+  s.attachment.plate_efficiency = c.real("deposition.plate_attachment_efficiency");
+  if (s.attachment.plate_efficiency < 1 && choice.engine == EngineKind::liggghts)
+    throw InputError(c.where("deposition.plate_attachment_efficiency"), "an attachment efficiency applies to the overdamped engine only",
+                     fmt::format("{:g} with the LIGGGHTS engine", s.attachment.plate_efficiency),
+                     "1 (LIGGGHTS' sjkr cohesion decides attachment), or particles.engine = \"overdamped\"");
   s.attachment.adhesion_separation = c.quantity("deposition.adhesion_separation");
   s.attachment.contact_modulus = c.quantity("deposition.contact_modulus");
 }

@@ -222,7 +222,28 @@ void OverdampedEngine::applyWallsAndCapture(ParticleState& p, const Vec3& before
   bool plate = on_bottom || on_top;
   // Torque balance (optional): a particle the shear would roll off the plate stays mobile.
   if (plate && at.torque_balance) plate = m_model.plateAdhesionHolds(p.x, on_bottom);
+  // Attachment efficiency: one draw per arrival on a plate; a rejected particle rolls on until it
+  // leaves the capture distance (then a later arrival draws again).
+  if (at.plate_efficiency < 1) {
+    if (!on_bottom && !on_top) p.plate_rejected = false;
+    if (plate && p.plate_rejected) plate = false;
+    else if (plate && arrivalDraw(p.id, ++p.plate_arrivals) >= at.plate_efficiency) {
+      p.plate_rejected = true;
+      plate = false;
+    }
+  }
   if (plate || (at.grains && (touched_grain || m_flow->wallDistance(p.x.x(), p.x.y()) - a <= cd))) p.status = ParticleStatus::deposited;
+}
+
+double OverdampedEngine::arrivalDraw(std::int64_t id, std::uint32_t arrival) const {
+  // splitmix64 of (seed, particle, arrival): independent of the step size and of the order in
+  // which particles are visited, so runs and resumed runs draw the same.
+  std::uint64_t z = m_cfg.seed * 0x9E3779B97F4A7C15ULL ^ static_cast<std::uint64_t>(id) * 0xBF58476D1CE4E5B9ULL ^ (static_cast<std::uint64_t>(arrival) << 40);
+  z += 0x9E3779B97F4A7C15ULL;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  z ^= z >> 31;
+  return static_cast<double>(z >> 11) * 0x1.0p-53;
 }
 
 void OverdampedEngine::resolveContacts() {
@@ -298,7 +319,7 @@ void OverdampedEngine::resolveContacts() {
 }
 
 void OverdampedEngine::saveState(CheckpointWriter& w) const {
-  w.putString("overdamped-v1");
+  w.putString("overdamped-v2");
   w.put(m_t);
   w.put(m_stats);
   w.put<std::uint64_t>(m_particles.size());
@@ -308,6 +329,8 @@ void OverdampedEngine::saveState(CheckpointWriter& w) const {
     w.put(p.v.x()); w.put(p.v.y()); w.put(p.v.z());
     w.put(static_cast<std::uint8_t>(p.status));
     w.put(p.t_event);
+    w.put(p.plate_arrivals);
+    w.put(static_cast<std::uint8_t>(p.plate_rejected));
   }
   w.putVector(m_dep_order);
   w.putString(gsl_rng_name(m_rng->r));
@@ -315,7 +338,7 @@ void OverdampedEngine::saveState(CheckpointWriter& w) const {
 }
 
 void OverdampedEngine::loadState(CheckpointReader& r) {
-  if (r.getString() != "overdamped-v1") throw std::runtime_error("checkpoint " + r.name() + ": not an overdamped-engine state");
+  if (r.getString() != "overdamped-v2") throw std::runtime_error("checkpoint " + r.name() + ": not an overdamped-engine state");
   m_t = r.get<double>();
   m_stats = r.get<EngineStats>();
   const auto n = r.get<std::uint64_t>();
@@ -330,6 +353,8 @@ void OverdampedEngine::loadState(CheckpointReader& r) {
     if (st > 2) throw std::runtime_error("checkpoint " + r.name() + ": bad particle status");
     p.status = static_cast<ParticleStatus>(st);
     p.t_event = r.get<double>();
+    p.plate_arrivals = r.get<std::uint32_t>();
+    p.plate_rejected = r.get<std::uint8_t>() != 0;
   }
   const auto order = r.getVector<int>();
   if (r.getString() != gsl_rng_name(m_rng->r)) throw std::runtime_error("checkpoint " + r.name() + ": other random generator");
@@ -363,6 +388,7 @@ nlohmann::json OverdampedEngine::describe() const {
           {"capture_distance_um", c.attachment.capture_distance * 1e6},
           {"hamaker_J", c.attachment.hamaker},
           {"plate_attachment", c.attachment.torque_balance ? "torque balance (GCB shear vs DMT adhesion)" : "capture distance"},
+          {"plate_attachment_efficiency", c.attachment.plate_efficiency},
           {"adhesion_separation_nm", c.attachment.adhesion_separation * 1e9},
           {"contact_modulus_GPa", c.attachment.contact_modulus * 1e-9},
           {"max_step_fraction", c.max_step_fraction},

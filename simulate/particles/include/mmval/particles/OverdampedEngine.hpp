@@ -66,6 +66,8 @@ class OverdampedEngine final : public ParticleEngine {
   void step(double dt);
   void resolveContacts();
   void applyWallsAndCapture(ParticleState& p, const Vec3& before);
+  /// Uniform [0, 1) draw of a particle's n-th plate arrival (plate attachment efficiency).
+  double arrivalDraw(std::int64_t id, std::uint32_t arrival) const;
   double chooseStep(const std::vector<Vec3>& drift) const;  ///< drift indexed like m_mobile
   std::int64_t cellKey(const Vec3& x) const;
   void indexDeposited(int i);

@@ -38,6 +38,12 @@ struct AttachmentModel {
   /// (HydroModel::plateAdhesionHolds); otherwise it stays mobile and rolls on
   /// (checked again every step). Off: the capture rule above alone.
   bool torque_balance = false;
+  /// Plates only: the probability that a particle arriving on a sticky plate attaches (colloid
+  /// filtration theory's attachment efficiency alpha; 1: every arrival sticks). Drawn once per
+  /// arrival (deterministic from the seed and the particle); a rejected particle stays mobile on
+  /// the plate until it leaves the capture distance and arrives again. A calibration parameter:
+  /// the experiment gives no surface chemistry to compute it from.
+  double plate_efficiency = 1.0;
   /// m; contact separation z0 of the DMT adhesion F_A = A a / (6 z0^2); 0.4 nm is
   /// the convention of colloid-detachment studies (e.g. Bergendahl & Grasso 2000,
   /// Chem. Eng. Sci. 55:1523), not a measured value for this chip.
@@ -85,6 +91,8 @@ struct ParticleState {
   Vec3 v = Vec3::Zero();  ///< m/s (last step's mean velocity for the overdamped engine)
   ParticleStatus status = ParticleStatus::mobile;
   double t_event = std::numeric_limits<double>::quiet_NaN();  ///< s: time it deposited or left
+  std::uint32_t plate_arrivals = 0;  ///< arrivals on a sticky plate drawn against plate_efficiency
+  bool plate_rejected = false;       ///< its last plate arrival did not attach; cleared when it leaves the plate
 };
 
 /// Particle bookkeeping; injected == inside + deposited + left always holds.
