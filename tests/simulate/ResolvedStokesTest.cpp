@@ -7,6 +7,7 @@
 // cylinder problems of ch. 4; the translation result is the annulus analogue of
 // Lamb's 2D drag and tends to 4 pi mu U / (ln(b/a) - 1) for b >> a.)
 #include <cmath>
+#include <cstdio>
 #include <memory>
 
 #include <gtest/gtest.h>
@@ -55,6 +56,7 @@ TEST(ResolvedStokes, RotatingCylinderTorqueMatchesCouetteFlow) {
   ResolvedStokes s(A.problem());
   const std::vector<BodyLoad> L = s.loads({RigidMotion{{0, 0}, 2.0}, RigidMotion{}}, 0.0);
   const double exact = A.torquePerSpin() * 2.0;
+  std::printf("rotating cylinder: torque / Couette = %.5f\n", L[0].torque / exact);
   // Second-order sharp boundary on both circles: 1 % at 17 cells per inner diameter (measured below).
   EXPECT_NEAR(L[0].torque / exact, 1.0, 0.01) << L[0].torque << " vs " << exact;
   // No net force on a spinning centred cylinder; the outer cylinder takes the opposite torque.
@@ -68,6 +70,7 @@ TEST(ResolvedStokes, TranslatingCylinderDragMatchesAnnulusSolution) {
   const double U = 1e-3;
   const std::vector<BodyLoad> L = s.loads({RigidMotion{{U, 0}, 0}, RigidMotion{}}, 0.0);
   const double exact = A.forcePerVelocity() * U;
+  std::printf("translating cylinder: force / annulus solution = %.5f\n", L[0].force.x() / exact);
   EXPECT_NEAR(L[0].force.x() / exact, 1.0, 0.01) << L[0].force.x() << " vs " << exact;
   EXPECT_LT(std::abs(L[0].force.y()), 1e-3 * std::abs(exact));
   // Action and reaction through the fluid: the outer cylinder is pulled along with the same force.
