@@ -114,9 +114,15 @@ class FlowOperator {
   int pcell(int d, int k, int t) const { return d == 0 ? cellUnknown(k, t) : cellUnknown(t, k); }
   void momentumRow(int d, int n, int t, bool standard, RowTerms& R) const;
   void continuityRow(int i, int j, RowTerms& R) const;
+  /// Component d at the fraction w of the link from node (n, t) to its neighbour in slot s
+  /// (0: n - 1, 1: n + 1, 2: t - 1, 3: t + 1); zero beyond the surface on a fluid-solid link.
+  Lin alongLink(int d, int n, int t, int s, double w) const;
   Lin advecting(int d, int n, int face_t, Kind base) const;
   Lin advected(int d, int n, int t, int t2) const;
   bool bilinearPressure(const std::vector<double>& s, double x, double y, double& out) const;
+  /// Sharp, no Hele-Shaw friction: the excess (factor - 1) of the flux of node (d, n, t)'s face when
+  /// the surface of cut slot s (2, 3: the transverse neighbours) crosses that face; 0 otherwise.
+  double openExcess(int d, int n, int t, int s) const;
   /// Component d of body's rigid velocity at point X (zero at rest or without motions).
   double rigidVelocity(int body, int d, const Eigen::Vector2d& X) const;
   /// Fills m_rigid and m_cutWall from m_p.body_motion.
@@ -133,6 +139,13 @@ class FlowOperator {
   std::array<std::vector<double>, 2> m_rigid;                 ///< body velocity at solid (sharp) / forced (penalized) nodes
   std::array<std::vector<std::array<double, 4>>, 2> m_cutWall;  ///< body velocity at the surface point of each cut slot
   double m_drive = 1.0;                                       ///< see setDriveScale
+  /// Sharp: flux of the node's face over (node value x face area), > 1 where the surface crosses the face
+  /// (its fluid part with the velocity linear from the surface); 1 elsewhere.
+  std::array<std::vector<double>, 2> m_open;
+  /// Moving bodies: sum over the crossed faces' slots of (open excess) x (surface velocity), m/s; the
+  /// face flux is then A (m_open u - m_openWall): the fluid part's linear profile starts at the
+  /// surface's velocity, and the covered part moves with the body.
+  std::array<std::vector<double>, 2> m_openWall;
   std::array<std::vector<double>, 2> m_hface;  ///< depth field only: face depth h_f per velocity node, m
   /// Face depth of node (d, q): the face's own with a depth field, else the scalar depth.
   double faceDepth(int d, std::size_t q) const { return m_hface[d].empty() ? m_p.depth : m_hface[d][q]; }

@@ -60,7 +60,7 @@ output_interval = "0.5 s"
 
 TEST(ResolvedKind, SettlingDiskMatchesFaxenBetweenPlates) {
   // 10 um polystyrene disk midway between plates 40 um apart: Faxen's series (a/l = 0.25) gives
-  // the terminal velocity; measured 1.0041 of it with 12 cells per diameter in a 100 um box.
+  // the terminal velocity; measured 1.0046 of it with 12 cells per diameter in a 100 um box.
   const RunOutput r = run(kSettling, "settling");
   EXPECT_NEAR(r.metrics.at("faxen_velocity_ratio"), 1.0, 0.01);
   EXPECT_LT(r.metrics.at("final_velocity_x"), 0.0);

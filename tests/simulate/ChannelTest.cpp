@@ -1,6 +1,8 @@
 // Channel flows with exact solutions: plane Poiseuille (pressure- and
-// velocity-driven) and the depth-averaged (Brinkman-Hele-Shaw) duct.
+// velocity-driven), the depth-averaged (Brinkman-Hele-Shaw) duct, and
+// Poiseuille flow between immersed walls inclined to the grid.
 #include <cmath>
+#include <memory>
 
 #include <gtest/gtest.h>
 
@@ -89,4 +91,60 @@ TEST(Channel, DepthAveragedDuct) {
   const double k = std::sqrt(12.0) / h;
   const double exact = G * h * h * W / (12 * mu) * (1 - std::tanh(k * W / 2) / (k * W / 2));
   EXPECT_NEAR(s.flowRate(Side::west) / exact, 1.0, 5e-3);
+}
+
+namespace {
+
+/// Solid stripes of normal (-1, 2) / sqrt 5 and period P = Lx / sqrt 5, so they repeat with the box
+/// [0, Lx] x [0, Lx / 2]; the fluid layers between them are w wide and no wall is along a grid axis.
+class InclinedStripes final : public Shape {
+ public:
+  InclinedStripes(double Lx, double w) : m_P(Lx / std::sqrt(5.0)), m_w(w) {}
+  int bodyAt(double x, double y) const override {
+    const double s = (-x + 2 * y) / std::sqrt(5.0) + 0.3 * m_P;  // offset: the walls cut the cells off the nodes
+    return s - m_P * std::floor(s / m_P) > m_w ? 0 : -1;
+  }
+  int bodies() const override { return 1; }
+  Eigen::Vector2d centre(int) const override { return {0, 0}; }
+
+ private:
+  double m_P, m_w;
+};
+
+/// Relative error of the superficial velocity of Stokes flow through the inclined layers, driven by
+/// G along them, on nx x nx/2 cells. Exact: layer flux G w^3 / (12 mu) per period P, x-part 2 / sqrt 5.
+double inclinedChannelError(int nx) {
+  const double Lx = 1, mu = 1e-3, G = 0.06, P = Lx / std::sqrt(5.0), w = 0.6 * P;
+  FlowProblem p;
+  p.x = uniformAxis(0, Lx, nx);
+  p.y = uniformAxis(0, 0.5 * Lx, nx / 2);
+  for (auto& b : p.boundary) b.type = BoundaryType::periodic;
+  p.viscosity = mu;
+  p.body_force = G * Eigen::Vector2d(2, 1) / std::sqrt(5.0);
+  p.shape = std::make_shared<InclinedStripes>(Lx, w);
+  SteadyFlowSolver s(p);
+  s.solve();
+  const double exact = G * w * w * w / (12 * mu) / P * 2 / std::sqrt(5.0);
+  return s.superficialVelocity() / exact - 1;
+}
+
+}  // namespace
+
+// Walls inclined to the grid: the test of the continuity at cut cells. Walls along a grid axis
+// converge at second order (a 0.3-wide layer along x on the same grids: +1.4 %, +0.35 %); inclined
+// ones are first order, because the cells the surface cuts see the node value times the whole face
+// where part of the face is solid (or, for a node inside the body, fluid). Measured flow rate error
+// at 40 x 20 cells (~11 across the layer) and 80 x 40:
+//   node value x whole face, solid nodes zero (before)                 -2.2 %   -1.15 %
+//   fluid part of faces with a fluid node (m_open, as now)              -0.95 %  -0.53 %
+//   plus the fluid part of faces with a solid node, from the fluid
+//   neighbour (pressure force on it by transpose; not used: Sangani-
+//   Acrivos phi 0.05 at 32 cells went from -0.2 % to +12 %)            +0.14 %  +0.008 %
+// so what is left is the solid nodes' share, and the cell pressures next to the walls still scatter
+// by O(mu U / w) without converging. (Extrapolating the fluid linearly into the solid faces instead
+// cuts the error ~10x but puts a net mass source at closed bodies, 3-4 % of the inflow at D/10.)
+TEST(Channel, InclinedImmersedWallsConverge) {
+  const double e40 = inclinedChannelError(40), e80 = inclinedChannelError(80);
+  EXPECT_LT(std::abs(e40), 0.015) << "40 cells: flow rate error " << e40;  // -2.2 % with the whole faces
+  EXPECT_LT(std::abs(e80), 0.6 * std::abs(e40)) << "40 cells: " << e40 << ", 80 cells: " << e80;
 }

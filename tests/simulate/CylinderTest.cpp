@@ -40,7 +40,7 @@ Coeffs schaeferTurek(double cells_per_d, ImmersedMethod method) {
 }  // namespace
 
 TEST(Cylinder, SchaeferTurek2D1Sharp) {
-  // h = D/20, ~10k cells, ~2 s. Measured: c_D -0.01 %, c_L -3.5 %, dp -3.2 % (dp needs h = D/30: -0.8 %).
+  // h = D/20, ~10k cells, ~2 s. Measured: c_D +0.01 %, c_L -3.8 %, dp -3.2 % (dp needs h = D/30: -0.8 %).
   const Coeffs r = schaeferTurek(20, ImmersedMethod::sharp);
   EXPECT_NEAR(r.cd / 5.57953523384, 1.0, 0.005);  // issue 4's target
   EXPECT_NEAR(r.cl / 0.010618948146, 1.0, 0.05);  // issue 4's target
