@@ -10,12 +10,14 @@
 #include <sstream>
 #include <string>
 
+#include <unistd.h>
+
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/core/Tracks.hpp"
-#include "mmval/particles/Kinds.hpp"
 #include "ParticleRegistry.hpp"
+#include "mmval/particles/Kinds.hpp"
 #include "mmval/particles/Micromodel.hpp"
 #include "mmval/simulate/Geometry.hpp"
 
@@ -26,9 +28,12 @@ namespace fs = std::filesystem;
 
 CaseKindRegistry& registry() { return test_support::particleRegistry(); }
 
+/// This process's own scratch folder: test binaries of other checkouts may run at the same time.
+fs::path scratch() { return fs::temp_directory_path() / ("mmval-resolved-" + std::to_string(::getpid())); }
+
 RunOutput run(const std::string& text, const std::string& name) {
   const Case c = Case::parse(text, "cases/" + name + ".toml", registry());
-  const fs::path out = fs::temp_directory_path() / ("mmval-resolved-" + name);
+  const fs::path out = scratch() / name;
   fs::remove_all(out);
   fs::create_directories(out);
   RunContext ctx;
@@ -90,9 +95,9 @@ duration = "0.4 s"
 output_interval = "0.2 s"
 )";
   run(text, "mirror");
-  const Tracks a = readTracksCsv(fs::temp_directory_path() / "mmval-resolved-mirror" / "trajectories.csv");
+  const Tracks a = readTracksCsv(scratch() / "mirror" / "trajectories.csv");
   run(text, "mirror");
-  const Tracks b = readTracksCsv(fs::temp_directory_path() / "mmval-resolved-mirror" / "trajectories.csv");
+  const Tracks b = readTracksCsv(scratch() / "mirror" / "trajectories.csv");
   ASSERT_EQ(a.points.size(), b.points.size());
   for (std::size_t k = 0; k < a.points.size(); ++k) {
     EXPECT_EQ(a.points[k].x, b.points[k].x);
@@ -164,7 +169,7 @@ TEST(ResolvedKind, ResumeAfterAStopEqualsTheUninterruptedRun) {
   // resumed from the checkpoint, the outputs must be the uninterrupted run's, byte for byte.
   const std::string text = grainChannel("120 um", "10 um", "\"15 um\", \"15 um\", \"32 um\"", "\"20.5 um\", \"33 um\", \"9 um\"", "60 um", "16 um",
                                          "duration = \"1 s\"\noutput_interval = \"0.25 s\"\ncheckpoint_every = 1");
-  const fs::path dir = fs::temp_directory_path() / "mmval-resolved-resume";
+  const fs::path dir = scratch() / "resume";
   fs::remove_all(dir);
   const Case whole = Case::parse(text, dir / "whole.toml", registry());
   runCase(whole, registry(), dir / "whole", {.quiet = true});
@@ -290,7 +295,7 @@ TEST(ResolvedKind, ParticlesInTheChipImageNeverEnterAGrain) {
   // on its way to the throat. At every output its disk must stay clear of every grain pixel
   // (by half the one-cell contact gap at least), checked against the image itself.
   run(chipCase("\"12 um\", \"12 um\"", "\"45 um\", \"70 um\""), "chip");
-  const Tracks t = readTracksCsv(fs::temp_directory_path() / "mmval-resolved-chip" / "trajectories.csv");
+  const Tracks t = readTracksCsv(scratch() / "chip" / "trajectories.csv");
   auto mask = simulate::readMask(fs::path(MMVAL_SHARED_DATA_DIR) / "pore2chip" / "grain_network.png", true);
   const Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic> win = mask.block(90, 0, 140, 180);
   const double px = 1e-6, a = 6e-6, gap = 2.4e-6;  // one cell: 12/5 um
