@@ -66,17 +66,6 @@ struct RunnerState {
   std::string retention, permeability;
 };
 
-std::string fingerprint(const Case& c) {
-  nlohmann::json j = c.resolvedJson();
-  if (j.contains("run")) {
-    j["run"].erase("stop_after_frames");
-    j["run"].erase("checkpoint_every");
-  }
-  j.erase("case");
-  j.erase("acceptance");
-  return j.dump();
-}
-
 void writeCheckpoint(const fs::path& file, const std::string& fp, const RunnerState& s, const std::vector<SizeClass>& classes,
                      const DepositGrid& deposits, const MicromodelFlow& flow) {
   CheckpointWriter w;
@@ -146,7 +135,7 @@ void compareEnginesOnTheScene(const Case& c, std::shared_ptr<const FlowField> fi
   SceneConfig ref = scene;
   ref.particle.diameter = diameter;
   ref.particle.youngs_modulus = c.quantity("engines.compare_youngs_modulus");
-  ref.work_dir = std::filesystem::temp_directory_path() / fmt::format("mmval-engines-{:016x}", std::hash<std::string>{}(fingerprint(c)));
+  ref.work_dir = std::filesystem::temp_directory_path() / fmt::format("mmval-engines-{:016x}", std::hash<std::string>{}(detail::checkpointFingerprint(c)));
   SceneWindow w;
   w.window = c.quantity("engines.compare_window");
   w.interval = std::min(w.window, std::max(w.window / 20, c.quantity("run.output_interval") / 4));
@@ -313,7 +302,7 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   const auto frames = static_cast<std::int64_t>(std::llround(duration / dt_out));
   const std::int64_t checkpoint_every = c.integer("run.checkpoint_every"), stop_after = c.integer("run.stop_after_frames");
   const fs::path ckpt = ctx.out_dir / "checkpoint.bin";
-  const std::string fp = fingerprint(c);
+  const std::string fp = detail::checkpointFingerprint(c);
 
   RunnerState s;
   bool resumed = false;

@@ -81,16 +81,6 @@ void declareResolved(Schema& s) {
   s.integer("run.stop_after_frames", "Stop (as if killed) after this many output frames, leaving a checkpoint (0: run to the end; tests)").def(0).min(0);
 }
 
-/// The case as a checkpoint must match it: everything but the checkpoint and stop settings.
-std::string scenarioHash(const Case& c) {
-  nlohmann::json j = c.resolvedJson();
-  if (j.contains("run")) {
-    j["run"].erase("checkpoint_every");
-    j["run"].erase("stop_after_frames");
-  }
-  return j.dump();
-}
-
 RunOutput runResolved(const Case& c, const RunContext& ctx) {
   Scene sc;
   sc.L = c.quantity("channel.length");
@@ -221,7 +211,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   auto saveCheckpoint = [&](std::int64_t f) {
     nlohmann::json j;
     j["format"] = "mmval-resolved-checkpoint-1";
-    j["scenario"] = scenarioHash(c);
+    j["scenario"] = detail::checkpointFingerprint(c);
     j["frame"] = f;
     j["t"] = t;
     j["counters"] = {solves, steps, contacts, attached};
@@ -237,7 +227,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
     try {
       const nlohmann::json j = nlohmann::json::parse(readBinaryFile(ckpt));
       if (j.at("format") != "mmval-resolved-checkpoint-1") throw std::runtime_error("unknown format");
-      if (j.at("scenario").get<std::string>() != scenarioHash(c)) throw std::runtime_error("it belongs to another version of this case");
+      if (j.at("scenario").get<std::string>() != detail::checkpointFingerprint(c)) throw std::runtime_error("it belongs to another version of this case");
       if (j.at("disks").size() != sc.disks.size()) throw std::runtime_error("other number of particles");
       first = j.at("frame").get<std::int64_t>() + 1;
       frame = first;
