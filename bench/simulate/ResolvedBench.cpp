@@ -21,9 +21,8 @@ int main(int argc, char** argv) {
   std::vector<int> per;
   for (int a = 1; a < argc; ++a) per.push_back(std::atoi(argv[a]));
   if (per.empty()) per = {8, 12, 16, 24, 32};
-  constexpr double kPi = 3.14159265358979323846;
-  const double l = 20e-6, a = 0.25 * l, mu = 1e-3, k = a / l, F = 1e-8;  // F: weight per unit length, N/m
-  const double faxen = F / (4 * kPi * mu) * (std::log(l / a) - 0.9157 + 1.7244 * k * k - 1.7302 * std::pow(k, 4) + 2.4056 * std::pow(k, 6) - 4.5913 * std::pow(k, 8));
+  const double l = 20e-6, a = 0.25 * l, mu = 1e-3, F = 1e-8;  // F: weight per unit length, N/m
+  const double faxen = F / faxenCylinderResistance(a, l, mu);
   fmt::print("cylinder settling midway between plates, a/l = 0.25, box 10 l long: one mobility solve vs cells per diameter\n");
   fmt::print("{:>6} {:>9} {:>7} {:>8} {:>9} {:>12} {:>10}\n", "cells/d", "unknowns", "solves", "factors", "wall s", "U/U_faxen", "error %");
   for (int n : per) {

@@ -48,6 +48,12 @@ Eigen::Vector2d ShapeUnion::centre(int body) const {
   throw std::out_of_range("ShapeUnion: no such body");
 }
 
+double faxenCylinderResistance(double a, double l, double mu) {
+  constexpr double kPi = 3.14159265358979323846;
+  const double k = a / l;
+  return 4 * kPi * mu / (std::log(l / a) - 0.9157 + 1.7244 * k * k - 1.7302 * std::pow(k, 4) + 2.4056 * std::pow(k, 6) - 4.5913 * std::pow(k, 8));
+}
+
 struct ResolvedStokes::Impl {
   FlowProblem base;
   SolverOptions opt;

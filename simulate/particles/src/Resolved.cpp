@@ -329,13 +329,11 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
     out.metrics["final_velocity_y"] = v0.y();
     out.units["final_velocity_x"] = out.units["final_velocity_y"] = "um/s";
   }
-  // Faxen's cylinder midway between two plates (Happel & Brenner 1965), for a particle settling
-  // along x in a channel of half-width l = W/2 at rest: U = F / (4 pi mu) * (ln(l/a) - 0.9157 + 1.7244 k^2
-  // - 1.7302 k^4 + 2.4056 k^6 - 4.5913 k^8), k = a / l (plane 2D only).
+  // Faxen's cylinder midway between two plates (simulate::faxenCylinderResistance), for a particle
+  // settling along x in a channel of half-width l = W/2 at rest: U = F / R (plane 2D only).
   if (sc.h == 0 && sc.U == 0 && sc.weight.x() != 0) {
     const double l = 0.5 * sc.W, k = a / l;
-    const double faxen = sc.weight.x() / (4 * kPi * mu) *
-                         (std::log(l / a) - 0.9157 + 1.7244 * k * k - 1.7302 * std::pow(k, 4) + 2.4056 * std::pow(k, 6) - 4.5913 * std::pow(k, 8));
+    const double faxen = sc.weight.x() / sim::faxenCylinderResistance(a, l, mu);
     out.metrics["faxen_velocity_ratio"] = faxen != 0 ? v0.x() / faxen : 0.0;
     out.details["faxen"] = {{"velocity_um_s", faxen * 1e6},
                             {"a_over_l", k},

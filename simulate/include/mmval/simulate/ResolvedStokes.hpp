@@ -45,6 +45,12 @@ class ShapeUnion final : public Shape {
   int m_total = 0;
 };
 
+/// Faxen's series (as given by Happel & Brenner, Low Reynolds Number Hydrodynamics, 1965) for a
+/// cylinder of radius a moving midway between two plane walls 2 l apart through fluid at rest:
+/// drag per unit length = -R U with R = 4 pi mu / (ln(l/a) - 0.9157 + 1.7244 k^2 - 1.7302 k^4
+/// + 2.4056 k^6 - 4.5913 k^8), k = a / l, in N s / m2. Truncated at k^8: a reference for k <~ 0.25-0.4.
+double faxenCylinderResistance(double a, double l, double mu);
+
 struct MobilityResult {
   std::vector<RigidMotion> motion;  ///< per body (held bodies: at rest)
   std::vector<BodyLoad> rest_loads; ///< hydrodynamic loads with every body held at rest in the driven flow (L0)
