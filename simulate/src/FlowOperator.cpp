@@ -113,15 +113,14 @@ FlowOperator::FlowOperator(FlowProblem problem) : m_p(std::move(problem)) {
           const char k = m_kind[d][q];
           if (k == kSolid || k == kDirichlet) continue;
           const Eigen::Vector2d P = position(d, n, t);
-          const int nb[4][2] = {{n - 1, t}, {n + 1, t}, {n, t - 1}, {n, t + 1}};
           for (int s = 0; s < 4; ++s) {
             if ((s == 0 && k == kPressureLo) || (s == 1 && k == kPressureHi)) continue;
-            const int qn = unknown(d, nb[s][0], nb[s][1]);
+            const int qn = slotNeighbour(d, n, t, s);
             if (qn < 0) continue;
             const std::size_t ql = static_cast<std::size_t>(qn - m_off[d]);
             if (m_kind[d][ql] != kSolid) continue;
             const int axis = s < 2 ? d : b, sign = (s % 2 == 0) ? -1 : 1;
-            const double dist = s == 0 ? W(d, n - 1) : s == 1 ? W(d, n) : std::abs(C(b, nb[s][1]) - C(b, t));
+            const double dist = slotLength(d, n, t, s);
             const double hit = shape->distanceAlong(P.x(), P.y(), axis, sign, dist);
             const double theta = std::clamp(hit / dist, kMinTheta, 1.0);
             m_cut[d][q][static_cast<std::size_t>(s)] = theta;
@@ -236,9 +235,18 @@ double FlowOperator::controlVolume(int d, int n, int t) const {
   return (hi_n - lo_n) * W(1 - d, t);
 }
 
+int FlowOperator::slotNeighbour(int d, int n, int t, int s) const {
+  return unknown(d, s == 0 ? n - 1 : s == 1 ? n + 1 : n, s == 2 ? t - 1 : s == 3 ? t + 1 : t);
+}
+
+double FlowOperator::slotLength(int d, int n, int t, int s) const {
+  if (s < 2) return W(d, s == 0 ? n - 1 : n);
+  const int b = 1 - d;
+  return std::abs(C(b, s == 2 ? t - 1 : t + 1) - C(b, t));
+}
+
 Lin FlowOperator::alongLink(int d, int n, int t, int s, double w) const {
-  const int nn = s == 0 ? n - 1 : s == 1 ? n + 1 : n, tt = s == 2 ? t - 1 : s == 3 ? t + 1 : t;
-  const int P = unknown(d, n, t), Q = unknown(d, nn, tt);
+  const int P = unknown(d, n, t), Q = slotNeighbour(d, n, t, s);
   const std::size_t qp = static_cast<std::size_t>(P - m_off[d]), qq = static_cast<std::size_t>(Q - m_off[d]);
   const bool solid_p = m_kind[d][qp] == kSolid, solid_q = m_kind[d][qq] == kSolid;
   Lin L;
@@ -312,15 +320,14 @@ void FlowOperator::momentumRow(int d, int n, int t, bool standard, RowTerms& R) 
   const auto& cut = m_cut[d][q];
   for (int s = 0; s < 4; ++s) {
     if ((s == 0 && lo_b) || (s == 1 && hi_b)) continue;  // zero normal gradient at an open boundary
-    const int nn = s == 0 ? n - 1 : s == 1 ? n + 1 : n, tt = s == 2 ? t - 1 : s == 3 ? t + 1 : t;
     const double A = s < 2 ? wt : wn;
-    const int Q = unknown(d, nn, tt);
+    const int Q = slotNeighbour(d, n, t, s);
     if (Q < 0) {  // ghost beyond a wall along the transverse axis (mirror)
       const BoundaryType bt = side(b, s == 3).type;
       if (bt == BoundaryType::no_slip || bt == BoundaryType::velocity) diag += 2 * mu * A / W(b, t);
       continue;
     }
-    const double dist = s == 0 ? W(d, n - 1) : s == 1 ? W(d, n) : std::abs(C(b, tt) - C(b, t));
+    const double dist = slotLength(d, n, t, s);
     const double theta = standard ? 0.0 : cut[static_cast<std::size_t>(s)];
     if (theta > 0) {
       diag += mu * A / (theta * dist);  // wall (moving with the body) at theta * dist
@@ -453,11 +460,9 @@ double FlowOperator::linearRow(int r, Linearisation mode, const std::vector<doub
 
 double FlowOperator::openExcess(int d, int n, int t, int s) const {
   if (s < 2 || m_p.depth > 0) return 0.0;
-  const int b = 1 - d;
   const double theta = m_cut[d][static_cast<std::size_t>(local(d, n, t))][static_cast<std::size_t>(s)];
   if (!(theta > 0)) return 0.0;
-  const double dist = std::abs(C(b, s == 2 ? t - 1 : t + 1) - C(b, t));
-  const double gap = theta * dist, wf = W(b, t);
+  const double gap = theta * slotLength(d, n, t, s), wf = W(1 - d, t);
   if (!(gap < 0.5 * wf)) return 0.0;
   // The surface crosses this node's face, gap from the node: the flux through the
   // face's fluid part, with the velocity linear from zero at the surface through the
@@ -505,11 +510,10 @@ void FlowOperator::applyMotion() {
           if (theta <= 0) continue;
           // The surface point of the slot: theta of the way to the solid neighbour.
           const int axis = s < 2 ? d : b, sign = (s % 2 == 0) ? -1 : 1;
-          const double dist = s == 0 ? W(d, n - 1) : s == 1 ? W(d, n) : std::abs(C(b, s == 2 ? t - 1 : t + 1) - C(b, t));
           Eigen::Vector2d X = P;
-          X[axis] += sign * theta * dist;
+          X[axis] += sign * theta * slotLength(d, n, t, s);
           // The solid neighbour's body (a node between two bodies sees each on its own side).
-          const int qn = unknown(d, s == 0 ? n - 1 : s == 1 ? n + 1 : n, s == 2 ? t - 1 : s == 3 ? t + 1 : t);
+          const int qn = slotNeighbour(d, n, t, s);
           const int nb = qn >= 0 ? m_body[d][static_cast<std::size_t>(qn - m_off[d])] : body;
           m_cutWall[d][q][static_cast<std::size_t>(s)] = rigidVelocity(nb >= 0 ? nb : body, d, X);
           m_openWall[d][q] += openExcess(d, n, t, s) * m_cutWall[d][q][static_cast<std::size_t>(s)];

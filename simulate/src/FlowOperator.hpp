@@ -120,6 +120,10 @@ class FlowOperator {
   Lin advecting(int d, int n, int face_t, Kind base) const;
   Lin advected(int d, int n, int t, int t2) const;
   bool bilinearPressure(const std::vector<double>& s, double x, double y, double& out) const;
+  /// Neighbour slots of a velocity node: s = 0, 1, 2, 3 for normal index n - 1, n + 1 and transverse
+  /// index t - 1, t + 1. The neighbour's unknown (-1 outside a non-periodic domain) and the distance to it, m.
+  int slotNeighbour(int d, int n, int t, int s) const;
+  double slotLength(int d, int n, int t, int s) const;
   /// Sharp, no Hele-Shaw friction: the excess (factor - 1) of the flux of node (d, n, t)'s face when
   /// the surface of cut slot s (2, 3: the transverse neighbours) crosses that face; 0 otherwise.
   double openExcess(int d, int n, int t, int s) const;
