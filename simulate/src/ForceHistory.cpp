@@ -80,6 +80,18 @@ SheddingStats ForceHistory::analyse(double from_s, int max_periods) const {
   s.cd_mean = st > 0 ? sd / st : m_cd[lo];
   s.cl_mean = st > 0 ? sl / st : m_cl[lo];
   s.cl_amplitude = 0.5 * (s.cl_max - s.cl_min);
+  if (s.periods >= 2) {
+    const auto amplitude = [&](double t0, double t1) {
+      const std::size_t a = static_cast<std::size_t>(std::lower_bound(m_t.begin(), m_t.end(), t0) - m_t.begin());
+      const std::size_t b = static_cast<std::size_t>(std::upper_bound(m_t.begin(), m_t.end(), t1) - m_t.begin());
+      if (a >= b) return 0.0;
+      const auto [mn, mx] = std::minmax_element(m_cl.begin() + static_cast<std::ptrdiff_t>(a), m_cl.begin() + static_cast<std::ptrdiff_t>(b));
+      return 0.5 * (*mx - *mn);
+    };
+    const std::size_t n = up.size();
+    const double last = amplitude(up[n - 2], up[n - 1]), prev = amplitude(up[n - 3], up[n - 2]);
+    s.cl_amplitude_drift = last > 0 ? (last - prev) / last : 0.0;
+  }
   return s;
 }
 

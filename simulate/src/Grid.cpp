@@ -89,4 +89,60 @@ Axis refinedAxis(double lo, double hi, double a, double b, double h_fine, double
   return Axis(std::move(f));
 }
 
+namespace {
+
+/// Faces from x0 going in direction `dir` (+1 or -1): graded widths h_end * ratio^k until the
+/// next width would reach the original width there, then snapped to the next original face
+/// (index returned in `keep`, counted from x0's end).
+std::vector<double> gradedLayer(const std::vector<double>& f, double h_end, double ratio, std::size_t& keep) {
+  // f: faces ordered from the end being graded inwards (|f[k] - f[0]| increasing).
+  std::vector<double> widths;
+  double pos = 0, w = h_end;
+  std::size_t k = 0;  // original cell holding pos
+  while (k + 1 < f.size()) {
+    const double orig = std::abs(f[k + 1] - f[k]);
+    if (w >= orig) break;
+    widths.push_back(w);
+    pos += w;
+    w *= ratio;
+    while (k + 1 < f.size() && std::abs(f[k + 1] - f[0]) <= pos) ++k;
+  }
+  keep = 0;
+  if (widths.empty()) return {};
+  // Snap: end the layer on the original face nearest to pos (the graded cells are rescaled by
+  // at most half an original cell over the layer).
+  std::size_t m = 1;
+  while (m + 1 < f.size() && std::abs(f[m] - f[0]) < pos) ++m;
+  if (m > 1 && pos - std::abs(f[m - 1] - f[0]) < std::abs(f[m] - f[0]) - pos) --m;
+  if (m + 1 >= f.size()) return {};  // the layer would swallow the axis: leave it
+  const double target = std::abs(f[m] - f[0]);
+  keep = m;
+  std::vector<double> out;
+  double acc = 0;
+  for (double x : widths) {
+    acc += x * target / pos;
+    out.push_back(acc);
+  }
+  out.back() = target;
+  return out;  // distances from the end of the graded faces (excluding the end itself)
+}
+
+}  // namespace
+
+Axis wallGradedAxis(const Axis& axis, double h_end, double ratio) {
+  if (!(h_end > 0) || !(ratio > 1)) throw std::invalid_argument("wallGradedAxis needs h_end > 0 and ratio > 1");
+  const std::vector<double>& f = axis.faces();
+  std::size_t keep_lo = 0, keep_hi = 0;
+  const std::vector<double> lo = gradedLayer(f, h_end, ratio, keep_lo);
+  const std::vector<double> rf(f.rbegin(), f.rend());
+  const std::vector<double> hi = gradedLayer(rf, h_end, ratio, keep_hi);
+  if (keep_lo + keep_hi + 1 >= f.size()) return axis;  // the layers would meet: leave the axis
+  std::vector<double> out{f.front()};
+  for (double d : lo) out.push_back(f.front() + d);
+  for (std::size_t i = keep_lo + 1; i + keep_hi + 1 < f.size(); ++i) out.push_back(f[i]);
+  for (auto it = hi.rbegin(); it != hi.rend(); ++it) out.push_back(f.back() - *it);
+  out.push_back(f.back());
+  return Axis(std::move(out));
+}
+
 }  // namespace mmval::simulate

@@ -291,6 +291,17 @@ TEST(Unsteady, ForceHistoryStatisticsOfAKnownSignal) {
   EXPECT_NEAR(s.cd_max, 3.24, 1e-4);
   EXPECT_NEAR(s.cd_mean, 3.23, 1e-4);
   EXPECT_NEAR(s.cl_mean, 0.2, 2e-3);
+  EXPECT_NEAR(s.cl_amplitude_drift, 0.0, 1e-3);  // periodic
+  // A start-up that has not saturated: amplitude 1 - 0.5 exp(-t / tau), tau = 4 periods; the last whole
+  // period (centred near 11.5 periods) is ~0.8 % larger than the one before.
+  ForceHistory g;
+  for (int k = 0; k <= 37 * 12; ++k) {
+    const double t = k / (37 * f), a = 1 - 0.5 * std::exp(-t * f / 4);
+    g.add(t, 3.23, a * std::sin(2 * M_PI * f * t));
+  }
+  const SheddingStats gs = g.analyse(1.0, 4);
+  EXPECT_GT(gs.cl_amplitude_drift, 0.005);
+  EXPECT_LT(gs.cl_amplitude_drift, 0.05);
   // No oscillation: no periods, extrema over the window.
   ForceHistory flat;
   for (int k = 0; k < 10; ++k) flat.add(k * 0.1, 1.0, 0.0);

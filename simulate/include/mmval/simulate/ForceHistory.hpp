@@ -14,6 +14,10 @@ struct SheddingStats {
   double window_start_s = 0, window_end_s = 0;
   double cd_max = 0, cd_min = 0, cd_mean = 0;
   double cl_max = 0, cl_min = 0, cl_mean = 0, cl_amplitude = 0;  ///< amplitude: (max - min) / 2
+  /// Growth of the c_L amplitude over the window's last period: (A_last - A_prev) / A_last with A the
+  /// half peak-to-peak of c_L in a period (0 with fewer than 2 periods). Near 0 once the shedding is
+  /// periodic; a start-up that has not saturated shows as a positive drift.
+  double cl_amplitude_drift = 0;
 };
 
 class ForceHistory {

@@ -39,4 +39,12 @@ Axis uniformAxis(double lo, double hi, int n);
 /// Needs lo <= a < b <= hi, 0 < h_fine <= h_max, ratio >= 1.
 Axis refinedAxis(double lo, double hi, double a, double b, double h_fine, double ratio, double h_max);
 
+/// `axis` with its cells next to both ends replaced by cells that start at h_end
+/// at the end and grow by `ratio` per cell until they reach the axis's own
+/// cells, which are kept from the first original face the graded cells reach
+/// (the graded part is rescaled to end exactly there). For wall layers, e.g. the
+/// unsteady Stokes layer on channel walls. Ends whose cells are already <= h_end
+/// are left as they are. Needs h_end > 0, ratio > 1.
+Axis wallGradedAxis(const Axis& axis, double h_end, double ratio);
+
 }  // namespace mmval::simulate
