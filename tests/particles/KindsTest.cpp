@@ -9,6 +9,8 @@
 #include "mmval/particles/Kinds.hpp"
 #include "ParticleRegistry.hpp"
 
+#include "../TestScratch.hpp"
+
 namespace mmval::particles {
 namespace {
 
@@ -33,7 +35,7 @@ output_interval = "0.02 s"
 
 TEST(ParticleKinds, ChannelRunWritesTrajectoriesRetentionAndBalancedCounts) {
   const Case c = Case::parse(kCase, "cases/particles-channel-test.toml", registry());
-  const fs::path out = fs::temp_directory_path() / "mmval-particles-kind-test";
+  const fs::path out = mmval::test::scratch("mmval-particles-kind-test");
   fs::remove_all(out);
   fs::create_directories(out);
   RunContext ctx;
@@ -57,7 +59,7 @@ TEST(ParticleKinds, ParticlesLargerThanTheDepthAreAnInputError) {
   Case c = Case::parse(kCase, "cases/particles-channel-test.toml", registry());
   c.set("particles.diameter", 25e-6);
   RunContext ctx;
-  ctx.out_dir = fs::temp_directory_path() / "mmval-particles-kind-test-bad";
+  ctx.out_dir = mmval::test::scratch("mmval-particles-kind-test-bad");
   fs::create_directories(ctx.out_dir);
   EXPECT_THROW(registry().find("particles-channel")->run(c, ctx), InputError);
 }

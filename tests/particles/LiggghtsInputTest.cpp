@@ -12,6 +12,8 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/particles/LiggghtsInput.hpp"
 
+#include "../TestScratch.hpp"
+
 namespace mmval::particles {
 namespace {
 
@@ -21,7 +23,7 @@ bool has(const std::vector<std::string>& c, const std::string& s) {
 
 SceneConfig scene() {
   SceneConfig c;
-  c.work_dir = std::filesystem::temp_directory_path() / "mmval-liggghts-input-test";
+  c.work_dir = mmval::test::scratch("mmval-liggghts-input-test");
   return c;
 }
 

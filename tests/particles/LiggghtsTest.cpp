@@ -11,6 +11,8 @@
 #include "mmval/particles/LiggghtsEngine.hpp"
 #include "mmval/particles/OverdampedEngine.hpp"
 
+#include "../TestScratch.hpp"
+
 namespace mmval::particles {
 namespace {
 
@@ -21,7 +23,7 @@ SceneConfig quietScene(const std::string& name) {
   c.wall_hindrance = false;
   c.faxen_curvature = false;
   c.attachment.capture_distance = 0;
-  c.work_dir = std::filesystem::temp_directory_path() / ("mmval-liggghts-test-" + name);
+  c.work_dir = mmval::test::scratch("mmval-liggghts-test-" + name);
   return c;
 }
 
@@ -216,7 +218,7 @@ TEST(EngineComparison, OverdampedMatchesLiggghtsOnSharedWindow) {
   c.gravity = 9.81 * 400;
   c.attachment.grains = false;
   c.particle.youngs_modulus = 1e5;  // softened: the DEM step is 1.4e-7 s
-  c.work_dir = std::filesystem::temp_directory_path() / "mmval-liggghts-test-compare";
+  c.work_dir = mmval::test::scratch("mmval-liggghts-test-compare");
   auto flow = std::make_shared<HeleShawChannel>(400e-6, 100e-6, 20e-6, 7e-4);
   const auto pos = sampleInlet(*flow, c.particle.radius(), 20e-6, 60e-6, 30, 17, {});
   LiggghtsEngine lg(flow, c);

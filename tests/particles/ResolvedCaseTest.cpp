@@ -21,6 +21,8 @@
 #include "mmval/particles/Micromodel.hpp"
 #include "mmval/simulate/Geometry.hpp"
 
+#include "../TestScratch.hpp"
+
 namespace mmval::particles {
 namespace {
 
@@ -29,7 +31,7 @@ namespace fs = std::filesystem;
 CaseKindRegistry& registry() { return test_support::particleRegistry(); }
 
 /// This process's own scratch folder: test binaries of other checkouts may run at the same time.
-fs::path scratch() { return fs::temp_directory_path() / ("mmval-resolved-" + std::to_string(::getpid())); }
+fs::path scratch() { return mmval::test::scratch("resolved"); }
 
 RunOutput run(const std::string& text, const std::string& name) {
   const Case c = Case::parse(text, "cases/" + name + ".toml", registry());

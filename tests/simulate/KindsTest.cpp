@@ -11,6 +11,8 @@
 #include "mmval/core/Run.hpp"
 #include "mmval/simulate/Kinds.hpp"
 
+#include "../TestScratch.hpp"
+
 namespace fs = std::filesystem;
 using namespace mmval;
 
@@ -41,7 +43,7 @@ void expectAllPass(const Case& c, const RunOutput& out) {
 
 /// Writes a binary PGM (OpenCV reads it) from rows of '#' (dark grain) and '.' (bright pore).
 fs::path writePgm(const std::string& name, std::initializer_list<std::string> rows) {
-  const fs::path p = fs::temp_directory_path() / name;
+  const fs::path p = mmval::test::scratch(name);
   std::ofstream f(p, std::ios::binary);
   f << "P5\n" << rows.begin()->size() << " " << rows.size() << "\n255\n";
   for (const auto& r : rows)
@@ -52,7 +54,7 @@ fs::path writePgm(const std::string& name, std::initializer_list<std::string> ro
 Case maskCase(const fs::path& mask) {
   const std::string text = "[case]\nname = \"mask\"\nkind = \"image-permeability\"\n[geometry]\nmask = \"" + mask.string() +
                            "\"\npixel_size = \"10 um\"\n[numerics]\ncells_per_pixel = 1.0\n";
-  return Case::parse(text, fs::temp_directory_path() / "mask.toml", registry());
+  return Case::parse(text, mmval::test::scratch("mask.toml"), registry());
 }
 
 }  // namespace
@@ -69,7 +71,7 @@ TEST(FluidKinds, PoiseuilleAndShallowDuctCases) {
 TEST(FluidKinds, SquareArrayCaseLadder) {
   Case c = loadCase("fluid-square-array-phi020.toml");
   c.set("numerics.levels", std::vector<std::int64_t>{16, 32, 64});
-  const fs::path dir = fs::temp_directory_path() / "mmval-fluid-array";
+  const fs::path dir = mmval::test::scratch("mmval-fluid-array");
   const RunOutput out = run(c, dir);
   expectAllPass(c, out);
   const auto& ladder = out.details["ladder"];
@@ -140,7 +142,7 @@ TEST(FluidKinds, UnsteadyCylinderRunsWithMmvalsSolver) {
   c.set("numerics.cells_around", std::int64_t{16});
   c.set("numerics.end_time", 0.3);         // s
   c.set("numerics.statistics_from", 0.15);  // s
-  const fs::path dir = fs::temp_directory_path() / "mmval-st2d2-short";
+  const fs::path dir = mmval::test::scratch("mmval-st2d2-short");
   const RunOutput out = run(c, dir);
   EXPECT_NE(out.details["solver"].get<std::string>().find("unsteady BDF2"), std::string::npos);
   for (const auto& [name, value] : out.metrics) EXPECT_TRUE(std::isfinite(value)) << name;
@@ -157,7 +159,7 @@ TEST(FluidKinds, UnsteadyCylinderRunsWithMmvalsSolver) {
 TEST(FluidKinds, InputErrors) {
   EXPECT_THROW(run(maskCase(writePgm("mmval-solid.pgm", {"####", "####", "####"}))), InputError);
   EXPECT_THROW(run(maskCase(writePgm("mmval-nopath.pgm", {"..#...", "..#...", "..#..."}))), InputError);
-  EXPECT_THROW(run(maskCase(fs::temp_directory_path() / "mmval-missing.png")), InputError);
+  EXPECT_THROW(run(maskCase(mmval::test::scratch("mmval-missing.png"))), InputError);
   try {
     run(maskCase(writePgm("mmval-nopath2.pgm", {"..#...", "..#..."})));
   } catch (const InputError& e) {

@@ -25,6 +25,8 @@
 #include "mmval/simulate/Petsc.hpp"
 #include "mmval/simulate/Stokes3D.hpp"
 
+#include "../TestScratch.hpp"
+
 using namespace mmval::simulate;
 
 namespace {
@@ -256,7 +258,7 @@ TEST(Stokes3D, ImagePermeabilityKindWithAllDepthModels) {
   // with one 4 x 4 px grain; 3D at 1 cell per pixel, cells_z ladder 4, 8. Checks the wiring:
   // every model's k and the ratio are reported, 3D stays below h^2/12, the z-extrapolation lies
   // beyond the finest level, and 3D sits within 5 % of the depth-averaged model (as for the grain row).
-  const std::filesystem::path mask = std::filesystem::temp_directory_path() / "mmval-stokes3d-grain.pgm";
+  const std::filesystem::path mask = mmval::test::scratch("mmval-stokes3d-grain.pgm");
   {
     std::ofstream f(mask, std::ios::binary);
     f << "P5\n20 8\n255\n";
@@ -268,7 +270,7 @@ TEST(Stokes3D, ImagePermeabilityKindWithAllDepthModels) {
   const std::string text = "[case]\nname = \"mask3d\"\nkind = \"image-permeability\"\n[geometry]\nmask = \"" + mask.string() +
                            "\"\npixel_size = \"10 um\"\n[numerics]\ncells_per_pixel = 1.0\ndepth_model = \"all\"\ncells_per_pixel_3d = 1.0\n"
                            "cells_z_levels = [4, 8]\n";
-  const mmval::Case c = mmval::Case::parse(text, std::filesystem::temp_directory_path() / "mask3d.toml", reg);
+  const mmval::Case c = mmval::Case::parse(text, mmval::test::scratch("mask3d.toml"), reg);
   const mmval::RunOutput out = reg.find(c.kind())->run(c, mmval::RunContext{{}, true, false, 0});
   const double h = 20e-6, k3 = out.metrics.at("permeability_3d"), kda = out.metrics.at("permeability_depth_averaged");
   std::printf("kind: k_2d %.4e, k_da %.4e, k_3d %.4e, extrapolated %.4e, ratio %.4f\n", out.metrics.at("permeability_2d"), kda, k3,
