@@ -10,7 +10,6 @@
 #include <sstream>
 #include <string>
 
-#include <unistd.h>
 
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
