@@ -496,8 +496,9 @@ void FlowOperator::applyMotion() {
     const int b = 1 - d;
     m_rigid[d].assign(m_kind[d].size(), 0.0);
     m_cutWall[d].assign(m_kind[d].size(), {0, 0, 0, 0});
-    m_openWall[d].assign(m_kind[d].size(), 0.0);
+    m_openWall[d].clear();  // bodies at rest: no surface velocity in the crossed faces' flux
     if (m_p.body_motion.empty()) continue;
+    m_openWall[d].assign(m_kind[d].size(), 0.0);
     for (int t = 0; t < m_N[b]; ++t)
       for (int n = 0; n < m_nn[d]; ++n) {
         const std::size_t q = static_cast<std::size_t>(local(d, n, t));

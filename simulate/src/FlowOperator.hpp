@@ -146,7 +146,7 @@ class FlowOperator {
   /// Sharp: flux of the node's face over (node value x face area), > 1 where the surface crosses the face
   /// (its fluid part with the velocity linear from the surface); 1 elsewhere.
   std::array<std::vector<double>, 2> m_open;
-  /// Moving bodies: sum over the crossed faces' slots of (open excess) x (surface velocity), m/s; the
+  /// Moving bodies only (empty at rest): sum over the crossed faces' slots of (open excess) x (surface velocity), m/s; the
   /// face flux is then A (m_open u - m_openWall): the fluid part's linear profile starts at the
   /// surface's velocity, and the covered part moves with the body.
   std::array<std::vector<double>, 2> m_openWall;

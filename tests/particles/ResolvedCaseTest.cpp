@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 #include <string>
 
@@ -16,6 +15,7 @@
 #include "mmval/core/Run.hpp"
 #include "mmval/core/Tracks.hpp"
 #include "ParticleRegistry.hpp"
+#include "mmval/particles/Checkpoint.hpp"
 #include "mmval/particles/Kinds.hpp"
 #include "mmval/particles/Micromodel.hpp"
 #include "mmval/simulate/Geometry.hpp"
@@ -158,13 +158,6 @@ TEST(ResolvedKind, DepositOnAnObstacleLowersThePermeability) {
   EXPECT_GT(r.metrics.at("k_over_k0"), 0.3);
 }
 
-std::string readText(const fs::path& p) {
-  std::ifstream in(p);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 TEST(ResolvedKind, ResumeAfterAStopEqualsTheUninterruptedRun) {
   // Three particles meet a grain and deposit between 0.5 and 0.75 s: stopped at frame 2 (0.5 s),
   // resumed from the checkpoint, the outputs must be the uninterrupted run's, byte for byte.
@@ -180,9 +173,9 @@ TEST(ResolvedKind, ResumeAfterAStopEqualsTheUninterruptedRun) {
   const Case again = Case::parse(text, dir / "cut.toml", registry());
   const RunSummary r = runCase(again, registry(), dir / "cut", {.quiet = true, .resume = true});
   EXPECT_EQ(r.result["details"]["resumed_from_frame"].get<long long>(), 2);
-  for (const char* f : {"trajectories.csv", "permeability.csv"}) EXPECT_EQ(readText(dir / "whole" / f), readText(dir / "cut" / f)) << f;
+  for (const char* f : {"trajectories.csv", "permeability.csv"}) EXPECT_EQ(readBinaryFile(dir / "whole" / f), readBinaryFile(dir / "cut" / f)) << f;
   // Deposits on both sides of the stop: fewer than 3 at frame 2, all 3 at the end.
-  std::istringstream perm(readText(dir / "whole" / "permeability.csv"));
+  std::istringstream perm(readBinaryFile(dir / "whole" / "permeability.csv"));
   std::string line;
   std::vector<int> deposited;
   std::getline(perm, line);
