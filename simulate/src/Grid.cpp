@@ -62,9 +62,27 @@ std::vector<double> stretchedWidths(double span, double h, double ratio, double 
 
 }  // namespace
 
-Axis refinedAxis(double lo, double hi, double a, double b, double h_fine, double ratio, double h_max) {
+Axis refinedAxis(double lo, double hi, double a, double b, double h_fine, double ratio, double h_max, double anchor) {
   if (!(lo <= a && a < b && b <= hi) || !(h_fine > 0) || h_max < h_fine || ratio < 1)
     throw std::invalid_argument("refinedAxis needs lo <= a < b <= hi, 0 < h_fine <= h_max, ratio >= 1");
+  if (!std::isnan(anchor)) {
+    if (!(a <= anchor && anchor <= b)) throw std::invalid_argument("refinedAxis: the anchor must lie in the refined box [a, b]");
+    // Whole cells of h_fine counted from the anchor; a remainder thinner than h_fine / 2 at an
+    // end of the axis joins the next cell (no slivers next to a boundary).
+    const auto cellsTo = [&](double span, double room) {
+      int k = static_cast<int>(std::lround(span / h_fine));
+      if (k * h_fine > room + 1e-9 * h_fine) --k;
+      const double rest = room - k * h_fine;
+      if (rest > 1e-9 * h_fine && rest < 0.5 * h_fine && k > 0) --k;
+      return std::max(k, 0);
+    };
+    const int n_lo = cellsTo(anchor - a, anchor - lo), n_hi = cellsTo(b - anchor, hi - anchor);
+    if (n_lo + n_hi < 1) throw std::invalid_argument("refinedAxis: no whole cell fits around the anchor");
+    a = anchor - n_lo * h_fine;
+    b = anchor + n_hi * h_fine;
+    if (a - lo < 1e-9 * h_fine) a = lo;
+    if (hi - b < 1e-9 * h_fine) b = hi;
+  }
   const int n_fine = std::max(1, static_cast<int>(std::lround((b - a) / h_fine)));
   const double h = (b - a) / n_fine;
   std::vector<double> f;

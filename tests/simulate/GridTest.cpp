@@ -32,6 +32,32 @@ TEST(Grid, RefinedAxisSpansAndGrowsSmoothly) {
   EXPECT_NEAR(a.width(i0), a.width(i0 + 10), 1e-12);
 }
 
+TEST(Grid, AnchoredRefinedAxisHasAFaceAtTheAnchorAndNoSlivers) {
+  // Schaefer-Turek's channel (0.41 m, cylinder centre 0.2 m) refined across its whole height at
+  // h = pi D / 64: a face at the centre, cells of exactly h mirrored about it, and the remainders
+  // at the walls (0.2 m and 0.21 m are not whole multiples of h) no thinner than h / 2.
+  const double h = M_PI * 0.1 / 64, cy = 0.2;
+  const Axis a = refinedAxis(0, 0.41, 0, 0.41, h, 1.05, 4 * h, cy);
+  EXPECT_DOUBLE_EQ(a.lo(), 0.0);
+  EXPECT_DOUBLE_EQ(a.hi(), 0.41);
+  const int k = a.cellOf(cy + 0.25 * h);
+  EXPECT_NEAR(a.face(k), cy, 1e-12);
+  for (int m = 1; m < 30; ++m) {
+    EXPECT_NEAR(a.width(k + m - 1), h, 1e-12) << "cell " << m << " above the centre";
+    EXPECT_NEAR(cy - a.face(k - m), a.face(k + m) - cy, 1e-12) << "face " << m << " from the centre";
+  }
+  EXPECT_GE(a.minWidth(), 0.5 * h);
+  EXPECT_LE(a.maxWidth(), 1.5 * h);
+  // A box inside the axis: trimmed to whole cells about the anchor, stretched outside as before.
+  const Axis b = refinedAxis(0, 2.2, 0.125, 0.35, 0.005, 1.05, 0.02, 0.2);
+  const int kb = b.cellOf(0.2 + 0.001);
+  EXPECT_NEAR(b.face(kb), 0.2, 1e-12);
+  EXPECT_NEAR(b.width(kb - 15), 0.005, 1e-12);
+  EXPECT_NEAR(b.width(kb + 29), 0.005, 1e-12);
+  EXPECT_DOUBLE_EQ(b.hi(), 2.2);
+  EXPECT_THROW(refinedAxis(0, 1, 0.2, 0.4, 0.01, 1.05, 0.04, 0.5), std::invalid_argument);
+}
+
 TEST(Grid, WallGradedAxisStartsAtTheWallSpacingAndRejoinsTheAxis) {
   // The channel of Schaefer & Turek's 2D-2 with uniform cells h = H / 84, graded to h / 3 at both walls.
   const double H = 0.41, h = H / 84;

@@ -5,6 +5,7 @@
 // and centre spacings, so a smoothly stretched axis keeps second order
 // (ratios <= ~1.15 between neighbouring cells are used by the kinds).
 #pragma once
+#include <limits>
 #include <vector>
 
 namespace mmval::simulate {
@@ -37,7 +38,11 @@ Axis uniformAxis(double lo, double hi, int n);
 /// geometrically by at most `ratio` per cell outside it, up to h_max, and
 /// rescaled so the outer parts end exactly at lo and hi.
 /// Needs lo <= a < b <= hi, 0 < h_fine <= h_max, ratio >= 1.
-Axis refinedAxis(double lo, double hi, double a, double b, double h_fine, double ratio, double h_max);
+/// With an anchor in [a, b]: cells of exactly h_fine with a face at the anchor, the box
+/// trimmed to whole cells (a remainder thinner than h_fine / 2 next to lo or hi joins the
+/// neighbouring cell), so a body centred at the anchor is cut symmetrically about it.
+Axis refinedAxis(double lo, double hi, double a, double b, double h_fine, double ratio, double h_max,
+                 double anchor = std::numeric_limits<double>::quiet_NaN());
 
 /// `axis` with its cells next to both ends replaced by cells that start at h_end
 /// at the end and grow by `ratio` per cell until they reach the axis's own
