@@ -4,6 +4,8 @@
 #include <cmath>
 #include <fstream>
 #include <stdexcept>
+#include <tuple>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -44,14 +46,18 @@ SheddingStats ForceHistory::analyse(double from_s, int max_periods) const {
   std::vector<double> up;  // upward crossings of c_L - mean
   for (std::size_t k = first + 1; k < m_t.size(); ++k)
     if (m_cl[k - 1] < mean && m_cl[k] >= mean) up.push_back(m_t[k - 1] + (mean - m_cl[k - 1]) / (m_cl[k] - m_cl[k - 1]) * (m_t[k] - m_t[k - 1]));
+  // Samples with t0 <= t <= t1: [begin, end) indices.
+  const auto samples = [&](double t0, double t1) {
+    return std::pair{static_cast<std::size_t>(std::lower_bound(m_t.begin(), m_t.end(), t0) - m_t.begin()),
+                     static_cast<std::size_t>(std::upper_bound(m_t.begin(), m_t.end(), t1) - m_t.begin())};
+  };
   std::size_t lo = first, hi = m_t.size();
   if (up.size() >= 2) {
     s.periods = std::min(static_cast<int>(up.size()) - 1, std::max(1, max_periods));
     s.window_start_s = up[up.size() - 1 - static_cast<std::size_t>(s.periods)];
     s.window_end_s = up.back();
     s.frequency_hz = s.periods / (s.window_end_s - s.window_start_s);
-    lo = static_cast<std::size_t>(std::lower_bound(m_t.begin(), m_t.end(), s.window_start_s) - m_t.begin());
-    hi = static_cast<std::size_t>(std::upper_bound(m_t.begin(), m_t.end(), s.window_end_s) - m_t.begin());
+    std::tie(lo, hi) = samples(s.window_start_s, s.window_end_s);
   } else {
     s.window_start_s = m_t[first];
     s.window_end_s = m_t.back();
@@ -82,8 +88,7 @@ SheddingStats ForceHistory::analyse(double from_s, int max_periods) const {
   s.cl_amplitude = 0.5 * (s.cl_max - s.cl_min);
   if (s.periods >= 2) {
     const auto amplitude = [&](double t0, double t1) {
-      const std::size_t a = static_cast<std::size_t>(std::lower_bound(m_t.begin(), m_t.end(), t0) - m_t.begin());
-      const std::size_t b = static_cast<std::size_t>(std::upper_bound(m_t.begin(), m_t.end(), t1) - m_t.begin());
+      const auto [a, b] = samples(t0, t1);
       if (a >= b) return 0.0;
       const auto [mn, mx] = std::minmax_element(m_cl.begin() + static_cast<std::ptrdiff_t>(a), m_cl.begin() + static_cast<std::ptrdiff_t>(b));
       return 0.5 * (*mx - *mn);

@@ -109,9 +109,9 @@ Axis refinedAxis(double lo, double hi, double a, double b, double h_fine, double
 
 namespace {
 
-/// Faces from x0 going in direction `dir` (+1 or -1): graded widths h_end * ratio^k until the
-/// next width would reach the original width there, then snapped to the next original face
-/// (index returned in `keep`, counted from x0's end).
+/// The graded layer at the end f[0] of the faces f (ordered inwards from that end): widths
+/// h_end * ratio^k until the next width would reach the original width there, then snapped to
+/// the nearest original face (its index in f returned in `keep`).
 std::vector<double> gradedLayer(const std::vector<double>& f, double h_end, double ratio, std::size_t& keep) {
   // f: faces ordered from the end being graded inwards (|f[k] - f[0]| increasing).
   std::vector<double> widths;
