@@ -111,7 +111,9 @@ namespace {
 
 /// The graded layer at the end f[0] of the faces f (ordered inwards from that end): widths
 /// h_end * ratio^k until the next width would reach the original width there, then snapped to
-/// the nearest original face (its index in f returned in `keep`).
+/// the nearest original face (its index in f returned in `keep`). An empty layer: keep = 0 if
+/// the end's cell is already no wider than h_end, keep = f.size() if the layer would swallow
+/// the faces before reaching their widths.
 std::vector<double> gradedLayer(const std::vector<double>& f, double h_end, double ratio, std::size_t& keep) {
   // f: faces ordered from the end being graded inwards (|f[k] - f[0]| increasing).
   std::vector<double> widths;
@@ -132,7 +134,10 @@ std::vector<double> gradedLayer(const std::vector<double>& f, double h_end, doub
   std::size_t m = 1;
   while (m + 1 < f.size() && std::abs(f[m] - f[0]) < pos) ++m;
   if (m > 1 && pos - std::abs(f[m - 1] - f[0]) < std::abs(f[m] - f[0]) - pos) --m;
-  if (m + 1 >= f.size()) return {};  // the layer would swallow the axis: leave it
+  if (m + 1 >= f.size()) {
+    keep = f.size();  // the layer would swallow the axis
+    return {};
+  }
   const double target = std::abs(f[m] - f[0]);
   keep = m;
   std::vector<double> out;
@@ -154,12 +159,57 @@ Axis wallGradedAxis(const Axis& axis, double h_end, double ratio) {
   const std::vector<double> lo = gradedLayer(f, h_end, ratio, keep_lo);
   const std::vector<double> rf(f.rbegin(), f.rend());
   const std::vector<double> hi = gradedLayer(rf, h_end, ratio, keep_hi);
+  keep_lo %= f.size();  // a layer that would swallow the axis is left out
+  keep_hi %= f.size();
   if (keep_lo + keep_hi + 1 >= f.size()) return axis;  // the layers would meet: leave the axis
   std::vector<double> out{f.front()};
   for (double d : lo) out.push_back(f.front() + d);
   for (std::size_t i = keep_lo + 1; i + keep_hi + 1 < f.size(); ++i) out.push_back(f[i]);
   for (auto it = hi.rbegin(); it != hi.rend(); ++it) out.push_back(f.back() - *it);
   out.push_back(f.back());
+  return Axis(std::move(out));
+}
+
+
+Axis innerRefinedAxis(const Axis& axis, double a, double b, int m, double ratio) {
+  if (m < 1 || !(ratio > 1) || !(a < b)) throw std::invalid_argument("innerRefinedAxis needs m >= 1, ratio > 1 and a < b");
+  if (m == 1) return axis;
+  const std::vector<double>& f = axis.faces();
+  // The box snapped to the nearest faces of the axis: every original face is kept, so faces
+  // through a body's centre (refinedAxis's anchor) stay where they are.
+  const auto nearest = [&](double x) {
+    std::size_t k = 0;
+    for (std::size_t i = 1; i < f.size(); ++i)
+      if (std::abs(f[i] - x) < std::abs(f[k] - x)) k = i;
+    return k;
+  };
+  std::size_t ia = nearest(a), ib = nearest(b);
+  if (ia >= ib) throw std::invalid_argument("innerRefinedAxis: the box holds no whole cell of the axis");
+  // Graded layers outside the box, from the fine width at its edges back to the axis's cells. A
+  // layer that cannot reach them before the end of the axis (a wall too close, or cells growing
+  // as fast as the layer) is left out and the box extended to that end instead.
+  std::size_t keep_lo = 0, keep_hi = 0;
+  std::vector<double> lo, hi;
+  const auto layers = [&] {
+    const std::vector<double> lf(f.rend() - static_cast<std::ptrdiff_t>(ia) - 1, f.rend());  // f[ia], f[ia-1], ..., f[0]
+    const std::vector<double> rf(f.begin() + static_cast<std::ptrdiff_t>(ib), f.end());       // f[ib], ..., f.back()
+    lo = gradedLayer(lf, axis.width(static_cast<int>(ia)) / m * ratio, ratio, keep_lo);
+    hi = gradedLayer(rf, axis.width(static_cast<int>(ib) - 1) / m * ratio, ratio, keep_hi);
+    return std::pair{keep_lo == lf.size(), keep_hi == rf.size()};
+  };
+  const auto [swallow_lo, swallow_hi] = layers();
+  if (swallow_lo) ia = 0;
+  if (swallow_hi) ib = f.size() - 1;
+  if (swallow_lo || swallow_hi) layers();
+  std::vector<double> out(f.begin(), f.begin() + static_cast<std::ptrdiff_t>(ia - keep_lo));
+  for (auto it = lo.rbegin(); it != lo.rend(); ++it) out.push_back(f[ia] - *it);
+  if (!lo.empty()) out[ia - keep_lo] = f[ia - keep_lo];
+  for (std::size_t i = ia; i < ib; ++i)
+    for (int k = 0; k < m; ++k) out.push_back(f[i] + (f[i + 1] - f[i]) * k / m);
+  out.push_back(f[ib]);
+  for (double e : hi) out.push_back(f[ib] + e);
+  if (!hi.empty()) out.back() = f[ib + keep_hi];
+  out.insert(out.end(), f.begin() + static_cast<std::ptrdiff_t>(ib + keep_hi) + 1, f.end());
   return Axis(std::move(out));
 }
 

@@ -54,6 +54,16 @@ CaseKind cylinderChannelKind() {
         .def(std::vector<double>{0.0, 0.0})
         .min(0.0)
         .max(1.0, true);
+    s.integer("numerics.body_refine",
+              "mmval: a second, finer box about the cylinder: its cells are h / body_refine, graded back to h outside it by "
+              "stretch_ratio per cell (1: none). Resolves the body's boundary layer without refining the whole wake")
+        .def(1)
+        .min(1)
+        .max(8);
+    s.real("numerics.body_box", "mmval: half-size of the finer box about the cylinder centre, in diameters (with body_refine > 1)")
+        .def(1.0)
+        .min(0.55)
+        .max(100);
     declareSolverKeys(s, true);
     declareUnsteadyCylinderKeys(s);
   };
@@ -88,6 +98,8 @@ CaseKind cylinderChannelKind() {
     if (wall_refine > 1 && slip)
       throw InputError(c.where("numerics.wall_refine"), "a wall layer needs no-slip walls", fmt::format("{} with slip walls", wall_refine),
                        "1 (no wall layer) or geometry.walls = \"no-slip\"");
+    const int body_refine = static_cast<int>(c.integer("numerics.body_refine"));
+    const double body_box = c.real("numerics.body_box");
     const std::vector<double> offset = c.reals("numerics.grid_offset");
     if (offset.size() != 2)
       throw InputError(c.where("numerics.grid_offset"), "the grid offset needs two fractions of a cell", fmt::format("{} values", offset.size()),
@@ -102,8 +114,19 @@ CaseKind cylinderChannelKind() {
       // through its centre at every level (a box edge at a wall otherwise set the surface's
       // sub-cell position, so the discrete body was lopsided by a level-dependent amount).
       // numerics.grid_offset moves those faces by a fraction of h (sub-cell position studies).
-      p.x = refinedAxis(0, Lx, std::max(0.0, cx - 0.75 * D), std::min(Lx, cx + down * D), h, ratio, hmax, cx + offset[0] * h);
-      p.y = refinedAxis(0, H, std::max(0.0, cy - across * D), std::min(H, cy + across * D), h, ratio, hmax, cy + offset[1] * h);
+      // With a finer box about the body (body_refine > 1), the box of h holds it and the graded
+      // layer back to h: that layer spans ~ h (1 - 1 / m) / (ratio - 1).
+      const double grade = std::max(ratio, 1.02), r = body_box * D;
+      const double reach = body_refine > 1 ? r + h * (1 - 1.0 / body_refine) / (grade - 1) + 2 * h : 0.0;
+      p.x = refinedAxis(0, Lx, std::max(0.0, cx - std::max(0.75 * D, reach)), std::min(Lx, cx + std::max(down * D, reach)), h, ratio, hmax,
+                        cx + offset[0] * h);
+      p.y = refinedAxis(0, H, std::max(0.0, cy - std::max(across * D, reach)), std::min(H, cy + std::max(across * D, reach)), h, ratio, hmax,
+                        cy + offset[1] * h);
+      if (body_refine > 1) {
+        // Split the cells within body_box D of the centre (faces through the centre stay).
+        p.x = innerRefinedAxis(p.x, cx - r, cx + r, body_refine, grade);
+        p.y = innerRefinedAxis(p.y, cy - r, cy + r, body_refine, grade);
+      }
       if (wall_refine > 1) p.y = wallGradedAxis(p.y, h / wall_refine, std::max(ratio, 1.02));
       p.boundary[0].type = BoundaryType::velocity;
       if (uniform) p.boundary[0].velocity = [Umax](double) { return Umax; };

@@ -84,3 +84,45 @@ TEST(Grid, WallGradedAxisStartsAtTheWallSpacingAndRejoinsTheAxis) {
   EXPECT_THROW(wallGradedAxis(base, 0.0, 1.05), std::invalid_argument);
   EXPECT_THROW(wallGradedAxis(base, h / 2, 1.0), std::invalid_argument);
 }
+
+TEST(Grid, InnerRefinedAxisSplitsTheBoxKeepsTheCentreFaceAndGradesBack) {
+  // 2D-2's x axis at h = pi D / 64 (face through the centre 0.2 m, cells of h from the inlet),
+  // then cells of h / 2 within 1 D of the centre, graded back to h by 1.05 per cell.
+  const double D = 0.1, h = M_PI * D / 64, cx = 0.2;
+  const Axis base = refinedAxis(0, 2.2, 0, cx + 4 * D, h, 1.05, 4 * h, cx);
+  const Axis a = innerRefinedAxis(base, cx - D, cx + D, 2, 1.05);
+  EXPECT_DOUBLE_EQ(a.lo(), 0.0);
+  EXPECT_DOUBLE_EQ(a.hi(), 2.2);
+  // The centre is still a face, with cells of exactly h / 2 mirrored about it out to ~1 D.
+  const int k = a.cellOf(cx + 0.1 * h);
+  EXPECT_NEAR(a.face(k), cx, 1e-12);
+  const int n_fine = static_cast<int>(D / (0.5 * h)) - 1;
+  for (int m = 1; m <= n_fine; ++m) {
+    EXPECT_NEAR(a.width(k + m - 1), 0.5 * h, 1e-12) << "cell " << m << " downstream of the centre";
+    EXPECT_NEAR(cx - a.face(k - m), a.face(k + m) - cx, 1e-12) << "face " << m << " from the centre";
+  }
+  // Smooth about the box: neighbours differ by at most the ratio (+ the snap's rescaling). (The
+  // base axis's first cell holds the inlet's remainder, up to 1.5 h.)
+  for (int i = a.cellOf(cx - 1.8 * D); i <= a.cellOf(cx + 1.8 * D); ++i) {
+    const double r = a.width(i) / a.width(i - 1);
+    EXPECT_LT(std::max(r, 1 / r), 1.1) << "cell " << i;
+  }
+  // Faces of the base axis away from the box are kept: the first cell and the wake's cells of h.
+  EXPECT_DOUBLE_EQ(a.width(0), base.width(0));
+  const int w = a.cellOf(cx + 3 * D);
+  EXPECT_NEAR(a.width(w), h, 1e-12);
+  // ln 2 / ln 1.05 ~ 14 graded cells a side stand in for ~ 10 cells of h: about 2 D / h + 8 more cells.
+  EXPECT_GT(a.cells(), base.cells() + static_cast<int>(2 * D / h) + 4);
+  EXPECT_LT(a.cells(), base.cells() + static_cast<int>(2 * D / h) + 14);
+  EXPECT_EQ(innerRefinedAxis(base, cx - D, cx + D, 1, 1.05).cells(), base.cells());
+  EXPECT_THROW(innerRefinedAxis(base, cx, cx + 0.1 * h, 2, 1.05), std::invalid_argument);
+  EXPECT_THROW(innerRefinedAxis(base, cx - D, cx + D, 0, 1.05), std::invalid_argument);
+  // Upstream cells growing by 1.05 from 0.75 D before the centre: a layer growing by 1.05 never
+  // catches up with them, so the fine cells run to the inlet (each cell split in two, no jump).
+  const Axis stretched = refinedAxis(0, 2.2, cx - 0.75 * D, cx + 4 * D, h, 1.05, 4 * h, cx);
+  const Axis s = innerRefinedAxis(stretched, cx - D, cx + D, 2, 1.05);
+  EXPECT_NEAR(s.width(0), 0.5 * stretched.width(0), 1e-12);
+  EXPECT_NEAR(s.width(1), 0.5 * stretched.width(0), 1e-12);
+  EXPECT_EQ(s.cellOf(cx - 0.1 * h), 2 * stretched.cellOf(cx - 0.1 * h) + 1);
+  EXPECT_NEAR(s.width(s.cellOf(cx + 3 * D)), h, 1e-12);
+}

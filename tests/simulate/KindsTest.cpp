@@ -114,6 +114,21 @@ TEST(FluidKinds, SchaeferTurekGridOffset) {
   }
 }
 
+TEST(FluidKinds, SchaeferTurekBodyRefine) {
+  // h = D/20 with a finer box of h/2 within 1 D of the centre (D/41 at the surface), ~29k cells:
+  // over 16 sub-cell positions (h/16 steps along x; centre on a face or a fine cell's centre
+  // along y) mmval's errors are c_D -0.05 .. +0.002 % and c_L +0.25 .. +2.43 %, against -0.9 %
+  // for c_L with D/41 everywhere (cells_around 128); dp -0.85 .. -0.18 % over 6 of those positions.
+  Case c = loadCase("fluid-schaefer-turek-2d1.toml");
+  c.set("numerics.levels", std::vector<std::int64_t>{64});
+  c.set("numerics.body_refine", std::int64_t{2});
+  const RunOutput out = run(c);
+  EXPECT_NEAR(out.metrics.at("c_D") / 5.57953523384, 1.0, 0.0015);
+  EXPECT_NEAR(out.metrics.at("c_L") / 0.010618948146, 1.0, 0.03);
+  EXPECT_NEAR(out.metrics.at("dp") / 0.11752016697, 1.0, 0.01);
+  EXPECT_GT(out.details.at("cells").get<double>(), 25000);
+}
+
 TEST(FluidKinds, Pore2ChipPermeabilityAndPorosity) {
   Case c = loadCase("fluid-pore2chip.toml");
   c.set("numerics.cells_per_pixel", 0.25);

@@ -52,4 +52,13 @@ Axis refinedAxis(double lo, double hi, double a, double b, double h_fine, double
 /// are left as they are. Needs h_end > 0, ratio > 1.
 Axis wallGradedAxis(const Axis& axis, double h_end, double ratio);
 
+/// `axis` with each cell between the faces nearest to a and b split into m equal cells, and
+/// graded layers outside that box (widths growing by `ratio` per cell from the fine width)
+/// until they reach the axis's own cells. Every original face is kept, so a face through a
+/// body's centre stays. For a second, finer box about a body inside refinedAxis's box. Where
+/// the layer cannot reach the axis's cells before its end (a wall within the layer's span, or
+/// cells there growing as fast as the layer), the box extends to that end.
+/// m = 1 returns the axis; needs m >= 1, ratio > 1, a < b and a whole cell between them.
+Axis innerRefinedAxis(const Axis& axis, double a, double b, int m, double ratio);
+
 }  // namespace mmval::simulate
