@@ -2,6 +2,9 @@
 // paper's Table 1 set-up). Grid: uniform cells h = pi D / cells_around in a
 // box around the cylinder and its near wake, stretched geometrically outside
 // (ratio numerics.stretch_ratio, cells at most numerics.max_cell_ratio x h).
+// Optionally a second box of cells h / numerics.body_refine within numerics.body_box
+// diameters of the centre, graded back to h: the body's boundary layer at a finer
+// spacing than the wake's (for shedding, the lift's amplitude depends on the former).
 #include <cmath>
 
 #include <fmt/format.h>
