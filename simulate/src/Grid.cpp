@@ -170,7 +170,6 @@ Axis wallGradedAxis(const Axis& axis, double h_end, double ratio) {
   return Axis(std::move(out));
 }
 
-
 Axis innerRefinedAxis(const Axis& axis, double a, double b, int m, double ratio) {
   if (m < 1 || !(ratio > 1) || !(a < b)) throw std::invalid_argument("innerRefinedAxis needs m >= 1, ratio > 1 and a < b");
   if (m == 1) return axis;

@@ -4,7 +4,7 @@
 // (ratio numerics.stretch_ratio, cells at most numerics.max_cell_ratio x h).
 // Optionally a second box of cells h / numerics.body_refine within numerics.body_box
 // diameters of the centre, graded back to h: the body's boundary layer at a finer
-// spacing than the wake's (for shedding, the lift's amplitude depends on the former).
+// spacing than the wake's (for shedding the lift depends on both: see the 2D-2 case).
 #include <cmath>
 
 #include <fmt/format.h>
