@@ -159,8 +159,9 @@ Axis wallGradedAxis(const Axis& axis, double h_end, double ratio) {
   const std::vector<double> lo = gradedLayer(f, h_end, ratio, keep_lo);
   const std::vector<double> rf(f.rbegin(), f.rend());
   const std::vector<double> hi = gradedLayer(rf, h_end, ratio, keep_hi);
-  keep_lo %= f.size();  // a layer that would swallow the axis is left out
-  keep_hi %= f.size();
+  // A layer that would swallow the axis is left out.
+  if (keep_lo == f.size()) keep_lo = 0;
+  if (keep_hi == f.size()) keep_hi = 0;
   if (keep_lo + keep_hi + 1 >= f.size()) return axis;  // the layers would meet: leave the axis
   std::vector<double> out{f.front()};
   for (double d : lo) out.push_back(f.front() + d);
@@ -177,10 +178,8 @@ Axis innerRefinedAxis(const Axis& axis, double a, double b, int m, double ratio)
   // The box snapped to the nearest faces of the axis: every original face is kept, so faces
   // through a body's centre (refinedAxis's anchor) stay where they are.
   const auto nearest = [&](double x) {
-    std::size_t k = 0;
-    for (std::size_t i = 1; i < f.size(); ++i)
-      if (std::abs(f[i] - x) < std::abs(f[k] - x)) k = i;
-    return k;
+    const auto i = static_cast<std::size_t>(axis.cellOf(x));
+    return std::abs(f[i + 1] - x) < std::abs(f[i] - x) ? i + 1 : i;
   };
   std::size_t ia = nearest(a), ib = nearest(b);
   if (ia >= ib) throw std::invalid_argument("innerRefinedAxis: the box holds no whole cell of the axis");

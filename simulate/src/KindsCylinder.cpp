@@ -130,7 +130,7 @@ CaseKind cylinderChannelKind() {
         p.x = innerRefinedAxis(p.x, cx - r, cx + r, body_refine, grade);
         p.y = innerRefinedAxis(p.y, cy - r, cy + r, body_refine, grade);
       }
-      if (wall_refine > 1) p.y = wallGradedAxis(p.y, h / wall_refine, std::max(ratio, 1.02));
+      if (wall_refine > 1) p.y = wallGradedAxis(p.y, h / wall_refine, grade);
       p.boundary[0].type = BoundaryType::velocity;
       if (uniform) p.boundary[0].velocity = [Umax](double) { return Umax; };
       else p.boundary[0].velocity = [Umax, H](double y) { return 4 * Umax * y * (H - y) / (H * H); };
