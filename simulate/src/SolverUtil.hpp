@@ -6,6 +6,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -25,6 +26,26 @@ inline void defaultOption(const std::string& key, const char* value) {
   PetscOptionsHasName(nullptr, nullptr, key.c_str(), &has);
   if (!has) PetscOptionsSetValue(nullptr, key.c_str(), value);
 }
+
+/// A default option that holds only while this object lives, for a setting that
+/// suits some solves of a prefix and not others; a value the user gave stays.
+class ScopedDefaultOption {
+ public:
+  ScopedDefaultOption(std::string key, const char* value, bool wanted) : m_key(std::move(key)) {
+    PetscBool has = PETSC_FALSE;
+    if (wanted) PetscOptionsHasName(nullptr, nullptr, m_key.c_str(), &has);
+    m_set = wanted && !has && PetscOptionsSetValue(nullptr, m_key.c_str(), value) == 0;
+  }
+  ~ScopedDefaultOption() {
+    if (m_set) PetscOptionsClearValue(nullptr, m_key.c_str());
+  }
+  ScopedDefaultOption(const ScopedDefaultOption&) = delete;
+  ScopedDefaultOption& operator=(const ScopedDefaultOption&) = delete;
+
+ private:
+  std::string m_key;
+  bool m_set = false;
+};
 
 /// The first `n` entries of the distributed vector `v`, on every rank, into `out`.
 /// Throws std::runtime_error naming `what` (and leaves `out` as it was) when any is
