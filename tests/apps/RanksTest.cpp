@@ -22,16 +22,21 @@ namespace {
 
 namespace fs = std::filesystem;
 
-int shell(const std::string& cmd) {
-  const int raw = std::system((cmd + " > /dev/null 2>&1").c_str());
-  return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-}
-
 std::string slurp(const fs::path& p) {
   std::ifstream in(p);
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+/// Runs `cmd` with its output in `log`; "" when it exits 0, else the exit status and
+/// the log's last 2000 characters, so that a failure shows its cause.
+std::string shell(const std::string& cmd, const fs::path& log) {
+  const int raw = std::system((cmd + " > " + log.string() + " 2>&1").c_str());
+  const int code = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  if (code == 0) return "";
+  const std::string text = slurp(log);
+  return "exit " + std::to_string(code) + " from: " + cmd + "\n" + text.substr(text.size() > 2000 ? text.size() - 2000 : 0);
 }
 
 /// The default micromodel case with an absolute mask path and a 6 s duration.
@@ -65,9 +70,9 @@ TEST(Ranks, MicromodelSceneIsDeterministicAndTwoRanksGiveTheOneRankScene) {
   fs::remove_all(dir);
   const fs::path scene = shortScene(dir);
   const std::string mmval = std::string(MMVAL_BINARY_DIR) + "/bin/mmval run " + scene.string() + " --quiet --out ";
-  ASSERT_EQ(shell(mmval + (dir / "a").string()), 0);
-  ASSERT_EQ(shell(mmval + (dir / "b").string()), 0);
-  ASSERT_EQ(shell(std::string(MMVAL_MPIEXEC) + " -n 2 --oversubscribe " + mmval + (dir / "np2").string()), 0);
+  ASSERT_EQ(shell(mmval + (dir / "a").string(), dir / "a.log"), "");
+  ASSERT_EQ(shell(mmval + (dir / "b").string(), dir / "b.log"), "");
+  ASSERT_EQ(shell(std::string(MMVAL_MPIEXEC) + " -n 2 --oversubscribe " + mmval + (dir / "np2").string(), dir / "np2.log"), "");
   for (const char* f : {"trajectories.csv", "retention.csv", "permeability.csv"})
     EXPECT_EQ(slurp(dir / "a" / f), slurp(dir / "b" / f)) << f << ": same seed, same ranks, different output";
 
