@@ -15,7 +15,7 @@ namespace mmval::simulate {
 
 class CoupledSystem {
  public:
-  /// options.linear: "direct" (UMFPACK serial, MUMPS parallel) or "iterative"
+  /// options.linear: "direct" (UMFPACK serial, ordered by METIS from 1e5 unknowns; MUMPS parallel) or "iterative"
   /// (FGMRES + Schur fieldsplit with GAMG); throws std::invalid_argument otherwise.
   CoupledSystem(const FlowOperator& op, const SolverOptions& options, MPI_Comm comm);
   ~CoupledSystem();
