@@ -140,7 +140,7 @@ struct CoupledSystem::Impl {
     // square array (bench_simulate_stokes_scaling, back to back): 49k unknowns 0.71 s against
     // 0.99 s, 197k 8.3 s against 6.9 s (and 6.6 against 6.1 with other runs on the cores);
     // the 2D-2 cylinder at 294k unknowns (57 lagged-LU steps): 45 s and 1.72 GB against 36 s
-    // and 1.12 GB, the same forces to 1e-9. So METIS for the large systems only.
+    // and 1.12 GB, c_D and c_L the same to 2e-9. So METIS for the large systems only.
     const detail::ScopedDefaultOption ordering("-fluid_mat_umfpack_ordering", "METIS",
                                                std::string(solver) == MATSOLVERUMFPACK && op.unknowns() >= kMetisUnknowns);
     check(KSPSetOperators(ksp, A, A), "KSPSetOperators");
