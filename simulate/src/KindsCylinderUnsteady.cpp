@@ -3,11 +3,14 @@
 // Re 100 set-up. Metrics over the last whole shedding periods: c_D max / min /
 // mean, c_L max / min, Strouhal number f D / U_ref. Force history as CSV.
 #include <cmath>
+#include <optional>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include "KindsCommon.hpp"
+#include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/Checkpoint.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Run.hpp"
@@ -17,6 +20,10 @@
 #include "mmval/simulate/UnsteadyFlowSolver.hpp"
 
 namespace mmval::simulate::detail {
+
+namespace {
+constexpr const char* kCheckpointFormat = "mmval-unsteady-cylinder-checkpoint-1";
+}
 
 void declareUnsteadyCylinderKeys(Schema& s) {
   s.real("numerics.max_courant", "Unsteady (mmval): Courant limit of the adaptive time step, max over cells of dt (|u|/dx + |v|/dy)").def(1.0).min(0.05).max(4.0);
@@ -29,6 +36,13 @@ void declareUnsteadyCylinderKeys(Schema& s) {
       .nonNegative();
   s.real("numerics.refine_downstream", "mmval: length of the uniformly refined box behind the cylinder centre, in diameters").def(1.5).min(0.6).max(100);
   s.real("numerics.refine_across", "mmval: half-height of the uniformly refined box around the cylinder centre, in diameters").def(0.75).min(0.6).max(100);
+  s.real("run.checkpoint_minutes",
+         "Unsteady: write checkpoint.bin every this many minutes of wall time (0: never); `mmval run --resume` continues from it")
+      .def(5.0)
+      .min(0.0);
+  s.integer("run.stop_after_steps", "Unsteady: stop (as if killed) after this many time steps of a level, leaving a checkpoint (0: run to the end; tests)")
+      .def(0)
+      .min(0);
 }
 
 RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::function<FlowProblem(int level)>& make_problem, double coef, double Uref,
@@ -47,10 +61,52 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::f
   out.details["time_scheme"] = "BDF2 (variable step), convection linearised about the extrapolated velocity; adaptive dt (Courant limit)";
   nlohmann::json ladder = nlohmann::json::array();
   SheddingStats last_stats;
-  for (std::size_t li = 0; li < levels.size(); ++li) {
+  // Checkpoint (rank 0 writes, every rank reads): the finished levels' ladder rows, the level
+  // under way with its wall time so far, the solver's state and the force history.
+  const std::filesystem::path ckpt = ctx.out_dir.empty() ? std::filesystem::path{} : ctx.out_dir / "checkpoint.bin";
+  const double checkpoint_s = 60 * c.real("run.checkpoint_minutes");
+  const long long stop_after = c.integer("run.stop_after_steps");
+  const std::string fingerprint = checkpointFingerprint(c);
+  std::size_t first_level = 0;
+  std::optional<CheckpointReader> resumed;
+  double resumed_wall = 0;
+  long long resumed_from = 0;  // steps of the level a resume continued (0: not resumed)
+  if (ctx.resume && !ckpt.empty() && std::filesystem::exists(ckpt)) {
+    try {
+      CheckpointReader r(readBinaryFile(ckpt), ckpt.string());
+      if (r.getString() != kCheckpointFormat) throw std::runtime_error("not an unsteady-cylinder checkpoint");
+      if (r.getString() != fingerprint) throw std::runtime_error("it belongs to another version of this case");
+      first_level = r.get<std::uint64_t>();
+      ladder = nlohmann::json::parse(r.getString());
+      resumed_wall = r.get<double>();
+      if (first_level >= levels.size() || ladder.size() != first_level) throw std::runtime_error("its level does not fit the ladder");
+      resumed.emplace(std::move(r));
+    } catch (const std::exception& e) {
+      throw InputError(c.where("run.checkpoint_minutes"), fmt::format("cannot resume from {}: {}", ckpt.string(), e.what()), {},
+                       "delete the checkpoint (or the .partial folder) to start afresh");
+    }
+  }
+  for (std::size_t li = first_level; li < levels.size(); ++li) {
     const auto t0 = std::chrono::steady_clock::now();
     UnsteadyFlowSolver solver(make_problem(levels[li]), solverOptions(c), uo);
-    if (eps > 0) {
+    ForceHistory hist;
+    double wall_before = 0;  // this level's wall time before a resume
+    if (resumed) {
+      try {
+        solver.loadState(*resumed);
+        const auto t = resumed->getVector<double>(), cd = resumed->getVector<double>(), cl = resumed->getVector<double>();
+        if (cd.size() != t.size() || cl.size() != t.size()) throw std::runtime_error("force history of unequal columns");
+        for (std::size_t k = 0; k < t.size(); ++k) hist.add(t[k], cd[k], cl[k]);
+      } catch (const std::exception& e) {
+        throw InputError(c.where("run.checkpoint_minutes"), fmt::format("cannot resume from {}: {}", ckpt.string(), e.what()), {},
+                         "delete the checkpoint (or the .partial folder) to start afresh");
+      }
+      resumed.reset();
+      wall_before = resumed_wall;
+      resumed_from = solver.stepStats().steps;
+      if (PetscSession::rank() == 0 && !ctx.quiet)
+        spdlog::info("{}: resumed level {} at t = {:.6g} s (step {}) from {}", c.name(), li + 1, solver.time(), solver.stepStats().steps, ckpt.string());
+    } else if (eps > 0) {
       // Gaussian vortex (stream function psi = eps U D exp(-r^2 / D^2) / 2) 1.5 D behind the cylinder.
       const double xv = cx + 1.5 * D, yv = cy, amp = eps * Uref * std::sqrt(std::exp(1.0) / 2);
       solver.setVelocity([=](double x, double y) {
@@ -58,7 +114,21 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::f
         return Eigen::Vector2d(-Y * g, X * g);
       });
     }
-    ForceHistory hist;
+    auto saveCheckpoint = [&] {
+      if (PetscSession::rank() != 0) return;
+      CheckpointWriter w;
+      w.putString(kCheckpointFormat);
+      w.putString(fingerprint);
+      w.put<std::uint64_t>(li);
+      w.putString(ladder.dump());
+      w.put(wall_before + secondsSince(t0));
+      solver.saveState(w);
+      w.putVector(hist.times());
+      w.putVector(hist.drag());
+      w.putVector(hist.lift());
+      writeFileAtomic(ckpt, w.bytes());
+    };
+    auto last_checkpoint = std::chrono::steady_clock::now();
     Progress progress(fmt::format("fluid {} (level {}/{})", c.name(), li + 1, levels.size()), 1000, ctx.quiet);
     while (solver.time() < end_time * (1 - 1e-12)) {
       // numerics.time_step is the first step; later steps grow (<= max_growth per step) up to the Courant limit.
@@ -67,11 +137,20 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::f
       const BodyLoad L = solver.bodyLoads()[0];
       hist.add(solver.time(), coef * L.force.x(), coef * L.force.y());
       progress.update(static_cast<std::size_t>(1000 * solver.time() / end_time));
+      if (ckpt.empty() || solver.time() >= end_time * (1 - 1e-12)) continue;
+      const bool stop = stop_after > 0 && solver.stepStats().steps == stop_after;
+      if (stop || (checkpoint_s > 0 && secondsSince(last_checkpoint) >= checkpoint_s)) {
+        saveCheckpoint();
+        last_checkpoint = std::chrono::steady_clock::now();
+      }
+      if (stop)
+        throw RunStopped(fmt::format("stopped after {} time steps as asked (run.stop_after_steps); {} holds the checkpoint, continue with `mmval run --resume`",
+                                     stop_after, ckpt.string()));
     }
     progress.finish();
     const SheddingStats st = hist.analyse(from, 4);
     last_stats = st;
-    const double wall = secondsSince(t0);
+    const double wall = wall_before + secondsSince(t0);
     const FlowStats& fs = solver.stats();
     nlohmann::json row = {{"level", li},
                           {"resolution", levels[li]},
@@ -116,8 +195,10 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::f
     out.details["time_steps"] = solver.stepStats().steps;
     out.details["max_relative_divergence"] = solver.maxRelativeDivergence();
   }
+  if (!ckpt.empty() && PetscSession::rank() == 0) std::filesystem::remove(ckpt);  // complete: the results replace it
   addObservedOrder(ladder, levels);
   out.details["ladder"] = ladder;
+  out.details["resumed_from_step"] = resumed_from;
   out.details["statistics_window_s"] = {last_stats.window_start_s, last_stats.window_end_s};
   out.details["shedding_periods"] = last_stats.periods;
   if (last_stats.periods == 0)

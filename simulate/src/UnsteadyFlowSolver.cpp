@@ -154,6 +154,57 @@ struct UnsteadyFlowSolver::Impl {
   }
 };
 
+namespace {
+constexpr const char* kStateFormat = "mmval-unsteady-state-1";
+}
+
+void UnsteadyFlowSolver::saveState(CheckpointWriter& w) const {
+  w.putString(kStateFormat);
+  w.put<std::int64_t>(m->op->unknowns());
+  w.put(m->t);
+  w.put(m->coef);
+  w.put(m->warned);
+  w.put<std::int64_t>(m->steps.steps);
+  w.put<std::int64_t>(m->steps.reduced_steps);
+  w.put(m->steps.last_dt);
+  w.put(m->steps.last_courant);
+  w.put(m->steps.max_courant);
+  w.putString(m->steps.warning);
+  w.put<std::int64_t>(m->stats.linear_iterations);
+  w.put(m->stats.assemble_seconds);
+  w.put(m->stats.solve_seconds);
+  w.putVector(m->un);
+  w.putVector(m->unm1);
+  w.putVector(m->old);
+}
+
+void UnsteadyFlowSolver::loadState(CheckpointReader& r) {
+  if (r.getString() != kStateFormat) throw std::runtime_error(fmt::format("checkpoint {}: not an unsteady-flow state of this mmval", r.name()));
+  const auto n = r.get<std::int64_t>();
+  if (n != m->op->unknowns())
+    throw std::runtime_error(fmt::format("checkpoint {}: a state of {} unknowns, but this grid has {}", r.name(), n, m->op->unknowns()));
+  Impl& s = *m;
+  s.t = r.get<double>();
+  s.coef = r.get<double>();
+  s.warned = r.get<bool>();
+  s.steps.steps = r.get<std::int64_t>();
+  s.steps.reduced_steps = r.get<std::int64_t>();
+  s.steps.last_dt = r.get<double>();
+  s.steps.last_courant = r.get<double>();
+  s.steps.max_courant = r.get<double>();
+  s.steps.warning = r.getString();
+  s.stats.linear_iterations = static_cast<int>(r.get<std::int64_t>());
+  s.stats.assemble_seconds = r.get<double>();
+  s.stats.solve_seconds = r.get<double>();
+  for (std::vector<double>* v : {&s.un, &s.unm1, &s.old}) {
+    std::vector<double> x = r.getVector<double>();
+    if (x.size() != v->size()) throw std::runtime_error(fmt::format("checkpoint {}: a vector of {} values where {} belong", r.name(), x.size(), v->size()));
+    *v = std::move(x);
+  }
+  s.op->setTransient(s.coef, &s.old);  // the residual body force of the restored step
+  s.sys->invalidate();
+}
+
 UnsteadyFlowSolver::UnsteadyFlowSolver(FlowProblem problem, SolverOptions options, UnsteadyOptions unsteady, MPI_Comm comm) {
   PetscSession::ensure();
   m = std::make_unique<Impl>(std::move(problem), std::move(options), unsteady, comm);

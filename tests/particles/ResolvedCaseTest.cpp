@@ -15,7 +15,7 @@
 #include "mmval/core/Run.hpp"
 #include "mmval/core/Tracks.hpp"
 #include "ParticleRegistry.hpp"
-#include "mmval/particles/Checkpoint.hpp"
+#include "mmval/core/Checkpoint.hpp"
 #include "mmval/particles/Kinds.hpp"
 #include "mmval/particles/Micromodel.hpp"
 #include "mmval/simulate/Geometry.hpp"

@@ -135,7 +135,7 @@ void compareEnginesOnTheScene(const Case& c, std::shared_ptr<const FlowField> fi
   SceneConfig ref = scene;
   ref.particle.diameter = diameter;
   ref.particle.youngs_modulus = c.quantity("engines.compare_youngs_modulus");
-  ref.work_dir = std::filesystem::temp_directory_path() / fmt::format("mmval-engines-{:016x}", std::hash<std::string>{}(detail::checkpointFingerprint(c)));
+  ref.work_dir = std::filesystem::temp_directory_path() / fmt::format("mmval-engines-{:016x}", std::hash<std::string>{}(checkpointFingerprint(c)));
   SceneWindow w;
   w.window = c.quantity("engines.compare_window");
   w.interval = std::min(w.window, std::max(w.window / 20, c.quantity("run.output_interval") / 4));
@@ -302,7 +302,7 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   const auto frames = static_cast<std::int64_t>(std::llround(duration / dt_out));
   const std::int64_t checkpoint_every = c.integer("run.checkpoint_every"), stop_after = c.integer("run.stop_after_frames");
   const fs::path ckpt = ctx.out_dir / "checkpoint.bin";
-  const std::string fp = detail::checkpointFingerprint(c);
+  const std::string fp = checkpointFingerprint(c);
 
   RunnerState s;
   bool resumed = false;

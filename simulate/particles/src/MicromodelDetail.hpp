@@ -13,9 +13,6 @@ namespace mmval::particles::detail {
 
 /// Declares every key of the kind.
 void declareMicromodel(Schema& s);
-/// What a checkpoint must match to be resumed: the resolved case without its name, acceptance
-/// entries and the run-control keys (run.checkpoint_every, run.stop_after_frames).
-std::string checkpointFingerprint(const Case& c);
 /// The mask file: relative to the case file, else to the folder above it; InputError when missing.
 std::filesystem::path maskPath(const Case& c);
 /// Reads, crops and dilates the mask and closes pores cut off from the inlet or

@@ -114,17 +114,6 @@ PixelMask dilate(const PixelMask& m, int radius_px) {
   return out;
 }
 
-std::string checkpointFingerprint(const Case& c) {
-  nlohmann::json j = c.resolvedJson();
-  if (j.contains("run")) {
-    j["run"].erase("stop_after_frames");
-    j["run"].erase("checkpoint_every");
-  }
-  j.erase("case");
-  j.erase("acceptance");
-  return j.dump();
-}
-
 fs::path maskPath(const Case& c) {
   const fs::path p = c.path("geometry.mask");
   if (fs::exists(p)) return p;

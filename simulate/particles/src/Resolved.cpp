@@ -30,7 +30,7 @@
 #include "mmval/core/Tracks.hpp"
 #include "MicromodelDetail.hpp"
 #include "ResolvedScene.hpp"
-#include "mmval/particles/Checkpoint.hpp"
+#include "mmval/core/Checkpoint.hpp"
 #include "mmval/particles/Kinds.hpp"
 #include "mmval/particles/Micromodel.hpp"
 #include "mmval/simulate/FieldOutput.hpp"
@@ -211,7 +211,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   auto saveCheckpoint = [&](std::int64_t f) {
     nlohmann::json j;
     j["format"] = "mmval-resolved-checkpoint-1";
-    j["scenario"] = detail::checkpointFingerprint(c);
+    j["scenario"] = checkpointFingerprint(c);
     j["frame"] = f;
     j["t"] = t;
     j["counters"] = {solves, steps, contacts, attached};
@@ -227,7 +227,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
     try {
       const nlohmann::json j = nlohmann::json::parse(readBinaryFile(ckpt));
       if (j.at("format") != "mmval-resolved-checkpoint-1") throw std::runtime_error("unknown format");
-      if (j.at("scenario").get<std::string>() != detail::checkpointFingerprint(c)) throw std::runtime_error("it belongs to another version of this case");
+      if (j.at("scenario").get<std::string>() != checkpointFingerprint(c)) throw std::runtime_error("it belongs to another version of this case");
       if (j.at("disks").size() != sc.disks.size()) throw std::runtime_error("other number of particles");
       first = j.at("frame").get<std::int64_t>() + 1;
       frame = first;

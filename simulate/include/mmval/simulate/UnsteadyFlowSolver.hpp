@@ -34,6 +34,7 @@
 #include <Eigen/Core>
 #include <mpi.h>
 
+#include "mmval/core/Checkpoint.hpp"
 #include "mmval/simulate/FlowSolver.hpp"
 
 namespace mmval::simulate {
@@ -97,6 +98,15 @@ class UnsteadyFlowSolver {
   Eigen::ArrayXXd cellSolidFraction() const;
   /// Face velocities and pressure as in SteadyFlowSolver.
   void fields(Eigen::ArrayXXd& u, Eigen::ArrayXXd& v, Eigen::ArrayXXd& p) const;
+
+  /// Checkpoint and restart: everything the next step needs (time, step history, the two
+  /// velocity levels and the pressure, the last step's history term) and the summed statistics.
+  /// loadState needs a solver built from the same problem and options; it refuses a state of
+  /// another grid (std::runtime_error naming the checkpoint). The linear solver refactorises
+  /// at the first step after a restore, so a resumed run matches an uninterrupted one to the
+  /// linear solver's tolerance, not bit for bit.
+  void saveState(CheckpointWriter& w) const;
+  void loadState(CheckpointReader& r);
 
  private:
   struct Impl;

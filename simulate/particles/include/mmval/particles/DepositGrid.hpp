@@ -28,7 +28,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "mmval/particles/Checkpoint.hpp"
+#include "mmval/core/Checkpoint.hpp"
 #include "mmval/particles/MicromodelFlow.hpp"
 
 namespace mmval::particles {

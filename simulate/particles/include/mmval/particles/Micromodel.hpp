@@ -25,15 +25,11 @@
 // the next output frame); `mmval run --resume` continues from it bit for bit.
 #pragma once
 #include "mmval/core/CaseKind.hpp"
+#include "mmval/core/Checkpoint.hpp"
 
 namespace mmval::particles {
 
-/// Thrown when a run stops on purpose after run.stop_after_frames frames
-/// (tests of checkpoint/restart); the checkpoint is on disk.
-class RunStopped : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
+using mmval::RunStopped;  // thrown after run.stop_after_frames frames (tests of checkpoint and restart)
 
 CaseKind micromodelKind();
 

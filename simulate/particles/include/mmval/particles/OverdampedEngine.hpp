@@ -25,7 +25,7 @@
 #include <memory>
 #include <unordered_map>
 
-#include "mmval/particles/Checkpoint.hpp"
+#include "mmval/core/Checkpoint.hpp"
 #include "mmval/particles/HydroModel.hpp"
 #include "mmval/particles/Scene.hpp"
 

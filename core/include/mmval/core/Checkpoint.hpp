@@ -1,5 +1,5 @@
-// Binary checkpoints of long particle runs (issue 6: kill and resume gives the
-// same result as an uninterrupted run). A checkpoint is one file written under
+// Checkpoints of long runs (particle runs, unsteady flow): kill and resume
+// gives the same result as an uninterrupted run. A checkpoint is one file written under
 // a temporary name and renamed into place (writeFileAtomic), so a run killed
 // while writing leaves the previous checkpoint intact. The format is private to
 // one build: raw little-endian values with a magic, a version and a
@@ -13,7 +13,9 @@
 #include <type_traits>
 #include <vector>
 
-namespace mmval::particles {
+#include "mmval/core/Case.hpp"
+
+namespace mmval {
 
 class CheckpointWriter {
  public:
@@ -87,4 +89,17 @@ class CheckpointReader {
 /// Whole file as bytes; throws std::runtime_error naming the file.
 std::string readBinaryFile(const std::filesystem::path& file);
 
-}  // namespace mmval::particles
+/// What a checkpoint must match to be resumed: the resolved case without its
+/// [case] table, its acceptance entries and the run-control keys (run.checkpoint_every,
+/// run.checkpoint_minutes, run.stop_after_frames, run.stop_after_steps), which change
+/// neither the physics nor the numerics.
+std::string checkpointFingerprint(const Case& c);
+
+/// Thrown when a run stops on purpose (run.stop_after_frames, run.stop_after_steps:
+/// tests of checkpoint and restart); the checkpoint is on disk.
+class RunStopped : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+}  // namespace mmval
