@@ -59,6 +59,15 @@ Case maskCase(const fs::path& mask) {
   return Case::parse(text, mmval::test::scratch("mask.toml"), registry());
 }
 
+/// The 2D-2 case file cut to a coarse grid (cells_around 16) and 0.3 s.
+Case shortUnsteadyCase() {
+  Case c = loadCase("fluid-schaefer-turek-2d2.toml");
+  c.set("numerics.cells_around", std::int64_t{16});
+  c.set("numerics.end_time", 0.3);          // s
+  c.set("numerics.statistics_from", 0.15);  // s
+  return c;
+}
+
 }  // namespace
 
 TEST(FluidKinds, PoiseuilleAndShallowDuctCases) {
@@ -177,10 +186,7 @@ TEST(FluidKinds, AllFluidMask) {
 TEST(FluidKinds, UnsteadyCylinderRunsWithMmvalsSolver) {
   // The 2D-2 case file, cut to a coarse grid and 0.3 s: routed to mmval's BDF2 solver (no OpenFOAM),
   // force history written, every metric finite. Accuracy is the full case's job (cases/, bench/).
-  Case c = loadCase("fluid-schaefer-turek-2d2.toml");
-  c.set("numerics.cells_around", std::int64_t{16});
-  c.set("numerics.end_time", 0.3);         // s
-  c.set("numerics.statistics_from", 0.15);  // s
+  const Case c = shortUnsteadyCase();
   const fs::path dir = mmval::test::scratch("mmval-st2d2-short");
   const RunOutput out = run(c, dir);
   EXPECT_NE(out.details["solver"].get<std::string>().find("unsteady BDF2"), std::string::npos);
@@ -202,10 +208,7 @@ TEST(FluidKinds, UnsteadyCylinderResumesFromItsCheckpoint) {
   // not bit for bit: the coefficients differed by up to 2.4e-8 (the CSV's times by 1e-9, its last
   // digit); 1e-6 holds that with room, while a restore that lost a time level (BDF2's u^{n-1}) moves
   // them by O(dt du/dt), ~1e-3 here.
-  Case c = loadCase("fluid-schaefer-turek-2d2.toml");
-  c.set("numerics.cells_around", std::int64_t{16});
-  c.set("numerics.end_time", 0.3);          // s
-  c.set("numerics.statistics_from", 0.15);  // s
+  const Case c = shortUnsteadyCase();
   const fs::path dir = mmval::test::scratch("mmval-st2d2-resume");
   fs::remove_all(dir);
   const RunSummary whole = runCase(c, registry(), dir / "whole", {.quiet = true});
