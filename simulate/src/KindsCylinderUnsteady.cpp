@@ -40,7 +40,7 @@ void declareUnsteadyCylinderKeys(Schema& s) {
          "Unsteady: write checkpoint.bin every this many minutes of wall time (0: never); `mmval run --resume` continues from it")
       .def(5.0)
       .min(0.0);
-  s.integer("run.stop_after_steps", "Unsteady: stop (as if killed) after this many time steps of a level, leaving a checkpoint (0: run to the end; tests)")
+  s.integer("run.stop_after_steps", "Unsteady: stop (as if killed) after this many time steps of a level, leaving a checkpoint; a resumed run does not stop again (0: run to the end; tests)")
       .def(0)
       .min(0);
 }
@@ -81,6 +81,7 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::f
       resumed_wall = r.get<double>();
       if (first_level >= levels.size() || ladder.size() != first_level) throw std::runtime_error("its level does not fit the ladder");
       resumed.emplace(std::move(r));
+      for (std::size_t k = 0; k < first_level; ++k) out.files.push_back(fmt::format("forces-level{}.csv", k));  // written before the stop
     } catch (const std::exception& e) {
       throw InputError(c.where("run.checkpoint_minutes"), fmt::format("cannot resume from {}: {}", ckpt.string(), e.what()), {},
                        "delete the checkpoint (or the .partial folder) to start afresh");
@@ -138,7 +139,7 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::f
       hist.add(solver.time(), coef * L.force.x(), coef * L.force.y());
       progress.update(static_cast<std::size_t>(1000 * solver.time() / end_time));
       if (ckpt.empty() || solver.time() >= end_time * (1 - 1e-12)) continue;
-      const bool stop = stop_after > 0 && solver.stepStats().steps == stop_after;
+      const bool stop = stop_after > 0 && resumed_from == 0 && solver.stepStats().steps == stop_after;
       if (stop || (checkpoint_s > 0 && secondsSince(last_checkpoint) >= checkpoint_s)) {
         saveCheckpoint();
         last_checkpoint = std::chrono::steady_clock::now();
