@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <limits>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -183,6 +184,55 @@ int writeReport(const ReportInput& input, const fs::path& out) {
     for (auto& [label, series] : by_label) p.series.push_back(series);
     if (!p.series.empty() && by_label.begin()->second.x.size() + by_label.rbegin()->second.x.size() >= 2)
       addPlot("cd-vs-re", "Drag coefficient against Re: our runs (filled) and their references (open).", p);
+  }
+
+  // Force histories of unsteady runs (forces.csv): c_D and c_L against time, the part in the
+  // statistics window in its own colour, the periodic statistics in the caption.
+  for (const auto& r : input.summary.results) {
+    const auto& d = r["details"];
+    if (!d.is_object() || !d.contains("statistics_window_s") || !r.contains("run_dir")) continue;
+    const fs::path file = fs::path(r["run_dir"].get<std::string>()) / "forces.csv";
+    if (!fs::exists(file)) continue;
+    const auto cols = readColumns(file);
+    if (cols.size() < 3 || cols[0].empty()) continue;
+    const double w0 = d["statistics_window_s"][0].get<double>(), w1 = d["statistics_window_s"][1].get<double>();
+    std::array<Series, 4> s{Series{"c_D", {}, {}, "lines"}, Series{"c_L", {}, {}, "lines"}, Series{"c_D, statistics window", {}, {}, "lines"},
+                            Series{"c_L, statistics window", {}, {}, "lines"}};
+    const std::size_t stride = std::max<std::size_t>(1, cols[0].size() / 3000);  // ~100 points a shedding period at 2D-2's 4700 steps
+    for (std::size_t k = 0; k < cols[0].size(); k += stride) {
+      const double t = cols[0][k];
+      const std::size_t off = (t >= w0 && t <= w1) ? 2 : 0;
+      if (off == 0 && t > w1 && !s[0].x.empty() && s[0].x.back() < w0)
+        for (std::size_t q = 0; q < 2; ++q) {  // a gap where the window's own series runs
+          s[q].x.push_back(w0);
+          s[q].y.push_back(std::nan(""));
+        }
+      for (std::size_t q = 0; q < 2; ++q) {
+        s[off + q].x.push_back(t);
+        s[off + q].y.push_back(cols[q + 1][k]);
+      }
+    }
+    auto metric = [&](const std::string& name) {
+      for (const auto& m : r["metrics"])
+        if (m["name"] == name && m["value"].is_number()) return fmt::format("{:.4f}", m["value"].get<double>());
+      return std::string("-");
+    };
+    const std::string name = r["case"]["name"].get<std::string>();
+    Plot p{"Force coefficients against time (" + name + ")", "t (s)", "coefficient", false, false, {}, 720, 400};
+    // The y range of the statistics window (with a margin): the impulsive start's forces are
+    // hundreds of times larger and would flatten the shedding.
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (std::size_t q = 2; q < 4; ++q)
+      for (double y : s[q].y)
+        if (std::isfinite(y)) lo = std::min(lo, y), hi = std::max(hi, y);
+    if (hi > lo) p.yrange = fmt::format("[{}:{}]", lo - 0.25 * (hi - lo), hi + 0.25 * (hi - lo));
+    for (auto& x : s)
+      if (!x.x.empty()) p.series.push_back(std::move(x));
+    addPlot(name + "-forces",
+            fmt::format("Drag and lift coefficients against time ({}; y range of the statistics window); statistics window {:.4g} - {:.4g} s ({} shedding periods): c_D max {}, "
+                        "c_L max {}, St {}.",
+                        name, w0, w1, d.value("shedding_periods", 0), metric("c_D_max"), metric("c_L_max"), metric("St")),
+            p);
   }
 
   // Experiment vs simulation figures.

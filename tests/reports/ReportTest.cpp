@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -221,6 +222,26 @@ TEST(Report, Table3TrendsAgainstThePaper) {
   EXPECT_EQ(t->rows[2][1], "20 % < 22.5 %");  // Fig. 19, 5 um only and 10 um only
   EXPECT_EQ(t->rows[2][3], "yes");
   EXPECT_EQ(t->rows[3][3], "yes");  // I (30 %) above IV (2 %) and V (10 %)
+}
+
+TEST(Report, ForceHistoryOfAnUnsteadyRun) {
+  // An unsteady cylinder run's forces.csv becomes a figure with its statistics in the caption.
+  const fs::path dir = fs::path(MMVAL_BINARY_DIR) / "test-output" / "report-forces";
+  fs::remove_all(dir);
+  fakeRun(dir / "runs" / "st2", "st2", "cylinder-channel", nlohmann::json::array({info("c_D_max", 3.2305, "1"), info("c_L_max", 0.9792, "1"), info("St", 0.302, "1")}),
+          {{"statistics_window_s", {6.5, 7.8}}, {"shedding_periods", 4}});
+  {
+    std::ofstream f(dir / "runs" / "st2" / "forces.csv");
+    f << "t_s,c_D,c_L\n";
+    for (int i = 0; i <= 800; ++i) f << fmt::format("{},{},{}\n", 0.01 * i, 3.2 + 0.03 * std::sin(6.04 * M_PI * 0.01 * i), std::sin(3.02 * M_PI * 0.01 * i));
+  }
+  writeReport(collect({dir}), dir / "report");
+  const std::string md = slurp(dir / "report" / "report.md");
+  if (!gnuplotAvailable()) GTEST_SKIP() << "no gnuplot";
+  EXPECT_THAT(md, ::testing::HasSubstr("y range of the statistics window); statistics window 6.5 - 7.8 s (4 shedding periods): c_D max 3.2305, c_L max 0.9792, St 0.3020"));
+  const std::string svg = slurp(dir / "report" / "figures" / "st2-forces.svg");
+  EXPECT_THAT(svg, ::testing::HasSubstr("c_L, statistics window"));
+  EXPECT_THAT(svg, ::testing::HasSubstr("<svg"));
 }
 
 TEST(Report, NoTablesWithoutTheirRuns) {
