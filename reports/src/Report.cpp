@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <array>
-#include <limits>
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <fstream>
 #include <map>
 #include <optional>
