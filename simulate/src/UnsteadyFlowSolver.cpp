@@ -1,6 +1,7 @@
 #include "mmval/simulate/UnsteadyFlowSolver.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -159,48 +160,59 @@ constexpr const char* kStateFormat = "mmval-unsteady-state-1";
 }
 
 void UnsteadyFlowSolver::saveState(CheckpointWriter& w) const {
+  const Impl& s = *m;
   w.putString(kStateFormat);
-  w.put<std::int64_t>(m->op->unknowns());
-  w.put(m->t);
-  w.put(m->coef);
-  w.put(m->warned);
-  w.put<std::int64_t>(m->steps.steps);
-  w.put<std::int64_t>(m->steps.reduced_steps);
-  w.put(m->steps.last_dt);
-  w.put(m->steps.last_courant);
-  w.put(m->steps.max_courant);
-  w.putString(m->steps.warning);
-  w.put<std::int64_t>(m->stats.linear_iterations);
-  w.put(m->stats.assemble_seconds);
-  w.put(m->stats.solve_seconds);
-  w.putVector(m->un);
-  w.putVector(m->unm1);
-  w.putVector(m->old);
+  w.put<std::int64_t>(s.op->unknowns());
+  w.put(s.t);
+  w.put(s.coef);
+  w.put(s.warned);
+  w.put<std::int64_t>(s.steps.steps);
+  w.put<std::int64_t>(s.steps.reduced_steps);
+  w.put(s.steps.last_dt);
+  w.put(s.steps.last_courant);
+  w.put(s.steps.max_courant);
+  w.putString(s.steps.warning);
+  w.put<std::int64_t>(s.stats.linear_iterations);
+  w.put(s.stats.assemble_seconds);
+  w.put(s.stats.solve_seconds);
+  w.putVector(s.un);
+  w.putVector(s.unm1);
+  w.putVector(s.old);
 }
 
 void UnsteadyFlowSolver::loadState(CheckpointReader& r) {
+  Impl& s = *m;
   if (r.getString() != kStateFormat) throw std::runtime_error(fmt::format("checkpoint {}: not an unsteady-flow state of this mmval", r.name()));
   const auto n = r.get<std::int64_t>();
-  if (n != m->op->unknowns())
-    throw std::runtime_error(fmt::format("checkpoint {}: a state of {} unknowns, but this grid has {}", r.name(), n, m->op->unknowns()));
-  Impl& s = *m;
-  s.t = r.get<double>();
-  s.coef = r.get<double>();
-  s.warned = r.get<bool>();
-  s.steps.steps = r.get<std::int64_t>();
-  s.steps.reduced_steps = r.get<std::int64_t>();
-  s.steps.last_dt = r.get<double>();
-  s.steps.last_courant = r.get<double>();
-  s.steps.max_courant = r.get<double>();
-  s.steps.warning = r.getString();
-  s.stats.linear_iterations = static_cast<int>(r.get<std::int64_t>());
-  s.stats.assemble_seconds = r.get<double>();
-  s.stats.solve_seconds = r.get<double>();
-  for (std::vector<double>* v : {&s.un, &s.unm1, &s.old}) {
-    std::vector<double> x = r.getVector<double>();
-    if (x.size() != v->size()) throw std::runtime_error(fmt::format("checkpoint {}: a vector of {} values where {} belong", r.name(), x.size(), v->size()));
-    *v = std::move(x);
+  if (n != s.op->unknowns())
+    throw std::runtime_error(fmt::format("checkpoint {}: a state of {} unknowns, but this grid has {}", r.name(), n, s.op->unknowns()));
+  // Everything is read before anything is set, so a truncated checkpoint leaves the solver as it was.
+  const double t = r.get<double>(), coef = r.get<double>();
+  const bool warned = r.get<bool>();
+  StepStats steps;
+  steps.steps = r.get<std::int64_t>();
+  steps.reduced_steps = r.get<std::int64_t>();
+  steps.last_dt = r.get<double>();
+  steps.last_courant = r.get<double>();
+  steps.max_courant = r.get<double>();
+  steps.warning = r.getString();
+  const auto iterations = r.get<std::int64_t>();
+  const double assemble = r.get<double>(), solve = r.get<double>();
+  std::array<std::vector<double>, 3> v;
+  for (auto& x : v) {
+    x = r.getVector<double>();
+    if (x.size() != s.un.size()) throw std::runtime_error(fmt::format("checkpoint {}: a vector of {} values where {} belong", r.name(), x.size(), s.un.size()));
   }
+  s.t = t;
+  s.coef = coef;
+  s.warned = warned;
+  s.steps = steps;
+  s.stats.linear_iterations = static_cast<int>(iterations);
+  s.stats.assemble_seconds = assemble;
+  s.stats.solve_seconds = solve;
+  s.un = std::move(v[0]);
+  s.unm1 = std::move(v[1]);
+  s.old = std::move(v[2]);
   s.op->setTransient(s.coef, &s.old);  // the residual body force of the restored step
   s.sys->invalidate();
 }
