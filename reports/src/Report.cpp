@@ -213,9 +213,8 @@ int writeReport(const ReportInput& input, const fs::path& out) {
       }
     }
     auto metric = [&](const std::string& name) {
-      for (const auto& m : r["metrics"])
-        if (m["name"] == name && m["value"].is_number()) return fmt::format("{:.4f}", m["value"].get<double>());
-      return std::string("-");
+      const auto v = metricValue(r, name);
+      return v ? fmt::format("{:.4f}", *v) : std::string("-");
     };
     const std::string name = r["case"]["name"].get<std::string>();
     Plot p{"Force coefficients against time (" + name + ")", "t (s)", "coefficient", false, false, {}, 720, 400};

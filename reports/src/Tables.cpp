@@ -30,15 +30,6 @@ std::string solverOf(const nlohmann::json& r) {
 
 bool isOpenFoam(const std::string& solver) { return solver.rfind("openfoam", 0) == 0 || solver.rfind("OpenFOAM", 0) == 0; }
 
-/// First metric named `name` or `name (label)` with a numeric value.
-std::optional<double> metricValue(const nlohmann::json& r, const std::string& name) {
-  for (const auto& m : r.value("metrics", nlohmann::json::array())) {
-    const std::string n = m.value("name", "");
-    if ((n == name || n.rfind(name + " (", 0) == 0) && m["value"].is_number()) return m["value"].get<double>();
-  }
-  return std::nullopt;
-}
-
 /// One reference value (in the row's unit) or nothing.
 std::optional<double> reference(const fs::path& dir, const std::string& file, const std::string& quantity, const AtMap& at) {
   if (dir.empty() || !fs::exists(dir / file)) return std::nullopt;
@@ -52,6 +43,15 @@ std::optional<double> reference(const fs::path& dir, const std::string& file, co
 }
 
 }  // namespace
+
+/// First metric named `name` or `name (label)` with a numeric value.
+std::optional<double> metricValue(const nlohmann::json& r, const std::string& name) {
+  for (const auto& m : r.value("metrics", nlohmann::json::array())) {
+    const std::string n = m.value("name", "");
+    if ((n == name || n.rfind(name + " (", 0) == 0) && m["value"].is_number()) return m["value"].get<double>();
+  }
+  return std::nullopt;
+}
 
 std::string Table::markdown() const {
   std::string out = fmt::format("\n## {}\n\n", title);

@@ -71,6 +71,10 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::f
   std::optional<CheckpointReader> resumed;
   double resumed_wall = 0;
   long long resumed_from = 0;  // steps of the level a resume continued (0: not resumed)
+  const auto cannotResume = [&](const std::exception& e) {
+    return InputError(c.where("run.checkpoint_minutes"), fmt::format("cannot resume from {}: {}", ckpt.string(), e.what()), {},
+                      "delete the checkpoint (or the .partial folder) to start afresh");
+  };
   if (ctx.resume && !ckpt.empty() && std::filesystem::exists(ckpt)) {
     try {
       CheckpointReader r(readBinaryFile(ckpt), ckpt.string());
@@ -83,8 +87,7 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::f
       resumed.emplace(std::move(r));
       for (std::size_t k = 0; k < first_level; ++k) out.files.push_back(fmt::format("forces-level{}.csv", k));  // written before the stop
     } catch (const std::exception& e) {
-      throw InputError(c.where("run.checkpoint_minutes"), fmt::format("cannot resume from {}: {}", ckpt.string(), e.what()), {},
-                       "delete the checkpoint (or the .partial folder) to start afresh");
+      throw cannotResume(e);
     }
   }
   for (std::size_t li = first_level; li < levels.size(); ++li) {
@@ -99,8 +102,7 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::f
         if (cd.size() != t.size() || cl.size() != t.size()) throw std::runtime_error("force history of unequal columns");
         for (std::size_t k = 0; k < t.size(); ++k) hist.add(t[k], cd[k], cl[k]);
       } catch (const std::exception& e) {
-        throw InputError(c.where("run.checkpoint_minutes"), fmt::format("cannot resume from {}: {}", ckpt.string(), e.what()), {},
-                         "delete the checkpoint (or the .partial folder) to start afresh");
+        throw cannotResume(e);
       }
       resumed.reset();
       wall_before = resumed_wall;

@@ -61,6 +61,9 @@ std::vector<std::string> table3TimeColumns(const nlohmann::json& run);
 /// "candidate" label); none: no table.
 std::optional<Table> engineComparisonTable(const ReportInput& input);
 
+/// A run's first metric named `name` or `name (label)` with a numeric value (result.json's metrics).
+std::optional<double> metricValue(const nlohmann::json& run, const std::string& name);
+
 /// A run's time series read from a CSV with a header: column name -> values.
 /// Empty map when the file is missing; throws InputError on a malformed file.
 std::map<std::string, std::vector<double>> readCsvColumns(const std::filesystem::path& file);

@@ -25,11 +25,9 @@
 // the next output frame); `mmval run --resume` continues from it bit for bit.
 #pragma once
 #include "mmval/core/CaseKind.hpp"
-#include "mmval/core/Checkpoint.hpp"
+#include "mmval/core/Checkpoint.hpp"  // mmval::RunStopped: thrown after run.stop_after_frames frames
 
 namespace mmval::particles {
-
-using mmval::RunStopped;  // thrown after run.stop_after_frames frames (tests of checkpoint and restart)
 
 CaseKind micromodelKind();
 
