@@ -150,6 +150,7 @@ FlowOperator::FlowOperator(FlowProblem problem) : m_p(std::move(problem)) {
       else if (ref < 0) ref = j * m_N[0] + i;
     }
   if (!has_pressure && ref >= 0) m_pinned[static_cast<std::size_t>(ref)] = 2;
+  if (sharp && m_p.merge_cut_cells) mergeCutCells();
   // Cell solid fractions (output, pressure probes).
   m_cellChi = Eigen::ArrayXXd::Zero(m_N[1], m_N[0]);
   if (shape != nullptr)
@@ -395,6 +396,18 @@ void FlowOperator::continuityRow(int i, int j, RowTerms& R) const {
     R.lin.emplace_back(cellUnknown(i, j), W(0, i));
     return;
   }
+  if (!m_master.empty() && m_master[c] >= 0) {
+    // A merged cell: its fluxes count in its master's row; its pressure is the master's.
+    R.lin.emplace_back(cellUnknown(i, j), W(0, i));
+    R.lin.emplace_back(m_off[2] + m_master[c], -W(0, i));
+    return;
+  }
+  cellFluxes(i, j, R);
+  if (!m_merged.empty())
+    for (int k : m_merged[c]) cellFluxes(k % m_N[0], k / m_N[0], R);
+}
+
+void FlowOperator::cellFluxes(int i, int j, RowTerms& R) const {
   const double dx = W(0, i), dy = W(1, j);
   // Variable depth: the flux h_f u_f A_f is conserved (weights h_f / h_ref keep the row's scale);
   // faces the body surface crosses count their fluid part (m_open).
@@ -410,6 +423,58 @@ void FlowOperator::continuityRow(int i, int j, RowTerms& R) const {
   face(0, i + 1, j, -dy);
   face(1, j, i, dx);
   face(1, j + 1, i, -dx);
+}
+
+void FlowOperator::mergeCutCells() {
+  const int nc = m_N[0] * m_N[1];
+  m_master.assign(static_cast<std::size_t>(nc), -1);
+  m_merged.assign(static_cast<std::size_t>(nc), {});
+  const Shape* shape = m_p.shape.get();
+  std::vector<char> inside(static_cast<std::size_t>(nc), 0);
+  for (int j = 0; j < m_N[1]; ++j)
+    for (int i = 0; i < m_N[0]; ++i) {
+      const std::size_t c = static_cast<std::size_t>(j * m_N[0] + i);
+      inside[c] = m_pinned[c] == 0 && shape->solid(C(0, i), C(1, j)) ? 1 : 0;
+    }
+  // Each cell whose centre is inside a body points at the neighbour across its most open
+  // fluid face, preferring a neighbour whose centre is in the fluid.
+  std::vector<int> next(static_cast<std::size_t>(nc), -1);
+  for (int j = 0; j < m_N[1]; ++j)
+    for (int i = 0; i < m_N[0]; ++i) {
+      const std::size_t c = static_cast<std::size_t>(j * m_N[0] + i);
+      if (inside[c] == 0) continue;
+      double best = 0;
+      bool best_fluid = false;
+      const int faces[4][5] = {{0, i, j, i - 1, j}, {0, i + 1, j, i + 1, j}, {1, j, i, i, j - 1}, {1, j + 1, i, i, j + 1}};
+      for (const auto& f : faces) {
+        const int d = f[0], r = unknown(d, f[1], f[2]);
+        const std::size_t q = static_cast<std::size_t>(r - m_off[d]);
+        if (m_kind[d][q] != kFluid) continue;
+        int ni = f[3], nj = f[4];
+        if (!m_per[0] && (ni < 0 || ni >= m_N[0])) continue;
+        if (!m_per[1] && (nj < 0 || nj >= m_N[1])) continue;
+        ni = wrapIndex(0, ni);
+        nj = wrapIndex(1, nj);
+        const std::size_t nb = static_cast<std::size_t>(nj * m_N[0] + ni);
+        if (m_pinned[nb] != 0) continue;
+        const bool fluid = inside[nb] == 0;
+        const double w = (d == 0 ? W(1, j) : W(0, i)) * m_open[d][q];
+        if ((fluid && !best_fluid) || (fluid == best_fluid && w > best)) {
+          best = w;
+          best_fluid = fluid;
+          next[c] = static_cast<int>(nb);
+        }
+      }
+    }
+  // Follow the chain to a cell whose centre is in the fluid (a chain that closes on itself stays unmerged).
+  for (int c = 0; c < nc; ++c) {
+    if (next[static_cast<std::size_t>(c)] < 0) continue;
+    int m = c, steps = 0;
+    while (m >= 0 && inside[static_cast<std::size_t>(m)] != 0 && steps++ <= nc) m = next[static_cast<std::size_t>(m)];
+    if (m < 0 || inside[static_cast<std::size_t>(m)] != 0) continue;
+    m_master[static_cast<std::size_t>(c)] = m;
+    m_merged[static_cast<std::size_t>(m)].push_back(c);
+  }
 }
 
 double FlowOperator::fluxWeight(int d, int n, int t) const {
@@ -620,6 +685,7 @@ double FlowOperator::maxRelativeDivergence(const std::vector<double>& s) const {
   for (int j = 0; j < m_N[1]; ++j)
     for (int i = 0; i < m_N[0]; ++i) {
       if (m_pinned[static_cast<std::size_t>(j * m_N[0] + i)] != 0) continue;
+      if (!m_master.empty() && m_master[static_cast<std::size_t>(j * m_N[0] + i)] >= 0) continue;  // counted in its master's row
       // The continuity row itself (net inflow, m2/s per unit depth): the divergence the solver enforces.
       R.clear();
       continuityRow(i, j, R);

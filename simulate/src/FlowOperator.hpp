@@ -111,7 +111,16 @@ class FlowOperator {
   double C(int a, int k) const;
   double F(int a, int n) const;
   int local(int d, int n, int t) const { return t * m_nn[d] + n; }
-  int pcell(int d, int k, int t) const { return d == 0 ? cellUnknown(k, t) : cellUnknown(t, k); }
+  /// Pressure unknown of cell (k, t) along axis d, through the merge: a merged cell's faces see its master's pressure.
+  int pcell(int d, int k, int t) const {
+    const int u = d == 0 ? cellUnknown(k, t) : cellUnknown(t, k);
+    const int m = m_master.empty() ? -1 : m_master[static_cast<std::size_t>(u - m_off[2])];
+    return m < 0 ? u : m_off[2] + m;
+  }
+  /// Adds the four face fluxes of cell (i, j) to a continuity row.
+  void cellFluxes(int i, int j, RowTerms& R) const;
+  /// Sharp: merges each cell whose centre is inside a body (and which is not pinned) into a neighbour.
+  void mergeCutCells();
   void momentumRow(int d, int n, int t, bool standard, RowTerms& R) const;
   void continuityRow(int i, int j, RowTerms& R) const;
   /// Component d at the fraction w of the link from node (n, t) to its neighbour in slot s
@@ -156,6 +165,9 @@ class FlowOperator {
   /// Continuity / flux weight h_f / h_ref of the face of node (d, n, t) (1 without a depth field).
   double fluxWeight(int d, int n, int t) const;
   std::vector<char> m_pinned;
+  /// Sharp: master cell of a merged cell (-1: not merged), and each master's merged cells.
+  std::vector<int> m_master;
+  std::vector<std::vector<int>> m_merged;
   Eigen::ArrayXXd m_cellChi;  ///< ny x nx
   double m_tcoef = 0;
   const std::vector<double>* m_told = nullptr;

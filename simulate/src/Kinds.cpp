@@ -32,6 +32,10 @@ void declareSolverKeys(Schema& s, bool peer_keys) {
            "Immersed-boundary treatment of mmval's solver: sharp (cut viscous stencil at the exact surface) or penalized "
            "(the paper's volume-fraction method u = M u + (1 - M) v)")
       .def("sharp");
+  s.choice("numerics.cut_cells", {"merged", "separate"},
+           "Sharp treatment: a cell whose centre lies inside a solid shares the pressure and mass balance of the neighbour "
+           "across its most open fluid face (merged), or keeps its own (separate: the walls move by a fraction of a cell, first order)")
+      .def("merged");
   s.choice("numerics.linear_solver", {"direct", "iterative"},
            "mmval's coupled (u, v, p) solve: direct LU (UMFPACK serial, MUMPS parallel) or FGMRES + Schur fieldsplit with GAMG")
       .def("direct");
@@ -49,8 +53,14 @@ SolverOptions solverOptions(const Case& c) {
   return o;
 }
 
-ImmersedMethod immersedMethod(const Case& c) {
-  return c.text("numerics.immersed") == "penalized" ? ImmersedMethod::penalized : ImmersedMethod::sharp;
+void setImmersed(const Case& c, FlowProblem& p) {
+  p.method = c.text("numerics.immersed") == "penalized" ? ImmersedMethod::penalized : ImmersedMethod::sharp;
+  p.merge_cut_cells = c.text("numerics.cut_cells") == "merged";
+}
+
+std::string immersedLabel(const Case& c) {
+  const std::string m = c.text("numerics.immersed");
+  return m == "sharp" ? m + " (" + c.text("numerics.cut_cells") + " cut cells)" : m;
 }
 
 nlohmann::json ladderRow(std::size_t index, int resolution, const SteadyFlowSolver& s, double wall_seconds, double value, const Acceptance* primary) {

@@ -22,7 +22,10 @@ std::vector<int> levelsOf(const Case& c, const char* single_key, int lo, int hi)
 /// numerics.immersed, numerics.linear_solver (+ the peer's max_iterations / residual if absent).
 void declareSolverKeys(Schema& s, bool peer_keys);
 SolverOptions solverOptions(const Case& c);
-ImmersedMethod immersedMethod(const Case& c);
+/// The case's immersed-boundary treatment (numerics.immersed, numerics.cut_cells) into p.
+void setImmersed(const Case& c, FlowProblem& p);
+/// result.json's details.immersed: "penalized", or "sharp" with the cut-cell treatment.
+std::string immersedLabel(const Case& c);
 /// One ladder row: cells, unknowns, timings, iterations, memory, value and error against `primary`.
 nlohmann::json ladderRow(std::size_t index, int resolution, const SteadyFlowSolver& s, double wall_seconds, double value,
                          const Acceptance* primary);

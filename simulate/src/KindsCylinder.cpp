@@ -89,7 +89,7 @@ CaseKind cylinderChannelKind() {
       throw InputError(c.where("probes.pressure_a"), "a probe needs two coordinates", {}, "[\"x\", \"y\"]");
     RunOutput out;
     out.details["solver"] = kSolverName;
-    out.details["immersed"] = c.text("numerics.immersed");
+    out.details["immersed"] = immersedLabel(c);
     out.details["Re"] = rho * Uref * D / mu;
     out.details["domain"] = {{"length_m", Lx}, {"height_m", H}, {"blockage", D / H}};
     nlohmann::json ladder = nlohmann::json::array();
@@ -140,7 +140,7 @@ CaseKind cylinderChannelKind() {
       p.viscosity = mu;
       p.inertia = true;
       p.shape = std::make_shared<Circles>(std::vector<Circle>{{cx, cy, 0.5 * D}});
-      p.method = immersedMethod(c);
+      setImmersed(c, p);
       return p;
     };
     if (c.text("numerics.mode") == "unsteady") {

@@ -135,7 +135,7 @@ CaseKind periodicArrayKind() {
     const Acceptance* primary = c.acceptanceFor("F_star");
     RunOutput out;
     out.details["solver"] = kSolverName;
-    out.details["immersed"] = c.text("numerics.immersed");
+    out.details["immersed"] = immersedLabel(c);
     nlohmann::json ladder = nlohmann::json::array();
     Progress progress("fluid " + c.name(), levels.size(), ctx.quiet);
     std::unique_ptr<SteadyFlowSolver> last;
@@ -144,7 +144,7 @@ CaseKind periodicArrayKind() {
     for (std::size_t li = 0; li < levels.size(); ++li) {
       const auto t0 = std::chrono::steady_clock::now();
       FlowProblem p = squareArrayProblem(L, levels[li], phi, mu, G);
-      p.method = immersedMethod(c);
+      setImmersed(c, p);
       p.supersample = static_cast<int>(c.integer("numerics.supersample"));
       last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c));
       last->solve();
@@ -233,7 +233,7 @@ CaseKind imagePermeabilityKind() {
     const int ny = std::max(4, static_cast<int>(std::lround(shape->rows() * cpp)));
     RunOutput out;
     out.details["solver"] = kSolverName;
-    out.details["immersed"] = c.text("numerics.immersed");
+    out.details["immersed"] = immersedLabel(c);
     out.details["image_pixels"] = {shape->cols(), shape->rows()};
     out.details["pore_components"] = pores.components;
     out.details["spanning_components"] = pores.spanning_components;
@@ -253,7 +253,7 @@ CaseKind imagePermeabilityKind() {
       p.viscosity = mu;
       p.depth = m == "2d" ? 0.0 : depth;
       p.shape = shape;
-      p.method = immersedMethod(c);
+      setImmersed(c, p);
       last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c));
       last->solve();
       // Darcy: k = mu Q L / (A dp), per unit depth in 2D (Q per depth, A = height).

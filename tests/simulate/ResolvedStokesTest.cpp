@@ -92,16 +92,19 @@ TEST(ResolvedStokes, FreeCylinderSettlesAtTheVelocityOfItsDrag) {
 }
 
 TEST(ResolvedStokes, AccurateOnEveryGrid) {
-  // Translation drag over three grids (7, 13 and 27 cells per inner diameter). The error is not
-  // monotone at the 1e-3 level (it depends on where the circles cut the cells), so each level is
-  // held to a bound instead: 0.75 % on the coarsest, 0.1 % above (measured 0.53 / 0.018 / 0.052 %).
+  // Translation drag over three grids (7, 13 and 27 cells per inner diameter). Measured with the cut
+  // cells merged: 0.77 / 0.076 / 0.016 %, falling at every step (kept separate the error was not
+  // monotone, 0.53 / 0.018 / 0.052 %: it depended on where the circles cut the cells).
+  double prev = 1;
   for (int n : {48, 96, 192}) {
     const Annulus A{20e-6, 60e-6, 1e-3, n};
     ResolvedStokes s(A.problem());
     const double f = s.loads({RigidMotion{{1e-3, 0}, 0}, RigidMotion{}}, 0.0)[0].force.x();
     const double err = std::abs(f / (A.forcePerVelocity() * 1e-3) - 1);
     std::printf("annulus n %d: drag error %.3e\n", n, err);
-    EXPECT_LT(err, n == 48 ? 7.5e-3 : 1e-3) << n;
+    EXPECT_LT(err, n == 48 ? 1e-2 : 1e-3) << n;
+    EXPECT_LT(err, 0.5 * prev) << n << ": the error falls with the grid";
+    prev = err;
   }
 }
 

@@ -24,6 +24,14 @@
 //    wall distance theta * h along the grid line (a Shortley-Weller-type cut
 //    of the stencil, Shortley & Weller 1938; the finite-volume form as in
 //    Kirkpatrick, Armfield & Kent 2003). Second order in the velocity.
+//    Continuity counts the fluid part of faces the surface crosses. A cell
+//    whose centre lies inside a body is merged into the neighbour across its
+//    most open fluid face (cell merging, as in Ye, Mittal, Udaykumar & Shyy
+//    1999): the pair shares one pressure and one mass balance. Unmerged, such
+//    a cell's balance sees only its fluid faces (the slivers of its faces
+//    whose nodes are solid carry no flux), so it held those faces' flow near
+//    zero and moved the wall by a fraction of a cell: a first-order error
+//    (FlowProblem::merge_cut_cells).
 // Force on a body: the sum, over every face whose equation the immersed
 // boundary changed, of the residual of the unchanged momentum balance
 // (-sum R). Because the balance is conservative this equals the momentum
@@ -112,6 +120,9 @@ struct FlowProblem {
   int supersample = 6;               ///< penalized: samples per face control volume and direction
   double penalty = 1e-8;             ///< penalized: floor of 1 - chi (caps the penalty in fully solid faces)
   bool inertia = false;              ///< steady Navier-Stokes (true) or Stokes (false)
+  /// Sharp: merge each cell whose centre is inside a body (and that has a fluid face) into a
+  /// neighbour's pressure and mass balance (see the header). false: every cell keeps its own.
+  bool merge_cut_cells = true;
 };
 
 struct SolverOptions {
