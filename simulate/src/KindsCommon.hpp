@@ -19,7 +19,7 @@ inline constexpr const char* kSolverName = "mmval simulate (MAC, immersed bounda
 
 /// numerics.levels if present, else the single resolution key; each in [lo, hi].
 std::vector<int> levelsOf(const Case& c, const char* single_key, int lo, int hi);
-/// numerics.immersed, numerics.linear_solver (+ the peer's max_iterations / residual if absent).
+/// numerics.immersed, numerics.cut_cells, numerics.linear_solver (+ the peer's max_iterations / residual if absent).
 void declareSolverKeys(Schema& s, bool peer_keys);
 SolverOptions solverOptions(const Case& c);
 /// The case's immersed-boundary treatment (numerics.immersed, numerics.cut_cells) into p.
