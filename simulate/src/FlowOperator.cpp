@@ -150,8 +150,7 @@ FlowOperator::FlowOperator(FlowProblem problem) : m_p(std::move(problem)) {
       else if (ref < 0) ref = j * m_N[0] + i;
     }
   if (!has_pressure && ref >= 0) m_pinned[static_cast<std::size_t>(ref)] = 2;
-  if (sharp && m_p.merge_cut_cells) mergeCutCells();
-  // Cell solid fractions (output, pressure probes).
+  // Cell solid fractions (output, pressure probes, which cells merge).
   m_cellChi = Eigen::ArrayXXd::Zero(m_N[1], m_N[0]);
   if (shape != nullptr)
     for (int j = 0; j < m_N[1]; ++j)
@@ -166,6 +165,7 @@ FlowOperator::FlowOperator(FlowProblem problem) : m_p(std::move(problem)) {
             hits += shape->solid(F(0, i) + W(0, i) * (a1 + 0.5) / ss, F(1, j) + W(1, j) * (a2 + 0.5) / ss) ? 1 : 0;
         m_cellChi(j, i) = static_cast<double>(hits) / (ss * ss);
       }
+  if (sharp && m_p.merge_cut_cells) mergeCutCells();
 }
 
 double FlowOperator::W(int a, int k) const {
@@ -429,12 +429,12 @@ void FlowOperator::mergeCutCells() {
   const int nc = m_N[0] * m_N[1];
   m_master.assign(static_cast<std::size_t>(nc), -1);
   m_merged.assign(static_cast<std::size_t>(nc), {});
-  const Shape* shape = m_p.shape.get();
+  // m_cellChi is 1 where a cell's centre is inside a body (sharp).
   std::vector<char> inside(static_cast<std::size_t>(nc), 0);
   for (int j = 0; j < m_N[1]; ++j)
     for (int i = 0; i < m_N[0]; ++i) {
       const std::size_t c = static_cast<std::size_t>(j * m_N[0] + i);
-      inside[c] = m_pinned[c] == 0 && shape->solid(C(0, i), C(1, j)) ? 1 : 0;
+      inside[c] = m_pinned[c] == 0 && m_cellChi(j, i) > 0.5 ? 1 : 0;
     }
   // Each cell whose centre is inside a body points at the neighbour across its most open
   // fluid face, preferring a neighbour whose centre is in the fluid.
