@@ -13,18 +13,6 @@ namespace mmval::openfoam {
 
 namespace {
 
-void declareNumerics(Schema& s, int cells_default) {
-  s.integer("numerics.cells_around", "Resolution: cells around the cylinder (multiple of 4)").def(cells_default).min(8).max(4096);
-  s.integerList("numerics.levels", "Resolution ladder (cells_around per level); absent: one run at cells_around").optional();
-  s.integer("numerics.max_iterations", "Steady solver iteration limit").def(4000).min(10).max(1000000);
-  s.real("numerics.residual", "Steady convergence target of the initial residuals").def(1e-7).min(0.0, true).max(1e-2);
-}
-
-void declareFluid(Schema& s, const char* density, const char* viscosity) {
-  s.quantity("fluid.density", "kg/m3", "Fluid density").def(density).positive();
-  s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def(viscosity).positive();
-}
-
 Scene cylinderScene(const Case& c) {
   Scene s;
   s.kind = Scene::Kind::cylinder_channel;
@@ -126,10 +114,17 @@ void addMetrics(const Scene& s, const Result& r, RunOutput& out) {
 
 }  // namespace
 
+Scene peerScene(const Case& c) {
+  if (c.kind() == "cylinder-channel") return cylinderScene(c);
+  if (c.kind() == "periodic-array") return arrayScene(c);
+  if (c.kind() == "image-permeability") return imageScene(c);
+  throw InputError(c.where("case.kind"), "the OpenFOAM peer does not run this kind", c.kind(), "cylinder-channel, periodic-array or image-permeability");
+}
+
 RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& options) {
   const Installation inst = detect();
   if (!inst.available) throw InputError({c.file().string(), 0, 0, "case.kind"}, "cannot run this case: " + inst.reason, {}, "OpenFOAM v1912 installed");
-  Scene scene = c.kind() == "cylinder-channel" ? cylinderScene(c) : c.kind() == "periodic-array" ? arrayScene(c) : imageScene(c);
+  Scene scene = peerScene(c);
   std::vector<int> levels;
   if (options.levels) {
     levels = *options.levels;
@@ -174,64 +169,6 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
   addMetrics(scene, last, out);
   out.files.push_back(levels.size() > 1 ? fmt::format("openfoam-level{}", levels.size() - 1) : "openfoam");
   return out;
-}
-
-void registerPeerKinds(CaseKindRegistry& registry) {
-  CaseKind cyl;
-  cyl.name = "cylinder-channel";
-  cyl.summary = "Flow around a circular cylinder in a channel with a parabolic inflow (Schaefer-Turek and the paper's set-up): drag, lift, pressure difference";
-  cyl.declare = [](Schema& s) {
-    s.quantity("geometry.length", "m", "Channel length (x)").def("2.2 m").positive();
-    s.quantity("geometry.height", "m", "Channel height (y)").def("0.41 m").positive();
-    s.quantity("geometry.cylinder_x", "m", "Cylinder centre x").def("0.2 m").positive();
-    s.quantity("geometry.cylinder_y", "m", "Cylinder centre y").def("0.2 m").positive();
-    s.quantity("geometry.diameter", "m", "Cylinder diameter").def("0.1 m").positive();
-    s.quantity("geometry.depth", "m", "Extrusion depth of the 2D domain; force coefficients use diameter x depth").def("0.1 m").positive();
-    declareFluid(s, "1 kg/m3", "1e-3 Pa s");
-    s.choice("geometry.walls", {"no-slip", "slip"}, "Channel side walls: no-slip (Schaefer-Turek) or slip (free stream)").def("no-slip");
-    s.choice("inflow.profile", {"parabolic", "uniform"}, "Inflow profile").def("parabolic");
-    s.quantity("inflow.max_velocity", "m/s", "Peak of the parabolic inflow 4 U y (H - y) / H^2, or the uniform inflow velocity").positive();
-    s.quantity("forces.reference_velocity", "m/s", "Velocity of the coefficients c = 2 F / (rho U^2 D); default: mean inflow (2/3 U_max if parabolic)").optional().positive();
-    s.quantity("forces.reference_length", "m", "Length of the coefficients; default: the diameter").optional().positive();
-    s.quantityList("probes.pressure_a", "m", "First pressure point (x, y); dp = p(a) - p(b)").optional();
-    s.quantityList("probes.pressure_b", "m", "Second pressure point (x, y)").optional();
-    s.choice("numerics.mode", {"steady", "unsteady"}, "Steady (SIMPLE) or unsteady (PIMPLE) solution").def("steady");
-    s.quantity("numerics.end_time", "s", "Unsteady: simulated time").def("8 s").positive();
-    s.quantity("numerics.time_step", "s", "Unsteady: initial time step (adjusted to Courant 0.5)").def("1e-3 s").positive();
-    declareNumerics(s, 64);
-  };
-  cyl.run = [](const Case& c, const RunContext& ctx) { return runPeer(c, ctx, {}); };
-  registry.add(cyl);
-
-  CaseKind arr;
-  arr.name = "periodic-array";
-  arr.summary = "Periodic square array of cylinders in creeping flow: dimensionless drag F* = F / (mu U) and permeability";
-  arr.declare = [](Schema& s) {
-    s.quantity("geometry.cell", "um", "Side L of the square unit cell").def("100 um").positive();
-    s.quantity("geometry.solid_fraction", "1", "Solid area fraction phi = pi a^2 / L^2").min(0.0, true).max(0.75);
-    declareFluid(s, "1000 kg/m3", "1e-3 Pa s");
-    s.quantity("flow.mean_velocity", "m/s", "Mean interstitial velocity imposed by the driving force (keep Re << 1)").def("1e-4 m/s").positive();
-    declareNumerics(s, 64);
-  };
-  arr.run = [](const Case& c, const RunContext& ctx) { return runPeer(c, ctx, {}); };
-  registry.add(arr);
-
-  CaseKind img;
-  img.name = "image-permeability";
-  img.summary = "Permeability and porosity of a pore geometry given as a binary image, pressure-driven left to right";
-  img.declare = [](Schema& s) {
-    s.path("geometry.mask", "Binary image of the geometry (PNG, TIFF), relative to the case file");
-    s.quantity("geometry.pixel_size", "um", "Size of one pixel (the image carries no scale)").positive();
-    s.choice("geometry.grains", {"dark", "bright"}, "Which pixels are grains").def("dark");
-    s.quantity("geometry.depth", "um", "Chip depth (for quasi-2D models; the OpenFOAM peer solves 2D)").def("20 um").positive();
-    declareFluid(s, "1000 kg/m3", "1e-3 Pa s");
-    s.quantity("flow.pressure_drop", "Pa", "Inlet minus outlet pressure (keep Re << 1)").def("1 Pa").positive();
-    s.real("numerics.cells_per_pixel", "Background mesh cells per image pixel").def(0.5).min(0.05).max(4);
-    s.integer("numerics.max_iterations", "Steady solver iteration limit").def(4000).min(10).max(1000000);
-    s.real("numerics.residual", "Steady convergence target of the initial residuals").def(1e-6).min(0.0, true).max(1e-2);
-  };
-  img.run = [](const Case& c, const RunContext& ctx) { return runPeer(c, ctx, {}); };
-  registry.add(img);
 }
 
 }  // namespace mmval::openfoam

@@ -2,13 +2,14 @@
 //   channel            plane Poiseuille (periodic + body force, pressure inlet/outlet,
 //                      or velocity inlet) and the depth-averaged shallow duct
 //   periodic-array     Stokes flow through a square array of cylinders: F*, k / L^2
-//   cylinder-channel   steady flow around a cylinder in a channel (Schaefer-Turek 2D-1,
-//                      the paper's set-up): c_D, c_L, dp
-//   image-permeability chip permeability and porosity from a binary mask, 2D and
-//                      depth-averaged
-// The schemas are supersets of the OpenFOAM peer's (mmval::openfoam) for the
-// same kinds, so one case file drives both solvers; register these instead of
-// the peer's kinds (the peer command calls openfoam::runPeer directly).
+//   cylinder-channel   steady or unsteady flow around a cylinder in a channel
+//                      (Schaefer-Turek 2D-1 and 2D-2, the paper's set-up): c_D, c_L,
+//                      dp; c_D max, c_L max, St
+//   image-permeability chip permeability and porosity from a binary mask: 2D,
+//                      depth-averaged and coarse 3D
+// The schemas of the last three also declare every key the OpenFOAM peer reads
+// (mmval::openfoam::runPeer, which has no schemas of its own), so one case file
+// drives both solvers.
 #pragma once
 #include "mmval/core/CaseKind.hpp"
 

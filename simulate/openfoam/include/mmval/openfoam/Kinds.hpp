@@ -1,13 +1,15 @@
-// Single-phase scene kinds run through the OpenFOAM peer: flow around a
+// Runs the single-phase scene kinds through the OpenFOAM peer: flow around a
 // cylinder in a channel, a periodic square array of cylinders, and chip
-// permeability from a mask image. The same case files are meant for
-// mmval's own fluid solver (issue 4); until it lands, `mmval run` on these
-// kinds runs the peer, and result.json says so (details.solver).
+// permeability from a mask image. The kinds and their schemas are mmval's own
+// fluid solver's (mmval::simulate, registerFluidKinds): they declare every key
+// read here, so one case file drives both (`mmval run`, `mmval peer openfoam`,
+// and cases tagged "peer" during validate).
 #pragma once
 #include <optional>
 #include <vector>
 
 #include "mmval/core/CaseKind.hpp"
+#include "mmval/openfoam/Peer.hpp"
 
 namespace mmval::openfoam {
 
@@ -16,7 +18,9 @@ struct PeerRunOptions {
   std::optional<std::vector<int>> levels;  ///< overrides numerics.levels
 };
 
-void registerPeerKinds(CaseKindRegistry& registry);
+/// The scene the peer solves for a case of one of these kinds (geometry, fluid, drive, numerics);
+/// a case of another kind is an InputError naming case.kind.
+Scene peerScene(const Case& c);
 
 /// Runs a case of one of these kinds through OpenFOAM into ctx.out_dir.
 RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& options);
