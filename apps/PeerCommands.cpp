@@ -34,8 +34,7 @@ void registerPeerCommands(CLI::App& app, const CaseKindRegistry& registry) {
   of->add_flag("--quiet", o->quiet, "No progress output");
   of->callback([o, &registry] {
     const Case c = Case::load(o->file, registry);
-    if (c.kind() != "cylinder-channel" && c.kind() != "periodic-array" && c.kind() != "image-permeability")
-      throw InputError(c.where("case.kind"), "the OpenFOAM peer does not run this kind", c.kind(), "cylinder-channel, periodic-array or image-permeability");
+    openfoam::peerScene(c);  // the case's scene, read before anything runs: refuses other kinds, naming case.kind
     if (!openfoam::detect().available) {
       std::fprintf(stderr, "mmval: OpenFOAM peer not run: %s\n", openfoam::detect().reason.c_str());
       throw InputError({o->file, 0, 0, {}}, "OpenFOAM is not installed", {}, "the Debian package 'openfoam' (scripts/setup-deps.sh installs it)");
