@@ -289,12 +289,14 @@ class CaseReader {
     }
     a.reason = requireString("reason");
     const toml::node* tol = t.get("tolerance");
-    if (tol == nullptr) fail(line, prefix + ".tolerance", "missing required key", {}, "\"0.5 %\", an absolute quantity, or \"interval\"");
+    if (tol == nullptr) fail(line, prefix + ".tolerance", "missing required key", {}, "\"0.5 %\", an absolute quantity, \"interval\", or \"none\" (shown, not judged)");
     a.tolerance.text = tomlValueText(*tol);
     if (tol->is_string()) {
       const std::string text = *tol->value<std::string>();
       a.tolerance.text = text;
-      if (text == "interval") {
+      if (text == "none") {
+        a.tolerance.kind = Tolerance::Kind::none;
+      } else if (text == "interval") {
         if (!a.reference.isInterval()) fail(lineOf(*tol), prefix + ".tolerance", "\"interval\" needs a reference given as an interval (low, high)", text, "a relative or absolute tolerance");
         a.tolerance.kind = Tolerance::Kind::interval;
       } else if (!text.empty() && text.back() == '%') {
@@ -309,7 +311,7 @@ class CaseReader {
         try {
           q = parseQuantity(text);
         } catch (const UnitError& e) {
-          fail(lineOf(*tol), prefix + ".tolerance", e.what(), "\"" + text + "\"", "\"0.5 %\", an absolute quantity, or \"interval\"");
+          fail(lineOf(*tol), prefix + ".tolerance", e.what(), "\"" + text + "\"", "\"0.5 %\", an absolute quantity, \"interval\", or \"none\" (shown, not judged)");
         }
         if (!(q.dim == a.reference.dim))
           fail(lineOf(*tol), prefix + ".tolerance", "wrong dimension", "\"" + text + "\" (" + dimensionName(q.dim) + ")", "the reference's dimension, " + dimensionName(a.reference.dim));
@@ -320,11 +322,12 @@ class CaseReader {
       a.tolerance.kind = Tolerance::Kind::absolute;
       a.tolerance.value = *tol->value<double>() * parseUnit(a.reference.unit).to_si;
     } else {
-      fail(lineOf(*tol), prefix + ".tolerance", "wrong type", tomlTypeName(*tol), "\"0.5 %\", an absolute quantity, or \"interval\"");
+      fail(lineOf(*tol), prefix + ".tolerance", "wrong type", tomlTypeName(*tol), "\"0.5 %\", an absolute quantity, \"interval\", or \"none\" (shown, not judged)");
     }
-    if (a.tolerance.kind != Tolerance::Kind::interval && a.tolerance.value < 0)
+    const bool bounds = a.tolerance.kind == Tolerance::Kind::interval || a.tolerance.kind == Tolerance::Kind::none;
+    if (!bounds && a.tolerance.value < 0)
       fail(lineOf(*tol), prefix + ".tolerance", "negative tolerance", a.tolerance.text, "a tolerance >= 0");
-    if (a.tolerance.kind != Tolerance::Kind::interval && a.reference.isInterval()) {
+    if (!bounds && a.reference.isInterval()) {
       // A relative/absolute tolerance on an interval reference applies to its midpoint.
       a.reference.low.reset();
       a.reference.high.reset();
@@ -599,12 +602,17 @@ MetricResult evaluateMetric(const Acceptance& a, double value_si) {
       m.error = (value_si - ref) / f;
       m.pass = std::isfinite(value_si) && std::abs(value_si - ref) <= a.tolerance.value * (1 + 1e-12);
       break;
-    case Tolerance::Kind::interval: {
-      const double lo = *a.reference.low, hi = *a.reference.high;
-      const bool inside = value_si >= lo && value_si <= hi;
-      const double bound = value_si < lo ? lo : hi;
-      m.error = inside ? 0.0 : (value_si - bound) / std::max(std::abs(bound), 1e-300);
-      m.pass = std::isfinite(value_si) && inside;
+    case Tolerance::Kind::interval:
+    case Tolerance::Kind::none: {
+      if (a.reference.isInterval()) {
+        const double lo = *a.reference.low, hi = *a.reference.high;
+        const bool inside = value_si >= lo && value_si <= hi;
+        const double bound = value_si < lo ? lo : hi;
+        m.error = inside ? 0.0 : (value_si - bound) / std::max(std::abs(bound), 1e-300);
+        if (a.tolerance.kind == Tolerance::Kind::interval) m.pass = std::isfinite(value_si) && inside;
+      } else {
+        m.error = ref != 0.0 ? (value_si - ref) / std::abs(ref) : value_si;  // "none" on a point value
+      }
       break;
     }
   }
@@ -625,7 +633,7 @@ nlohmann::json MetricResult::toJson() const {
     j["reference"] = nullptr;
   }
   j["error"] = reference ? nlohmann::json(error) : nlohmann::json(nullptr);
-  j["error_kind"] = tolerance.empty() || tolerance.back() == '%' || tolerance == "interval" ? "relative" : "absolute";
+  j["error_kind"] = tolerance.empty() || tolerance.back() == '%' || tolerance == "interval" || tolerance == "none" ? "relative" : "absolute";
   j["tolerance"] = tolerance.empty() ? nlohmann::json(nullptr) : nlohmann::json(tolerance);
   j["pass"] = pass ? nlohmann::json(*pass) : nlohmann::json(nullptr);
   if (!reason.empty()) j["reason"] = reason;

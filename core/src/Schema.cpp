@@ -215,7 +215,7 @@ std::string Schema::markdown() const {
   }
   out += "\nAcceptance entries: `[[acceptance]]` with `metric`, `reference` (number, quantity string, or "
          "`{ file, quantity, at }` into reference-data/), `tolerance` (\"0.5 %\" relative, a quantity for an "
-         "absolute bound, or \"interval\"), `reason`, and `label` when one metric is checked against several references.\n";
+         "absolute bound, \"interval\", or \"none\" to show a reference without judging the value), `reason`, and `label` when one metric is checked against several references.\n";
   return out;
 }
 

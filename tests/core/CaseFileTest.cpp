@@ -263,7 +263,7 @@ TEST(Acceptance, ReferencePointerResolvesIntoReferenceData) {
 TEST(Acceptance, IntervalAndAbsoluteTolerances) {
   const std::string text = std::string(kValid) +
                            "[[acceptance]]\nmetric = \"St\"\nreference = { file = \"../reference-data/schaefer-turek-2d.toml\", "
-                           "quantity = \"St\", at = { case = \"2D-2\" } }\ntolerance = \"interval\"\nreason = \"benchmark interval\"\n"
+                           "quantity = \"St\", at = { case = \"2D-2\", from = \"interval\" } }\ntolerance = \"interval\"\nreason = \"benchmark interval\"\n"
                            "[[acceptance]]\nmetric = \"k\"\nreference = \"2.5 D\"\ntolerance = \"0.1 D\"\nreason = \"measurement\"\n";
   const Case c = Case::parse(text, std::string(MMVAL_SOURCE_DIR) + "/cases/st.toml", registry());
   const Acceptance& st = c.acceptance()[0];
@@ -277,6 +277,47 @@ TEST(Acceptance, IntervalAndAbsoluteTolerances) {
   EXPECT_NEAR(m.error, 0.08, 1e-12);
   EXPECT_FALSE(*evaluateMetric(k, 2.65 * 9.869233e-13).pass);
   EXPECT_FALSE(*evaluateMetric(k, std::nan("")).pass);  // NaN never passes
+}
+
+TEST(Acceptance, NoneShowsTheReferenceAndItsErrorWithoutJudging) {
+  // The 2D-2 interval (Schaefer & Turek 1996: c_L max 0.99 .. 1.01) and a point value, both "none".
+  const std::string text = std::string(kValid) +
+                           "[[acceptance]]\nmetric = \"c_L_max\"\nreference = { file = \"../reference-data/schaefer-turek-2d.toml\", "
+                           "quantity = \"c_L_max\", at = { case = \"2D-2\", from = \"interval\" } }\ntolerance = \"none\"\nreason = \"context\"\n"
+                           "[[acceptance]]\nmetric = \"k\"\nreference = \"2.5 D\"\ntolerance = \"none\"\nreason = \"context\"\n";
+  const Case c = Case::parse(text, std::string(MMVAL_SOURCE_DIR) + "/cases/st.toml", registry());
+  const Acceptance& cl = c.acceptance()[0];
+  EXPECT_EQ(cl.tolerance.kind, Tolerance::Kind::none);
+  ASSERT_TRUE(cl.reference.isInterval());  // kept as an interval, not reduced to its midpoint
+  const MetricResult below = evaluateMetric(cl, 0.9852);
+  EXPECT_FALSE(below.pass.has_value());
+  EXPECT_NEAR(below.error, (0.9852 - 0.99) / 0.99, 1e-12);  // distance to the nearer bound
+  EXPECT_EQ(evaluateMetric(cl, 1.0).error, 0.0);
+  const nlohmann::json j = below.toJson();
+  EXPECT_TRUE(j["pass"].is_null());
+  EXPECT_EQ(j["tolerance"], "none");
+  EXPECT_EQ(j["error_kind"], "relative");
+  EXPECT_EQ(j["reference"], nlohmann::json::array({0.99, 1.01}));
+  const MetricResult k = evaluateMetric(c.acceptance()[1], 2.6 * 9.869233e-13);
+  EXPECT_FALSE(k.pass.has_value());
+  EXPECT_NEAR(k.error, 0.04, 1e-12);  // relative error against the point value
+}
+
+TEST(Acceptance, TwoDTwoRowsAreSelectedByFrom) {
+  const std::string head = std::string(kValid) +
+                           "[[acceptance]]\nmetric = \"c_L_max\"\nreference = { file = \"../reference-data/schaefer-turek-2d.toml\", "
+                           "quantity = \"c_L_max\", at = { case = \"2D-2\"";
+  const std::string tail = " } }\ntolerance = \"0.3 %\"\nreason = \"r\"\n";
+  const std::string file = std::string(MMVAL_SOURCE_DIR) + "/cases/st.toml";
+  const Case c = Case::parse(head + ", from = \"FEATFLOW level 6\"" + tail, file, registry());
+  EXPECT_DOUBLE_EQ(c.acceptance()[0].reference.value, 0.98658);  // FEATFLOW level 6, dt 1/1600
+  EXPECT_THAT(c.acceptance()[0].reference.source, HasSubstr("FEATFLOW"));
+  try {
+    Case::parse(head + tail, file, registry());  // the interval and the computation both match
+    FAIL() << "expected an InputError";
+  } catch (const InputError& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("2 rows of 'c_L_max'"));
+  }
 }
 
 // --- run ----------------------------------------------------------------

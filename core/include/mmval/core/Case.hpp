@@ -35,7 +35,9 @@ class CaseKindRegistry;
 
 /// How far a metric may be from its reference.
 struct Tolerance {
-  enum class Kind { relative, absolute, interval };
+  /// none: the reference is shown next to the value with its error, and not
+  /// judged (pass stays empty); the entry's reason says why.
+  enum class Kind { relative, absolute, interval, none };
   Kind kind = Kind::relative;
   double value = 0.0;  ///< relative: fraction (0.005 for "0.5 %"); absolute: SI
   std::string text;    ///< as written
