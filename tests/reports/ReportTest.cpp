@@ -16,6 +16,7 @@
 #include "mmval/compare/Compare.hpp"
 #include "mmval/reports/Plot.hpp"
 #include "mmval/reports/Report.hpp"
+#include "mmval/reports/Summary.hpp"
 #include "mmval/reports/Tables.hpp"
 
 namespace mmval::reports {
@@ -257,6 +258,31 @@ TEST(Report, NoTablesWithoutTheirRuns) {
   EXPECT_THAT(md, ::testing::Not(::testing::HasSubstr("Table 2")));
   EXPECT_THAT(md, ::testing::Not(::testing::HasSubstr("permeability-time")));
   EXPECT_TRUE(fs::exists(dir / "compare" / "same" / "retention_time.csv"));
+}
+
+TEST(Summary, UnjudgedReferenceIsShownAsInfoAndDoesNotFail) {
+  // A tolerance "none" entry (2D-2's c_L max against the 1996 interval) beside a judged one.
+  const nlohmann::json shown = {{"name", "c_L_max (1996 interval)"}, {"value", 0.9852}, {"unit", "1"}, {"reference", nlohmann::json::array({0.99, 1.01})},
+                                {"source", "Schaefer & Turek (1996)"}, {"error", (0.9852 - 0.99) / 0.99}, {"error_kind", "relative"},
+                                {"tolerance", "none"}, {"pass", nullptr}};
+  const nlohmann::json judged = {{"name", "c_L_max (FEATFLOW level 6)"}, {"value", 0.9852}, {"unit", "1"}, {"reference", 0.98658},
+                                 {"source", "FEATFLOW"}, {"error", 0.9852 / 0.98658 - 1}, {"error_kind", "relative"},
+                                 {"tolerance", "0.3 %"}, {"pass", true}};
+  nlohmann::json r = nlohmann::json::object();
+  r["case"] = {{"name", "st2"}, {"kind", "cylinder-channel"}, {"hash", "0123456789abcdef"}};
+  r["cost"] = {{"wall_seconds", 1.0}, {"peak_memory_bytes", 1048576.0}};
+  r["metrics"] = nlohmann::json::array({shown, judged});
+  r["all_pass"] = true;
+  r["provenance"] = {{"mmval_version", "test"}, {"git_hash", "test"}, {"compiler", "test"}, {"build_type", "test"}, {"host", "test"}};
+  Summary s;
+  s.results.push_back(r);
+  EXPECT_EQ(s.failures(), 0);
+  EXPECT_TRUE(s.metricsJson()["all_pass"].get<bool>());
+  const std::string md = s.markdown();
+  EXPECT_THAT(md, ::testing::HasSubstr("[0.99, 1.01]"));
+  EXPECT_THAT(md, ::testing::HasSubstr("-0.485 %"));  // the distance to the interval is still shown
+  EXPECT_THAT(md, ::testing::HasSubstr("| none | info |"));
+  EXPECT_THAT(md, ::testing::HasSubstr("| 0.3 % | pass |"));
 }
 
 }  // namespace
