@@ -288,8 +288,9 @@ class CaseReader {
       }
     }
     a.reason = requireString("reason");
+    static const std::string forms = "\"0.5 %\", an absolute quantity, \"interval\", or \"none\" (shown, not judged)";
     const toml::node* tol = t.get("tolerance");
-    if (tol == nullptr) fail(line, prefix + ".tolerance", "missing required key", {}, "\"0.5 %\", an absolute quantity, \"interval\", or \"none\" (shown, not judged)");
+    if (tol == nullptr) fail(line, prefix + ".tolerance", "missing required key", {}, forms);
     a.tolerance.text = tomlValueText(*tol);
     if (tol->is_string()) {
       const std::string text = *tol->value<std::string>();
@@ -311,7 +312,7 @@ class CaseReader {
         try {
           q = parseQuantity(text);
         } catch (const UnitError& e) {
-          fail(lineOf(*tol), prefix + ".tolerance", e.what(), "\"" + text + "\"", "\"0.5 %\", an absolute quantity, \"interval\", or \"none\" (shown, not judged)");
+          fail(lineOf(*tol), prefix + ".tolerance", e.what(), "\"" + text + "\"", forms);
         }
         if (!(q.dim == a.reference.dim))
           fail(lineOf(*tol), prefix + ".tolerance", "wrong dimension", "\"" + text + "\" (" + dimensionName(q.dim) + ")", "the reference's dimension, " + dimensionName(a.reference.dim));
@@ -322,7 +323,7 @@ class CaseReader {
       a.tolerance.kind = Tolerance::Kind::absolute;
       a.tolerance.value = *tol->value<double>() * parseUnit(a.reference.unit).to_si;
     } else {
-      fail(lineOf(*tol), prefix + ".tolerance", "wrong type", tomlTypeName(*tol), "\"0.5 %\", an absolute quantity, \"interval\", or \"none\" (shown, not judged)");
+      fail(lineOf(*tol), prefix + ".tolerance", "wrong type", tomlTypeName(*tol), forms);
     }
     const bool bounds = a.tolerance.kind == Tolerance::Kind::interval || a.tolerance.kind == Tolerance::Kind::none;
     if (!bounds && a.tolerance.value < 0)
