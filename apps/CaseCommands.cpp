@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <map>
 #include <optional>
 
 #include <fmt/format.h>
@@ -68,13 +69,19 @@ std::vector<fs::path> casesTagged(const fs::path& dir, const std::vector<std::st
   std::sort(files.begin(), files.end());
   // Comparisons read other cases' outputs, so they run after everything else.
   std::vector<fs::path> out, last;
+  std::map<std::string, fs::path> by_name;  // run folders are named after the case: one case per name
   for (const auto& f : files) {
     const Case c = Case::load(f, registry);
     const auto& tags = c.strings("case.tags");
     const bool chosen = std::any_of(wanted.begin(), wanted.end(), [&](const std::string& tag) {
       return tag == "all" || std::find(tags.begin(), tags.end(), tag) != tags.end();
     });
-    if (chosen) (c.kind() == "compare-tracks" ? last : out).push_back(f);
+    if (!chosen) continue;
+    const auto [it, fresh] = by_name.emplace(c.name(), f);
+    if (!fresh)
+      throw InputError(c.where("case.name"), "two cases of this validation have the same name (their runs would overwrite each other)",
+                       "\"" + c.name() + "\" in " + it->second.string() + " and " + f.string(), "a distinct case.name in each file");
+    (c.kind() == "compare-tracks" ? last : out).push_back(f);
   }
   out.insert(out.end(), last.begin(), last.end());
   return out;
@@ -90,6 +97,16 @@ std::optional<nlohmann::json> earlierRun(const Case& c, const fs::path& dir) {
   } catch (const std::exception&) {
   }
   return std::nullopt;
+}
+
+/// validate writes into its --out folder (it keeps earlier runs with --resume)
+/// rather than replacing it, so the folder must be new, empty or mmval's own.
+void requireOwnedFolder(const fs::path& out) {
+  std::error_code ec;
+  const auto st = fs::symlink_status(out, ec);
+  if (ec || !fs::exists(st)) return;
+  if (fs::is_directory(st) && (fs::is_empty(out, ec) || fs::exists(out / kOutputMarker))) return;
+  checkReplaceable(out);  // throws the message that says what is in the way
 }
 
 void writeSummary(const fs::path& out, const reports::Summary& summary) {
@@ -113,8 +130,9 @@ nlohmann::json peerNotRun(const Case& c, const std::string& reason, const fs::pa
                         {"details", {{"solver", "OpenFOAM (not run)"}, {"status", "not run"}, {"reason", reason}}},
                         {"files", nlohmann::json::array()},
                         {"provenance", provenanceJson()}};
-  fs::create_directories(dir);
-  writeFileAtomic(dir / "result.json", doc.dump(2) + "\n");
+  StagedDirectory staged(dir);
+  writeFileAtomic(staged.path() / "result.json", doc.dump(2) + "\n");
+  staged.commit();
   return doc;
 }
 
@@ -186,11 +204,15 @@ void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
     const auto start = std::chrono::steady_clock::now();
     std::vector<std::string> wanted{val_opts->tag};
     if (val_opts->full) wanted.push_back("full");
+    // The output folder is checked and locked before any case runs.
+    const fs::path out = normaliseOutputPath(val_opts->out);
+    requireOwnedFolder(out);
     const auto files = casesTagged(val_opts->cases, wanted, registry);
     if (files.empty())
       throw InputError({val_opts->cases, 0, 0, "case.tags"}, "no case carries the tag '" + val_opts->tag + "'", {}, "at least one case to run");
-    const fs::path out = val_opts->out;
     fs::create_directories(out / "runs");
+    const FolderLock lock(out, out.string());
+    writeOutputMarker(out);
     reports::Summary summary;
     for (std::size_t i = 0; i < files.size(); ++i) {
       const Case c = Case::load(files[i], registry);
@@ -225,12 +247,14 @@ void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
       }
       summary.total_wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       writeSummary(out, summary);  // partial summaries survive an interrupted validation
+      writeOutputMarker(out);
     }
     // The full report over every run folder.
     const reports::ReportInput input = reports::collect({out});
     reports::ReportInput with_time = input;
     with_time.summary.total_wall_seconds = summary.total_wall_seconds;
     const int figures = reports::writeReport(with_time, out);
+    writeOutputMarker(out);
     std::fputs(summary.text().c_str(), stdout);
     std::printf("report: %d figure(s)\n", figures);
     std::printf("validation: %zu case(s), %d failing metric(s), %.1f s; summary in %s\n", files.size(), summary.failures(),

@@ -1,6 +1,9 @@
 // mmval: validate pore-scale simulations of fines migration against
 // micromodel experiments. One command, one subcommand per capability.
+#include <algorithm>
 #include <cstdio>
+#include <string>
+#include <vector>
 #include <exception>
 
 #include <CLI/CLI.hpp>
@@ -13,6 +16,7 @@
 #include "TrackCommands.hpp"
 #include "mmval/core/BuildInfo.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/Strings.hpp"
 #include "mmval/core/Units.hpp"
 
 namespace {
@@ -33,6 +37,16 @@ int main(int argc, char** argv) {
   mmval::app::registerReportCommands(app);
   mmval::app::registerPeerCommands(app, registry);
   mmval::app::registerTrackCommands(app, registry);
+  if (argc > 1 && argv[1][0] != '-') {
+    std::vector<std::string> names;
+    for (const CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) names.push_back(sub->get_name());
+    if (std::find(names.begin(), names.end(), argv[1]) == names.end()) {
+      const std::string near = mmval::nearest(argv[1], names);
+      std::fprintf(stderr, "mmval: unknown subcommand '%s'%s; the subcommands are: %s (see mmval --help)\n", argv[1],
+                   near.empty() ? "" : fmt::format("; did you mean '{}'?", near).c_str(), mmval::join(names, ", ").c_str());
+      return toStatus(mmval::ExitCode::usage);
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -44,6 +58,9 @@ int main(int argc, char** argv) {
   } catch (const mmval::UnitError& e) {
     std::fprintf(stderr, "mmval: error: %s\n", e.what());
     return toStatus(mmval::ExitCode::bad_input);
+  } catch (const mmval::NumericalFailure& e) {
+    std::fprintf(stderr, "mmval: numerical failure: %s\n", e.what());
+    return toStatus(mmval::ExitCode::numerical);
   } catch (const mmval::MetricsFailed& e) {
     std::fprintf(stderr, "mmval: %s\n", e.what());
     return toStatus(mmval::ExitCode::metric_failed);

@@ -1,5 +1,6 @@
 #include "mmval/core/Case.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -18,6 +19,41 @@ using detail::tomlTypeName;
 using detail::tomlValueText;
 
 namespace {
+
+/// Case files are small (the largest bundled one is ~15 kB); this bounds what
+/// a wrong path (a video, /dev/zero) can make the reader hold.
+constexpr std::uintmax_t kMaxCaseFileBytes = 4u << 20;
+
+/// A name for display: control characters escaped, cut at 60 characters.
+std::string printableName(const std::string& name) {
+  std::string out = "\"";
+  for (std::size_t i = 0; i < name.size() && i < 60; ++i) {
+    const auto ch = static_cast<unsigned char>(name[i]);
+    out += ch < 0x20 || ch == 0x7f ? fmt::format("\\x{:02x}", ch) : std::string(1, name[i]);
+  }
+  if (name.size() > 60) out += fmt::format("...\" ({} bytes)", name.size());
+  else out += "\"";
+  return out;
+}
+
+/// True when `file` (a reference pointer resolved against its case file) lies
+/// in the case file's folder tree, in a reference-data/ folder beside it, or in
+/// the project's reference-data/: pointers never read arbitrary files.
+bool insideReferenceFolders(const std::filesystem::path& file, const std::filesystem::path& case_file) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path target = fs::weakly_canonical(fs::absolute(file), ec);
+  if (ec) return false;
+  const fs::path case_dir = fs::absolute(case_file).parent_path();
+  const std::vector<fs::path> roots = {case_dir, case_dir.parent_path() / "reference-data", fs::path(MMVAL_SOURCE_DIR) / "reference-data"};
+  for (const auto& r : roots) {
+    const fs::path root = fs::weakly_canonical(r, ec);
+    if (ec) continue;
+    const auto [end, it] = std::mismatch(root.begin(), root.end(), target.begin(), target.end());
+    if (end == root.end()) return true;
+  }
+  return false;
+}
 
 /// Reads a case file; every error names the file, the line and the key.
 class CaseReader {
@@ -246,8 +282,19 @@ class CaseReader {
           else fail(lineOf(av), key + ".at." + std::string(ak.str()), "wrong type", tomlTypeName(av), "a number or a string");
         }
       }
-      const std::filesystem::path ref_path = (m_file.parent_path() / std::string(*file->value<std::string>())).lexically_normal();
-      ref = lookupReference(ref_path, *quantity->value<std::string>(), at, {m_file.string(), line, 0, key});
+      const std::string given = *file->value<std::string>();
+      const std::filesystem::path ref_path = (m_file.parent_path() / given).lexically_normal();
+      if (!insideReferenceFolders(ref_path, m_file))
+        fail(lineOf(*file), key + ".file", "a reference pointer must stay inside reference-data/ or the case file's folder", "\"" + given + "\"",
+             "a path such as \"../reference-data/<name>.toml\"");
+      try {
+        ref = lookupReference(ref_path, *quantity->value<std::string>(), at, {m_file.string(), line, 0, key});
+      } catch (const InputError& e) {
+        if (e.where().file == m_file.string()) throw;
+        // A problem inside the reference file: name the pointer that led there too.
+        fail(line, key, "the reference it points to cannot be used: " + std::string(e.what()), "\"" + given + "\"",
+             "a valid reference-data file (see reference-data/README.md)");
+      }
       if (!unit_override.empty()) ref.unit = unit_override;
     } else {
       fail(line, key, "wrong type", tomlTypeName(n), "a number, a quantity string, or { file, quantity, at }");
@@ -255,7 +302,30 @@ class CaseReader {
     return ref;
   }
 
-  Acceptance readAcceptance(const toml::table& t, std::size_t index) const {
+  /// The declared metric `a.metric` of `schema`; a bare-number reference takes
+  /// its dimension (bare numbers are SI), any other must match it.
+  void checkMetric(const Schema& schema, Acceptance& a, const toml::node& ref, bool unit_given, const std::string& prefix) const {
+    if (schema.metrics().empty()) return;
+    const MetricDecl* m = schema.findMetric(a.metric);
+    if (m == nullptr || (m->family() && a.metric.size() < m->name.size())) {
+      std::vector<std::string> names;
+      for (const auto& d : schema.metrics()) names.push_back(d.name);
+      const std::string near = nearest(a.metric, names);
+      fail(a.where.line, prefix + ".metric",
+           "unknown metric for kind '" + schema.kind() + "'" + (near.empty() ? std::string() : "; did you mean '" + near + "'?"),
+           "\"" + a.metric + "\"", "one of " + join(names, ", ") + " (`mmval case-doc " + schema.kind() + "`)");
+    }
+    if (ref.is_number() && !unit_given) {
+      a.reference.dim = m->dim;
+      a.reference.unit = m->unit;  // the value stays SI; shown in the metric's unit
+      return;
+    }
+    if (!(a.reference.dim == m->dim))
+      fail(lineOf(ref), prefix + ".reference", "wrong dimension for metric '" + a.metric + "'",
+           a.reference.unit + " (" + dimensionName(a.reference.dim) + ")", "a " + dimensionName(m->dim) + ", e.g. in " + m->unit);
+  }
+
+  Acceptance readAcceptance(const Schema& schema, const toml::table& t, std::size_t index) const {
     const std::string prefix = fmt::format("acceptance[{}]", index);
     const int line = lineOf(t);
     static const std::vector<std::string> allowed = {"metric", "reference", "tolerance", "reason", "unit", "label"};
@@ -280,6 +350,10 @@ class CaseReader {
     const toml::node* ref = t.get("reference");
     if (ref == nullptr) fail(line, prefix + ".reference", "missing required key", {}, "a number, a quantity string, or { file, quantity, at }");
     a.reference = readReference(*ref, prefix + ".reference", unit);
+    if (!std::isfinite(a.reference.value) || (a.reference.low && !std::isfinite(*a.reference.low)) ||
+        (a.reference.high && !std::isfinite(*a.reference.high)))
+      fail(lineOf(*ref), prefix + ".reference", "not a finite number", tomlValueText(*ref), "a finite reference value");
+    checkMetric(schema, a, *ref, !unit.empty(), prefix);
     if (!unit.empty()) {
       try {
         if (!(parseUnit(unit).dim == a.reference.dim)) fail(line, prefix + ".unit", "wrong dimension for the reference", unit, dimensionName(a.reference.dim));
@@ -320,8 +394,12 @@ class CaseReader {
         a.tolerance.value = q.si;
       }
     } else if (tol->is_number()) {
+      if (!std::isfinite(*tol->value<double>()))
+        fail(lineOf(*tol), prefix + ".tolerance", "not a finite number", a.tolerance.text, forms);
       a.tolerance.kind = Tolerance::Kind::absolute;
-      a.tolerance.value = *tol->value<double>() * parseUnit(a.reference.unit).to_si;
+      // A bare tolerance is in the reference's unit as written; a bare reference is SI.
+      const bool bare_reference = ref->is_number() && unit.empty();
+      a.tolerance.value = *tol->value<double>() * (bare_reference ? 1.0 : parseUnit(a.reference.unit).to_si);
     } else {
       fail(lineOf(*tol), prefix + ".tolerance", "wrong type", tomlTypeName(*tol), forms);
     }
@@ -346,12 +424,41 @@ class CaseReader {
 
 }  // namespace
 
-Case Case::load(const std::filesystem::path& file, const CaseKindRegistry& registry) {
+const char* const kCaseNameRule = "1 to 100 characters from A-Z a-z 0-9 - _ . starting with a letter or digit (it names the run's folder)";
+
+std::string caseNameProblem(const std::string& name) {
+  if (name.empty()) return "empty case name";
+  if (name.size() > 100) return "case name too long";
+  const auto ok = [](char ch) { return std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_' || ch == '.'; };
+  if (!std::isalnum(static_cast<unsigned char>(name.front()))) return "case name must start with a letter or digit";
+  for (char ch : name)
+    if (!ok(ch)) return "case name has a character that cannot be part of a folder name";
+  return {};
+}
+
+std::string readTextFile(const std::filesystem::path& file, std::uintmax_t max_bytes, const std::string& what, const std::string& expected) {
+  std::error_code ec;
+  const auto status = std::filesystem::status(file, ec);
+  if (ec || !std::filesystem::exists(status)) throw InputError({file.string(), 0, 0, {}}, what + " not found", {}, expected);
+  if (!std::filesystem::is_regular_file(status))
+    throw InputError({file.string(), 0, 0, {}}, what + " is not a regular file", {}, expected);
+  const std::uintmax_t size = std::filesystem::file_size(file, ec);
+  if (!ec && size > max_bytes)
+    throw InputError({file.string(), 0, 0, {}}, fmt::format("{} too large ({} bytes)", what, size), {},
+                     fmt::format("{} of at most {} bytes", expected, max_bytes));
   std::ifstream in(file, std::ios::binary);
-  if (!in) throw InputError({file.string(), 0, 0, {}}, "cannot open case file", {}, "a readable TOML file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return parse(buffer.str(), file, registry);
+  if (!in) throw InputError({file.string(), 0, 0, {}}, "cannot open " + what, {}, expected);
+  std::string text(static_cast<std::size_t>(std::min(size, max_bytes)), '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (in.peek() != std::char_traits<char>::eof())
+    throw InputError({file.string(), 0, 0, {}}, what + " grew while being read or is larger than it says", {},
+                     fmt::format("{} of at most {} bytes", expected, max_bytes));
+  return text;
+}
+
+Case Case::load(const std::filesystem::path& file, const CaseKindRegistry& registry) {
+  return parse(readTextFile(file, kMaxCaseFileBytes, "case file", "a TOML case file"), file, registry);
 }
 
 Case Case::parse(std::string_view toml_text, const std::filesystem::path& file, const CaseKindRegistry& registry) {
@@ -401,6 +508,8 @@ Case Case::parse(std::string_view toml_text, const std::filesystem::path& file, 
     }
   }
   c.m_name = std::get<std::string>(c.m_values.at("case.name"));
+  if (const std::string problem = caseNameProblem(c.m_name); !problem.empty())
+    reader.fail(c.m_where["case.name"].line, "case.name", problem, printableName(c.m_name), kCaseNameRule);
   c.m_kind = kind;
   c.m_description = std::get<std::string>(c.m_values.at("case.description"));
 
@@ -410,7 +519,7 @@ Case Case::parse(std::string_view toml_text, const std::filesystem::path& file, 
     for (std::size_t i = 0; i < arr->size(); ++i) {
       const toml::table* t = (*arr)[i].as_table();
       if (t == nullptr) reader.fail(lineOf((*arr)[i]), fmt::format("acceptance[{}]", i), "not a table", {}, "[[acceptance]] tables");
-      c.m_acceptance.push_back(reader.readAcceptance(*t, i));
+      c.m_acceptance.push_back(reader.readAcceptance(schema, *t, i));
       for (std::size_t j = 0; j + 1 < c.m_acceptance.size(); ++j)
         if (c.m_acceptance[j].metric == c.m_acceptance.back().metric && c.m_acceptance[j].label == c.m_acceptance.back().label)
           reader.fail(c.m_acceptance.back().where.line, fmt::format("acceptance[{}].metric", i), "metric listed twice with the same label",

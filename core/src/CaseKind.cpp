@@ -8,6 +8,10 @@ void CaseKindRegistry::add(CaseKind kind) {
   if (kind.name.empty() || !kind.run || !kind.declare) throw std::logic_error("case kind without name, declare or run");
   if (m_kinds.count(kind.name) != 0) throw std::logic_error("case kind '" + kind.name + "' registered twice");
   m_kinds.emplace(kind.name, std::move(kind));
+  rebuildSchemas();
+}
+
+void CaseKindRegistry::rebuildSchemas() {
   // Every schema lists every kind in case.kind's choices, so rebuild them all.
   m_schemas.clear();
   const auto all = names();
@@ -15,8 +19,16 @@ void CaseKindRegistry::add(CaseKind kind) {
     auto schema = std::make_unique<Schema>(name, k.summary);
     declareCommonKeys(*schema, all);
     k.declare(*schema);
+    if (k.metrics) k.metrics(*schema);
     m_schemas.emplace(name, std::move(schema));
   }
+}
+
+void CaseKindRegistry::declareMetrics(std::string_view name, std::function<void(Schema&)> metrics) {
+  auto it = m_kinds.find(name);
+  if (it == m_kinds.end()) throw std::logic_error("no case kind '" + std::string(name) + "' to declare metrics for");
+  it->second.metrics = std::move(metrics);
+  rebuildSchemas();
 }
 
 void CaseKindRegistry::replaceRunner(std::string_view name, std::function<RunOutput(const Case&, const RunContext&)> run) {

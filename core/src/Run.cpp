@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <string>
 #include <cmath>
+#include <cstdio>
 #include <ctime>
 
 #include <fmt/format.h>
@@ -74,7 +75,8 @@ std::vector<MetricResult> evaluateMetrics(const Case& c, const RunOutput& output
     MetricResult m;
     m.name = name;
     auto u = output.units.find(name);
-    m.unit = u == output.units.end() ? "1" : u->second;
+    const MetricDecl* declared = c.schema().findMetric(name);
+    m.unit = u != output.units.end() ? u->second : declared != nullptr ? declared->unit : "1";
     m.value = value / parseUnit(m.unit).to_si;
     out.push_back(m);
   }
@@ -99,6 +101,20 @@ RunSummary runCaseWith(const Case& c, const std::function<RunOutput(const Case&,
   const RunOutput output = runner(c, ctx);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
+  // Every metric a runner reports is declared by its kind (with its unit);
+  // one that is not is a bug in mmval, flagged without losing the run.
+  nlohmann::json undeclared = nlohmann::json::array();
+  if (!c.schema().metrics().empty()) {
+    for (const auto& [name, value] : output.metrics) {
+      const MetricDecl* d = c.schema().findMetric(name);
+      auto u = output.units.find(name);
+      if (d == nullptr || (u != output.units.end() && !(parseUnit(u->second).dim == d->dim))) undeclared.push_back(name);
+    }
+  }
+  if (!undeclared.empty())
+    std::fprintf(stderr, "mmval: warning (a bug in mmval): kind '%s' reported metrics it does not declare, or in another dimension: %s\n",
+                 c.kind().c_str(), undeclared.dump().c_str());
+
   RunSummary s;
   s.case_name = c.name();
   s.wall_seconds = wall;
@@ -115,7 +131,11 @@ RunSummary runCaseWith(const Case& c, const std::function<RunOutput(const Case&,
               {"metrics", metrics},
               {"all_pass", s.all_pass},
               {"cost", {{"wall_seconds", wall}, {"peak_memory_bytes", peakMemoryBytes()}}},
-              {"details", output.details},
+              {"details", undeclared.empty() ? output.details : [&] {
+                 nlohmann::json d = output.details;
+                 d["undeclared_metrics"] = undeclared;
+                 return d;
+               }()},
               {"files", output.files},
               {"provenance", provenanceJson()}};
   // Under mpirun only rank 0 writes (Open MPI and MPICH/PMI name the rank in the environment).
@@ -125,7 +145,7 @@ RunSummary runCaseWith(const Case& c, const std::function<RunOutput(const Case&,
     writeFileAtomic(staged.path() / "result.json", s.result.dump(2) + "\n");
     staged.commit();
   }
-  s.result_file = out_dir / "result.json";
+  s.result_file = staged.finalPath() / "result.json";
   return s;
 }
 

@@ -205,6 +205,27 @@ std::string rangeText(const KeyDecl& k) {
 }
 }  // namespace
 
+void Schema::metric(std::string name, std::string unit, std::string doc) {
+  if (name.empty()) throw std::logic_error("schema '" + m_kind + "': a metric without a name");
+  for (const auto& m : m_metrics)
+    if (m.name == name) throw std::logic_error("schema '" + m_kind + "': metric '" + name + "' declared twice");
+  MetricDecl decl;
+  decl.dim = parseUnit(unit).dim;
+  decl.name = std::move(name);
+  decl.unit = unit.empty() ? "1" : std::move(unit);
+  decl.doc = std::move(doc);
+  m_metrics.push_back(std::move(decl));
+}
+
+const MetricDecl* Schema::findMetric(std::string_view name) const {
+  for (const auto& m : m_metrics)
+    if (m.name == name) return &m;
+  for (const auto& m : m_metrics)
+    if (m.family() && name.size() >= m.name.size() && name.substr(0, m.name.size() - 1) == std::string_view(m.name).substr(0, m.name.size() - 1))
+      return &m;
+  return nullptr;
+}
+
 std::string Schema::markdown() const {
   std::string out = fmt::format("## kind `{}`\n\n{}\n\n| key | type | unit | default | allowed | meaning |\n|---|---|---|---|---|---|\n",
                                 m_kind, m_summary);
@@ -212,6 +233,10 @@ std::string Schema::markdown() const {
     const std::string unit = k.unit.empty() ? "" : k.unit + " (" + dimensionName(k.dim) + ")";
     const std::string def = k.required ? "**required**" : (k.def_text.empty() ? "optional" : "`" + k.def_text + "`");
     out += fmt::format("| `{}` | {} | {} | {} | {} | {} |\n", k.key, typeName(k.type), unit, def, rangeText(k), k.doc);
+  }
+  if (!m_metrics.empty()) {
+    out += "\nMetrics this kind reports (the names `[[acceptance]]` entries may use):\n\n| metric | unit | meaning |\n|---|---|---|\n";
+    for (const auto& m : m_metrics) out += fmt::format("| `{}` | {} | {} |\n", m.name, m.unit == "1" ? "1 (dimensionless)" : m.unit, m.doc);
   }
   out += "\nAcceptance entries: `[[acceptance]]` with `metric`, `reference` (number, quantity string, or "
          "`{ file, quantity, at }` into reference-data/), `tolerance` (\"0.5 %\" relative, a quantity for an "
@@ -225,6 +250,11 @@ void declareCommonKeys(Schema& schema, const std::vector<std::string>& kinds) {
   schema.string("case.description", "One or two sentences for the report").def("");
   schema.stringList("case.tags", "Labels such as 'default' (run by `mmval validate`) or 'full'")
       .def(std::vector<std::string>{});
+  schema.quantity("run.max_memory", "GB",
+                  "Memory the run may plan to use; a run whose estimate (grid, image, particles x outputs) is larger stops "
+                  "before it starts, naming the key to change. Default: half of this machine's physical memory")
+      .optional()
+      .positive();
 }
 
 }  // namespace mmval

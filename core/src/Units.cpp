@@ -10,7 +10,7 @@
 namespace mmval {
 namespace {
 
-constexpr Dimension dimOf(int L, int M, int T, int Th = 0, int N = 0) { return Dimension{{L, M, T, Th, N}}; }
+constexpr Dimension dimOf(int L, int M, int T, int Th = 0, int N = 0, int B = 0) { return Dimension{{L, M, T, Th, N, B}}; }
 
 const Dimension kLength = dimOf(1, 0, 0);
 const Dimension kMass = dimOf(0, 1, 0);
@@ -22,6 +22,7 @@ const Dimension kForce = dimOf(1, 1, -2);
 const Dimension kEnergy = dimOf(2, 1, -2);
 const Dimension kViscosity = dimOf(-1, 1, -1);
 const Dimension kFrequency = dimOf(0, 0, -1);
+const Dimension kMemory = dimOf(0, 0, 0, 0, 0, 1);
 
 // Base symbols; SI prefixes are listed explicitly so that "min" is not "milli-in".
 const std::map<std::string, Unit, std::less<>>& unitTable() {
@@ -71,6 +72,15 @@ const std::map<std::string, Unit, std::less<>>& unitTable() {
       {"P", {0.1, kViscosity}},
       {"cP", {1e-3, kViscosity}},
       {"Hz", {1.0, kFrequency}},
+      {"B", {1.0, kMemory}},
+      {"kB", {1e3, kMemory}},
+      {"MB", {1e6, kMemory}},
+      {"GB", {1e9, kMemory}},
+      {"TB", {1e12, kMemory}},
+      {"KiB", {1024.0, kMemory}},
+      {"MiB", {1048576.0, kMemory}},
+      {"GiB", {1073741824.0, kMemory}},
+      {"TiB", {1099511627776.0, kMemory}},
   };
   return table;
 }
@@ -130,9 +140,9 @@ Dimension Dimension::pow(int p) const {
 }
 
 std::string Dimension::siString() const {
-  static const char* base[] = {"m", "kg", "s", "K", "mol"};
+  static const char* base[] = {"m", "kg", "s", "K", "mol", "B"};
   // kg first reads more naturally ("kg m^-1 s^-1").
-  static const int order[] = {1, 0, 2, 3, 4};
+  static const int order[] = {1, 0, 2, 3, 4, 5};
   std::string out;
   for (int i : order) {
     int e = exponent[static_cast<std::size_t>(i)];
@@ -198,6 +208,7 @@ std::string dimensionName(const Dimension& dim) {
       {Dimension{}, "dimensionless number"},
       {kLength, "length"},
       {kArea, "area (e.g. permeability)"},
+      {kMemory, "memory (bytes)"},
       {kVolume, "volume"},
       {kMass, "mass"},
       {kTime, "time"},

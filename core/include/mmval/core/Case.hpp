@@ -77,6 +77,18 @@ struct MetricResult {
   nlohmann::json toJson() const;
 };
 
+/// The rule for case names (they become folder names under a validation's
+/// runs/): letters, digits, '-', '_', '.', starting with a letter or digit, at
+/// most 100 characters. caseNameProblem() returns what is wrong, or "".
+extern const char* const kCaseNameRule;
+std::string caseNameProblem(const std::string& name);
+
+/// Reads a regular file of at most `max_bytes` as text; InputError (naming the
+/// file, `what` and `expected`) for a missing file, a device or FIFO, or a
+/// larger file, so that no path makes a reader run forever.
+std::string readTextFile(const std::filesystem::path& file, std::uintmax_t max_bytes, const std::string& what,
+                         const std::string& expected);
+
 /// Compares an SI value with an acceptance entry.
 MetricResult evaluateMetric(const Acceptance& acceptance, double value_si);
 
@@ -92,6 +104,8 @@ class Case {
   const std::string& kind() const { return m_kind; }
   const std::string& description() const { return m_description; }
   const std::filesystem::path& file() const { return m_file; }
+  /// The kind's schema: its keys and the metrics its runner reports.
+  const Schema& schema() const { return *m_schema; }
 
   double quantity(std::string_view key) const;  ///< SI
   double real(std::string_view key) const;

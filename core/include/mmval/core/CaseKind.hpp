@@ -44,6 +44,7 @@ struct CaseKind {
   std::string name;
   std::string summary;
   std::function<void(Schema&)> declare;  ///< adds the kind's keys
+  std::function<void(Schema&)> metrics;  ///< declares the metrics its runner reports (Schema::metric)
   std::function<RunOutput(const Case&, const RunContext&)> run;
 };
 
@@ -54,6 +55,8 @@ class CaseKindRegistry {
   /// Gives an existing kind another runner (e.g. mmval's own solver for a kind
   /// whose schema a peer declared), keeping its schema.
   void replaceRunner(std::string_view name, std::function<RunOutput(const Case&, const RunContext&)> run);
+  /// Sets the metric declarations of an existing kind (Schema::metric calls).
+  void declareMetrics(std::string_view name, std::function<void(Schema&)> metrics);
   /// The kind's full schema (common [case] keys + the kind's keys).
   const Schema& schema(std::string_view name) const;
   std::vector<std::string> names() const;
@@ -61,6 +64,7 @@ class CaseKindRegistry {
  private:
   std::map<std::string, CaseKind, std::less<>> m_kinds;
   std::map<std::string, std::unique_ptr<Schema>, std::less<>> m_schemas;
+  void rebuildSchemas();
 };
 
 }  // namespace mmval

@@ -17,7 +17,8 @@ enum class ExitCode : int {
   usage = 1,          ///< wrong command-line usage
   bad_input = 2,      ///< an input file or value is invalid (InputError)
   metric_failed = 3,  ///< a run completed but an acceptance metric failed
-  internal = 4,       ///< a bug or an unexpected failure of a dependency
+  internal = 4,       ///< a bug in mmval, and nothing else
+  numerical = 5,      ///< the numerics failed on a valid input (diverged, gap under one cell, ...): NumericalFailure
 };
 
 /// Where in an input a problem is. Empty fields are left out of the message.
@@ -51,6 +52,21 @@ class InputError : public std::runtime_error {
 class MetricsFailed : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
+};
+
+/// The input is valid but the numerics cannot handle it as set up: a flow
+/// that diverged, a gap narrower than one cell, a solve that did not converge.
+/// The message names the cause and `key` the case key to change (exit 5).
+class NumericalFailure : public std::runtime_error {
+ public:
+  NumericalFailure(std::string cause, std::string key, std::string advice)
+      : std::runtime_error(cause + (key.empty() ? std::string() : "; change '" + key + "'") +
+                           (advice.empty() ? std::string() : ": " + advice)),
+        m_key(std::move(key)) {}
+  const std::string& key() const noexcept { return m_key; }
+
+ private:
+  std::string m_key;
 };
 
 /// Builds the message InputError uses; exposed for tests and for tools that

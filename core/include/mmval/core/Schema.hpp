@@ -54,6 +54,18 @@ struct KeyDecl {
   std::vector<std::string> choices;
 };
 
+/// A metric a kind's runner reports: its name, its display unit (which fixes
+/// its dimension) and what it means. Acceptance entries may only name declared
+/// metrics, with references and tolerances of the declared dimension. A name
+/// ending in '*' declares a family ("speed_w1_*": one metric per region).
+struct MetricDecl {
+  std::string name;
+  std::string unit;  ///< display unit ("1" for dimensionless)
+  Dimension dim;
+  std::string doc;
+  bool family() const { return !name.empty() && name.back() == '*'; }
+};
+
 /// Fluent modifier for the declaration just added.
 class KeyBuilder {
  public:
@@ -93,6 +105,11 @@ class Schema {
   KeyBuilder integerList(std::string key, std::string doc);
   KeyBuilder stringList(std::string key, std::string doc);
 
+  /// Declares a metric the kind reports (see MetricDecl).
+  void metric(std::string name, std::string unit, std::string doc);
+  const MetricDecl* findMetric(std::string_view name) const;
+  const std::deque<MetricDecl>& metrics() const { return m_metrics; }
+
   const std::string& kind() const { return m_kind; }
   const std::string& summary() const { return m_summary; }
   const std::deque<KeyDecl>& keys() const { return m_keys; }
@@ -106,6 +123,7 @@ class Schema {
   KeyBuilder add(std::string key, ValueType type, std::string doc, std::string unit = {});
   std::string m_kind, m_summary;
   std::deque<KeyDecl> m_keys;  // deque: KeyBuilder references stay valid
+  std::deque<MetricDecl> m_metrics;
 };
 
 /// Keys every case has ([case] table), declared into a kind's schema by the registry.

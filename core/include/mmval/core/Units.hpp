@@ -17,9 +17,11 @@
 
 namespace mmval {
 
-/// Exponents of the SI base dimensions: length, mass, time, temperature, amount.
+/// Exponents of the SI base dimensions (length, mass, time, temperature,
+/// amount) and of one non-SI base, computer memory in bytes (for limits such as
+/// run.max_memory: "8 GiB", "500 MB").
 struct Dimension {
-  std::array<int, 5> exponent{};  // L, M, T, Theta, N
+  std::array<int, 6> exponent{};  // L, M, T, Theta, N, bytes
 
   static constexpr Dimension none() { return {}; }
   bool operator==(const Dimension&) const = default;
