@@ -1,7 +1,6 @@
 #include "ReportCommands.hpp"
 
 #include <cstdio>
-#include <fstream>
 #include <memory>
 
 #include <fmt/format.h>
@@ -10,6 +9,7 @@
 #include "mmval/compare/Scene.hpp"
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/Strings.hpp"
 #include "mmval/core/Tracks.hpp"
 #include "mmval/reports/Report.hpp"
 
@@ -37,6 +37,85 @@ struct ReportCli {
   std::vector<std::string> diff;
 };
 
+/// Degrees to radians for the window rotation given on the command line.
+constexpr double kRadiansPerDegree = 3.14159265358979323846 / 180;
+constexpr double kMetresPerMicrometre = 1e-6;
+
+compare::CompareOptions compareOptionsOf(const CompareCli& c) {
+  compare::CompareOptions o;
+  o.tracks.immobile_distance = c.immobile_um * kMetresPerMicrometre;
+  o.tracks.stuck_distance = c.stuck_um * kMetresPerMicrometre;
+  o.tracks.stuck_window = c.stuck_window_s;
+  o.tracks.time_bins = c.time_bins;
+  o.occupancy_cell = c.cell_um * kMetresPerMicrometre;
+  return o;
+}
+
+compare::SceneSpec sceneSpecOf(const CompareCli& c) {
+  compare::SceneSpec spec;
+  spec.mask = c.mask;
+  spec.mask_pixel_size = c.mask_pixel_size_um * kMetresPerMicrometre;
+  spec.grains_dark = c.grains == "dark";
+  spec.y_up = !c.y_down;
+  spec.register_frame = c.register_frame;
+  spec.frame_pixel_size = c.frame_pixel_size_um * kMetresPerMicrometre;
+  spec.registration.min_correlation = c.min_correlation;
+  spec.region_options.throat_width = c.throat_width_um * kMetresPerMicrometre;
+  if (!c.window_origin_um.empty()) {
+    if (!(c.window_pixel_size_um > 0))
+      throw InputError({"(command line)", 0, 0, "--window-pixel-size-um"}, "the imaged window needs its pixel size", fmt::format("{:g}", c.window_pixel_size_um),
+                       "a positive pixel size in um");
+    spec.window = compare::SceneSpec::Window{c.window_origin_um[0] * kMetresPerMicrometre, c.window_origin_um[1] * kMetresPerMicrometre,
+                                             c.window_rotation_deg * kRadiansPerDegree, c.window_pixel_size_um * kMetresPerMicrometre};
+  }
+  return spec;
+}
+
+void printComparison(const compare::Comparison& result, const std::string& out) {
+  for (const auto& m : result.metrics)
+    std::printf("%-20s %12.5g %-6s %s\n", m.name.c_str(), m.value, m.unit.c_str(), m.pass.has_value() ? (*m.pass ? "pass" : "FAIL") : "info");
+  if (result.alignment.contains("dx_px"))
+    std::printf("registration: dx %.3f px, dy %.3f px, rotation %.4f deg, ECC correlation %.4f, RMS residual %.4f\n", result.alignment["dx_px"].get<double>(),
+                result.alignment["dy_px"].get<double>(), result.alignment["rotation_deg"].get<double>(), result.alignment["ecc_correlation"].get<double>(),
+                result.alignment["rms_residual"].get<double>());
+  std::printf("compare: %s\n", (fs::path(out) / "metrics.json").string().c_str());
+}
+
+/// Exit status 3 (README) when a metric is outside its tolerance; called after
+/// the outputs are written, so the user can see why.
+void throwIfAnyMetricFailed(const compare::Comparison& result, const std::string& out) {
+  const std::vector<std::string> failed = compare::failedMetrics(result);
+  if (failed.empty()) return;
+  throw MetricsFailed(fmt::format("compare: {} metric(s) outside tolerance: {} (outputs written to {})", failed.size(), join(failed, ", "), out));
+}
+
+void runCompare(const CompareCli& c) {
+  const Tracks experiment = readTracksCsv(c.experiment, c.pixel_size_um * kMetresPerMicrometre);
+  const Tracks simulation = readTracksCsv(c.simulation, c.pixel_size_um * kMetresPerMicrometre);
+  const compare::Comparison result = compare::compareScene(experiment, simulation, sceneSpecOf(c), compareOptionsOf(c));
+  StagedDirectory staged(c.out);
+  compare::writeComparison(result, staged.path());
+  staged.commit();
+  printComparison(result, c.out);
+  throwIfAnyMetricFailed(result, c.out);
+}
+
+void runReport(const ReportCli& r) {
+  if (!r.diff.empty()) {
+    std::fputs(reports::diffMetricFiles(r.diff[0], r.diff[1]).c_str(), stdout);
+    return;
+  }
+  if (r.dirs.empty()) throw CLI::RequiredError("dirs");
+  const std::vector<fs::path> dirs(r.dirs.begin(), r.dirs.end());
+  const reports::ReportInput input = reports::collect(dirs);
+  // Staged like every output folder: a user's folder given as --out is refused, never overwritten.
+  StagedDirectory staged(r.out);
+  const int figures = reports::writeReport(input, staged.path());
+  staged.commit();
+  std::printf("report: %zu run(s), %zu comparison(s), %d figure(s) -> %s\n", input.summary.results.size(), input.comparisons.size(), figures,
+              (staged.finalPath() / "index.html").string().c_str());
+}
+
 }  // namespace
 
 void registerReportCommands(CLI::App& app) {
@@ -62,70 +141,14 @@ void registerReportCommands(CLI::App& app) {
   cmp->add_option("--window-rotation-deg", c->window_rotation_deg, "Imaged window's rotation, counter-clockwise")->capture_default_str();
   cmp->add_option("--window-pixel-size-um", c->window_pixel_size_um, "Imaged window's camera pixel size");
   cmp->add_option("--throat-width-um", c->throat_width_um, "Pore width at or below which pore space is throat (0: median inscribed diameter)")->capture_default_str();
-  cmp->callback([c] {
-    const Tracks e = readTracksCsv(c->experiment, c->pixel_size_um * 1e-6);
-    const Tracks s = readTracksCsv(c->simulation, c->pixel_size_um * 1e-6);
-    compare::CompareOptions o;
-    o.tracks.immobile_distance = c->immobile_um * 1e-6;
-    o.tracks.stuck_distance = c->stuck_um * 1e-6;
-    o.tracks.stuck_window = c->stuck_window_s;
-    o.tracks.time_bins = c->time_bins;
-    o.occupancy_cell = c->cell_um * 1e-6;
-    compare::SceneSpec spec;
-    spec.mask = c->mask;
-    spec.mask_pixel_size = c->mask_pixel_size_um * 1e-6;
-    spec.grains_dark = c->grains == "dark";
-    spec.y_up = !c->y_down;
-    spec.register_frame = c->register_frame;
-    spec.frame_pixel_size = c->frame_pixel_size_um * 1e-6;
-    spec.registration.min_correlation = c->min_correlation;
-    spec.region_options.throat_width = c->throat_width_um * 1e-6;
-    if (!c->window_origin_um.empty()) {
-      if (!(c->window_pixel_size_um > 0))
-        throw InputError({"(command line)", 0, 0, "--window-pixel-size-um"}, "the imaged window needs its pixel size", {}, "a positive pixel size in um");
-      spec.window = compare::SceneSpec::Window{c->window_origin_um[0] * 1e-6, c->window_origin_um[1] * 1e-6, c->window_rotation_deg * 3.14159265358979323846 / 180,
-                                               c->window_pixel_size_um * 1e-6};
-    }
-    const compare::Comparison result = compare::compareScene(e, s, spec, o);
-    StagedDirectory staged(c->out);
-    compare::writeComparison(result, staged.path());
-    staged.commit();
-    for (const auto& m : result.metrics)
-      std::printf("%-20s %12.5g %-6s %s\n", m.name.c_str(), m.value, m.unit.c_str(),
-                  m.pass.has_value() ? (*m.pass ? "pass" : "FAIL") : "info");
-    if (result.alignment.contains("dx_px"))
-      std::printf("registration: dx %.3f px, dy %.3f px, rotation %.4f deg, ECC correlation %.4f, RMS residual %.4f\n",
-                  result.alignment["dx_px"].get<double>(), result.alignment["dy_px"].get<double>(), result.alignment["rotation_deg"].get<double>(),
-                  result.alignment["ecc_correlation"].get<double>(), result.alignment["rms_residual"].get<double>());
-    std::printf("compare: %s\n", (fs::path(c->out) / "metrics.json").string().c_str());
-  });
+  cmp->callback([c] { runCompare(*c); });
 
   auto r = std::make_shared<ReportCli>();
   CLI::App* rep = app.add_subcommand("report", "Build the HTML/Markdown report from run and compare folders, or diff two metrics.json");
   rep->add_option("dirs", r->dirs, "Folders written by run, compare or validate");
   rep->add_option("--out", r->out, "Report folder")->capture_default_str();
   rep->add_option("--diff", r->diff, "Two metrics.json files: list metrics that changed beyond tolerance")->expected(2);
-  rep->callback([r] {
-    if (!r->diff.empty()) {
-      auto load = [](const std::string& p) {
-        std::ifstream in(p);
-        if (!in) throw InputError({p, 0, 0, {}}, "cannot open", {}, "a metrics.json written by mmval");
-        try {
-          return nlohmann::json::parse(in);
-        } catch (const std::exception& e) {
-          throw InputError({p, 0, 0, {}}, std::string("not valid JSON: ") + e.what());
-        }
-      };
-      std::fputs(reports::diffMetrics(load(r->diff[0]), load(r->diff[1])).c_str(), stdout);
-      return;
-    }
-    if (r->dirs.empty()) throw CLI::RequiredError("dirs");
-    std::vector<fs::path> dirs(r->dirs.begin(), r->dirs.end());
-    const reports::ReportInput input = reports::collect(dirs);
-    const int figures = reports::writeReport(input, r->out);
-    std::printf("report: %zu run(s), %zu comparison(s), %d figure(s) -> %s\n", input.summary.results.size(), input.comparisons.size(),
-                figures, (fs::path(r->out) / "index.html").string().c_str());
-  });
+  rep->callback([r] { runReport(*r); });
 }
 
 }  // namespace mmval::app

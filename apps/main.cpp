@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 #include <exception>
+#include <filesystem>
+#include <new>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -64,6 +66,15 @@ int main(int argc, char** argv) {
   } catch (const mmval::MetricsFailed& e) {
     std::fprintf(stderr, "mmval: %s\n", e.what());
     return toStatus(mmval::ExitCode::metric_failed);
+  } catch (const std::filesystem::filesystem_error& e) {
+    // A folder or file the user named cannot be read or written (permissions,
+    // a full disk, a read-only mount): the user's to fix, not a bug.
+    std::fprintf(stderr, "mmval: error: %s (check the path, its permissions and the free space)\n", e.what());
+    return toStatus(mmval::ExitCode::bad_input);
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "mmval: internal error: out of memory although the run's estimate fitted run.max_memory; please report this "
+                         "with the case file\n");
+    return toStatus(mmval::ExitCode::internal);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "mmval: internal error: %s\n", e.what());
     return toStatus(mmval::ExitCode::internal);

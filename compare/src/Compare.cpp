@@ -8,6 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "mmval/compare/TrackChecks.hpp"
 #include "mmval/tracking/Statistics.hpp"
 #include "mmval/core/AtomicFile.hpp"
 
@@ -81,8 +82,11 @@ RetentionSeries retentionOverTime(const Tracks& tracks, const TrackStats& stats,
 }
 
 Comparison compareTracks(const Tracks& experiment, const Tracks& simulation, const CompareOptions& o) {
+  checkComparable(experiment, "experiment");
+  checkComparable(simulation, "simulation");
   Comparison c;
   c.experiment = analyseTracks(experiment, o.tracks);
+  checkReferenceMoves(experiment, c.experiment, o.tracks);
   c.simulation = analyseTracks(simulation, o.tracks);
   std::vector<double> se, ss;
   for (const auto& s : c.experiment.steps) se.push_back(s.speed);
@@ -173,6 +177,13 @@ Comparison compareTracks(const Tracks& experiment, const Tracks& simulation, con
   c.metrics.push_back(info("speed_ks_statistic", c.ks_statistic, "1", "two-sample Kolmogorov-Smirnov D of the speeds"));
   c.metrics.push_back(info("speed_ks_p_value", c.ks_p_value, "1", "asymptotic p-value of D"));
   return c;
+}
+
+std::vector<std::string> failedMetrics(const Comparison& c) {
+  std::vector<std::string> names;
+  for (const auto& m : c.metrics)
+    if (m.pass.has_value() && !*m.pass) names.push_back(m.name);
+  return names;
 }
 
 nlohmann::json Comparison::toJson() const {

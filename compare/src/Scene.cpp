@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "mmval/compare/TrackChecks.hpp"
 #include "mmval/core/Error.hpp"
 
 namespace mmval::compare {
@@ -21,6 +22,9 @@ double pixelSizeOf(const Tracks& tracks) {
 }
 
 Comparison compareScene(const Tracks& experiment_in, const Tracks& simulation, const SceneSpec& spec, CompareOptions options) {
+  // Cheap checks first: a degenerate file fails before a registration is attempted.
+  checkComparable(experiment_in, "experiment");
+  checkComparable(simulation, "simulation");
   const std::string where = spec.mask.empty() ? std::string("(scene)") : spec.mask.string();
   if (!spec.register_frame.empty() && spec.window)
     throw InputError({spec.register_frame.string(), 0, 0, "registration"}, "both a frame to register and the imaged window were given", {},

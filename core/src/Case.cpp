@@ -11,6 +11,7 @@
 #include "TomlUtil.hpp"
 #include "mmval/core/CaseKind.hpp"
 #include "mmval/core/Strings.hpp"
+#include "mmval/core/Utf8.hpp"
 
 namespace mmval {
 
@@ -463,6 +464,7 @@ Case Case::load(const std::filesystem::path& file, const CaseKindRegistry& regis
 
 Case Case::parse(std::string_view toml_text, const std::filesystem::path& file, const CaseKindRegistry& registry) {
   CaseReader reader(file, registry);
+  checkTomlText(toml_text, file.string());  // toml++ 3.3.0 must not see malformed UTF-8 (see Utf8.hpp)
   toml::table doc;
   try {
     doc = toml::parse(toml_text, file.string());

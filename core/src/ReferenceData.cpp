@@ -9,7 +9,9 @@
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
+#include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/Utf8.hpp"
 #include "mmval/core/Strings.hpp"
 #include "TomlUtil.hpp"
 
@@ -96,8 +98,10 @@ std::optional<double> optionalNumber(const std::filesystem::path& file, const to
 
 ReferenceFile parseReferenceFile(const std::filesystem::path& path) {
   toml::table doc;
+  const std::string text = readTextFile(path, 16u << 20, "reference file", "a reference-data TOML file (format mmval-reference/1)");
+  checkTomlText(text, path.string());
   try {
-    doc = toml::parse_file(path.string());
+    doc = toml::parse(text, path.string());
   } catch (const toml::parse_error& e) {
     fail(path, static_cast<int>(e.source().begin.line), {}, "TOML syntax error: " + std::string(e.description()));
   }

@@ -1,9 +1,11 @@
 #include "mmval/core/Tracks.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -33,6 +35,18 @@ std::vector<std::string> splitCsv(const std::string& line) {
     s = a == std::string::npos ? std::string() : s.substr(a, b - a + 1);
   }
   return out;
+}
+
+/// A whole number read exactly: particle ids and frame indices are 64-bit
+/// integers, and read through a double, ids at or above 2^53 would merge.
+/// "12.0" is accepted, as pandas writes an integer column holding a missing value.
+std::optional<std::int64_t> parseInteger(const std::string& text) {
+  std::int64_t v = 0;
+  const char* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), end, v);
+  if (ec != std::errc() || ptr == text.data()) return std::nullopt;
+  if (ptr != end && (*ptr != '.' || std::any_of(ptr + 1, end, [](char c) { return c != '0'; }))) return std::nullopt;
+  return v;
 }
 
 }  // namespace
@@ -86,13 +100,20 @@ Tracks readTracksCsv(const std::filesystem::path& file, double pixel_size) {
       throw InputError({file.string(), line_no, c + 1, name}, "not a finite number", "\"" + f[c] + "\"", "a number");
     }
   };
+  auto integer = [&](const std::vector<std::string>& f, int c, const std::string& name) {
+    if (c >= static_cast<int>(f.size())) throw InputError({file.string(), line_no, 0, name}, "row has too few fields", std::to_string(f.size()), std::to_string(header.size()) + " fields");
+    const auto v = parseInteger(f[c]);
+    if (!v) throw InputError({file.string(), line_no, c + 1, name}, "not a whole number", "\"" + f[c] + "\"", "a 64-bit integer");
+    return *v;
+  };
   while (std::getline(in, line)) {
     ++line_no;
     if (line.empty() || line[0] == '#') continue;
     const auto f = splitCsv(line);
     TrackPoint p;
-    p.frame = static_cast<std::int64_t>(number(f, c_frame, "frame"));
-    p.particle = static_cast<std::int64_t>(number(f, c_particle, "particle"));
+    p.frame = integer(f, c_frame, "frame");
+    if (p.frame < 0) throw InputError({file.string(), line_no, c_frame + 1, "frame"}, "negative frame index", std::to_string(p.frame), "a frame index of 0 or more");
+    p.particle = integer(f, c_particle, "particle");
     p.t = number(f, c_t, "t_s");
     p.x = number(f, c_x, header[c_x]) * scale;
     p.y = number(f, c_y, header[c_y]) * scale;

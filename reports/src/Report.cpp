@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <functional>
 #include <limits>
 #include <fstream>
@@ -17,6 +18,8 @@
 
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/reports/InputFiles.hpp"
+#include "mmval/reports/JsonShape.hpp"
 #include "mmval/reports/Plot.hpp"
 #include "mmval/reports/PaperFigures.hpp"
 #include "mmval/reports/Tables.hpp"
@@ -45,25 +48,9 @@ std::string base64(const std::string& in) {
 
 namespace {
 
-nlohmann::json readJson(const fs::path& p) {
-  std::ifstream in(p);
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError({p.string(), 0, 0, {}}, std::string("not valid JSON: ") + e.what(), {}, "a file written by mmval");
-  }
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream b;
-  b << in.rdbuf();
-  return b.str();
-}
-
 /// Reads "t_s,experiment,simulation" style CSVs written by compare.
 std::vector<std::vector<double>> readColumns(const fs::path& p) {
-  std::ifstream in(p);
+  std::istringstream in(readInputFile(p));
   std::string line;
   std::getline(in, line);
   std::vector<std::vector<double>> cols;
@@ -84,6 +71,11 @@ std::vector<std::vector<double>> readColumns(const fs::path& p) {
   return cols;
 }
 
+/// A compare folder's metrics.json; other metrics.json files (a report's own) are not comparisons.
+bool isComparison(const nlohmann::json& j) {
+  return j.is_object() && j.contains("schema") && j["schema"].is_string() && j["schema"].get<std::string>() == "mmval-compare/1";
+}
+
 struct Figure {
   std::string id, caption, svg, png_base64;
 };
@@ -95,14 +87,16 @@ ReportInput collect(const std::vector<fs::path>& dirs) {
   std::function<bool(const fs::path&)> visit = [&](const fs::path& d) {
     bool found = false;
     if (fs::exists(d / "result.json")) {
-      input.summary.results.push_back(readJson(d / "result.json"));
+      input.summary.results.push_back(readJsonFile(d / "result.json"));
+      checkResultShape(input.summary.results.back(), d / "result.json");
       input.summary.results.back()["run_dir"] = d.string();
       input.summary.total_wall_seconds += input.summary.results.back()["cost"]["wall_seconds"].get<double>();
       found = true;
     }
     if (fs::exists(d / "metrics.json")) {
-      const auto j = readJson(d / "metrics.json");
-      if (j.value("schema", "") == "mmval-compare/1") {
+      const auto j = readJsonFile(d / "metrics.json");
+      if (isComparison(j)) {
+        checkCompareShape(j, d / "metrics.json");
         input.comparisons.push_back({d.filename().string(), d, j});
         found = true;
       }
@@ -254,7 +248,7 @@ int writeReport(const ReportInput& input, const fs::path& out) {
                      {{"experiment", cols[0], cols[1], "steps"}, {"simulation", cols[0], cols[2], "steps"}}});
     }
     if (fs::exists(c.dir / "streamlines.png"))
-      figures.push_back({c.name + "-streamlines", "Streamline occupancy: experiment | simulation | overlay (magenta experiment, green simulation, white both) (" + c.name + ")", {}, base64(slurp(c.dir / "streamlines.png"))});
+      figures.push_back({c.name + "-streamlines", "Streamline occupancy: experiment | simulation | overlay (magenta experiment, green simulation, white both) (" + c.name + ")", {}, base64(readInputFile(c.dir / "streamlines.png"))});
   }
   const fs::path refdir = findReferenceData(input);
   nlohmann::json extra_metrics = nlohmann::json::array();
@@ -271,10 +265,10 @@ int writeReport(const ReportInput& input, const fs::path& out) {
   // Per comparison: pore bodies and throats of the geometry.
   for (const auto& c : input.comparisons) {
     if (fs::exists(c.dir / "regions.png"))
-      figures.push_back({c.name + "-regions", "Pore bodies (blue) and throats (orange) of the geometry mask (" + c.name + ")", {}, base64(slurp(c.dir / "regions.png"))});
+      figures.push_back({c.name + "-regions", "Pore bodies (blue) and throats (orange) of the geometry mask (" + c.name + ")", {}, base64(readInputFile(c.dir / "regions.png"))});
     if (fs::exists(c.dir / "registration.png"))
       figures.push_back({c.name + "-registration", "Registration check: the experiment's frame with the mask's grain outlines (green) carried by the fitted motion (" + c.name + ")", {},
-                         base64(slurp(c.dir / "registration.png"))});
+                         base64(readInputFile(c.dir / "registration.png"))});
   }
 
   // The paper's tables from the runs present.
@@ -328,7 +322,7 @@ int writeReport(const ReportInput& input, const fs::path& out) {
       const std::string name = f.get<std::string>();
       if (name.size() > 4 && name.substr(name.size() - 4) == ".png" && r.contains("run_dir")) {
         const fs::path p = fs::path(r["run_dir"].get<std::string>()) / name;
-        if (fs::exists(p)) figures.push_back({r["case"]["name"].get<std::string>() + "-" + name, r["case"]["name"].get<std::string>() + ": " + name, {}, base64(slurp(p))});
+        if (fs::exists(p)) figures.push_back({r["case"]["name"].get<std::string>() + "-" + name, r["case"]["name"].get<std::string>() + ": " + name, {}, base64(readInputFile(p))});
       }
     }
 
@@ -407,13 +401,24 @@ int writeReport(const ReportInput& input, const fs::path& out) {
   return static_cast<int>(figures.size());
 }
 
+std::string diffMetricFiles(const fs::path& before, const fs::path& after) {
+  const nlohmann::json a = readJsonFile(before), b = readJsonFile(after);
+  checkMetricsListShape(a, before);
+  checkMetricsListShape(b, after);
+  return diffMetrics(a, b);
+}
+
 std::string diffMetrics(const nlohmann::json& a, const nlohmann::json& b) {
+  checkMetricsListShape(a, "(first metrics document)");
+  checkMetricsListShape(b, "(second metrics document)");
+  // compare's metrics.json and result.json name no case per metric.
+  auto keyOf = [](const nlohmann::json& m) { return m.value("case", std::string()) + "/" + m["name"].get<std::string>(); };
   std::map<std::string, nlohmann::json> before;
-  for (const auto& m : a["metrics"]) before[m["case"].get<std::string>() + "/" + m["name"].get<std::string>()] = m;
+  for (const auto& m : a["metrics"]) before[keyOf(m)] = m;
   std::string out = "| case/metric | before | after | change | tolerance | before result | after result |\n|---|---|---|---|---|---|---|\n";
   int n = 0;
   for (const auto& m : b["metrics"]) {
-    const std::string key = m["case"].get<std::string>() + "/" + m["name"].get<std::string>();
+    const std::string key = keyOf(m);
     auto it = before.find(key);
     auto result = [](const nlohmann::json& x) { return x["pass"].is_null() ? std::string("info") : (x["pass"].get<bool>() ? "pass" : "FAIL"); };
     if (it == before.end()) {
@@ -428,7 +433,7 @@ std::string diffMetrics(const nlohmann::json& a, const nlohmann::json& b) {
     // "Beyond tolerance": the change is larger than the metric's own tolerance (1e-9 for informational ones).
     double tol = 1e-9;
     const std::string t = m["tolerance"].is_string() ? m["tolerance"].get<std::string>() : "";
-    if (!t.empty() && t.back() == '%') tol = std::stod(t) / 100;
+    if (!t.empty() && t.back() == '%') tol = std::strtod(t.c_str(), nullptr) / 100;
     if (rel > tol || result(o) != result(m)) {
       out += fmt::format("| {} | {:.6g} | {:.6g} | {:+.3g} % | {} | {} | {} |\n", key, va, vb, 100 * (vb - va) / (va != 0 ? va : 1), t.empty() ? "-" : t, result(o), result(m));
       ++n;

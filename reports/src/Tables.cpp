@@ -10,6 +10,7 @@
 
 #include <fmt/format.h>
 
+#include "mmval/reports/InputFiles.hpp"
 #include "mmval/reports/Summary.hpp"
 
 #include "mmval/core/Error.hpp"
@@ -279,8 +280,8 @@ std::optional<Table> engineComparisonTable(const ReportInput& input) {
 
 std::map<std::string, std::vector<double>> readCsvColumns(const fs::path& file) {
   std::map<std::string, std::vector<double>> out;
-  std::ifstream in(file);
-  if (!in) return out;
+  if (!fs::is_regular_file(file)) return out;
+  std::istringstream in(readInputFile(file));
   std::string line;
   if (!std::getline(in, line)) return out;
   std::vector<std::string> names;

@@ -80,7 +80,9 @@ TEST(SafetyCli, EveryCommandRefusesAUsersFolderAsOutputAndKeepsItsFiles) {
       "synth --frames 3 --particles 2 --out ",
       "compare --experiment " + (d / "a.csv").string() + " --simulation " + (d / "a.csv").string() + " --out ",
       "validate --quiet --cases " + d.string() + " --out ",
+      "report " + (d / "ok-report-input").string() + " --out ",
   };
+  ASSERT_EQ(mmval("run " + c.string() + " --quiet --out " + (d / "ok-report-input").string()).status, 0);
   for (const auto& cmd : commands) {
     const fs::path out = d / "mine";
     writeUserFiles(out);
@@ -204,6 +206,19 @@ TEST(SafetyCli, AnUnknownSubcommandIsNamedWithTheValidOnes) {
   EXPECT_THAT(o.output, HasSubstr("validate"));
   const Outcome near = mmval("valdate");
   EXPECT_THAT(near.output, HasSubstr("did you mean 'validate'"));
+}
+
+}  // namespace
+
+namespace {
+
+TEST(SafetyCli, AnOutputFolderThatCannotBeWrittenIsAnInputErrorNotABug) {
+  const fs::path d = scratch("unwritable");
+  const fs::path c = quickCase(d, "self");
+  // /proc cannot hold folders: the user named an impossible place.
+  const Outcome o = mmval("run " + c.string() + " --quiet --out /proc/mmval-test-out");
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("/proc/mmval-test-out"));
 }
 
 }  // namespace

@@ -58,7 +58,13 @@ struct Comparison {
 RetentionSeries retentionOverTime(const Tracks& tracks, const TrackStats& stats, const TrackOptions& options,
                                   const std::vector<double>& times);
 
+/// Metrics of `simulation` against `experiment` (the reference). Throws
+/// InputError for degenerate inputs (see TrackChecks.hpp: no rows, single rows,
+/// time that does not advance, an experiment without a measurable step).
 Comparison compareTracks(const Tracks& experiment, const Tracks& simulation, const CompareOptions& options);
+
+/// Names of the metrics that have a pass/fail verdict and failed.
+std::vector<std::string> failedMetrics(const Comparison& c);
 
 /// Writes metrics.json, the time series (mean_speed_time_um_per_s.csv,
 /// median_speed_time_um_per_s.csv, sigma_x_time_um.csv, sigma_y_time_um.csv,

@@ -32,8 +32,9 @@ struct Tracks {
 };
 
 /// Reads a tracks CSV; `pixel_size` (m) converts pixel columns when the
-/// micrometre columns are absent (0: they must be present). Throws InputError
-/// naming the file, line and column.
+/// micrometre columns are absent (0: they must be present). `particle` and
+/// `frame` are read as exact 64-bit integers (ids above 2^53 stay distinct).
+/// Throws InputError naming the file, line and column, also for a frame below 0.
 Tracks readTracksCsv(const std::filesystem::path& file, double pixel_size = 0.0);
 
 /// Writes the shared schema atomically (pixel columns when `pixel_size` > 0).

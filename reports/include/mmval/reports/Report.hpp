@@ -26,7 +26,9 @@ struct ReportInput {
 
 /// Finds runs (folders with result.json) and comparisons (metrics.json of
 /// schema mmval-compare/1) in the given folders and their runs/ subfolders.
-/// Throws InputError naming a folder that holds neither.
+/// Throws InputError naming a folder that holds neither, and naming the file
+/// and field of a result.json or metrics.json that is unreadable, empty, not
+/// JSON, larger than kMaxInputBytes or of the wrong shape (JsonShape.hpp).
 ReportInput collect(const std::vector<std::filesystem::path>& dirs);
 
 /// Writes index.html, report.md, metrics.json and figures/*.svg into `out`.
@@ -34,8 +36,14 @@ ReportInput collect(const std::vector<std::filesystem::path>& dirs);
 int writeReport(const ReportInput& input, const std::filesystem::path& out);
 
 /// Metrics of `b` whose value moved beyond its tolerance relative to `a`
-/// (or whose pass/fail changed), as a Markdown table.
+/// (or whose pass/fail changed), as a Markdown table. Both must pass
+/// checkMetricsListShape (InputError otherwise).
 std::string diffMetrics(const nlohmann::json& a, const nlohmann::json& b);
+
+/// diffMetrics of two files (a report's, compare's metrics.json or a
+/// result.json); throws InputError naming the file and field when one is
+/// missing, empty, not JSON, too large or of the wrong shape.
+std::string diffMetricFiles(const std::filesystem::path& before, const std::filesystem::path& after);
 
 /// Base64 for inlining images.
 std::string base64(const std::string& bytes);

@@ -1,0 +1,128 @@
+// `mmval compare` as a user meets it (issue 22): ids above 2^53 stay apart,
+// degenerate tracks files exit 2 naming file, column and value, and a failed
+// metric exits 3 after the outputs are written.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <vector>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+struct Outcome {
+  int status = -1;
+  std::string output;  // stdout and stderr together
+};
+
+/// Runs `mmval ARGS` (as CliTest.cpp does).
+Outcome mmval(const std::string& args) {
+  const std::string cmd = std::string(MMVAL_BINARY_DIR) + "/bin/mmval " + args + " 2>&1";
+  Outcome o;
+  FILE* pipe = popen(cmd.c_str(), "r");
+  char buf[4096];
+  while (std::fgets(buf, sizeof buf, pipe) != nullptr) o.output += buf;
+  const int raw = pclose(pipe);
+  o.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  return o;
+}
+
+fs::path scratch(const std::string& name) {
+  const fs::path d = fs::path(MMVAL_BINARY_DIR) / "test-output" / "cli-compare" / name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+/// Particles `ids` moving along x at `speed_um_s` x 1, 2, 3 ..., 20 frames 0.1 s apart, 100 um apart in y.
+std::string movingRows(const std::vector<std::int64_t>& ids, double speed_um_s) {
+  std::string rows = "frame,particle,t_s,x_um,y_um\n";
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    for (int f = 0; f < 20; ++f) rows += fmt::format("{},{},{:.1f},{:g},{:g}\n", f, ids[i], 0.1 * f, speed_um_s * (i + 1) * 0.1 * f, 100.0 * i);
+  return rows;
+}
+
+/// `mmval compare` of the two CSV texts in folder `d`.
+Outcome compareTexts(const fs::path& d, const std::string& experiment, const std::string& simulation) {
+  std::ofstream(d / "exp.csv") << experiment;
+  std::ofstream(d / "sim.csv") << simulation;
+  return mmval(fmt::format("compare --experiment {} --simulation {} --out {}", (d / "exp.csv").string(), (d / "sim.csv").string(), (d / "out").string()));
+}
+
+double metricValue(const fs::path& metrics_json, const std::string& name) {
+  std::ifstream in(metrics_json);
+  const auto j = nlohmann::json::parse(in);
+  for (const auto& m : j["metrics"])
+    if (m["name"] == name) return m["value"].get<double>();
+  ADD_FAILURE() << "no metric " << name;
+  return 0;
+}
+
+constexpr std::int64_t kTwoTo53 = std::int64_t{1} << 53;
+
+TEST(CompareCli, ParticleIdsAbove2To53KeepTheirOwnTracks) {
+  const fs::path d = scratch("big-ids");
+  // 20, 40, 60 um/s: mean 40 um/s in both files (merged ids gave thousands in the experiment).
+  const Outcome o = compareTexts(d, movingRows({kTwoTo53, kTwoTo53 + 1, kTwoTo53 + 2}, 20), movingRows({1, 2, 3}, 20));
+  EXPECT_EQ(o.status, 0) << o.output;
+  ASSERT_TRUE(fs::exists(d / "out" / "metrics.json")) << o.output;
+  EXPECT_NEAR(metricValue(d / "out" / "metrics.json", "mean_speed"), 40.0, 1e-6);
+  std::ifstream in(d / "out" / "metrics.json");
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["experiment"]["particles"].get<int>(), 3);
+}
+
+TEST(CompareCli, HeaderOnlyFileExitsTwoNamingTheFile) {
+  const fs::path d = scratch("header-only");
+  const Outcome o = compareTexts(d, "frame,particle,t_s,x_um,y_um\n", movingRows({1, 2}, 20));
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_THAT(o.output, HasSubstr((d / "exp.csv").string() + ": no track rows: the file has only its header; got 0 rows"));
+  EXPECT_FALSE(fs::exists(d / "out"));
+}
+
+TEST(CompareCli, OneRowFileExitsTwo) {
+  const fs::path d = scratch("one-row");
+  const Outcome o = compareTexts(d, movingRows({1, 2}, 20), "frame,particle,t_s,x_um,y_um\n0,1,0,5,5\n");
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_THAT(o.output, HasSubstr((d / "sim.csv").string() + ": key 'particle': every particle has a single row"));
+}
+
+TEST(CompareCli, AllEqualTimeExitsTwoNamingTheValue) {
+  const fs::path d = scratch("equal-time");
+  std::string rows = "frame,particle,t_s,x_um,y_um\n";
+  for (int f = 0; f < 10; ++f) rows += fmt::format("{},1,0.5,{},0\n{},2,0.5,{},50\n", f, 3 * f, f, 2 * f);
+  const Outcome o = compareTexts(d, rows, movingRows({1, 2}, 20));
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("key 't_s': time does not advance within any particle; got t_s = 0.5 s in every row"));
+}
+
+TEST(CompareCli, NegativeFrameExitsTwoNamingLineAndValue) {
+  const fs::path d = scratch("negative-frame");
+  const Outcome o = compareTexts(d, "frame,particle,t_s,x_um,y_um\n0,1,0,0,0\n-1,1,0.1,1,0\n", movingRows({1, 2}, 20));
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_THAT(o.output, HasSubstr((d / "exp.csv").string() + ":3:1: key 'frame': negative frame index; got -1"));
+}
+
+TEST(CompareCli, FailedMetricExitsThreeAfterWritingOutputs) {
+  const fs::path d = scratch("fail");
+  // The simulation moves twice as fast: mean and median speed are 100 % off (tolerance 20 %).
+  const Outcome o = compareTexts(d, movingRows({1, 2, 3}, 20), movingRows({1, 2, 3}, 40));
+  EXPECT_EQ(o.status, 3) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("outside tolerance: mean_speed, median_speed"));
+  ASSERT_TRUE(fs::exists(d / "out" / "metrics.json"));
+  std::ifstream in(d / "out" / "metrics.json");
+  EXPECT_FALSE(nlohmann::json::parse(in)["all_pass"].get<bool>());
+  EXPECT_NEAR(metricValue(d / "out" / "metrics.json", "mean_speed"), 80.0, 1e-6);
+}
+
+}  // namespace

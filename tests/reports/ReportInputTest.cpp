@@ -1,0 +1,161 @@
+// The files a report reads may be anything a user points at: missing, empty,
+// not JSON, of the wrong shape or far too large. Each is an InputError naming
+// the file and the field (issue 22); before, a JSON type error with no file name.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <ostream>
+
+#include <nlohmann/json.hpp>
+
+#include "../TestScratch.hpp"
+#include "mmval/core/Error.hpp"
+#include "mmval/reports/InputFiles.hpp"
+#include "mmval/reports/JsonShape.hpp"
+#include "mmval/reports/Report.hpp"
+
+namespace mmval::reports {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+fs::path writeFile(const std::string& name, const std::string& text) {
+  const fs::path file = test::scratch(name);
+  fs::create_directories(file.parent_path());
+  std::ofstream(file) << text;
+  return file;
+}
+
+template <class F>
+std::string inputErrorOf(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "no InputError";
+  return {};
+}
+
+nlohmann::json metric(const std::string& name, double value, const std::string& tolerance, bool pass) {
+  return {{"name", name}, {"value", value}, {"unit", "um/s"}, {"reference", 10.0}, {"error", value / 10.0 - 1}, {"error_kind", "relative"},
+          {"tolerance", tolerance}, {"pass", pass}, {"source", "experiment tracks"}};
+}
+
+/// What `mmval run` writes, reduced to what the report reads.
+nlohmann::json validResult() {
+  return {{"schema", "mmval-result/1"},
+          {"case", {{"name", "self"}, {"kind", "compare-tracks"}, {"hash", "0123456789abcdef"}, {"file", "case.toml"}}},
+          {"metrics", nlohmann::json::array({metric("mean_speed", 11.0, "20 %", true)})},
+          {"all_pass", true},
+          {"cost", {{"wall_seconds", 1.5}, {"peak_memory_bytes", 1048576.0}}},
+          {"details", {{"Re", 20.0}, {"statistics_window_s", {6.5, 7.8}}}},
+          {"files", {"metrics.json"}},
+          {"provenance", {{"mmval_version", "test"}, {"git_hash", "test"}, {"compiler", "test"}, {"build_type", "test"}, {"host", "test"}}}};
+}
+
+TEST(InputFiles, MissingEmptyFolderAndTooLargeNameTheFile) {
+  EXPECT_THAT(inputErrorOf([] { readJsonFile("/nonexistent/metrics.json"); }), HasSubstr("/nonexistent/metrics.json: no such file"));
+  const fs::path empty = writeFile("empty.json", "  \n");
+  EXPECT_THAT(inputErrorOf([&] { readJsonFile(empty); }), HasSubstr("empty.json: empty file"));
+  EXPECT_THAT(inputErrorOf([] { readJsonFile(test::scratch("")); }), HasSubstr("is a folder, not a file"));
+  const fs::path big = writeFile("big.json", std::string(2048, ' ') + "{}");
+  const std::string m = inputErrorOf([&] { readJsonFile(big, 1024); });
+  EXPECT_THAT(m, HasSubstr("big.json: file too large"));
+  EXPECT_THAT(m, HasSubstr("got 2050 bytes; expected at most 1024 bytes"));
+  EXPECT_EQ(readJsonFile(big, 4096), nlohmann::json::object());
+}
+
+TEST(InputFiles, SyntaxErrorNamesTheLine) {
+  const fs::path bad = writeFile("bad.json", "{\n  \"metrics\": [\n    1,\n  oops\n]}\n");
+  const std::string m = inputErrorOf([&] { readJsonFile(bad); });
+  EXPECT_THAT(m, HasSubstr("bad.json:4: not valid JSON"));
+}
+
+TEST(JsonShape, ValidResultPasses) { EXPECT_NO_THROW(checkResultShape(validResult(), "result.json")); }
+
+/// One field of a valid result.json spoiled, and the field path the error must name.
+struct Spoiled {
+  std::string name;
+  std::function<void(nlohmann::json&)> spoil;
+  std::string field;
+};
+
+void PrintTo(const Spoiled& s, std::ostream* os) { *os << s.name << " (" << s.field << ")"; }
+
+class ResultShape : public ::testing::TestWithParam<Spoiled> {};
+
+TEST_P(ResultShape, NamesFileAndField) {
+  nlohmann::json r = validResult();
+  GetParam().spoil(r);
+  const std::string m = inputErrorOf([&] { checkResultShape(r, "runs/x/result.json"); });
+  EXPECT_THAT(m, HasSubstr("runs/x/result.json: key '" + GetParam().field + "'"));
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Fields, ResultShape,
+    ::testing::Values(Spoiled{"CaseNameNumber", [](nlohmann::json& r) { r["case"]["name"] = 3; }, "case.name"},
+                      Spoiled{"CaseMissing", [](nlohmann::json& r) { r.erase("case"); }, "case"},
+                      Spoiled{"MetricsObject", [](nlohmann::json& r) { r["metrics"] = nlohmann::json::object(); }, "metrics"},
+                      Spoiled{"PassString", [](nlohmann::json& r) { r["metrics"][0]["pass"] = "yes"; }, "metrics[0].pass"},
+                      Spoiled{"ValueString", [](nlohmann::json& r) { r["metrics"][0]["value"] = "11"; }, "metrics[0].value"},
+                      Spoiled{"ReferenceOneEnd", [](nlohmann::json& r) { r["metrics"][0]["reference"] = {1.0}; }, "metrics[0].reference"},
+                      Spoiled{"AllPassString", [](nlohmann::json& r) { r["all_pass"] = "true"; }, "all_pass"},
+                      Spoiled{"WallSecondsMissing", [](nlohmann::json& r) { r["cost"].erase("wall_seconds"); }, "cost.wall_seconds"},
+                      Spoiled{"HostNumber", [](nlohmann::json& r) { r["provenance"]["host"] = 1; }, "provenance.host"},
+                      Spoiled{"ReString", [](nlohmann::json& r) { r["details"]["Re"] = "twenty"; }, "details.Re"},
+                      Spoiled{"WindowOneEnd", [](nlohmann::json& r) { r["details"]["statistics_window_s"] = {6.5}; }, "details.statistics_window_s"},
+                      Spoiled{"DetailsMissing", [](nlohmann::json& r) { r.erase("details"); }, "details"},
+                      Spoiled{"OtherSchema", [](nlohmann::json& r) { r["schema"] = "mmval-compare/1"; }, "schema"}),
+    [](const ::testing::TestParamInfo<Spoiled>& info) { return info.param.name; });
+
+TEST(JsonShape, WholeDocumentOfTheWrongTypeIsNamed) {
+  const std::string m = inputErrorOf([] { checkResultShape(nlohmann::json::array({1, 2}), "result.json"); });
+  EXPECT_THAT(m, HasSubstr("result.json: wrong type; got [1,2] (array); expected an object"));
+}
+
+TEST(Collect, WrongShapeResultNamesFileAndField) {
+  nlohmann::json r = validResult();
+  r["cost"]["wall_seconds"] = "1.5 s";
+  const fs::path dir = test::scratch("wrong-shape");
+  writeFile("wrong-shape/result.json", r.dump());
+  const std::string m = inputErrorOf([&] { collect({dir}); });
+  EXPECT_THAT(m, HasSubstr((dir / "result.json").string() + ": key 'cost.wall_seconds': wrong type; got \"1.5 s\" (string); expected a number"));
+}
+
+TEST(Collect, CompareMetricsWithoutRegionSidesNamesTheField) {
+  const nlohmann::json c{{"schema", "mmval-compare/1"}, {"metrics", nlohmann::json::array()}, {"all_pass", true}, {"regions", {{"rule", "x"}}}};
+  const fs::path dir = test::scratch("compare-shape");
+  writeFile("compare-shape/metrics.json", c.dump());
+  EXPECT_THAT(inputErrorOf([&] { collect({dir}); }), HasSubstr("metrics.json: key 'regions.experiment': missing field"));
+}
+
+TEST(Diff, WrongTypesNameFileAndField) {
+  const fs::path good = writeFile("good-metrics.json", nlohmann::json{{"metrics", {metric("mean_speed", 11.0, "20 %", true)}}}.dump());
+  nlohmann::json bad{{"metrics", {metric("mean_speed", 11.0, "20 %", true)}}};
+  bad["metrics"][0]["value"] = "fast";
+  const fs::path bad_value = writeFile("bad-value.json", bad.dump());
+  EXPECT_THAT(inputErrorOf([&] { diffMetricFiles(good, bad_value); }), HasSubstr("bad-value.json: key 'metrics[0].value': wrong type; got \"fast\" (string)"));
+  bad["metrics"][0]["value"] = 11.0;
+  bad["metrics"][0]["tolerance"] = "a lot %";
+  const fs::path bad_tolerance = writeFile("bad-tolerance.json", bad.dump());
+  EXPECT_THAT(inputErrorOf([&] { diffMetricFiles(bad_tolerance, good); }), HasSubstr("bad-tolerance.json: key 'metrics[0].tolerance'"));
+  const fs::path no_list = writeFile("no-list.json", R"({"metric": []})");
+  EXPECT_THAT(inputErrorOf([&] { diffMetricFiles(good, no_list); }), HasSubstr("no-list.json: key 'metrics': missing field"));
+}
+
+TEST(Diff, CompareMetricsWithoutCaseAreDiffed) {
+  // compare's metrics.json names no case: 11 -> 14 um/s is 27 %, beyond the 20 % tolerance.
+  const fs::path a = writeFile("compare-a.json", nlohmann::json{{"schema", "mmval-compare/1"}, {"metrics", {metric("mean_speed", 11.0, "20 %", true)}}}.dump());
+  const fs::path b = writeFile("compare-b.json", nlohmann::json{{"schema", "mmval-compare/1"}, {"metrics", {metric("mean_speed", 14.0, "20 %", false)}}}.dump());
+  const std::string table = diffMetricFiles(a, b);
+  EXPECT_THAT(table, HasSubstr("| /mean_speed | 11 | 14 | +27.3 % | 20 % | pass | FAIL |"));
+  EXPECT_EQ(diffMetricFiles(a, a), "No metric changed beyond its tolerance.\n");
+}
+
+}  // namespace
+}  // namespace mmval::reports
