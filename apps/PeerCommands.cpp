@@ -4,8 +4,11 @@
 #include <memory>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "mmval/core/Error.hpp"
+#include "mmval/core/ImageHeader.hpp"
+#include "mmval/core/Resources.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/openfoam/Kinds.hpp"
 #include "mmval/openfoam/Peer.hpp"
@@ -20,6 +23,39 @@ struct PeerCli {
   std::vector<int> levels;
   bool quiet = false;
 };
+
+/// The ladder's cap is the case file's: numerics.cells_around takes at most kMaxLevel, and
+/// --levels (or numerics.levels, which the schema leaves unbounded) may not exceed it either;
+/// `--levels 1000000000` used to reach blockMesh. Levels are cells around the cylinder (or
+/// along the unit cell), multiples of 4 from 8, as the OpenFOAM meshes need.
+constexpr int kMaxLevel = 4096;
+
+/// Refuses, before OpenFOAM starts, a ladder above the case file's cap and a mask image whose
+/// reading does not fit in run.max_memory (InputError naming the option or key: exit 2).
+void checkPeerLimits(const Case& c, const std::vector<int>& cli_levels) {
+  if (c.kind() == "image-permeability") {
+    if (!cli_levels.empty())
+      throw InputError({}, "option --levels does not apply to image-permeability", fmt::format("--levels {}", fmt::join(cli_levels, ",")),
+                       "numerics.cells_per_pixel in the case file to set the mesh resolution");
+    // The peer's mask reader (openfoam::loadMask: imread, threshold, connected components,
+    // the connected-pore image) holds ~12 B per pixel, as mmval's own mask reader does (measured
+    // 11.5 B/px, simulate/src/MemoryBudget.hpp); checked from the header, before decoding.
+    constexpr double kPeerMaskBytesPerPixel = 12;
+    requireImageWithin(c.path("geometry.mask"), c.where("geometry.mask"), maxMemoryBytes(c), kPeerMaskBytesPerPixel,
+                       "a smaller image: crop or downscale it");
+    return;
+  }
+  auto check = [](int level, const InputLocation& where, const std::string& shown) {
+    if (level < 8 || level > kMaxLevel || level % 4 != 0)
+      throw InputError(where, "a resolution level must be a multiple of 4 from 8 to " + std::to_string(kMaxLevel) + " (the case file's cap)", shown,
+                       "8, 12, 16, ..., " + std::to_string(kMaxLevel) + " cells around");
+  };
+  for (const int l : cli_levels) check(l, {"", 0, 0, "--levels"}, fmt::format("--levels {}", l));
+  if (cli_levels.empty() && c.has("numerics.levels"))
+    for (const auto l : c.integers("numerics.levels"))
+      check(l > kMaxLevel ? kMaxLevel + 1 : static_cast<int>(l), c.where("numerics.levels"), std::to_string(l));
+}
+
 }  // namespace
 
 void registerPeerCommands(CLI::App& app, const CaseKindRegistry& registry) {
@@ -35,6 +71,7 @@ void registerPeerCommands(CLI::App& app, const CaseKindRegistry& registry) {
   of->callback([o, &registry] {
     const Case c = Case::load(o->file, registry);
     openfoam::peerScene(c);  // the case's scene, read before anything runs: refuses other kinds, naming case.kind
+    checkPeerLimits(c, o->levels);  // resolution and image size, before OpenFOAM is even looked for
     if (!openfoam::detect().available) {
       std::fprintf(stderr, "mmval: OpenFOAM peer not run: %s\n", openfoam::detect().reason.c_str());
       throw InputError({o->file, 0, 0, {}}, "OpenFOAM is not installed", {}, "the Debian package 'openfoam' (scripts/setup-deps.sh installs it)");

@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "mmval/compare/Compare.hpp"
+#include "mmval/compare/KindMetrics.hpp"
 #include "mmval/compare/Scene.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Run.hpp"
@@ -90,6 +91,7 @@ void registerCompareKinds(CaseKindRegistry& registry) {
     return out;
   };
   registry.add(k);
+  declareCompareMetrics(registry);
 }
 
 }  // namespace mmval::compare

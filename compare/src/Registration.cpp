@@ -9,6 +9,8 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "mmval/core/Error.hpp"
+#include "mmval/core/ImageHeader.hpp"
+#include "mmval/core/Resources.hpp"
 #include "mmval/tracking/Frames.hpp"
 
 namespace mmval::compare {
@@ -251,6 +253,7 @@ RegistrationResult registerFiles(const std::filesystem::path& frame_input, const
     if (!source.next(frame, index))
       throw InputError({frame_input.string(), 0, 0, {}}, "holds no frame", {}, "an image, a video, a folder of images or a TIFF stack");
   }
+  requireImageWithin(mask_file, {mask_file.string(), 0, 0, "--register-mask"}, defaultMaxMemoryBytes(), 16, "a smaller mask: crop or downscale it");
   const cv::Mat mask = cv::imread(mask_file.string(), cv::IMREAD_UNCHANGED);
   if (mask.empty()) throw InputError({mask_file.string(), 0, 0, {}}, "cannot read the geometry mask", {}, "a PNG or TIFF image");
   try {
@@ -324,6 +327,7 @@ Tracks applyToTracks(const Tracks& tracks, const FrameToSimulation& map, double 
 }
 
 cv::Mat readPoreMask(const std::filesystem::path& file, bool grains_dark) {
+  requireImageWithin(file, {file.string(), 0, 0, "geometry mask"}, defaultMaxMemoryBytes(), 16, "a smaller mask: crop or downscale it");
   const cv::Mat raw = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
   if (raw.empty()) throw InputError({file.string(), 0, 0, {}}, "cannot read the geometry mask", {}, "a PNG or TIFF image, pores and grains in two grey levels");
   const cv::Mat g = tracking::toFloatGrey(raw);

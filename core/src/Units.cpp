@@ -111,7 +111,8 @@ Unit parseFactor(std::string_view factor, std::string_view whole) {
   }
   if (!exp_text.empty()) {
     auto [ptr, ec] = std::from_chars(exp_text.data(), exp_text.data() + exp_text.size(), exponent);
-    if (ec != std::errc{} || ptr != exp_text.data() + exp_text.size() || exponent == 0) {
+    // |exponent| <= 12 covers every physical unit and keeps the dimension arithmetic far from int overflow.
+    if (ec != std::errc{} || ptr != exp_text.data() + exp_text.size() || exponent == 0 || exponent > 12 || exponent < -12) {
       throw UnitError("bad exponent '" + std::string(exp_text) + "' in unit '" + std::string(whole) + "'");
     }
   }
@@ -163,6 +164,9 @@ Unit parseUnit(std::string_view text) {
   auto flush = [&]() {
     if (token.empty()) return;
     Unit f = parseFactor(token, whole);
+    for (std::size_t i = 0; i < result.dim.exponent.size(); ++i)
+      if (std::abs(result.dim.exponent[i]) > 48)
+        throw UnitError("unit '" + std::string(whole) + "' has a dimension exponent beyond 48; no physical quantity needs one");
     if (denominator) {
       result.to_si /= f.to_si;
       result.dim = result.dim / f.dim;

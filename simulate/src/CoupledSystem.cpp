@@ -108,8 +108,8 @@ struct CoupledSystem::Impl {
     check(KSPSetFromOptions(ksp), "KSPSetFromOptions");
   }
 
-  void solve(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats) {
-    auto t0 = std::chrono::steady_clock::now();
+  /// Assembles A and b linearised at `state` (the matrix pattern is the same for every state).
+  void assemble(const FlowOperator& op, Linearisation mode, const std::vector<double>& state) {
     check(MatZeroEntries(A), "MatZeroEntries");
     check(VecSet(b, 0.0), "VecSet");
     PetscInt lo = 0, hi = 0;
@@ -134,16 +134,13 @@ struct CoupledSystem::Impl {
     check(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY), "assembly");
     check(VecAssemblyBegin(b), "vec assembly");
     check(VecAssemblyEnd(b), "vec assembly");
-    stats.assemble_seconds += secondsSince(t0);
-    t0 = std::chrono::steady_clock::now();
-    // UMFPACK's default ordering against METIS nested dissection, steady Stokes LU on the
-    // square array (bench_simulate_stokes_scaling, back to back): 49k unknowns 0.71 s against
-    // 0.99 s, 197k 8.3 s against 6.9 s (and 6.6 against 6.1 with other runs on the cores);
-    // the 2D-2 cylinder at 294k unknowns (57 lagged-LU steps): 45 s and 1.72 GB against 36 s
-    // and 1.12 GB, c_D and c_L the same to 2e-9. So METIS for the large systems only.
-    const detail::ScopedDefaultOption ordering("-fluid_mat_umfpack_ordering", "METIS",
-                                               std::string(solver) == MATSOLVERUMFPACK && op.unknowns() >= kMetisUnknowns);
+  }
+
+  /// Hands A to the KSP and sets up what the first factorisation needs (MUMPS workspace, the Schur preconditioner).
+  void setOperators(const FlowOperator& op) {
     check(KSPSetOperators(ksp, A, A), "KSPSetOperators");
+    PetscInt lo = 0, hi = 0;
+    check(MatGetOwnershipRange(A, &lo, &hi), "ownership");
     if (mass_schur && Sp == nullptr) buildMassSchur(op, lo, hi);
     if (opt.linear == "direct" && !factored_once && std::string(solver) == MATSOLVERMUMPS) {
       PC pc;
@@ -154,6 +151,33 @@ struct CoupledSystem::Impl {
       check(MatMumpsSetIcntl(F, 14, 200), "mumps icntl 14");  // workspace headroom for saddle-point pivoting
     }
     factored_once = true;
+  }
+
+  /// UMFPACK's default ordering against METIS nested dissection, steady Stokes LU on the
+  /// square array (bench_simulate_stokes_scaling, back to back): 49k unknowns 0.71 s against
+  /// 0.99 s, 197k 8.3 s against 6.9 s (and 6.6 against 6.1 with other runs on the cores);
+  /// the 2D-2 cylinder at 294k unknowns (57 lagged-LU steps): 45 s and 1.72 GB against 36 s
+  /// and 1.12 GB, c_D and c_L the same to 2e-9. So METIS for the large systems only.
+  bool wantsMetis(const FlowOperator& op) const { return std::string(solver) == MATSOLVERUMFPACK && op.unknowns() >= kMetisUnknowns; }
+
+  void factorise(const FlowOperator& op, Linearisation mode, const std::vector<double>& state) {
+    assemble(op, mode, state);
+    const detail::ScopedDefaultOption ordering("-fluid_mat_umfpack_ordering", "METIS", wantsMetis(op));
+    setOperators(op);
+    check(KSPSetReusePreconditioner(ksp, PETSC_FALSE), "reuse pc");
+    check(KSPSetUp(ksp), "KSPSetUp");  // PCSetUp: the LU of this matrix (symbolic on the first call, numeric after)
+    ++factorisations;
+  }
+
+  void solve(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats) {
+    auto t0 = std::chrono::steady_clock::now();
+    assemble(op, mode, state);
+    PetscInt lo = 0, hi = 0;
+    check(MatGetOwnershipRange(A, &lo, &hi), "ownership");
+    stats.assemble_seconds += secondsSince(t0);
+    t0 = std::chrono::steady_clock::now();
+    const detail::ScopedDefaultOption ordering("-fluid_mat_umfpack_ordering", "METIS", wantsMetis(op));
+    setOperators(op);
     if (lag_max_its > 0) {
       // Initial guess: the incoming state (an extrapolation of the solution).
       for (PetscInt r = lo; r < hi; ++r) check(VecSetValue(x, r, state[static_cast<std::size_t>(r)], INSERT_VALUES), "VecSetValue");
@@ -176,7 +200,7 @@ struct CoupledSystem::Impl {
       check(KSPSolve(ksp, b, x), "KSPSolve");
       KSPGetConvergedReason(ksp, &reason);
     }
-    if (reason < 0) throw std::runtime_error(fmt::format("the fluid linear solve failed ({})", KSPConvergedReasons[reason]));
+    if (reason < 0) throw FlowFailure(fmt::format("the fluid linear solve failed ({})", KSPConvergedReasons[reason]), "refine the grid");
     PetscInt its = 0;
     KSPGetIterationNumber(ksp, &its);
     stats.linear_iterations += std::max<PetscInt>(its, 1);
@@ -236,6 +260,15 @@ void CoupledSystem::setLaggedFactorisation(int max_iterations, double rtol) {
 }
 
 void CoupledSystem::invalidate() { m->refactor = true; }
+
+bool CoupledSystem::refactorPending() const { return m->refactor; }
+
+void CoupledSystem::setRefactorPending(bool pending) { m->refactor = pending; }
+
+void CoupledSystem::factorise(const FlowOperator& op, Linearisation mode, const std::vector<double>& state) {
+  if (m->opt.linear != "direct" || m->lag_max_its == 0) return;  // nothing is kept between solves
+  m->factorise(op, mode, state);
+}
 
 int CoupledSystem::factorisations() const { return m->factorisations; }
 

@@ -24,8 +24,8 @@ class CoupledSystem {
 
   /// Assembles the system linearised at `state` and overwrites `state` with
   /// its solution (on every rank). Adds timings and iterations to `stats`.
-  /// Throws std::runtime_error if the solve fails or the result is not finite
-  /// (`state` is then left unchanged).
+  /// Throws FlowFailure if the solve fails or the result is not finite, std::runtime_error on
+  /// a PETSc error (`state` is then left unchanged).
   void solve(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats);
 
   /// Direct solver only: keep the LU factorisation of an earlier matrix and use
@@ -37,6 +37,16 @@ class CoupledSystem {
   void setLaggedFactorisation(int max_iterations, double rtol);
   /// The next solve refactorises (the operator's geometry changed).
   void invalidate();
+  /// Lagged factorisation: whether the next solve refactorises. Part of a time stepper's
+  /// restart state, with the states the kept LU was computed at (see factorise).
+  bool refactorPending() const;
+  void setRefactorPending(bool pending);
+  /// Lagged factorisation only (else nothing): factorises the system linearised at `state`
+  /// without solving, as a solve that refactorises does. A restart calls it with the states of
+  /// the first factorisation (PETSc computes the LU's ordering once, from the first matrix) and
+  /// of the last, so the kept LU, and with it every later GMRES iterate, is bit for bit the one
+  /// of the uninterrupted run.
+  void factorise(const FlowOperator& op, Linearisation mode, const std::vector<double>& state);
   /// Factorisations so far (direct solver).
   int factorisations() const;
 

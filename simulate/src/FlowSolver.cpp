@@ -5,9 +5,12 @@
 #include <stdexcept>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "CoupledSystem.hpp"
 #include "FlowOperator.hpp"
 #include "mmval/simulate/Petsc.hpp"
+#include "mmval/simulate/PoreSpace.hpp"
 
 namespace mmval::simulate {
 
@@ -22,7 +25,25 @@ struct SteadyFlowSolver::Impl {
 
   Impl(FlowProblem prob, SolverOptions o, MPI_Comm c) : op(std::move(prob)), opt(std::move(o)), comm(c) {}
 
-  void linearSolve(Linearisation mode) { sys->solve(op, mode, state, stats); }
+  void linearSolve(Linearisation mode) {
+    try {
+      sys->solve(op, mode, state, stats);
+    } catch (const FlowFailure& e) {  // not finite, or the linear solver diverged: say whether the grid resolves the flow path
+      throw FlowFailure(e.cause() + throatDiagnosis(), "refine the grid until every throat of the flow path is at least 2 cells wide");
+    }
+  }
+
+  /// ": the narrowest throat ... is 0.73 cells wide" when the grid does not resolve the flow path (under 2 cells); else "".
+  std::string throatDiagnosis() const {
+    const FlowProblem& p = op.problem();
+    if (!p.shape) return "";
+    const double h = std::min(p.x.minWidth(), p.y.minWidth());
+    const bool px = p.boundary[0].type == BoundaryType::periodic, py = p.boundary[2].type == BoundaryType::periodic;
+    const Throat t = narrowestThroat(*p.shape, p.x.lo(), p.x.hi(), p.y.lo(), p.y.hi(), h / 8, px, py);
+    if (!t.path) return ": no fluid path joins the inlet to the outlet";
+    const double cells = t.width_m / h;
+    return cells < 2 ? fmt::format(": the narrowest throat of the flow path, at x = {:.4g} m, y = {:.4g} m, is {:.2f} cells wide", t.x_m, t.y_m, cells) : "";
+  }
 
   double velocityMax(const std::vector<double>& s) const {
     double m = 0;

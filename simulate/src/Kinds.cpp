@@ -1,3 +1,4 @@
+#include "mmval/simulate/ThroatCheck.hpp"
 #include "mmval/simulate/Kinds.hpp"
 
 #include <cmath>
@@ -5,10 +6,12 @@
 #include <fmt/format.h>
 
 #include "KindsCommon.hpp"
+#include "MemoryBudget.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/simulate/FieldOutput.hpp"
+#include "mmval/simulate/KindMetrics.hpp"
 #include "mmval/simulate/Petsc.hpp"
 
 namespace mmval::simulate {
@@ -125,6 +128,10 @@ CaseKind channelKind() {
     const std::string drive = c.text("flow.drive");
     const double Umean = c.quantity("flow.mean_velocity");
     const std::vector<int> levels = levelsOf(c, "numerics.cells", 4, 4096);
+    for (const int n : levels)  // before the first level runs: the finest must fit too
+      requireSteadyFlowMemory(c, drive == "periodic" ? 4.0 : std::max(4.0, std::round(n * L / W)), n, 0.0,
+                              c.has("numerics.levels") ? "numerics.levels" : "numerics.cells",
+                              "fewer cells across the width, or a shorter geometry.length (the inlet/outlet drives mesh the whole length)");
     // Exact solutions of the continuous models: q = G W^3 / (12 mu) (plates);
     // depth-averaged Brinkman channel Q = G h^2 W / (12 mu) (1 - tanh(kW/2) / (kW/2)) h, k = sqrt(12) / h.
     const double kap = hd > 0 ? std::sqrt(12.0) / hd : 0;
@@ -164,7 +171,7 @@ CaseKind channelKind() {
         }
       }
       last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c));
-      last->solve();
+      solveNamingKey(*last, c.has("numerics.levels") ? "numerics.levels" : "numerics.cells");
       q = last->flowRate(Side::east) * (hd > 0 ? hd : 1.0);
       if (drive == "velocity") {
         // Developed-flow pressure gradient between 1/4 and 3/4 of the length.
@@ -206,6 +213,7 @@ void registerFluidKinds(CaseKindRegistry& registry) {
   registry.add(periodicArrayKind());
   registry.add(cylinderChannelKind());
   registry.add(imagePermeabilityKind());
+  declareFluidMetrics(registry);
 }
 
 }  // namespace mmval::simulate

@@ -10,9 +10,11 @@
 #include <fmt/format.h>
 
 #include "KindsCommon.hpp"
+#include "MemoryBudget.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Run.hpp"
+#include "mmval/simulate/ThroatCheck.hpp"
 #include "mmval/simulate/Kinds.hpp"
 
 namespace mmval::simulate {
@@ -150,13 +152,18 @@ CaseKind cylinderChannelKind() {
       uo.details["domain"] = {{"length_m", Lx}, {"height_m", H}, {"blockage", D / H}};
       return uo;
     }
+    for (const int n : levels) {  // before the first level runs: the finest must fit too
+      const FlowProblem p = makeProblem(n);
+      requireSteadyFlowMemory(c, p.x.cells(), p.y.cells(), 0.0, c.has("numerics.levels") ? "numerics.levels" : "numerics.cells_around",
+                              "fewer cells around the cylinder, or a coarser far field (numerics.max_cell_ratio, numerics.stretch_ratio)");
+    }
     Progress progress("fluid " + c.name(), levels.size(), ctx.quiet);
     for (std::size_t li = 0; li < levels.size(); ++li) {
       const auto t0 = std::chrono::steady_clock::now();
       const double h = M_PI * D / levels[li];
       const FlowProblem p = makeProblem(levels[li]);
       last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c));
-      last->solve();
+      solveNamingKey(*last, c.has("numerics.levels") ? "numerics.levels" : "numerics.cells_around");
       load = last->bodyLoads()[0];
       if (probes) {
         const auto& a = c.reals("probes.pressure_a");

@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "KindsCommon.hpp"
+#include "MemoryBudget.hpp"
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Checkpoint.hpp"
 #include "mmval/core/Error.hpp"
@@ -53,6 +54,11 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::f
     throw InputError(c.where("numerics.statistics_from"), "the statistics window starts after the end of the run", fmt::format("{} s", from),
                      fmt::format("a time below numerics.end_time = {} s", end_time));
   const std::vector<int> levels = levelsOf(c, "numerics.cells_around", 8, 4096);
+  const std::string resolution_key = c.has("numerics.levels") ? "numerics.levels" : "numerics.cells_around";
+  for (const int n : levels) {  // before the first step: the finest level must fit (steady per-cell figure; BDF2 keeps two more fields)
+    const FlowProblem p = make_problem(n);
+    requireSteadyFlowMemory(c, p.x.cells(), p.y.cells(), 0.0, resolution_key, "fewer cells around the cylinder");
+  }
   UnsteadyOptions uo;
   uo.max_courant = c.real("numerics.max_courant");
   const double eps = c.real("numerics.initial_perturbation");
@@ -136,7 +142,11 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::f
     while (solver.time() < end_time * (1 - 1e-12)) {
       // numerics.time_step is the first step; later steps grow (<= max_growth per step) up to the Courant limit.
       const double request = solver.stepStats().steps == 0 ? dt0 : end_time - solver.time();
-      solver.step(std::min(request, end_time - solver.time()));
+      try {
+        solver.step(std::min(request, end_time - solver.time()));
+      } catch (const FlowFailure& e) {
+        throw e.withKey(resolution_key);  // the grid and the Courant limit are the user's to change
+      }
       const BodyLoad L = solver.bodyLoads()[0];
       hist.add(solver.time(), coef * L.force.x(), coef * L.force.y());
       progress.update(static_cast<std::size_t>(1000 * solver.time() / end_time));

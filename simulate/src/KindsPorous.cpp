@@ -5,9 +5,12 @@
 #include <fmt/format.h>
 
 #include "KindsCommon.hpp"
+#include "MemoryBudget.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/ImageHeader.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Run.hpp"
+#include "mmval/simulate/ThroatCheck.hpp"
 #include "mmval/simulate/FieldOutput.hpp"
 #include "mmval/simulate/Kinds.hpp"
 #include "mmval/simulate/Petsc.hpp"
@@ -132,6 +135,9 @@ CaseKind periodicArrayKind() {
     if (phi > M_PI / 4 - 1e-9)
       throw InputError(c.where("geometry.solid_fraction"), "the cylinders touch (phi > pi/4 closes the square array)", fmt::format("{}", phi), "phi < 0.785");
     const std::vector<int> levels = levelsOf(c, "numerics.cells_around", 8, 4096);
+    for (const int n : levels)  // before the first level runs: the finest must fit too
+      requireSteadyFlowMemory(c, n, n, 0.0, c.has("numerics.levels") ? "numerics.levels" : "numerics.cells_around",
+                              "fewer cells along the unit cell (256 give F* within 1 % at phi 0.2)");
     const Acceptance* primary = c.acceptanceFor("F_star");
     RunOutput out;
     out.details["solver"] = kSolverName;
@@ -146,8 +152,10 @@ CaseKind periodicArrayKind() {
       FlowProblem p = squareArrayProblem(L, levels[li], phi, mu, G);
       setImmersed(c, p);
       p.supersample = static_cast<int>(c.integer("numerics.supersample"));
+      const std::string res_key = c.has("numerics.levels") ? "numerics.levels" : "numerics.cells_around";
+      checkThroats(p, res_key, levels[li], out, ctx.quiet);
       last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c));
-      last->solve();
+      solveNamingKey(*last, res_key);
       // Sangani & Acrivos: F = G L^2 per unit length, F* = F / (mu U_darcy).
       fstar = G * L * L / (mu * last->superficialVelocity());
       force_check = last->bodyLoads()[0].force.x() / (G * L * L);
@@ -204,6 +212,28 @@ CaseKind imagePermeabilityKind() {
   };
   k.run = [](const Case& c, const RunContext& ctx) {
     const std::filesystem::path file = c.path("geometry.mask");
+    // Sizes from the image header, before anything is decoded: the mask's own processing, then the
+    // grid the solver builds from it (the 3D model is checked in run3d).
+    if (const auto header = requireImageWithin(file, c.where("geometry.mask"), maxMemoryBytes(c), kMaskBytesPerPixel,
+                                               "a smaller image: crop or downscale it")) {
+      const double cpp = c.real("numerics.cells_per_pixel");
+      const std::string model = c.text("numerics.depth_model");
+      if (model != "3d")
+        requireSteadyFlowMemory(c, std::max(4.0, std::round(header->width * cpp)), std::max(4.0, std::round(header->height * cpp)),
+                                kMaskKeptBytesPerPixel * header->pixels(), "numerics.cells_per_pixel",
+                                fmt::format("fewer grid cells per image pixel, or a smaller image ({} x {} px)", header->width, header->height));
+      if (model == "3d" || model == "all") {
+        const double cpp3 = c.real("numerics.cells_per_pixel_3d");
+        double nz = static_cast<double>(c.integer("numerics.cells_z"));
+        if (c.has("numerics.cells_z_levels"))
+          for (const auto v : c.integers("numerics.cells_z_levels")) nz = std::max(nz, static_cast<double>(v));
+        const double nx3 = std::max(4.0, std::round(header->width * cpp3)), ny3 = std::max(4.0, std::round(header->height * cpp3));
+        requireMemory(c, kStartupBytes + kMaskKeptBytesPerPixel * header->pixels() + nx3 * ny3 * nz * kStokes3DBytesPerCell,
+                      fmt::format("the 3D Stokes solve on {:.0f} x {:.0f} x {:.0f} = {:.3g} cells (about {:.1f} kB per cell measured)", nx3, ny3, nz,
+                                  nx3 * ny3 * nz, kStokes3DBytesPerCell / 1e3),
+                      "numerics.cells_per_pixel_3d", "fewer 3D cells per pixel or across the depth (numerics.cells_z, numerics.cells_z_levels)");
+      }
+    }
     BoolArray raw;
     try {
       raw = readMask(file, c.text("geometry.grains") == "dark");
@@ -254,8 +284,9 @@ CaseKind imagePermeabilityKind() {
       p.depth = m == "2d" ? 0.0 : depth;
       p.shape = shape;
       setImmersed(c, p);
+      if (runs.empty()) checkThroats(p, "numerics.cells_per_pixel", cpp, out, ctx.quiet);
       last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c));
-      last->solve();
+      solveNamingKey(*last, "numerics.cells_per_pixel");
       // Darcy: k = mu Q L / (A dp), per unit depth in 2D (Q per depth, A = height).
       const double q = last->flowRate(Side::east);
       const double kk = mu * q * shape->width() / (shape->height() * dp);

@@ -12,6 +12,8 @@
 #include <fmt/format.h>
 #include <petscvec.h>
 
+#include "mmval/simulate/FlowSolver.hpp"
+
 namespace mmval::simulate::detail {
 
 /// Throws std::runtime_error naming the PETSc call when `ierr` is not 0.
@@ -48,8 +50,8 @@ class ScopedDefaultOption {
 };
 
 /// The first `n` entries of the distributed vector `v`, on every rank, into `out`.
-/// Throws std::runtime_error naming `what` (and leaves `out` as it was) when any is
-/// not finite.
+/// Throws FlowFailure (a NumericalFailure: the input is valid, the numerics failed) naming
+/// `what` (and leaves `out` as it was) when any is not finite.
 inline void gatherToAll(Vec v, long long n, std::vector<double>& out, const std::string& what) {
   VecScatter sc;
   Vec all;
@@ -64,7 +66,7 @@ inline void gatherToAll(Vec v, long long n, std::vector<double>& out, const std:
   VecRestoreArrayRead(all, &a);
   VecScatterDestroy(&sc);
   VecDestroy(&all);
-  if (!finite) throw std::runtime_error(what + " is not finite (NaN or Inf)");
+  if (!finite) throw FlowFailure(what + " is not finite (NaN or Inf)", "refine the grid");
 }
 
 inline double secondsSince(std::chrono::steady_clock::time_point t0) {

@@ -26,6 +26,12 @@ struct UnsteadyFlowSolver::Impl {
   std::vector<double> un, unm1, old;  ///< u^n, u^{n-1}, history term of the last step
   double t = 0, coef = 0;
   bool warned = false;
+  /// Where the lagged LU came from, for an exact restart: the transient coefficient and the
+  /// linearisation state of the first factorisation (it fixed the ordering) and of the last (the
+  /// LU in use). factor_count 0: none yet.
+  long long factor_count = 0;
+  double first_factor_coef = 0, last_factor_coef = 0;
+  std::vector<double> first_factor_state, last_factor_state;
 
   Impl(FlowProblem prob, SolverOptions o, UnsteadyOptions u, MPI_Comm c) : opt(std::move(o)), uopt(u), comm(c) {
     if (!(uopt.max_courant > 0 && uopt.max_courant <= 4))
@@ -98,22 +104,36 @@ struct UnsteadyFlowSolver::Impl {
     op->setTransient(coef, &hist);
     const double stable = stableTimeStep();
     const double rate_before = std::isfinite(stable) ? uopt.max_courant / stable : 0.0;
+    const int factorisations_before = sys->factorisations();
+    std::vector<double> basis = next;  // the state this step's matrix is linearised at
     try {
       sys->solve(*op, Linearisation::picard, next, stats);
+      if (sys->factorisations() > factorisations_before) {
+        if (factor_count == 0) {
+          first_factor_coef = coef;
+          first_factor_state = basis;
+        }
+        ++factor_count;
+        last_factor_coef = coef;
+        last_factor_state = std::move(basis);
+      }
     } catch (const std::runtime_error& e) {
-      coef = prev_coef;
+      coef = prev_coef;  // the last good state stays in place
       op->setTransient(coef, &old);
-      throw std::runtime_error(fmt::format("unsteady flow failed at t = {:.6g} s (step {}, dt = {:.3g} s): {}; the grid cannot carry this flow: "
-                                           "refine it or lower the Courant limit",
-                                           t, steps.steps + 1, dt, e.what()));
+      const auto* failure = dynamic_cast<const FlowFailure*>(&e);
+      if (failure == nullptr) throw;  // a PETSc error: not the flow's fault
+      throw FlowFailure(fmt::format("unsteady flow failed at t = {:.6g} s (step {}, dt = {:.3g} s): {}; the grid cannot carry this flow", t, steps.steps + 1,
+                                    dt, failure->cause()),
+                        "refine the grid or lower the Courant limit");
     }
     const double vmax = maxVelocity(next), scale = velocityScale();
     if (scale > 0 && vmax > uopt.blowup_factor * scale) {
       coef = prev_coef;
       op->setTransient(coef, &old);
-      throw std::runtime_error(fmt::format("unsteady flow diverged at t = {:.6g} s (step {}, dt = {:.3g} s): max |u| = {:.3g} m/s is more than {} x "
-                                           "the velocity scale {:.3g} m/s; the grid cannot carry this Reynolds number: refine it or lower the Courant limit",
-                                           t + dt, steps.steps + 1, dt, vmax, uopt.blowup_factor, scale));
+      throw FlowFailure(fmt::format("unsteady flow diverged at t = {:.6g} s (step {}, dt = {:.3g} s): max |u| = {:.3g} m/s is more than {} x "
+                                    "the velocity scale {:.3g} m/s; the grid cannot carry this Reynolds number",
+                                    t + dt, steps.steps + 1, dt, vmax, uopt.blowup_factor, scale),
+                        "refine the grid or lower the Courant limit");
     }
     old.swap(hist);
     op->setTransient(coef, &old);
@@ -156,7 +176,8 @@ struct UnsteadyFlowSolver::Impl {
 };
 
 namespace {
-constexpr const char* kStateFormat = "mmval-unsteady-state-1";
+// 2: with the lagged LU's origin (state 1 restarted to the GMRES tolerance only).
+constexpr const char* kStateFormat = "mmval-unsteady-state-2";
 }
 
 void UnsteadyFlowSolver::saveState(CheckpointWriter& w) const {
@@ -178,6 +199,12 @@ void UnsteadyFlowSolver::saveState(CheckpointWriter& w) const {
   w.putVector(s.un);
   w.putVector(s.unm1);
   w.putVector(s.old);
+  w.put<std::int64_t>(s.factor_count);
+  w.put(s.sys->refactorPending());
+  w.put(s.first_factor_coef);
+  w.put(s.last_factor_coef);
+  w.putVector(s.first_factor_state);
+  w.putVector(s.last_factor_state);
 }
 
 void UnsteadyFlowSolver::loadState(CheckpointReader& r) {
@@ -198,11 +225,18 @@ void UnsteadyFlowSolver::loadState(CheckpointReader& r) {
   steps.warning = r.getString();
   const auto iterations = r.get<std::int64_t>();
   const double assemble = r.get<double>(), solve = r.get<double>();
+  const auto vectorOf = [&](std::size_t expected) {
+    auto x = r.getVector<double>();
+    if (x.size() != expected) throw std::runtime_error(fmt::format("checkpoint {}: a vector of {} values where {} belong", r.name(), x.size(), expected));
+    return x;
+  };
   std::array<std::vector<double>, 3> v;
-  for (auto& x : v) {
-    x = r.getVector<double>();
-    if (x.size() != s.un.size()) throw std::runtime_error(fmt::format("checkpoint {}: a vector of {} values where {} belong", r.name(), x.size(), s.un.size()));
-  }
+  for (auto& x : v) x = vectorOf(s.un.size());
+  const auto factor_count = r.get<std::int64_t>();
+  const bool refactor_pending = r.get<bool>();
+  const double first_coef = r.get<double>(), last_coef = r.get<double>();
+  const std::size_t basis_size = factor_count > 0 ? s.un.size() : 0;
+  auto first_state = vectorOf(basis_size), last_state = vectorOf(basis_size);
   s.t = t;
   s.coef = coef;
   s.warned = warned;
@@ -213,8 +247,22 @@ void UnsteadyFlowSolver::loadState(CheckpointReader& r) {
   s.un = std::move(v[0]);
   s.unm1 = std::move(v[1]);
   s.old = std::move(v[2]);
+  s.factor_count = factor_count;
+  s.first_factor_coef = first_coef;
+  s.last_factor_coef = last_coef;
+  s.first_factor_state = std::move(first_state);
+  s.last_factor_state = std::move(last_state);
+  // Rebuild the lagged LU exactly: the first factorisation fixed the ordering, the last is in use.
+  if (s.factor_count > 0) {
+    s.op->setTransient(s.first_factor_coef, &s.old);
+    s.sys->factorise(*s.op, Linearisation::picard, s.first_factor_state);
+    if (s.factor_count > 1) {
+      s.op->setTransient(s.last_factor_coef, &s.old);
+      s.sys->factorise(*s.op, Linearisation::picard, s.last_factor_state);
+    }
+  }
+  s.sys->setRefactorPending(s.factor_count == 0 || refactor_pending);
   s.op->setTransient(s.coef, &s.old);  // the residual body force of the restored step
-  s.sys->invalidate();
 }
 
 UnsteadyFlowSolver::UnsteadyFlowSolver(FlowProblem problem, SolverOptions options, UnsteadyOptions unsteady, MPI_Comm comm) {
@@ -247,6 +295,8 @@ void UnsteadyFlowSolver::setShape(std::shared_ptr<const Shape> shape) {
   m->op = std::make_unique<FlowOperator>(std::move(p));
   m->op->setTransient(m->coef, &m->old);
   m->sys->invalidate();
+  // The matrix pattern may change with the shape: the next factorisation starts a new LU history.
+  m->factor_count = 0;
 }
 
 void UnsteadyFlowSolver::setBodyForce(const Eigen::Vector2d& force) { m->op->setBodyForce(force); }

@@ -73,6 +73,27 @@ TEST(Units, MalformedNumbersAreRejected) {
   EXPECT_THROW(parseQuantity("5 m//s"), UnitError);
 }
 
+// Found by fuzz_units (fuzz/findings): huge exponents overflowed the int
+// dimension arithmetic (undefined behaviour) instead of being refused.
+TEST(Units, HugeExponentsAreRefusedNotOverflowed) {
+  EXPECT_THROW(parseUnit("D1111111111"), UnitError);
+  EXPECT_THROW(parseUnit("11 P33311 P33322 P2111111122 P2111111111"), UnitError);
+  EXPECT_THROW(parseUnit("m13"), UnitError);
+  std::string many = "m12";
+  for (int i = 0; i < 10; ++i) many += " m12";
+  EXPECT_THROW(parseUnit(many), UnitError);
+  EXPECT_EQ(parseUnit("m12").dim.exponent[0], 12);
+  EXPECT_EQ(parseUnit("m^-3").dim.exponent[0], -3);
+}
+
+// Memory limits (run.max_memory) take byte units, decimal and binary.
+TEST(Units, MemoryUnits) {
+  EXPECT_DOUBLE_EQ(parseQuantity("8 GiB").si, 8.0 * 1024 * 1024 * 1024);
+  EXPECT_DOUBLE_EQ(parseQuantity("500 MB").si, 5e8);
+  EXPECT_EQ(dimensionName(parseUnit("GB").dim), "memory (bytes)");
+  EXPECT_FALSE(parseUnit("GB").dim == parseUnit("m").dim);
+}
+
 TEST(Units, DimensionNames) {
   EXPECT_EQ(dimensionName(parseUnit("Pa s").dim), "dynamic viscosity");
   EXPECT_EQ(dimensionName(parseUnit("m/s").dim), "velocity");

@@ -138,5 +138,57 @@ TEST(Results, FatalMessageIsExtracted) {
   EXPECT_THAT(fatalMessage(log), HasSubstr("cannot find file \"0/U\""));
 }
 
+
+/// One SIMPLE iteration of a simpleFoam v1912 log (2D: Ux, Uy; two p solves with the non-orthogonal corrector).
+std::string simpleIteration(int time, double ux, double uy, double p) {
+  std::ostringstream o;
+  o.precision(6);
+  o << "Time = " << time << "\n\n"
+    << "smoothSolver:  Solving for Ux, Initial residual = " << ux << ", Final residual = 1e-05, No Iterations 3\n"
+    << "smoothSolver:  Solving for Uy, Initial residual = " << uy << ", Final residual = 2e-05, No Iterations 3\n"
+    << "GAMG:  Solving for p, Initial residual = " << p << ", Final residual = 0.0001, No Iterations 7\n"
+    << "GAMG:  Solving for p, Initial residual = 0.001, Final residual = 1e-05, No Iterations 4\n"
+    << "time step continuity errors : sum local = 1e-09, global = 1e-20, cumulative = 1e-19\n"
+    << "ExecutionTime = 1.5 s  ClockTime = 2 s\n\n";
+  return o.str();
+}
+
+TEST(Results, SimpleSolveThatMetResidualControlIsConverged) {
+  const std::string log = "Create time\n\nSIMPLE: convergence criteria\n    field p\t tolerance 1e-07\n\n" + simpleIteration(1, 1, 1, 1) +
+                          simpleIteration(2, 1e-6, 2e-6, 5e-6) + simpleIteration(3, 5e-8, 6e-8, 9e-8) +
+                          "\nSIMPLE solution converged in 3 iterations\n\nEnd\n\n";
+  const SimpleConvergence c = simpleConvergence(log, 1e-7);
+  EXPECT_TRUE(c.converged);
+  EXPECT_EQ(c.iterations, 3);
+  ASSERT_EQ(c.residuals.size(), 3u);
+  EXPECT_NEAR(c.residuals.at("Ux"), 5e-8, 1e-12);  // the first p solve's residual is what residualControl reads, not the corrector's
+  EXPECT_NEAR(c.residuals.at("p"), 9e-8, 1e-12);
+}
+
+TEST(Results, SimpleSolveStoppedAtItsIterationCapIsNotConverged) {
+  // Issue 22: the square array at phi 0.6 / 0.7 on fine meshes ended at the cap with residuals near
+  // 0.9, and F* = 1.45e5 / -6.5e5 was reported as a value.
+  std::string log = "Create time\n\n";
+  for (int k = 1; k <= 5; ++k) log += simpleIteration(k, 0.9, 0.88, 0.93 - 0.01 * k);
+  log += "End\n\n";
+  const SimpleConvergence c = simpleConvergence(log, 1e-7);
+  EXPECT_FALSE(c.converged);
+  EXPECT_EQ(c.iterations, 5);
+  EXPECT_NEAR(c.residuals.at("Ux"), 0.9, 1e-9);
+  EXPECT_NEAR(c.residuals.at("Uy"), 0.88, 1e-9);
+  EXPECT_NEAR(c.residuals.at("p"), 0.88, 1e-9);  // the last iteration's first p solve
+  EXPECT_EQ(residualText(c.residuals), "Ux 0.9, Uy 0.88, p 0.88");
+}
+
+TEST(Results, SimpleSolveMeetingItsTargetOnTheLastIterationIsConverged) {
+  // At the cap simpleFoam stops without its "converged" line even when the last iteration met the target.
+  const std::string log = simpleIteration(1, 1, 1, 1) + simpleIteration(2, 9e-8, 8e-8, 1e-7) + "End\n";
+  EXPECT_TRUE(simpleConvergence(log, 1e-7).converged);
+  EXPECT_FALSE(simpleConvergence(log, 5e-8).converged);
+  // A diverged solve (nan residuals) is not converged, and an empty log has nothing to show.
+  EXPECT_FALSE(simpleConvergence("Time = 1\n\nsmoothSolver:  Solving for Ux, Initial residual = nan, Final residual = nan, No Iterations 1000\n", 1e-7).converged);
+  EXPECT_FALSE(simpleConvergence("", 1e-7).converged);
+}
+
 }  // namespace
 }  // namespace mmval::openfoam

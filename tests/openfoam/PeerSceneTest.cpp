@@ -7,8 +7,10 @@
 
 #include <cmath>
 #include <filesystem>
+#include <map>
 
 #include "mmval/core/Error.hpp"
+#include "mmval/core/Run.hpp"
 #include "mmval/openfoam/Kinds.hpp"
 #include "mmval/simulate/Kinds.hpp"
 
@@ -83,6 +85,72 @@ TEST(PeerScene, OtherKindsAreRefusedNamingTheKind) {
     EXPECT_NE(std::string(e.what()).find("case.kind"), std::string::npos) << e.what();
     EXPECT_EQ(e.got(), "channel");
   }
+}
+
+
+TEST(PeerScene, UnconvergedLevelsAreReportedWithoutAValue) {
+  // Issue 22: canned Results (no OpenFOAM) for a three-level square-array ladder whose finest
+  // SIMPLE solve stopped at its cap with residuals near 0.9 and F* = 1.45e5 in its last iterate.
+  // That level's row says "not converged" with its residuals and has no value or error (so no
+  // observed order), and the run's metrics are null, never 1.45e5.
+  const Case c = load("fluid-square-array-phi020.toml");
+  const double converged_fstar[] = {52.10, 51.80, 0.0};
+  int level = 0;
+  PeerRunOptions o;
+  o.levels = std::vector<int>{32, 64, 128};
+  o.runner = [&](const Scene&, const fs::path&, int) {
+    Result r;
+    r.ok = true;
+    r.cells = 1000 << level;
+    r.iterations = level == 2 ? 2000 : 400;
+    r.converged = level != 2;
+    r.residuals = level == 2 ? std::map<std::string, double>{{"Ux", 0.91}, {"Uy", 0.88}, {"p", 0.93}}
+                             : std::map<std::string, double>{{"Ux", 8e-8}, {"Uy", 9e-8}, {"p", 9e-8}};
+    r.f_star = level == 2 ? 1.45e5 : converged_fstar[level];
+    r.permeability = 1e-8 / *r.f_star;
+    ++level;
+    return r;
+  };
+  const RunOutput out = runPeer(c, RunContext{fs::temp_directory_path(), true, false, 0}, o);
+  const auto& ladder = out.details.at("ladder");
+  ASSERT_EQ(ladder.size(), 3u);
+  EXPECT_NEAR(ladder[0].at("value").get<double>(), 52.10, 1e-12);
+  EXPECT_FALSE(ladder[2].contains("value"));
+  EXPECT_FALSE(ladder[2].contains("error"));
+  EXPECT_FALSE(ladder[2].contains("observed_order"));
+  EXPECT_EQ(ladder[2].at("status"), "not converged");
+  EXPECT_NEAR(ladder[2].at("residuals").at("p").get<double>(), 0.93, 1e-12);
+  EXPECT_EQ(out.details.at("status"), "not converged");
+  ASSERT_TRUE(out.details.contains("warnings"));
+  const std::string w = out.details.at("warnings")[0].get<std::string>();
+  EXPECT_NE(w.find("numerics.max_iterations"), std::string::npos) << w;
+  EXPECT_NE(w.find("Ux 0.91, Uy 0.88, p 0.93"), std::string::npos) << w;
+  ASSERT_TRUE(out.metrics.count("F_star"));
+  EXPECT_TRUE(std::isnan(out.metrics.at("F_star")));  // written as null in result.json
+  for (const auto& m : evaluateMetrics(c, out))
+    if (m.name.rfind("F_star", 0) == 0) EXPECT_FALSE(std::isfinite(m.value)) << m.name;
+}
+
+TEST(PeerScene, ConvergedLaddersKeepTheirValuesAndOrder) {
+  // The same ladder with every level converged: values, errors and the observed order are there.
+  const Case c = load("fluid-square-array-phi020.toml");
+  const double fstar[] = {52.40, 51.90, 51.775};
+  int level = 0;
+  PeerRunOptions o;
+  o.levels = std::vector<int>{32, 64, 128};
+  o.runner = [&](const Scene&, const fs::path&, int) {
+    Result r;
+    r.ok = true;
+    r.f_star = fstar[level++];
+    r.permeability = 1e-8 / *r.f_star;
+    return r;
+  };
+  const RunOutput out = runPeer(c, RunContext{fs::temp_directory_path(), true, false, 0}, o);
+  const auto& ladder = out.details.at("ladder");
+  EXPECT_NEAR(out.metrics.at("F_star"), 51.775, 1e-12);
+  EXPECT_FALSE(out.details.contains("status"));
+  // p = log2((52.40 - 51.90) / (51.90 - 51.775)) = log2(4) = 2.
+  EXPECT_NEAR(ladder[2].at("observed_order").get<double>(), 2.0, 1e-9);
 }
 
 }  // namespace

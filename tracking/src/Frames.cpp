@@ -7,7 +7,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <fmt/format.h>
+
 #include "mmval/core/Error.hpp"
+#include "mmval/core/ImageHeader.hpp"
+#include "mmval/core/Resources.hpp"
 
 namespace fs = std::filesystem;
 
@@ -85,6 +89,29 @@ FrameSource::FrameSource(const std::string& input, std::optional<cv::Rect> roi, 
   }
   const int last = m_range.last < 0 ? m_total - 1 : std::min(m_range.last, m_total - 1);
   m_count = m_total > 0 && last >= m_range.first ? (last - m_range.first) / m_range.step + 1 : 0;
+  if (m_count == 0) {
+    // Say so here: an empty range used to end as "no particles found ... check the polarity".
+    const bool last_before_first = m_range.last >= 0 && m_range.last < m_range.first;
+    throw InputError({input, 0, 0, last_before_first ? "inputs.last_frame" : "inputs.first_frame"}, "the frame range selects no frame",
+                     fmt::format("frames {} to {} of an input with {} frame{}", m_range.first, m_range.last < 0 ? std::string("the end") : std::to_string(m_range.last),
+                                 m_total, m_total == 1 ? "" : "s"),
+                     m_total > 0 ? fmt::format("a first frame (--first, inputs.first_frame) from 0 to {} and a last frame (--last, inputs.last_frame) "
+                                               "at or after it, or -1 for the end", m_total - 1)
+                                 : std::string("an input with at least one readable frame"));
+  }
+  // The tracker holds ~64 frames as 32-bit float at once (60 sampled for the median background,
+  // the detection batch): refuse frames too large for that before the first is decoded.
+  constexpr double kTrackerBytesPerPixel = 64 * 4;
+  const double limit = defaultMaxMemoryBytes();
+  const std::string advice = "smaller frames: a region of interest (--roi) does not help, the whole frame is decoded; downscale the video";
+  if (m_kind == Kind::video) {
+    const double w = m_video.get(cv::CAP_PROP_FRAME_WIDTH), h = m_video.get(cv::CAP_PROP_FRAME_HEIGHT);
+    requireMemory(w * h * kTrackerBytesPerPixel, limit, fmt::format("tracking the video's {:.0f} x {:.0f} px frames", w, h), {input, 0, 0, "inputs.video"},
+                  advice);
+  } else {
+    const std::string first = m_kind == Kind::tiff ? input : m_files[static_cast<std::size_t>(std::min<int>(m_range.first, static_cast<int>(m_files.size()) - 1))];
+    requireImageWithin(first, {first, 0, 0, "inputs.video"}, limit, kTrackerBytesPerPixel, advice);
+  }
   rewind();
 }
 

@@ -12,7 +12,9 @@
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
+#include "InputLimits.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/ImageHeader.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/tracking/Kinds.hpp"
 #include "mmval/tracking/RenderTracks.hpp"
@@ -43,8 +45,15 @@ void registerRenderedKind(CaseKindRegistry& registry) {
   k.run = [](const Case& c, const RunContext& ctx) {
     const fs::path file = fileOrRunFile(c, ctx, "inputs.trajectories", "trajectories.csv");
     const double geometry_pixel = c.quantity("geometry.pixel_size");
-    const Tracks sim = readTracksCsv(file, geometry_pixel);
     const fs::path mask = c.path("geometry.mask");
+    // Before anything is read: the trajectories' size, and the mask's from its header. Each mask
+    // pixel becomes render.scale^2 video pixels, and the tracker holds ~64 float frames of the
+    // video (60 background samples and the detection batch: 256 B per video pixel, from the code).
+    detail::requireTracksFile(c, file, "inputs.trajectories");
+    const double scale = c.real("render.scale");
+    requireImageWithin(mask, c.where("geometry.mask"), maxMemoryBytes(c), 12 + 256 * scale * scale,
+                       "a smaller mask (geometry.crop crops after reading) or a smaller render.scale");
+    const Tracks sim = readTracksCsv(file, geometry_pixel);
     cv::Mat img = cv::imread(mask.string(), cv::IMREAD_GRAYSCALE);
     if (img.empty()) throw InputError(c.where("geometry.mask"), "cannot read the image", mask.string(), "a PNG or TIFF mask");
     if (c.has("geometry.crop")) {

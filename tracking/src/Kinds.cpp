@@ -3,7 +3,11 @@
 #include <algorithm>
 #include <cmath>
 
+#include <fmt/format.h>
+
+#include "InputLimits.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/tracking/KindMetrics.hpp"
 #include "mmval/tracking/Score.hpp"
 #include "mmval/tracking/Synth.hpp"
 
@@ -118,9 +122,17 @@ RunOutput runTrackingVideo(const Case& c, const RunContext& ctx) {
     throw InputError(c.where("inputs.video"), "no input video", {}, "inputs.video in the case, or INPUT on the command line");
   for (const char* key : {"inputs.pixel_size", "inputs.frame_rate"})
     if (!c.has(key)) throw InputError(c.where(key), "missing", {}, "a value in the case, or --pixel-size-um / --fps on the command line");
+  if (c.has("inputs.truth")) detail::requireTracksFile(c, c.path("inputs.truth"), "inputs.truth");  // before the tracking, not after
   TrackConfig cfg = trackerConfig(c);
   cfg.pixel_size = c.quantity("inputs.pixel_size");
   cfg.fps = c.quantity("inputs.frame_rate");
+  // An infinite pixel size used to write inf positions: finite and positive, whichever way it came.
+  if (!(std::isfinite(cfg.pixel_size) && cfg.pixel_size > 0))
+    throw InputError(c.where("inputs.pixel_size"), "the pixel size must be finite and positive", fmt::format("{:g} um", cfg.pixel_size * 1e6),
+                     "a length such as \"0.65 um\" (or --pixel-size-um 0.65)");
+  if (!(std::isfinite(cfg.fps) && cfg.fps > 0))
+    throw InputError(c.where("inputs.frame_rate"), "the frame rate must be finite and positive", fmt::format("{:g} Hz", cfg.fps),
+                     "a frequency such as \"20 Hz\" (or --fps 20)");
   std::optional<cv::Rect> roi;
   if (c.has("inputs.roi")) {
     const auto& r = c.integers("inputs.roi");
@@ -286,6 +298,7 @@ void registerTrackingKinds(CaseKindRegistry& registry) {
   };
   registry.add(k);
   registerRenderedKind(registry);
+  declareTrackingMetrics(registry);
 }
 
 }  // namespace mmval::tracking

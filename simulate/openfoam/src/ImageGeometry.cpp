@@ -8,10 +8,14 @@
 #include <opencv2/imgproc.hpp>
 
 #include "mmval/core/Error.hpp"
+#include "mmval/core/ImageHeader.hpp"
+#include "mmval/core/Resources.hpp"
 
 namespace mmval::openfoam {
 
 MaskGeometry loadMask(const std::filesystem::path& file, double pixel, bool grain_dark) {
+  // From the header first: a small file can hold a huge image (12 B per pixel: image, labels, masks).
+  requireImageWithin(file, {file.string(), 0, 0, "geometry.mask"}, defaultMaxMemoryBytes(), 12, "a smaller image: crop or downscale it");
   const cv::Mat img = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
   if (img.empty()) throw InputError({file.string(), 0, 0, "geometry.mask"}, "cannot read the mask image", {}, "a PNG or TIFF image");
   MaskGeometry g;

@@ -1,6 +1,7 @@
 #include "mmval/openfoam/Kinds.hpp"
 
 #include <cmath>
+#include <cstdio>
 
 #include <fmt/format.h>
 
@@ -114,6 +115,12 @@ void addMetrics(const Scene& s, const Result& r, RunOutput& out) {
 
 }  // namespace
 
+std::string notConvergedText(const Scene& s, const Result& r, const std::string& case_dir) {
+  return fmt::format("simpleFoam did not converge in {} ({} iterations, the cap numerics.max_iterations = {}): initial residuals {}, "
+                     "target numerics.residual = {:g}; its last iterate is not reported as a value (raise numerics.max_iterations)",
+                     case_dir, r.iterations, s.max_iterations, residualText(r.residuals), s.residual);
+}
+
 Scene peerScene(const Case& c) {
   if (c.kind() == "cylinder-channel") return cylinderScene(c);
   if (c.kind() == "periodic-array") return arrayScene(c);
@@ -122,7 +129,7 @@ Scene peerScene(const Case& c) {
 }
 
 RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& options) {
-  const Installation inst = detect();
+  const Installation inst = options.runner ? Installation{true, "(test runner)", {}, {}} : detect();
   if (!inst.available) throw InputError({c.file().string(), 0, 0, "case.kind"}, "cannot run this case: " + inst.reason, {}, "OpenFOAM v1912 installed");
   Scene scene = peerScene(c);
   std::vector<int> levels;
@@ -133,31 +140,41 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
   }
   if (levels.empty()) levels.push_back(c.kind() == "image-permeability" ? 0 : static_cast<int>(c.integer("numerics.cells_around")));
   for (int l : levels)
-    if (c.kind() != "image-permeability" && (l < 8 || l % 4 != 0))
-      throw InputError(c.where("numerics.levels"), "a resolution level must be a multiple of 4 and at least 8", std::to_string(l), "8, 12, 16, ...");
+    if (c.kind() != "image-permeability" && (l < 8 || l > 4096 || l % 4 != 0))
+      throw InputError(c.where("numerics.levels"), "a resolution level must be a multiple of 4 from 8 to 4096", std::to_string(l), "8, 12, 16, ... 4096");
   const Acceptance* primary = c.acceptanceFor(primaryMetric(c.kind()));
   RunOutput out;
   out.details["solver"] = "openfoam " + inst.version;
   if (scene.kind == Scene::Kind::cylinder_channel) out.details["Re"] = scene.u_ref * scene.l_ref / scene.nu;
   out.details["ranks"] = options.ranks;
   nlohmann::json ladder = nlohmann::json::array();
+  nlohmann::json warnings = nlohmann::json::array();
   Progress progress("openfoam " + c.name(), levels.size(), ctx.quiet);
   Result last;
   for (std::size_t i = 0; i < levels.size(); ++i) {
     if (c.kind() != "image-permeability") scene.cells_around = levels[i];
     const std::string sub = levels.size() > 1 ? fmt::format("openfoam-level{}", i) : "openfoam";
-    last = runCase(scene, ctx.out_dir / sub, options.ranks);
+    last = options.runner ? options.runner(scene, ctx.out_dir / sub, options.ranks) : runCase(scene, ctx.out_dir / sub, options.ranks);
     if (!last.ok) throw std::runtime_error(fmt::format("OpenFOAM run of '{}' failed (case kept in {}): {}", c.name(), (ctx.out_dir / sub).string(), last.failure));
-    RunOutput level_out;
-    addMetrics(scene, last, level_out);
     nlohmann::json row = {{"level", i}, {"cells_around", levels[i]}, {"cells", last.cells}, {"ranks", last.ranks},
                           {"mesh_seconds", last.mesh_seconds}, {"solve_seconds", last.solve_seconds},
                           {"wall_seconds", last.mesh_seconds + last.solve_seconds}, {"iterations", last.iterations}, {"case_dir", sub}};
-    auto it = level_out.metrics.find(primaryMetric(c.kind()));
-    if (it != level_out.metrics.end()) {
-      row["value"] = it->second;
-      if (primary != nullptr && !primary->reference.isInterval() && primary->reference.value != 0)
-        row["error"] = (it->second - primary->reference.value) / primary->reference.value;
+    if (!last.converged) {
+      // The last iterate of a SIMPLE loop that ran out of iterations is no solution: no value, no
+      // error, so the row stays out of the observed order and of the speed-against-error plot.
+      row["status"] = "not converged";
+      row["residuals"] = last.residuals;
+      warnings.push_back(notConvergedText(scene, last, sub));
+      if (!ctx.quiet) std::fprintf(stderr, "mmval: warning: %s: %s\n", c.name().c_str(), warnings.back().get<std::string>().c_str());
+    } else {
+      RunOutput level_out;
+      addMetrics(scene, last, level_out);
+      auto it = level_out.metrics.find(primaryMetric(c.kind()));
+      if (it != level_out.metrics.end()) {
+        row["value"] = it->second;
+        if (primary != nullptr && !primary->reference.isInterval() && primary->reference.value != 0)
+          row["error"] = (it->second - primary->reference.value) / primary->reference.value;
+      }
     }
     ladder.push_back(row);
     progress.update(i + 1);
@@ -166,7 +183,18 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
   addObservedOrder(ladder, levels);
   out.details["ladder"] = ladder;
   out.details["cells"] = last.cells;
+  if (!warnings.empty()) out.details["warnings"] = warnings;
   addMetrics(scene, last, out);
+  if (!last.converged) {
+    // Reported as "not converged", never as a value: every metric of the finest level is null
+    // but the porosities (acceptance entries on them fail: nothing was measured); the status and
+    // residuals are in details.
+    out.details["status"] = "not converged";
+    out.details["residuals"] = last.residuals;
+    out.details["iterations"] = last.iterations;
+    for (auto& [name, value] : out.metrics)
+      if (name.rfind("porosity", 0) != 0) value = std::nan("");  // porosities are the geometry's and the mesh's, not the flow's
+  }
   out.files.push_back(levels.size() > 1 ? fmt::format("openfoam-level{}", levels.size() - 1) : "openfoam");
   return out;
 }

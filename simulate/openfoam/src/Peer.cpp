@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <regex>
 #include <sstream>
 #include <stdexcept>
@@ -303,6 +304,40 @@ std::string fatalMessage(const std::string& log) {
   return out;
 }
 
+SimpleConvergence simpleConvergence(const std::string& log, double target) {
+  SimpleConvergence c;
+  // "smoothSolver:  Solving for Ux, Initial residual = 0.0123, Final residual = 0.000456, No Iterations 2"
+  static const std::regex solving_re("Solving for ([A-Za-z0-9_]+), Initial residual = ([-+0-9.eE]+|nan|-?inf)");
+  std::map<std::string, double> current;
+  std::istringstream in(log);
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("Time = ", 0) == 0) {  // a new iteration; keep the last complete one's residuals
+      if (!current.empty()) c.residuals = current;
+      current.clear();
+      ++c.iterations;
+      continue;
+    }
+    if (line.find("SIMPLE solution converged") != std::string::npos) c.converged = true;
+    std::smatch m;
+    if (std::regex_search(line, m, solving_re) && !current.count(m[1])) {
+      const std::string v = m[2];
+      current[m[1]] = v == "nan" ? std::nan("") : v.find("inf") != std::string::npos ? std::numeric_limits<double>::infinity() : std::stod(v);
+    }
+  }
+  if (!current.empty()) c.residuals = current;
+  if (!c.converged && !c.residuals.empty()) {
+    c.converged = true;
+    for (const auto& [field, r] : c.residuals) c.converged = c.converged && r <= target;  // NaN: not converged
+  }
+  return c;
+}
+
+std::string residualText(const std::map<std::string, double>& residuals) {
+  std::string out;
+  for (const auto& [field, r] : residuals) out += fmt::format("{}{} {:.3g}", out.empty() ? "" : ", ", field, r);
+  return out.empty() ? std::string("no residuals in the log") : out;
+}
+
 std::vector<Coefficients> readCoefficients(const fs::path& file) {
   std::ifstream in(file);
   if (!in) throw std::runtime_error("OpenFOAM peer: no force coefficients at " + file.string());
@@ -462,6 +497,11 @@ Result runWrittenCase(const Scene& s, const fs::path& dir, int ranks) {
   r.solve_seconds = r.steps.back().wall_seconds;
   const std::string log = readText(dir / "log.solver");
   r.iterations = lastIteration(log);
+  if (!s.unsteady) {
+    const SimpleConvergence conv = simpleConvergence(log, s.residual);
+    r.converged = conv.converged;
+    r.residuals = conv.residuals;
+  }
 
   switch (s.kind) {
     case Scene::Kind::cylinder_channel: {

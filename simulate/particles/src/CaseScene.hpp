@@ -1,5 +1,7 @@
 // Scene settings every particle kind reads alike from its case file.
 #pragma once
+#include <cstdint>
+
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Schema.hpp"
 #include "mmval/particles/Scene.hpp"
@@ -15,5 +17,11 @@ void declarePhysicsAndDeposition(Schema& s, double hamaker_default);
 /// hindrance, Faxen curvature) and [deposition] (capture distance, sticky
 /// surfaces, Hamaker constant, attraction range) into `s`.
 void physicsAndDepositionFromCase(const Case& c, const EngineChoice& choice, SceneConfig& s);
+
+/// Output frames of the run, run.duration / run.output_interval (rounded), after checking
+/// that what every frame keeps in memory until the end fits in run.max_memory: a
+/// picosecond output interval or a run of 1e9 s is refused at once (InputError naming the
+/// key) instead of growing until the allocation fails.
+std::int64_t outputFrames(const Case& c);
 
 }  // namespace mmval::particles

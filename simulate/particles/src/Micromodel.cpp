@@ -171,6 +171,7 @@ void compareEnginesOnTheScene(const Case& c, std::shared_ptr<const FlowField> fi
 
 RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   const auto t_start = std::chrono::steady_clock::now();
+  outputFrames(c);  // a run whose frames cannot fit in memory is refused before the mask is read
   RunOutput out;
   double porosity = 0;
   const PixelMask grains = loadGeometry(c, out.details, porosity);
@@ -299,7 +300,7 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   const double t_inj = c.quantity("particles.injection_time") > 0 ? c.quantity("particles.injection_time") : duration;
   const std::int64_t count = c.integer("particles.count");
   const double inject_rate = count > 0 ? count / t_inj : conc * u_darcy * H * h * sample;  // simulated particles per second
-  const auto frames = static_cast<std::int64_t>(std::llround(duration / dt_out));
+  const std::int64_t frames = outputFrames(c);
   const std::int64_t checkpoint_every = c.integer("run.checkpoint_every"), stop_after = c.integer("run.stop_after_frames");
   const fs::path ckpt = ctx.out_dir / "checkpoint.bin";
   const std::string fp = checkpointFingerprint(c);

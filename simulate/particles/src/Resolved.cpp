@@ -28,6 +28,7 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Tracks.hpp"
+#include "CaseScene.hpp"
 #include "MicromodelDetail.hpp"
 #include "ResolvedScene.hpp"
 #include "mmval/core/Checkpoint.hpp"
@@ -82,6 +83,7 @@ void declareResolved(Schema& s) {
 }
 
 RunOutput runResolved(const Case& c, const RunContext& ctx) {
+  outputFrames(c);  // a run whose frames cannot fit in memory is refused before the mask is read
   Scene sc;
   sc.L = c.quantity("channel.length");
   sc.W = c.quantity("channel.width");
@@ -182,7 +184,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   int solves = 0, steps = 0, contacts = 0, attached = 0;
   double t = 0;
   std::int64_t frame = 0;
-  const auto frames = static_cast<std::int64_t>(std::llround(duration / dt_out));
+  const std::int64_t frames = outputFrames(c);
   Progress progress("particles-resolved", static_cast<std::size_t>(frames), ctx.quiet);
   const double max_move = c.real("numerics.max_step_fraction") * dx;
   const auto t0 = std::chrono::steady_clock::now();

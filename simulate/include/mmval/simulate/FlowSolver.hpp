@@ -63,10 +63,26 @@
 #include <Eigen/Core>
 #include <mpi.h>
 
+#include "mmval/core/Error.hpp"
 #include "mmval/simulate/Geometry.hpp"
 #include "mmval/simulate/Grid.hpp"
 
 namespace mmval::simulate {
+
+/// The flow solve failed on a valid problem: the solution is not finite, a linear solve diverged,
+/// an unsteady flow blew up. A NumericalFailure (exit 5) that names no case key (solvers do not
+/// know them, house style 18): the case kind that chose the resolution rethrows withKey(its key).
+class FlowFailure : public NumericalFailure {
+ public:
+  FlowFailure(std::string cause, std::string advice) : NumericalFailure(cause, "", advice), m_cause(std::move(cause)), m_advice(std::move(advice)) {}
+  const std::string& cause() const noexcept { return m_cause; }
+  const std::string& advice() const noexcept { return m_advice; }
+  /// The same failure naming the case key to change ("cause; change 'key': advice").
+  NumericalFailure withKey(const std::string& key) const { return NumericalFailure(m_cause, key, m_advice); }
+
+ private:
+  std::string m_cause, m_advice;
+};
 
 enum class Side { west = 0, east = 1, south = 2, north = 3 };
 
@@ -161,8 +177,9 @@ class SteadyFlowSolver {
   SteadyFlowSolver(const SteadyFlowSolver&) = delete;
   SteadyFlowSolver& operator=(const SteadyFlowSolver&) = delete;
 
-  /// Solves; throws std::runtime_error if a linear solve fails or the
-  /// solution is not finite (Newton non-convergence is reported in the stats).
+  /// Solves; throws FlowFailure (a NumericalFailure, exit 5) if a linear solve fails or the
+  /// solution is not finite, naming the narrowest throat when the grid does not resolve it
+  /// (Newton non-convergence is reported in the stats).
   const FlowStats& solve();
 
   const FlowProblem& problem() const;

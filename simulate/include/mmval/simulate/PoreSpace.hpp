@@ -5,10 +5,18 @@
 // touch both the inlet side and the outlet side carry flow; the others are
 // isolated pores, excluded from the flow solve (turned solid) and from the
 // connected porosity. Periodic directions wrap.
+//
+// Throats (issue 22): a flow path is only as resolved as its narrowest
+// cross-section. narrowestThroat() finds the widest inlet-to-outlet path (the
+// one whose narrowest cross-section is largest: a grid that cannot resolve it
+// cannot resolve any path) and that cross-section's width and position.
 #pragma once
+#include <limits>
 #include <stdexcept>
 
 #include <Eigen/Core>
+
+#include "mmval/simulate/Geometry.hpp"
 
 namespace mmval::simulate {
 
@@ -32,5 +40,28 @@ struct PoreSpaceReport {
 /// periodic_y joins the first and last rows. Throws NoFlowPath when no
 /// component spans (an all-solid mask included).
 PoreSpaceReport analysePoreSpace(const BoolArray& solid, bool periodic_y = false);
+
+/// The narrowest cross-section of the widest inlet-to-outlet path, in metres.
+struct Throat {
+  bool path = false;   ///< a 4-connected fluid path joins the inlet (left) and the outlet (right)
+  double width_m = std::numeric_limits<double>::infinity();  ///< infinite: no solid narrows the path
+  double x_m = 0, y_m = 0;  ///< centre of the pixel where the widest path is narrowest
+};
+
+/// Widest path through the fluid of a mask (row 0 at the top, y = origin_y + (rows - row - 1/2) pixel,
+/// x = origin_x + (col + 1/2) pixel), flow along x. The local width of a fluid pixel is its shortest
+/// fluid chord: the run of fluid pixels through it along x, y (x pixel) and the two diagonals (x
+/// sqrt 2 pixel), a run that reaches the edge of the mask not counting as narrow (an inlet, an
+/// outlet, a slip side); periodic directions wrap the x and y runs. A one-pixel slot is one pixel
+/// wide, a gap of g pixels g pixels, to one pixel. periodic_x / periodic_y wrap the runs; paths join
+/// the left and right edges within the mask (periodic_y paths may cross the top / bottom edge).
+Throat narrowestThroat(const BoolArray& solid, double pixel_m, bool periodic_x = false, bool periodic_y = false, double origin_x = 0,
+                       double origin_y = 0);
+
+/// The same for a Shape on [x0, x1] x [y0, y1], sampled at the centres of square samples of about
+/// sample_m (at most `max_samples` in all: coarser samples for a larger domain). The width is then
+/// known to about one sample.
+Throat narrowestThroat(const Shape& shape, double x0, double x1, double y0, double y1, double sample_m, bool periodic_x, bool periodic_y,
+                       long long max_samples = 4'000'000);
 
 }  // namespace mmval::simulate

@@ -23,8 +23,8 @@
 // Coupling: a coupling loop calls advance(dt) (sub-stepped to the Courant
 // limit), may change the solids between steps (setShape) or the drive
 // (setBodyForce), and reads bodyLoads(). Divergence (non-finite values, or a
-// velocity beyond `blowup_factor` x the velocity scale) throws with the time,
-// step and a remedy, and leaves the last good state in place: never NaN.
+// velocity beyond `blowup_factor` x the velocity scale) throws FlowFailure with
+// the time, step and a remedy, and leaves the last good state in place: never NaN.
 #pragma once
 #include <functional>
 #include <memory>
@@ -67,7 +67,7 @@ class UnsteadyFlowSolver {
   /// Advances the solution by exactly dt_s seconds (> 0) in as many steps as
   /// the Courant limit needs; if that is more than one, records a warning in
   /// stepStats() (and logs it once). Returns the number of steps taken.
-  /// Throws std::runtime_error on divergence (state stays at the last good step).
+  /// Throws FlowFailure (a NumericalFailure, exit 5) on divergence (state stays at the last good step).
   int advance(double dt_s);
   /// One step of min(dt_max_s, stableTimeStep()); returns the step taken, s.
   double step(double dt_max_s);
@@ -100,11 +100,14 @@ class UnsteadyFlowSolver {
   void fields(Eigen::ArrayXXd& u, Eigen::ArrayXXd& v, Eigen::ArrayXXd& p) const;
 
   /// Checkpoint and restart: everything the next step needs (time, step history, the two
-  /// velocity levels and the pressure, the last step's history term) and the summed statistics.
-  /// loadState needs a solver built from the same problem and options; it refuses a state of
-  /// another grid (std::runtime_error naming the checkpoint). The linear solver refactorises
-  /// at the first step after a restore, so a resumed run matches an uninterrupted one to the
-  /// linear solver's tolerance, not bit for bit.
+  /// velocity levels and the pressure, the last step's history term, and where the lagged LU
+  /// came from: the transient coefficient and linearised state of its first and its last
+  /// factorisation, and whether the next step refactorises) and the summed statistics, all as
+  /// binary doubles. loadState needs a solver built from the same problem and options; it refuses
+  /// a state of another grid or format (std::runtime_error naming the checkpoint). It rebuilds
+  /// the LU from the same matrices in the same order, so a resumed run continues bit for bit like
+  /// an uninterrupted one (direct linear solver, same rank count, no setShape since the start;
+  /// after setShape, to the GMRES tolerance 1e-10).
   void saveState(CheckpointWriter& w) const;
   void loadState(CheckpointReader& r);
 

@@ -5,7 +5,10 @@
 // read here, so one case file drives both (`mmval run`, `mmval peer openfoam`,
 // and cases tagged "peer" during validate).
 #pragma once
+#include <filesystem>
+#include <functional>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "mmval/core/CaseKind.hpp"
@@ -16,13 +19,23 @@ namespace mmval::openfoam {
 struct PeerRunOptions {
   int ranks = 1;
   std::optional<std::vector<int>> levels;  ///< overrides numerics.levels
+  /// Runs one level (scene, case folder, ranks); empty: openfoam::runCase. Tests give canned
+  /// Results here to check the reporting without OpenFOAM.
+  std::function<Result(const Scene&, const std::filesystem::path&, int)> runner;
 };
 
 /// The scene the peer solves for a case of one of these kinds (geometry, fluid, drive, numerics);
 /// a case of another kind is an InputError naming case.kind.
 Scene peerScene(const Case& c);
 
-/// Runs a case of one of these kinds through OpenFOAM into ctx.out_dir.
+/// The warning for a steady level that did not converge: case folder, iterations against the cap,
+/// final residuals against the target, and the key to change.
+std::string notConvergedText(const Scene& s, const Result& r, const std::string& case_dir);
+
+/// Runs a case of one of these kinds through OpenFOAM into ctx.out_dir. A steady level whose
+/// SIMPLE loop did not converge (Result::converged) is reported "not converged" with its
+/// residuals in its ladder row, without a value; if it is the finest level, its metrics are null
+/// and details.status is "not converged".
 RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& options);
 
 }  // namespace mmval::openfoam

@@ -15,6 +15,7 @@
 // porosity model needs a cellZone. Quasi-2D chip permeability is ours alone.
 #pragma once
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -76,6 +77,12 @@ struct Result {
   double mesh_seconds = 0, solve_seconds = 0;
   std::vector<StepTiming> steps;
   int iterations = 0;
+  /// Steady: simpleFoam met its residualControl (numerics.residual) before its iteration cap
+  /// (numerics.max_iterations). When false the outputs below are those of the last iteration, not a
+  /// solution: they must not be reported as values (runPeer reports "not converged" instead).
+  /// Always true for unsteady runs.
+  bool converged = true;
+  std::map<std::string, double> residuals;  ///< steady: initial residual of each field (Ux, Uy, p) in the last iteration
   // outputs (SI, kinematic pressures multiplied by rho)
   double porosity_total = 0, porosity_connected = 0, porosity_mesh = 0;
   std::optional<double> c_d_mean;  ///< unsteady: mean over the second half
@@ -101,6 +108,21 @@ std::vector<Coefficients> readCoefficients(const std::filesystem::path& file);
 /// Strouhal number from a lift history by zero crossings over the last
 /// `periods` periods; returns nullopt without a clear oscillation.
 std::optional<double> strouhalFromLift(const std::vector<Coefficients>& history, double l_ref, double u_ref, int periods = 4);
+
+/// How a steady SIMPLE solve ended, read from simpleFoam's log: converged when the log says
+/// "SIMPLE solution converged" (residualControl met) or every field's initial residual in the last
+/// iteration is at or below `target` (met on the very last iteration, where simpleFoam stops without
+/// saying so); `residuals` holds those initial residuals (the first solve of each field in the
+/// iteration, which is what residualControl compares), `iterations` the iterations run.
+struct SimpleConvergence {
+  bool converged = false;
+  int iterations = 0;
+  std::map<std::string, double> residuals;
+};
+SimpleConvergence simpleConvergence(const std::string& log, double target);
+
+/// "Ux 0.91, Uy 0.88, p 0.93": residuals for messages.
+std::string residualText(const std::map<std::string, double>& residuals);
 
 /// The first "FOAM FATAL ERROR" block of a log, or its last lines.
 std::string fatalMessage(const std::string& log);
