@@ -464,7 +464,7 @@ Case Case::load(const std::filesystem::path& file, const CaseKindRegistry& regis
 
 Case Case::parse(std::string_view toml_text, const std::filesystem::path& file, const CaseKindRegistry& registry) {
   CaseReader reader(file, registry);
-  checkTomlText(toml_text, file.string());  // toml++ 3.3.0 must not see malformed UTF-8 (see Utf8.hpp)
+  checkTomlText(toml_text, file.string());  // toml++ 3.3.0: malformed UTF-8 and non-ASCII it mishandles (see Utf8.hpp)
   toml::table doc;
   try {
     doc = toml::parse(toml_text, file.string());
