@@ -3,6 +3,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "RunMmval.hpp"
+
 #include <sys/wait.h>
 
 #include <cmath>
@@ -19,29 +21,11 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-struct Outcome {
-  int status = -1;
-  std::string output;  // stdout and stderr together
-};
+using mmval::test::Outcome;
 
-/// Runs `mmval ARGS`; `env` (e.g. "VAR=value ") goes in front of the command.
-Outcome mmval(const std::string& args, const std::string& env = "") {
-  const std::string cmd = env + std::string(MMVAL_BINARY_DIR) + "/bin/mmval " + args + " 2>&1";
-  Outcome o;
-  FILE* pipe = popen(cmd.c_str(), "r");
-  char buf[4096];
-  while (std::fgets(buf, sizeof buf, pipe) != nullptr) o.output += buf;
-  const int raw = pclose(pipe);
-  o.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return o;
-}
+Outcome mmval(const std::string& args, const std::string& env = "") { return mmval::test::runMmval(args, env); }
 
-fs::path scratch(const std::string& name) {
-  const fs::path d = fs::path(MMVAL_BINARY_DIR) / "test-output" / "cli" / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path scratch(const std::string& name) { return mmval::test::freshTestFolder("cli", name); }
 
 TEST(Cli, HelpListsSubcommands) {
   const Outcome o = mmval("--help");

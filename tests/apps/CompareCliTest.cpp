@@ -4,6 +4,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "RunMmval.hpp"
+
 #include <sys/wait.h>
 
 #include <cstdint>
@@ -20,29 +22,11 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-struct Outcome {
-  int status = -1;
-  std::string output;  // stdout and stderr together
-};
+using mmval::test::Outcome;
 
-/// Runs `mmval ARGS` (as CliTest.cpp does).
-Outcome mmval(const std::string& args) {
-  const std::string cmd = std::string(MMVAL_BINARY_DIR) + "/bin/mmval " + args + " 2>&1";
-  Outcome o;
-  FILE* pipe = popen(cmd.c_str(), "r");
-  char buf[4096];
-  while (std::fgets(buf, sizeof buf, pipe) != nullptr) o.output += buf;
-  const int raw = pclose(pipe);
-  o.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return o;
-}
+Outcome mmval(const std::string& args) { return mmval::test::runMmval(args); }
 
-fs::path scratch(const std::string& name) {
-  const fs::path d = fs::path(MMVAL_BINARY_DIR) / "test-output" / "cli-compare" / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path scratch(const std::string& name) { return mmval::test::freshTestFolder("cli-compare", name); }
 
 /// Particles `ids` moving along x at `speed_um_s` x 1, 2, 3 ..., 20 frames 0.1 s apart, 100 um apart in y.
 std::string movingRows(const std::vector<std::int64_t>& ids, double speed_um_s) {

@@ -5,6 +5,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "RunMmval.hpp"
+
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -25,35 +27,12 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-struct Outcome {
-  int status = -1;
-  std::string output;     // stdout and stderr together
-  double seconds = 0;     // wall time
-  double peak_bytes = 0;  // maximum resident set size (/usr/bin/time)
-};
+using mmval::test::Outcome;
 
-/// Runs `mmval ARGS` under /usr/bin/time, which appends "peak_kb=N" to the output.
-Outcome mmval(const std::string& args) {
-  const std::string cmd = "/usr/bin/time -f 'peak_kb=%M' " + std::string(MMVAL_BINARY_DIR) + "/bin/mmval " + args + " 2>&1";
-  Outcome o;
-  const auto t0 = std::chrono::steady_clock::now();
-  FILE* pipe = popen(cmd.c_str(), "r");
-  std::array<char, 4096> buf{};
-  while (std::fgets(buf.data(), buf.size(), pipe) != nullptr) o.output += buf.data();
-  const int raw = pclose(pipe);
-  o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  o.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  std::smatch m;
-  if (std::regex_search(o.output, m, std::regex("peak_kb=([0-9]+)"))) o.peak_bytes = std::stod(m[1].str()) * 1024;
-  return o;
-}
+/// Runs `mmval ARGS` under /usr/bin/time (peak memory in Outcome::peak_bytes).
+Outcome mmval(const std::string& args) { return mmval::test::runMmval(args, "", true); }
 
-fs::path scratch(const std::string& name) {
-  const fs::path d = fs::path(MMVAL_BINARY_DIR) / "test-output" / "limits" / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path scratch(const std::string& name) { return mmval::test::freshTestFolder("limits", name); }
 
 /// Refused quickly and cheaply: exit 2, within 5 s, under 1 GB.
 void expectFastRefusal(const Outcome& o) {
