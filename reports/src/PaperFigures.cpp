@@ -1,4 +1,5 @@
 #include "mmval/reports/PaperFigures.hpp"
+#include "mmval/reports/Site.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -92,8 +93,12 @@ std::optional<Plot> retentionFigure(const ReportInput& input, const fs::path& re
       const auto cols = readCsvColumns(c.dir / "retention_time.csv");
       if (!cols.count("t_s") || !cols.count("experiment") || !cols.count("simulation")) continue;
       if (!cols.at("t_s").empty()) t_max = std::max(t_max, cols.at("t_s").back());
-      p.series.push_back({c.name + ": experiment", cols.at("t_s"), cols.at("experiment"), "linespoints"});
-      p.series.push_back({c.name + ": simulation", cols.at("t_s"), cols.at("simulation"), "linespoints"});
+      nlohmann::json run = nullptr;
+      for (const auto& r : input.summary.results)
+        if (r.contains("run_dir") && fs::weakly_canonical(r["run_dir"].get<std::string>()) == fs::weakly_canonical(c.dir)) run = r;
+      const ComparisonNames names = comparisonNames(run, input);
+      p.series.push_back({c.name + ": " + names.reference_short, cols.at("t_s"), cols.at("experiment"), "linespoints"});
+      p.series.push_back({c.name + ": " + names.candidate_short, cols.at("t_s"), cols.at("simulation"), "linespoints"});
     }
     if (!p.series.empty() && t_max > 0) {
       // The micromodel's end-of-injection values (paper Sec. 3.3) as levels.

@@ -30,17 +30,18 @@ std::string renderSvg(const Plot& plot) {
   char tmpl[] = "/tmp/mmval-plot-XXXXXX";
   if (mkdtemp(tmpl) == nullptr) throw std::runtime_error("cannot create a temporary folder for gnuplot");
   const fs::path dir = tmpl;
+  // The key is one entry a line under the plot: the page grows by a line per series.
   std::string script = fmt::format(
       "set terminal svg size {},{} dynamic enhanced font 'sans,11' background rgb 'white'\n"
-      "set output {}\nset title {} noenhanced\nset xlabel {}\nset ylabel {}\nset grid\nset key outside bottom center horizontal noenhanced\n",
-      plot.width, plot.height, quote((dir / "plot.svg").string()), quote(plot.title), quote(plot.xlabel), quote(plot.ylabel));
+      "set output {}\nset title {} noenhanced\nset xlabel {}\nset ylabel {}\nset grid\nset key outside bottom center vertical noenhanced\n",
+      plot.width, plot.height + 18 * static_cast<int>(plot.series.size()), quote((dir / "plot.svg").string()), quote(plot.title), quote(plot.xlabel), quote(plot.ylabel));
   if (!plot.yrange.empty()) script += "set yrange " + plot.yrange + "\n";
   if (plot.logx) script += "set logscale x\nset format x '10^{%L}'\n";
   if (plot.logy) script += "set logscale y\nset format y '10^{%L}'\n";
   int label_id = 1;
   for (const auto& l : plot.labels)
     if (std::isfinite(l.x) && std::isfinite(l.y))
-      script += fmt::format("set label {} {} at {:.10g},{:.10g} right point pt 9 ps 1.6 lc rgb 'black' offset -1,0.8 front noenhanced\n", label_id++,
+      script += fmt::format("set label {} {} at {:.10g},{:.10g} right point pt 13 ps 1.6 lc rgb 'black' offset -1,0.8 front noenhanced\n", label_id++,
                             quote(l.text), l.x, l.y);
   std::vector<std::string> parts;
   int k = 0;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -23,6 +24,8 @@
 #include "mmval/reports/Plot.hpp"
 #include "mmval/reports/PaperFigures.hpp"
 #include "mmval/reports/Tables.hpp"
+#include "mmval/reports/Site.hpp"
+#include "ReportParts.hpp"
 
 namespace fs = std::filesystem;
 
@@ -76,9 +79,25 @@ bool isComparison(const nlohmann::json& j) {
   return j.is_object() && j.contains("schema") && j["schema"].is_string() && j["schema"].get<std::string>() == "mmval-compare/1";
 }
 
-struct Figure {
-  std::string id, caption, svg, png_base64;
-};
+using detail::Figure;
+
+/// A file name for figures/: the id with anything but [A-Za-z0-9._-] as '-'.
+std::string fileId(const std::string& id) {
+  std::string out = id;
+  for (char& c : out)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-')) c = '-';
+  return out;
+}
+
+/// Runs set up as the paper's Table 1 cylinder (unbounded-reference or paper-model
+/// acceptance entries), as cylinderDragTable counts them; confined benchmarks are not.
+bool paperCylinderSetup(const nlohmann::json& r) {
+  for (const auto& m : r["metrics"]) {
+    const std::string n = m["name"].get<std::string>();
+    if (n.rfind("c_D (", 0) == 0 && (n.find("paper") != std::string::npos || n.find("Dennis") != std::string::npos)) return true;
+  }
+  return false;
+}
 
 }  // namespace
 
@@ -119,11 +138,39 @@ ReportInput collect(const std::vector<fs::path>& dirs) {
 int writeReport(const ReportInput& input, const fs::path& out) {
   fs::create_directories(out / "figures");
   std::vector<Figure> figures;
+  detail::Parts parts;
   const bool plots = gnuplotAvailable();
-  auto addPlot = [&](const std::string& id, const std::string& caption, const Plot& p) {
+  auto addPlot = [&](const std::string& id, const std::string& caption, const Plot& p, const std::string& owner = {}) {
     if (!plots) return;
-    Figure f{id, caption, renderSvg(p), {}};
-    writeFileAtomic(out / "figures" / (id + ".svg"), f.svg);
+    const std::string file = fileId(id);
+    Figure f;
+    f.id = id;
+    f.caption = caption;
+    f.owner = owner;
+    f.svg = renderSvg(p);
+    f.data = "figures/" + file + ".csv";
+    f.data_label = "CSV";
+    writeFileAtomic(out / "figures" / (file + ".svg"), f.svg);
+    writeFileAtomic(out / f.data, plotCsv(p));
+    figures.push_back(std::move(f));
+  };
+  // A PNG copied into figures/ (deduplicated by source file: a compare-tracks run lists
+  // the images its comparison folder also holds).
+  std::vector<fs::path> images_seen;
+  auto addImage = [&](const std::string& id, const std::string& caption, const fs::path& png, const std::string& owner, std::string data = {},
+                      std::string data_label = {}, std::string colour_bar = {}) {
+    const fs::path canonical = fs::weakly_canonical(png);
+    if (std::find(images_seen.begin(), images_seen.end(), canonical) != images_seen.end()) return;
+    images_seen.push_back(canonical);
+    Figure f;
+    f.id = id;
+    f.caption = caption;
+    f.owner = owner;
+    f.image = fileId(id) + ".png";
+    writeFileAtomic(out / "figures" / f.image, readInputFile(png));
+    f.data = std::move(data);
+    f.data_label = std::move(data_label);
+    f.colour_bar = std::move(colour_bar);
     figures.push_back(std::move(f));
   };
 
@@ -144,13 +191,20 @@ int writeReport(const ReportInput& input, const fs::path& out) {
     if (!p.series.empty()) addPlot("speed-vs-error", "Wall time against relative error over each case's resolution ladder (log-log).", p);
   }
 
-  // Drag coefficient against Reynolds number: every cylinder run, with the references its
-  // acceptance entries name (the paper's Table 1 as a figure).
+  // Drag coefficient against Reynolds number: the runs of the paper's Table 1 set-up (a
+  // cylinder with an unbounded-flow reference or the paper's model), with those references.
+  // Confined benchmarks (Schaefer-Turek, C_d ~5.6 from wall blockage) are a different
+  // problem and stay on their own case pages.
   {
     std::map<std::string, Series> by_label;
+    std::vector<std::string> left_out;
     for (const auto& r : input.summary.results) {
       const auto& d = r["details"];
       if (!d.is_object() || !d.contains("Re")) continue;
+      if (!paperCylinderSetup(r)) {
+        if (std::find(left_out.begin(), left_out.end(), r["case"]["name"].get<std::string>()) == left_out.end()) left_out.push_back(r["case"]["name"].get<std::string>());
+        continue;
+      }
       const double re = d["Re"].get<double>();
       for (const auto& m : r["metrics"]) {
         const std::string name = m["name"].get<std::string>();
@@ -174,10 +228,34 @@ int writeReport(const ReportInput& input, const fs::path& out) {
         }
       }
     }
+    // The paper's Table 1 columns at every Re it lists (reference-data/, as in Table 1); they
+    // replace the same references taken from the runs' acceptance entries.
+    if (!by_label.empty())
+      if (const auto t1 = cylinderDragTable(input, findReferenceData(input))) {
+        for (std::size_t col = 1; col < t1->header.size() && col <= 6; ++col) {
+          Series s{t1->header[col] + " (Table 1)", {}, {}, fmt::format("points pt {} ps 1.2", 2 + 2 * static_cast<int>(col))};  // open symbols
+          for (const auto& row : t1->rows) {
+            char* end = nullptr;
+            const double re = std::strtod(row[0].c_str(), nullptr), cd = std::strtod(row[col].c_str(), &end);
+            if (end != row[col].c_str() && std::isfinite(cd) && cd > 0) {
+              s.x.push_back(re);
+              s.y.push_back(cd);
+            }
+          }
+          if (s.x.empty()) continue;
+          by_label.erase(t1->header[col]);
+          by_label[s.name] = s;
+        }
+      }
     Plot p{"Drag coefficient against Reynolds number", "Re", "C_d", true, false, {}, 640, 420};
     for (auto& [label, series] : by_label) p.series.push_back(series);
     if (!p.series.empty() && by_label.begin()->second.x.size() + by_label.rbegin()->second.x.size() >= 2)
-      addPlot("cd-vs-re", "Drag coefficient against Re: our runs (filled) and their references (open).", p);
+      addPlot("cd-vs-re",
+              "Drag coefficient against Re of the paper's Table 1 set-up: our runs (filled) and the references their acceptance entries name (open)." +
+                  (left_out.empty() ? std::string()
+                                    : " Not on these axes (other set-ups, e.g. confined channels whose walls raise C_d): " + fmt::format("{}", fmt::join(left_out, ", ")) +
+                                          "; see their case pages."),
+              p);
   }
 
   // Force histories of unsteady runs (forces.csv): c_D and c_L against time, the part in the
@@ -225,17 +303,28 @@ int writeReport(const ReportInput& input, const fs::path& out) {
             fmt::format("Drag and lift coefficients against time ({}; y range of the statistics window); statistics window {:.4g} - {:.4g} s ({} shedding periods): c_D max {}, "
                         "c_L max {}, St {}.",
                         name, w0, w1, d.value("shedding_periods", 0), metric("c_D_max"), metric("c_L_max"), metric("St")),
-            p);
+            p, detail::pageKey(r));
   }
 
-  // Experiment vs simulation figures.
+  // Comparison figures, their two sides named by what they are (Site.hpp: comparisonNames).
+  auto runOf = [&](const ComparisonInput& c) -> nlohmann::json {
+    for (const auto& r : input.summary.results)
+      if (r.contains("run_dir") && fs::weakly_canonical(r["run_dir"].get<std::string>()) == fs::weakly_canonical(c.dir)) return r;
+    return nullptr;
+  };
+  auto ownerOf = [&](const ComparisonInput& c) {
+    const nlohmann::json r = runOf(c);
+    return r.is_null() ? "compare-" + c.name : detail::pageKey(r);
+  };
   for (const auto& c : input.comparisons) {
+    const ComparisonNames names = comparisonNames(runOf(c), input);
+    const std::string owner = ownerOf(c);
     auto timePlot = [&](const std::string& file, const std::string& title, const std::string& ylabel, const std::string& id) {
       if (!fs::exists(c.dir / file)) return;
       const auto cols = readColumns(c.dir / file);
       if (cols.size() < 3) return;
-      Plot p{title, "t (s)", ylabel, false, false, {{"experiment", cols[0], cols[1], "linespoints"}, {"simulation", cols[0], cols[2], "linespoints"}}};
-      addPlot(c.name + "-" + id, title + " (" + c.name + ")", p);
+      Plot p{title, "t (s)", ylabel, false, false, {{names.reference_short, cols[0], cols[1], "linespoints"}, {names.candidate_short, cols[0], cols[2], "linespoints"}}};
+      addPlot(c.name + "-" + id, title + " (" + names.kind + ": " + names.reference + " against " + names.candidate + ")", p, owner);
     };
     timePlot("mean_speed_time_um_per_s.csv", "Mean particle speed against time", "speed (um/s)", "speed");
     timePlot("sigma_x_time_um.csv", "Dispersion sigma_x against time", "sigma_x (um)", "sigma-x");
@@ -243,33 +332,34 @@ int writeReport(const ReportInput& input, const fs::path& out) {
     if (fs::exists(c.dir / "speed_histogram.csv")) {
       const auto cols = readColumns(c.dir / "speed_histogram.csv");
       if (cols.size() >= 3)
-        addPlot(c.name + "-histogram", "Speed distributions (" + c.name + ")",
+        addPlot(c.name + "-histogram", "Speed distributions per step (" + names.kind + ": " + names.reference + " against " + names.candidate + ")",
                 Plot{"Speed distribution", "speed (um/s)", "fraction of steps", false, false,
-                     {{"experiment", cols[0], cols[1], "steps"}, {"simulation", cols[0], cols[2], "steps"}}});
+                     {{names.reference_short, cols[0], cols[1], "steps"}, {names.candidate_short, cols[0], cols[2], "steps"}}},
+                owner);
     }
     if (fs::exists(c.dir / "streamlines.png"))
-      figures.push_back({c.name + "-streamlines", "Streamline occupancy: experiment | simulation | overlay (magenta experiment, green simulation, white both) (" + c.name + ")", {}, base64(readInputFile(c.dir / "streamlines.png"))});
+      addImage(c.name + "-streamlines",
+               "Streamline occupancy: " + names.reference + " | " + names.candidate + " | overlay (magenta: the first, green: the second, white: both)", c.dir / "streamlines.png",
+               owner);
+    if (fs::exists(c.dir / "regions.png"))
+      addImage(c.name + "-regions", "Pore bodies (blue) and throats (orange) of the geometry mask", c.dir / "regions.png", owner,
+               fs::exists(c.dir / "region_speeds.csv") ? detail::relativeLink(c.dir / "region_speeds.csv", out) : std::string(),
+               "region_speeds.csv (CSV)");
+    if (fs::exists(c.dir / "registration.png"))
+      addImage(c.name + "-registration", "Registration check: the frame of " + names.reference + " with the mask's grain outlines (green) carried by the fitted motion",
+               c.dir / "registration.png", owner);
   }
   const fs::path refdir = findReferenceData(input);
   nlohmann::json extra_metrics = nlohmann::json::array();
 
   const PermeabilityFigure permeability = permeabilityFigure(input, refdir);
   if (permeability.plot)
-    addPlot("permeability-time", "Normalised permeability k/k0 against time of every run that wrote permeability.csv; diamonds: the paper's Table 3 reductions.",
+    addPlot("permeability-time", "Normalised permeability k/k0 against time of every run that wrote permeability.csv; filled diamonds with labels: the paper's Table 3 reductions.",
             *permeability.plot);
   for (const auto& m : permeability.metrics) extra_metrics.push_back(m);
   const auto& reduction_rows = permeability.rows;
   if (const auto p = retentionFigure(input, refdir))
-    addPlot("retention-time", "Retained fraction against time: simulations (retained / injected) and experiment vs simulation comparisons (retained / mobile seen so far).", *p);
-
-  // Per comparison: pore bodies and throats of the geometry.
-  for (const auto& c : input.comparisons) {
-    if (fs::exists(c.dir / "regions.png"))
-      figures.push_back({c.name + "-regions", "Pore bodies (blue) and throats (orange) of the geometry mask (" + c.name + ")", {}, base64(readInputFile(c.dir / "regions.png"))});
-    if (fs::exists(c.dir / "registration.png"))
-      figures.push_back({c.name + "-registration", "Registration check: the experiment's frame with the mask's grain outlines (green) carried by the fitted motion (" + c.name + ")", {},
-                         base64(readInputFile(c.dir / "registration.png"))});
-  }
+    addPlot("retention-time", "Retained fraction against time: simulations (retained / injected) and track comparisons (retained / mobile seen so far; the tracked side of a pipeline check is a rendered simulation, not an experiment).", *p);
 
   // The paper's tables from the runs present.
   std::vector<Table> tables;
@@ -289,18 +379,19 @@ int writeReport(const ReportInput& input, const fs::path& out) {
   for (const auto& c : input.comparisons) {
     if (!c.metrics.contains("regions")) continue;
     const auto& g = c.metrics["regions"];
+    const ComparisonNames names = comparisonNames(runOf(c), input);
     Table t;
     t.id = "regions-" + c.name;
-    t.title = "Mean speed per region: " + c.name;
-    t.note = g.value("rule", "");
-    t.header = {"region", "experiment (um/s)", "simulation (um/s)", "relative difference", "experiment steps", "simulation steps"};
+    t.title = "Mean speed per region";
+    t.note = g.value("rule", "") + " Columns: " + names.reference + " (first) and " + names.candidate + " (second).";
+    t.header = {"region", "tracked: " + names.reference + " (um/s)", names.candidate + " (um/s)", "relative difference", "steps (first)", "steps (second)"};
     auto cell = [](const nlohmann::json& v) { return v.is_number() ? fmt::format("{:.4g}", v.get<double>()) : std::string("-"); };
     for (const auto& [label, key, steps, diff] : std::vector<std::array<std::string, 4>>{
              {"pore bodies", "pore_body_mean_speed_um_per_s", "pore_body_steps", "speed_pore_bodies_relative_difference"},
              {"throats", "throat_mean_speed_um_per_s", "throat_steps", "speed_throats_relative_difference"}})
       t.rows.push_back({label, cell(g["experiment"][key]), cell(g["simulation"][key]),
                         g.contains(diff) ? fmt::format("{:+.1f} %", 100 * g[diff].get<double>()) : "-", cell(g["experiment"][steps]), cell(g["simulation"][steps])});
-    tables.push_back(t);
+    parts.case_tables.emplace_back(ownerOf(c), t);
   }
   std::vector<std::string> alignments;
   for (const auto& c : input.comparisons) {
@@ -316,15 +407,43 @@ int writeReport(const ReportInput& input, const fs::path& out) {
       alignments.push_back(c.name + ": " + a.dump());
   }
 
-  // Images produced by runs (PNG files listed in result.json).
-  for (const auto& r : input.summary.results)
+  // Images produced by runs (PNG files listed in result.json); speed fields get a colour bar
+  // from 0 to the largest cell speed of the run's fields.vtr (simulate scales them so).
+  for (const auto& r : input.summary.results) {
+    if (!r.contains("run_dir")) continue;
+    const fs::path run_dir = r["run_dir"].get<std::string>();
+    const std::string case_name = detail::pageKey(r);
     for (const auto& f : r.value("files", nlohmann::json::array())) {
       const std::string name = f.get<std::string>();
-      if (name.size() > 4 && name.substr(name.size() - 4) == ".png" && r.contains("run_dir")) {
-        const fs::path p = fs::path(r["run_dir"].get<std::string>()) / name;
-        if (fs::exists(p)) figures.push_back({r["case"]["name"].get<std::string>() + "-" + name, r["case"]["name"].get<std::string>() + ": " + name, {}, base64(readInputFile(p))});
+      if (name.size() <= 4 || name.substr(name.size() - 4) != ".png") continue;
+      const fs::path p = run_dir / name;
+      if (!fs::exists(p)) continue;
+      std::string data, data_label, bar;
+      const fs::path vtr = run_dir / "fields.vtr";
+      const std::string file_name = fs::path(name).filename().string();
+      if (file_name == "speed.png" || (file_name.rfind("fields", 0) == 0 && file_name.find("speed") != std::string::npos)) {
+        const bool plane = name.find("middepth") != std::string::npos;
+        const double vmax = plane ? std::nan("") : maxSpeedOfVtr(vtr);
+        bar = colourBarHtml(0.0, vmax, "m/s", plane ? "speed |u| on the mid-depth plane (range of the plane)" : "speed |u|");
+        if (fs::exists(vtr)) {
+          data = detail::relativeLink(vtr, out);
+          data_label = "fields (.vtr)";
+        }
       }
+      // Tracking images: the CSV they are drawn from sits beside them.
+      for (const char* csv : {file_name == "speed_map.png" ? "velocities.csv" : "tracks.csv"})
+        if (data.empty() && fs::exists(p.parent_path() / csv)) {
+          data = detail::relativeLink(p.parent_path() / csv, out);
+          data_label = std::string(csv) + " (CSV)";
+        }
+      addImage(case_name + "-" + fs::path(name).stem().string(), name + (bar.empty() ? std::string() : " (speed field, viridis from 0 to the largest cell speed)"), p,
+               case_name, data, data_label, bar);
     }
+  }
+  parts.figures = figures;
+  parts.tables = tables;
+  parts.alignments = alignments;
+  parts.plots = plots;
 
   // metrics.json: runs and comparisons together.
   nlohmann::json metrics = input.summary.metricsJson();
@@ -346,58 +465,26 @@ int writeReport(const ReportInput& input, const fs::path& out) {
   // Markdown.
   std::string md = input.summary.markdown();
   for (const auto& c : input.comparisons) {
-    md += fmt::format("\n## Experiment vs simulation: {}\n\n| metric | simulation | experiment | error | tolerance | result |\n|---|---|---|---|---|---|\n", c.name);
+    const ComparisonNames names = comparisonNames(runOf(c), input);
+    md += fmt::format("\n## {}: {}\n\n{}\n\nvalue: {}; reference: {}.\n\n| metric | value | reference | error | tolerance | result |\n|---|---|---|---|---|---|\n", names.kind,
+                      c.name, names.explanation, names.candidate, names.reference);
     for (const auto& m : c.metrics["metrics"])
-      md += fmt::format("| {} | {:.4g} {} | {} | {} | {} | {} |\n", m["name"].get<std::string>(), m["value"].is_number() ? m["value"].get<double>() : std::nan(""),
-                        m.value("unit", ""), referenceText(m), errorText(m), m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>(),
-                        m["pass"].is_null() ? "info" : (m["pass"].get<bool>() ? "pass" : "FAIL"));
+      md += fmt::format("| {} | {:.4g} {} | {} {} | {} | {} | {} |\n", m["name"].get<std::string>(), m["value"].is_number() ? m["value"].get<double>() : std::nan(""),
+                        m.value("unit", ""), referenceText(m), m["reference"].is_null() ? "" : m.value("unit", ""), errorText(m),
+                        m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>(), m["pass"].is_null() ? "info" : (m["pass"].get<bool>() ? "pass" : "FAIL"));
   }
   for (const auto& t : tables) md += t.markdown();
   if (!alignments.empty()) {
-    md += "\n## Alignment of experiment and simulation\n\n";
+    md += "\n## Alignment of tracked frames and simulation\n\n";
     for (const auto& a : alignments) md += "- " + a + "\n";
   }
   md += "\n## Figures\n\n";
   for (const auto& f : figures)
-    md += f.svg.empty() ? fmt::format("- {} (PNG, inline in index.html)\n", f.caption) : fmt::format("- {} (`figures/{}.svg`)\n", f.caption, f.id);
+    md += f.svg.empty() ? fmt::format("- {} (`figures/{}`)\n", f.caption, f.image) : fmt::format("- {} (`figures/{}.svg`, data `{}`)\n", f.caption, fileId(f.id), f.data);
   writeFileAtomic(out / "report.md", md);
 
-  // HTML: the summary page with figures appended before the closing tags.
-  std::string html = input.summary.html();
-  std::string extra;
-  for (const auto& c : input.comparisons) {
-    extra += fmt::format("<h2>Experiment vs simulation: {}</h2>\n<table class=\"compare\"><tr><th>metric</th><th>simulation</th><th>experiment</th><th>error</th><th>tolerance</th><th>result</th></tr>\n", htmlEscape(c.name));
-    for (const auto& m : c.metrics["metrics"]) {
-      const std::string pass = m["pass"].is_null() ? "info" : (m["pass"].get<bool>() ? "pass" : "FAIL");
-      extra += fmt::format("<tr class=\"{}\"><td>{}</td><td>{:.4g} {}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n", pass,
-                           htmlEscape(m["name"].get<std::string>()), m["value"].is_number() ? m["value"].get<double>() : std::nan(""),
-                           htmlEscape(m.value("unit", "")), htmlEscape(referenceText(m)), htmlEscape(errorText(m)),
-                           htmlEscape(m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>()), pass);
-    }
-    extra += "</table>\n";
-  }
-  for (const auto& t : tables) extra += t.html();
-  if (!alignments.empty()) {
-    extra += "<h2>Alignment of experiment and simulation</h2>\n<ul id=\"alignment\">\n";
-    for (const auto& a : alignments) extra += "<li>" + htmlEscape(a) + "</li>\n";
-    extra += "</ul>\n";
-  }
-  if (!figures.empty()) extra += "<h2>Figures</h2>\n";
-  for (const auto& f : figures) {
-    extra += fmt::format("<figure id=\"fig-{}\">\n", htmlEscape(f.id));
-    if (!f.svg.empty())
-      extra += f.svg;
-    else
-      extra += fmt::format("<img alt=\"{}\" style=\"max-width:100%;image-rendering:pixelated\" src=\"data:image/png;base64,{}\">", htmlEscape(f.caption), f.png_base64);
-    extra += fmt::format("\n<figcaption>{}</figcaption></figure>\n", htmlEscape(f.caption));
-  }
-  if (!plots) extra += "<p><b>gnuplot was not found: plots were left out.</b></p>\n";
-  // A check the headless-browser test reads: how many images decoded.
-  extra += "<p id=\"image-status\"></p>\n<script>window.addEventListener('load',function(){var im=document.images,ok=0;"
-           "for(var i=0;i<im.length;i++){if(im[i].complete&&im[i].naturalWidth>0)ok++;}"
-           "document.getElementById('image-status').textContent='images loaded: '+ok+' of '+im.length;});</script>\n";
-  html.insert(html.rfind("</body>"), extra);
-  writeFileAtomic(out / "index.html", html);
+  // HTML: the summary, the cross-case page and one page per case.
+  detail::writePages(input, parts, out);
   return static_cast<int>(figures.size());
 }
 

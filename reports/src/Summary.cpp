@@ -18,6 +18,12 @@ std::string solverOf(const nlohmann::json& r) {
   return "mmval";
 }
 
+/// The reference with the metric's unit, as the value has it ("1": dimensionless, no unit).
+std::string referenceWithUnit(const nlohmann::json& m) {
+  const std::string ref = referenceText(m), unit = m.value("unit", "");
+  return ref == "-" || unit.empty() || unit == "1" ? ref : ref + " " + unit;
+}
+
 std::string passText(const nlohmann::json& m) {
   if (m["pass"].is_null()) return "info";
   return m["pass"].get<bool>() ? "pass" : "FAIL";
@@ -90,7 +96,7 @@ std::string Summary::markdown() const {
   for (const auto& r : results)
     for (const auto& m : r["metrics"])
       out += fmt::format("| {} | {} | {} | {} {} | {} | {} | {} | {} |\n", r["case"]["name"].get<std::string>(), solverOf(r),
-                         m["name"].get<std::string>(), number(m["value"]), m.value("unit", ""), referenceText(m),
+                         m["name"].get<std::string>(), number(m["value"]), m.value("unit", ""), referenceWithUnit(m),
                          errorText(m), m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>(), passText(m));
   out += "\n## Cost and provenance\n\n| case | kind | wall time (s) | peak memory (MiB) | case hash |\n|---|---|---|---|---|\n";
   for (const auto& r : results)
@@ -124,7 +130,7 @@ std::string Summary::html() const {
       const std::string pass = passText(m);
       out += fmt::format("<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
                          pass, htmlEscape(r["case"]["name"].get<std::string>()), htmlEscape(solverOf(r)), htmlEscape(m["name"].get<std::string>()),
-                         number(m["value"]), htmlEscape(m.value("unit", "")), htmlEscape(referenceText(m)),
+                         number(m["value"]), htmlEscape(m.value("unit", "")), htmlEscape(referenceWithUnit(m)),
                          htmlEscape(errorText(m)),
                          htmlEscape(m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>()), pass);
     }
@@ -150,7 +156,7 @@ std::string Summary::text() const {
   for (const auto& r : results)
     for (const auto& m : r["metrics"])
       out += fmt::format("{:<24} {:<16} {:<20} {:>18} {:>22} {:>10} {:>10} {}\n", r["case"]["name"].get<std::string>(), solverOf(r),
-                         m["name"].get<std::string>(), number(m["value"]) + " " + m.value("unit", ""), referenceText(m),
+                         m["name"].get<std::string>(), number(m["value"]) + " " + m.value("unit", ""), referenceWithUnit(m),
                          errorText(m), m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>(), passText(m));
   return out;
 }

@@ -1,4 +1,5 @@
 #include "mmval/reports/Tables.hpp"
+#include "mmval/reports/Site.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -72,7 +73,7 @@ std::string Table::markdown() const {
 
 std::string Table::html() const {
   std::string out = fmt::format("<h2>{}</h2>\n", htmlEscape(title));
-  if (!note.empty()) out += "<p>" + htmlEscape(note) + "</p>\n";
+  if (!note.empty()) out += "<p class=\"note\">" + linkDois(note) + "</p>\n";
   out += fmt::format("<table id=\"{}\"><tr>", htmlEscape(id));
   for (const auto& h : header) out += "<th>" + htmlEscape(h) + "</th>";
   out += "</tr>\n";
@@ -142,7 +143,11 @@ std::optional<Table> cylinderDragTable(const ReportInput& input, const fs::path&
   t.title = "Table 1: drag coefficient against Re";
   t.note = dir.empty() ? "reference-data/ not found: the paper's columns are left out."
                        : "Paper columns from reference-data/cylinder-drag-paper-table1.toml and cylinder-drag-dennis-chang.toml; "
-                         "'ours' is mmval's solver, 'OpenFOAM' the peer run of the same case file, where it ran.";
+                         "'ours' is mmval's solver, 'OpenFOAM' the peer run of the same case file, where it ran. "
+                         "Columns [66]-[69]: the models of references 66-69 of Elrahmani et al. (2022), Powder Technology 398, 117130, "
+                         "doi:10.1016/j.powtec.2022.117130, as quoted in its Table 1 (their bibliographic entries are not verified here); "
+                         "'paper model': that paper's own OpenFOAM set-up; Dennis & Chang (1970), doi:10.1017/S0022112070001428: unbounded steady flow. "
+                         "All C_d are dimensionless (-).";
   t.header = {"Re", "[66]", "[67]", "[68]", "[69]", "paper model", "Dennis & Chang", "ours", "ours vs paper model"};
   if (any_openfoam) t.header.insert(t.header.end(), {"OpenFOAM", "OpenFOAM vs paper model"});
   std::map<double, std::map<std::string, double>> rows = ours;
@@ -156,7 +161,7 @@ std::optional<Table> cylinderDragTable(const ReportInput& input, const fs::path&
     const auto paper = reference(dir, "cylinder-drag-paper-table1.toml", "c_D", {{"Re", re}, {"column", std::string("this paper")}});
     const auto dc = reference(dir, "cylinder-drag-dennis-chang.toml", "c_D", {{"Re", re}});
     row.push_back(dc ? num(*dc, 4) : "-");
-    auto cell = [&](const char* who) {
+    auto cell = [&, &cols = cols](const char* who) {  // named capture: clang < 16 cannot capture a structured binding
       const auto it = cols.find(who);
       row.push_back(it != cols.end() ? num(it->second, 4) : "not run");
       row.push_back(it != cols.end() && paper ? fmt::format("{:+.1f} %", 100 * (it->second - *paper) / *paper) : "-");

@@ -16,6 +16,7 @@
 #include "mmval/compare/Compare.hpp"
 #include "mmval/reports/Plot.hpp"
 #include "mmval/reports/Report.hpp"
+#include "mmval/reports/Site.hpp"
 #include "mmval/reports/Summary.hpp"
 #include "mmval/reports/Tables.hpp"
 
@@ -40,6 +41,8 @@ Tracks drift(double speed) {
     }
   return t;
 }
+
+std::string slurp(const fs::path& p);
 
 std::string run(const std::string& cmd) {
   std::string out;
@@ -80,22 +83,33 @@ TEST(Report, RendersInHeadlessChromium) {
   const int figures = writeReport(input, dir / "report");
   EXPECT_GE(figures, 4);
   const std::string flags = "--headless --no-sandbox --disable-gpu --disable-background-networking --no-first-run";
-  const fs::path html = dir / "report" / "index.html";
-  run(fmt::format("chromium {} --window-size=1200,1600 --screenshot={} file://{} 2>/dev/null", flags, (dir / "shot.png").string(), html.string()));
-  const cv::Mat shot = cv::imread((dir / "shot.png").string(), cv::IMREAD_GRAYSCALE);
-  ASSERT_FALSE(shot.empty()) << "no screenshot";
+  // The summary page (static: read as written).
+  const std::string summary = slurp(dir / "report" / "index.html");
+  // The summary: one line for the comparison, named by its inputs (a bare compare folder
+  // records no footage, so it is not called an experiment), linking its page.
+  EXPECT_THAT(summary, ::testing::HasSubstr("href=\"cases/compare-drift.html\""));
+  EXPECT_THAT(summary, ::testing::HasSubstr("Tracks vs simulation"));
+  EXPECT_THAT(summary, ::testing::HasSubstr("id=\"provenance\""));
+  // The comparison's page, rendered: every <img> decoded (the page writes the count once loaded).
+  const fs::path page = dir / "report" / "cases" / "compare-drift.html";
+  run(fmt::format("chromium {} --window-size=1200,2400 --screenshot={} file://{} 2>/dev/null", flags, (dir / "case-shot.png").string(), page.string()));
+  const cv::Mat case_shot = cv::imread((dir / "case-shot.png").string(), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(case_shot.empty()) << "no screenshot of the case page";
   cv::Scalar mean, stddev;
-  cv::meanStdDev(shot, mean, stddev);
-  EXPECT_GT(stddev[0], 10.0) << "screenshot is blank";
-  const std::string dom = run(fmt::format("chromium {} --virtual-time-budget=5000 --dump-dom file://{} 2>/dev/null", flags, html.string()));
-  // Every <img> decoded (the page writes the count once loaded).
+  cv::meanStdDev(case_shot, mean, stddev);
+  EXPECT_GT(stddev[0], 10.0) << "case page screenshot is blank";
+  const std::string dom = run(fmt::format("chromium {} --virtual-time-budget=5000 --dump-dom file://{} 2>/dev/null", flags, page.string()));
   EXPECT_THAT(dom, ::testing::HasSubstr("images loaded: 1 of 1"));
   // Key numbers: the mean speeds, 20 and 22 um/s scaled by the stopped particle's share.
   const auto& m = c.metrics.front();
   EXPECT_EQ(m.name, "mean_speed");
-  EXPECT_THAT(dom, ::testing::HasSubstr(fmt::format("{:.4g}", m.value)));
+  EXPECT_THAT(dom, ::testing::HasSubstr(fmt::format("{:.6g}", m.value)));
   EXPECT_THAT(dom, ::testing::HasSubstr("streamline_iou"));
   EXPECT_THAT(dom, ::testing::HasSubstr("<svg"));
+  EXPECT_THAT(dom, ::testing::Not(::testing::HasSubstr("Experiment vs simulation")));
+  // Every link of every page resolves.
+  const auto broken = brokenLinks(dir / "report");
+  EXPECT_TRUE(broken.empty()) << ::testing::PrintToString(broken);
 }
 
 /// A minimal result.json of a run in `dir` (what `mmval run` writes, reduced).
@@ -243,6 +257,9 @@ TEST(Report, ForceHistoryOfAnUnsteadyRun) {
   const std::string svg = slurp(dir / "report" / "figures" / "st2-forces.svg");
   EXPECT_THAT(svg, ::testing::HasSubstr("c_L, statistics window"));
   EXPECT_THAT(svg, ::testing::HasSubstr("<svg"));
+  // On its case's page, with the data behind it.
+  EXPECT_THAT(slurp(dir / "report" / "cases" / "st2.html"), ::testing::HasSubstr("id=\"fig-st2-forces\""));
+  EXPECT_THAT(slurp(dir / "report" / "figures" / "st2-forces.csv"), ::testing::HasSubstr("\"c_D, statistics window\",6.5"));
 }
 
 TEST(Report, NoTablesWithoutTheirRuns) {

@@ -1,6 +1,8 @@
-// The validation report: a self-contained HTML page (inline SVG plots from
-// gnuplot, inline PNG images, no network), the same content as Markdown, and
-// metrics.json so two runs can be diffed.
+// The validation report: a self-contained, offline set of HTML pages (a
+// summary, the paper's tables with the figures across cases, one page per
+// case; inline SVG plots from gnuplot with their CSV, PNG images copied
+// beside them), the same content as Markdown, and metrics.json so two runs
+// can be diffed. Pages link each run's folder and files by relative paths.
 #pragma once
 #include <filesystem>
 #include <string>
@@ -12,7 +14,8 @@
 
 namespace mmval::reports {
 
-/// An experiment-vs-simulation comparison folder written by `mmval compare`.
+/// A track comparison folder written by `mmval compare` or a compare-tracks run
+/// (pages name its two sides by their inputs: Site.hpp, comparisonNames).
 struct ComparisonInput {
   std::string name;
   std::filesystem::path dir;
@@ -31,8 +34,9 @@ struct ReportInput {
 /// JSON, larger than kMaxInputBytes or of the wrong shape (JsonShape.hpp).
 ReportInput collect(const std::vector<std::filesystem::path>& dirs);
 
-/// Writes index.html, report.md, metrics.json and figures/*.svg into `out`.
-/// Returns the number of figures.
+/// Writes index.html (summary, failures first), paper.html, cases/<run>.html
+/// (with a copy of each case file), report.md, metrics.json and figures/
+/// (*.svg with *.csv, *.png) into `out`. Returns the number of figures.
 int writeReport(const ReportInput& input, const std::filesystem::path& out);
 
 /// Metrics of `b` whose value moved beyond its tolerance relative to `a`
