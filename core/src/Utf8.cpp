@@ -119,8 +119,25 @@ std::optional<TextProblem> findUnsafeTomlText(std::string_view text) {
 
   // toml++ skips a leading byte-order mark (U+FEFF, which it classifies safely).
   std::size_t i = text.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;
+  // A quote opens a string only where TOML allows one: first on a line, or
+  // after '=', '[', '{', ',' or '.' (blanks between). Elsewhere (as in 12"...")
+  // it is part of a bare value, which toml++ scans ahead through, classifying
+  // every code point it meets; so what follows stays "outside a string" here.
+  // Found by fuzz_case_reader (fuzz/findings/tomlpp-quote-in-bare-value.toml).
+  char before = '\n';  // last byte outside strings and comments that is not a blank
+  const auto opensString = [&] { return before == '\n' || before == '=' || before == '[' || before == '{' || before == ',' || before == '.'; };
   while (i < text.size()) {
     const char c = text[i];
+    if (state == State::normal && c != ' ' && c != '\t' && c != '\r') {
+      const bool quote = c == '"' || c == '\'';
+      if (quote && !opensString()) {
+        before = c;
+        ++i;
+        continue;
+      }
+      before = quote ? '"' : c;  // after a string closes, `before` reads as a value character
+    }
+    if (state == State::comment && c == '\n') before = '\n';
     switch (state) {
       case State::normal:
         if (c == '#') {

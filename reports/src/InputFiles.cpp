@@ -60,6 +60,9 @@ nlohmann::json readJsonFile(const fs::path& file, std::uintmax_t max_bytes) {
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError({file.string(), lineOf(text, e.byte == 0 ? 0 : e.byte - 1), 0, {}}, std::string("not valid JSON: ") + e.what(), {},
                      "a JSON document written by mmval");
+  } catch (const nlohmann::json::exception& e) {
+    // The parser also throws out_of_range, e.g. for a number beyond double ("1e400"; found by fuzz_result_json).
+    throw InputError({file.string(), 0, 0, {}}, std::string("not usable JSON: ") + e.what(), {}, "a JSON document written by mmval");
   }
 }
 

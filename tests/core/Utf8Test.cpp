@@ -89,6 +89,24 @@ TEST(TomlText, AcceptsNonAsciiInStringsAndComments) {
   EXPECT_FALSE(findUnsafeTomlText("\xEF\xBB\xBF" "a = 1\n"));
 }
 
+// Strings in every place TOML allows them still take non-ASCII text.
+TEST(TomlText, AcceptsStringsWhereverTomlPutsThem) {
+  EXPECT_FALSE(findUnsafeTomlText("a = [\"\xC2\xB5m\", '\xC2\xB5m',\n  \"\xC2\xA7\"]\n"));
+  EXPECT_FALSE(findUnsafeTomlText("t = { k = \"\xC2\xB5\", \"cl\xC3\xA9\" = 2 }\n"));
+  EXPECT_FALSE(findUnsafeTomlText("[\"cl\xC3\xA9\"]\na.\"b\xC3\xA9\" = \"\xC2\xB5\"\n"));
+  EXPECT_FALSE(findUnsafeTomlText("# note\n\"\xC2\xB5 key\" = 1\n"));
+}
+
+// Found by fuzz_case_reader: a quote inside a bare value (12"...") does not
+// open a string, and toml++ scans ahead through what follows, reaching its
+// unreachable branch on non-ASCII; such text is now refused first.
+TEST(TomlText, RejectsNonAsciiAfterAQuoteInsideABareValue) {
+  EXPECT_TRUE(findUnsafeTomlText("x = 12\"\xC2\xA7\"\n"));
+  static const char kFuzzInput[] = "\nrun.duratation=000\"\0\0\0ooo\0case.desc:\0\0eomet\xEF\xBA\xBFry";
+  const std::string fuzz_input(kFuzzInput, sizeof kFuzzInput - 1);
+  EXPECT_TRUE(findUnsafeTomlText(fuzz_input));
+}
+
 TEST(TomlText, RejectsTheCodePointsTomlppMishandles) {
   // The fuzzer's smallest trigger: U+047B where a key or whitespace is expected.
   auto p = findUnsafeTomlText("\xD1\xBB");

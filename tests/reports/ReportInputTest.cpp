@@ -76,6 +76,13 @@ TEST(InputFiles, SyntaxErrorNamesTheLine) {
   EXPECT_THAT(m, HasSubstr("bad.json:4: not valid JSON"));
 }
 
+// Found by fuzz_result_json (fuzz/findings/result_json-number-overflow.json):
+// a number beyond double made the JSON parser throw out_of_range, which escaped as exit 4.
+TEST(InputFiles, NumberBeyondDoubleIsAnInputError) {
+  const fs::path big = writeFile("big.json", "{\"metrics\": [1e400]}\n");
+  EXPECT_THAT(inputErrorOf([&] { readJsonFile(big); }), HasSubstr("big.json: not usable JSON"));
+}
+
 TEST(JsonShape, ValidResultPasses) { EXPECT_NO_THROW(checkResultShape(validResult(), "result.json")); }
 
 /// One field of a valid result.json spoiled, and the field path the error must name.
