@@ -1,7 +1,9 @@
 #include "mmval/core/Case.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <optional>
 #include <fstream>
 #include <sstream>
 
@@ -10,6 +12,7 @@
 
 #include "TomlUtil.hpp"
 #include "mmval/core/CaseKind.hpp"
+#include "mmval/core/DataPaths.hpp"
 #include "mmval/core/Strings.hpp"
 #include "mmval/core/Utf8.hpp"
 
@@ -39,14 +42,15 @@ std::string printableName(const std::string& name) {
 
 /// True when `file` (a reference pointer resolved against its case file) lies
 /// in the case file's folder tree, in a reference-data/ folder beside it, or in
-/// the project's reference-data/: pointers never read arbitrary files.
+/// mmval's own reference-data/ (dataDirectory()): pointers never read arbitrary files.
 bool insideReferenceFolders(const std::filesystem::path& file, const std::filesystem::path& case_file) {
   namespace fs = std::filesystem;
   std::error_code ec;
   const fs::path target = fs::weakly_canonical(fs::absolute(file), ec);
   if (ec) return false;
   const fs::path case_dir = fs::absolute(case_file).parent_path();
-  const std::vector<fs::path> roots = {case_dir, case_dir.parent_path() / "reference-data", fs::path(MMVAL_SOURCE_DIR) / "reference-data"};
+  std::vector<fs::path> roots = {case_dir, case_dir.parent_path() / "reference-data"};
+  if (const fs::path data = referenceDataDirectory(); !data.empty()) roots.push_back(data);  // DataPaths.hpp
   for (const auto& r : roots) {
     const fs::path root = fs::weakly_canonical(r, ec);
     if (ec) continue;
@@ -59,11 +63,13 @@ bool insideReferenceFolders(const std::filesystem::path& file, const std::filesy
 /// Reads a case file; every error names the file, the line and the key.
 class CaseReader {
  public:
-  CaseReader(std::filesystem::path file, const CaseKindRegistry& registry) : m_file(std::move(file)), m_registry(registry) {}
+  /// `lines` false: the values come from the command line, so errors carry no line numbers.
+  CaseReader(std::filesystem::path file, const CaseKindRegistry& registry, bool lines = true)
+      : m_file(std::move(file)), m_registry(registry), m_lines(lines) {}
 
   [[noreturn]] void fail(int line, const std::string& key, const std::string& problem, const std::string& got = {},
                          const std::string& expected = {}) const {
-    throw InputError({m_file.string(), line, 0, key}, problem, got, expected);
+    throw InputError({m_file.string(), m_lines ? line : 0, 0, key}, problem, got, expected);
   }
 
   std::string expectedText(const KeyDecl& d) const {
@@ -284,7 +290,13 @@ class CaseReader {
         }
       }
       const std::string given = *file->value<std::string>();
-      const std::filesystem::path ref_path = (m_file.parent_path() / given).lexically_normal();
+      std::filesystem::path ref_path = (m_file.parent_path() / given).lexically_normal();
+      // A case kept away from mmval's data (a user's folder, `mmval init`)
+      // names "reference-data/<file>": the one of mmval's data folder.
+      if (const auto at_data = given.rfind("reference-data/");
+          !std::filesystem::exists(ref_path) && at_data != std::string::npos && (at_data == 0 || given[at_data - 1] == '/'))
+        if (const auto data = referenceDataDirectory(); !data.empty() && std::filesystem::exists(data / given.substr(at_data + 15)))
+          ref_path = (data / given.substr(at_data + 15)).lexically_normal();
       if (!insideReferenceFolders(ref_path, m_file))
         fail(lineOf(*file), key + ".file", "a reference pointer must stay inside reference-data/ or the case file's folder", "\"" + given + "\"",
              "a path such as \"../reference-data/<name>.toml\"");
@@ -421,9 +433,76 @@ class CaseReader {
  private:
   std::filesystem::path m_file;
   const CaseKindRegistry& m_registry;
+  bool m_lines = true;
 };
 
+/// Where an override's errors point: the case file and the --set that gave the value.
+std::string overrideLabel(const std::filesystem::path& file, const CaseOverride& o) {
+  return file.string() + " (--set " + o.text() + ")";
+}
+
+/// Puts `o` into the parsed case file, creating tables on the way, as if the
+/// file had said `key = value` in its table.
+void applyOverride(toml::table& doc, const CaseOverride& o, const CaseReader& cmd) {
+  checkTomlText(o.value, cmd.file().string());
+  std::optional<toml::table> parsed;
+  try {
+    parsed = toml::parse("v = " + o.value, cmd.file().string());
+  } catch (const toml::parse_error&) {
+    parsed.reset();  // not a TOML value: a bare string such as 5 um or dark
+  }
+  std::vector<std::string> parts;
+  for (std::size_t start = 0;;) {
+    const std::size_t dot = o.key.find('.', start);
+    parts.push_back(o.key.substr(start, dot - start));
+    if (dot == std::string::npos) break;
+    start = dot + 1;
+  }
+  toml::table* t = &doc;
+  std::string prefix;
+  for (std::size_t i = 0; i + 1 < parts.size(); ++i) {
+    prefix += (i ? "." : "") + parts[i];
+    toml::node* child = t->get(parts[i]);
+    if (child == nullptr) {
+      t->insert(parts[i], toml::table{});
+      child = t->get(parts[i]);
+    }
+    if (!child->is_table()) cmd.fail(0, o.key, "'" + prefix + "' is a value in the case file, not a table", tomlTypeName(*child), "a key of a table");
+    t = child->as_table();
+  }
+  if (parsed && parsed->size() == 1 && parsed->contains("v"))
+    t->insert_or_assign(parts.back(), *parsed->get("v"));
+  else
+    t->insert_or_assign(parts.back(), o.value);
+}
+
 }  // namespace
+
+CaseOverride CaseOverride::parse(std::string_view text) {
+  const std::size_t eq = text.find('=');
+  const auto bad = [&](const std::string& problem) {
+    throw InputError({"(command line)", 0, 0, "--set"}, problem, "\"" + std::string(text) + "\"",
+                     "KEY=VALUE with a dotted case key, e.g. --set numerics.cells=64 or --set fluid.viscosity=\"2e-3 Pa s\"");
+  };
+  if (eq == std::string_view::npos) bad("no '=' between key and value");
+  CaseOverride o{std::string(text.substr(0, eq)), std::string(text.substr(eq + 1))};
+  while (!o.key.empty() && o.key.back() == ' ') o.key.pop_back();
+  while (!o.value.empty() && o.value.front() == ' ') o.value.erase(0, 1);
+  bool part_empty = true;
+  for (char ch : o.key) {
+    if (ch == '.') {
+      if (part_empty) bad("empty part in the key");
+      part_empty = true;
+    } else if (std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-') {
+      part_empty = false;
+    } else {
+      bad("a key is letters, digits, '_' and '-' in parts joined by '.'");
+    }
+  }
+  if (part_empty) bad(o.key.empty() ? "no key before '='" : "empty part in the key");
+  if (o.key == "acceptance" || o.key.rfind("acceptance.", 0) == 0) bad("[[acceptance]] entries cannot be set from the command line");
+  return o;
+}
 
 const char* const kCaseNameRule = "1 to 100 characters from A-Z a-z 0-9 - _ . starting with a letter or digit (it names the run's folder)";
 
@@ -458,11 +537,12 @@ std::string readTextFile(const std::filesystem::path& file, std::uintmax_t max_b
   return text;
 }
 
-Case Case::load(const std::filesystem::path& file, const CaseKindRegistry& registry) {
-  return parse(readTextFile(file, kMaxCaseFileBytes, "case file", "a TOML case file"), file, registry);
+Case Case::load(const std::filesystem::path& file, const CaseKindRegistry& registry, const std::vector<CaseOverride>& overrides) {
+  return parse(readTextFile(file, kMaxCaseFileBytes, "case file", "a TOML case file"), file, registry, overrides);
 }
 
-Case Case::parse(std::string_view toml_text, const std::filesystem::path& file, const CaseKindRegistry& registry) {
+Case Case::parse(std::string_view toml_text, const std::filesystem::path& file, const CaseKindRegistry& registry,
+                 const std::vector<CaseOverride>& overrides) {
   CaseReader reader(file, registry);
   checkTomlText(toml_text, file.string());  // toml++ 3.3.0: malformed UTF-8 and non-ASCII it mishandles (see Utf8.hpp)
   toml::table doc;
@@ -471,6 +551,7 @@ Case Case::parse(std::string_view toml_text, const std::filesystem::path& file, 
   } catch (const toml::parse_error& e) {
     reader.fail(static_cast<int>(e.source().begin.line), {}, "TOML syntax error: " + std::string(e.description()));
   }
+  for (const auto& o : overrides) applyOverride(doc, o, CaseReader(overrideLabel(file, o), registry, false));
   // The kind decides the schema, so read it first.
   const toml::node* kind_node = doc.at_path("case.kind").node();
   const auto names = registry.names();
@@ -486,6 +567,16 @@ Case Case::parse(std::string_view toml_text, const std::filesystem::path& file, 
                 "one of " + join(names, ", "));
   }
   const Schema& schema = registry.schema(kind);
+  // Each override is checked on its own first, so that its errors name the --set.
+  for (const auto& o : overrides) {
+    const CaseReader cmd(overrideLabel(file, o), registry, false);
+    if (const KeyDecl* d = schema.find(o.key))
+      cmd.convert(*d, *doc.at_path(o.key).node(), o.key);
+    else if (schema.isTable(o.key))
+      cmd.fail(0, o.key, "a table, not a key", {}, "a key inside [" + o.key + "] (`mmval case-doc " + kind + "`)");
+    else
+      cmd.unknownKey(schema, o.key, 0);
+  }
 
   std::map<std::string, const toml::node*> found;
   reader.walk(schema, doc, "", found);
@@ -509,6 +600,8 @@ Case Case::parse(std::string_view toml_text, const std::filesystem::path& file, 
       c.m_where[d.key] = {file.string(), 0, 0, d.key};
     }
   }
+  for (const auto& o : overrides) c.m_where[o.key] = {overrideLabel(file, o), 0, 0, o.key};
+  c.m_overrides = overrides;
   c.m_name = std::get<std::string>(c.m_values.at("case.name"));
   if (const std::string problem = caseNameProblem(c.m_name); !problem.empty())
     reader.fail(c.m_where["case.name"].line, "case.name", problem, printableName(c.m_name), kCaseNameRule);

@@ -124,9 +124,17 @@ RunSummary runCaseWith(const Case& c, const std::function<RunOutput(const Case&,
     metrics.push_back(m.toJson());
     if (m.pass.has_value() && !*m.pass) s.all_pass = false;
   }
+  nlohmann::json case_json = {{"name", c.name()}, {"kind", c.kind()}, {"file", c.file().string()}, {"hash", c.hash()},
+                               {"description", c.description()}};
+  if (!c.overrides().empty()) {
+    // `mmval run FILE --set ...`: what was set, so that the run can be repeated
+    // (resolved_case holds the values in force, overrides included).
+    nlohmann::json set = nlohmann::json::array();
+    for (const auto& o : c.overrides()) set.push_back(o.text());
+    case_json["overrides"] = set;
+  }
   s.result = {{"schema", "mmval-result/1"},
-              {"case", {{"name", c.name()}, {"kind", c.kind()}, {"file", c.file().string()}, {"hash", c.hash()},
-                        {"description", c.description()}}},
+              {"case", case_json},
               {"resolved_case", c.resolvedJson()},
               {"metrics", metrics},
               {"all_pass", s.all_pass},

@@ -36,7 +36,10 @@ const std::map<std::string, Unit, std::less<>>& unitTable() {
       {"cm", {1e-2, kLength}},
       {"mm", {1e-3, kLength}},
       {"um", {1e-6, kLength}},
-      {"\u00b5m", {1e-6, kLength}},
+      {"\u00b5m", {1e-6, kLength}},  // micro sign
+      {"\u03bcm", {1e-6, kLength}},  // Greek small letter mu, what most keyboards give
+      {"micron", {1e-6, kLength}},
+      {"microns", {1e-6, kLength}},
       {"nm", {1e-9, kLength}},
       {"kg", {1.0, kMass}},
       {"g", {1e-3, kMass}},
@@ -54,6 +57,7 @@ const std::map<std::string, Unit, std::less<>>& unitTable() {
       {"mL", {1e-6, kVolume}},
       {"uL", {1e-9, kVolume}},
       {"\u00b5L", {1e-9, kVolume}},
+      {"\u03bcL", {1e-9, kVolume}},
       {"nL", {1e-12, kVolume}},
       {"Pa", {1.0, kPressure}},
       {"kPa", {1e3, kPressure}},

@@ -366,5 +366,52 @@ TEST(Schema, MarkdownListsEveryKeyWithUnitAndDefault) {
   EXPECT_THAT(md, HasSubstr("one of stokes, navier-stokes"));
 }
 
+// --- command-line overrides (mmval run --set KEY=VALUE) --------------------
+
+Case withSet(std::vector<std::string> sets, const std::string& text = kValid) {
+  std::vector<CaseOverride> overrides;
+  for (const auto& s : sets) overrides.push_back(CaseOverride::parse(s));
+  return Case::parse(text, "cases/slot.toml", registry(), overrides);
+}
+
+std::string setErrorOf(std::vector<std::string> sets) {
+  try {
+    withSet(std::move(sets));
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+TEST(CaseOverride, ValuesReadAsTomlOrAsBareStrings) {
+  const Case c = withSet({"geometry.gap=35 um", "fluid.viscosity=\"2 cP\"", "numerics.cells=64", "numerics.verbose=true",
+                          "numerics.scheme=navier-stokes", "particles.diameters=[\"5 um\", \"10 um\"]", "flow.injection_rate=5 uL/min"});
+  EXPECT_DOUBLE_EQ(c.quantity("geometry.gap"), 35e-6);       // replaces the file's 20 um
+  EXPECT_DOUBLE_EQ(c.quantity("fluid.viscosity"), 2e-3);     // 2 cP
+  EXPECT_EQ(c.integer("numerics.cells"), 64);
+  EXPECT_TRUE(c.flag("numerics.verbose"));
+  EXPECT_EQ(c.text("numerics.scheme"), "navier-stokes");
+  EXPECT_EQ(c.reals("particles.diameters"), (std::vector<double>{5e-6, 10e-6}));
+  EXPECT_NEAR(c.quantity("flow.injection_rate"), 5e-9 / 60.0, 1e-22);  // a key the file does not have, in a table it lacks
+  EXPECT_EQ(c.overrides().size(), 7u);
+  EXPECT_THAT(c.where("numerics.cells").file, HasSubstr("--set numerics.cells=64"));
+  EXPECT_NE(c.hash(), Case::parse(kValid, "cases/slot.toml", registry()).hash());
+}
+
+TEST(CaseOverride, BadValuesAreRefusedLikeTheCaseFileWouldRefuseThem) {
+  EXPECT_THAT(setErrorOf({"numerics.cells=2"}), HasSubstr("cases/slot.toml (--set numerics.cells=2): key 'numerics.cells': value out of range"));
+  EXPECT_THAT(setErrorOf({"fluid.viscosity=1 m/s"}), HasSubstr("key 'fluid.viscosity': wrong dimension"));
+  EXPECT_THAT(setErrorOf({"numerics.cells=many"}), HasSubstr("key 'numerics.cells': wrong type"));
+  EXPECT_THAT(setErrorOf({"numerics.scheme=stoks"}), HasSubstr("did you mean 'stokes'"));
+  EXPECT_THAT(setErrorOf({"fluid.viscosty=1 cP"}), HasSubstr("did you mean 'fluid.viscosity'"));
+  EXPECT_THAT(setErrorOf({"fluid=1"}), HasSubstr("key 'fluid': a table, not a key"));
+  EXPECT_THAT(setErrorOf({"numerics.cells.x=1"}), HasSubstr("'numerics.cells' is a value in the case file, not a table"));
+  EXPECT_THAT(setErrorOf({"numerics.cells"}), HasSubstr("no '=' between key and value"));
+  EXPECT_THAT(setErrorOf({"=3"}), HasSubstr("no key before '='"));
+  EXPECT_THAT(setErrorOf({"numerics..cells=3"}), HasSubstr("empty part in the key"));
+  EXPECT_THAT(setErrorOf({"acceptance.metric=x"}), HasSubstr("[[acceptance]] entries cannot be set"));
+  EXPECT_EQ(setErrorOf({"numerics.cells=4"}), "(no error)");  // the bound itself is allowed (>= 4)
+}
+
 }  // namespace
 }  // namespace mmval

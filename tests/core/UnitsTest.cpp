@@ -94,6 +94,21 @@ TEST(Units, MemoryUnits) {
   EXPECT_FALSE(parseUnit("GB").dim == parseUnit("m").dim);
 }
 
+// The micro sign (U+00B5) and the Greek small letter mu (U+03BC) look alike
+// and both mean 1e-6 (what a keyboard gives varies); "micron" is the old
+// name of the micrometre (retired by the CGPM in 1967, still common in labs).
+TEST(Units, GreekMuAndMicronMeanMicro) {
+  EXPECT_NEAR(parseQuantity("5 \u03bcm").si, 5e-6, 1e-18);
+  EXPECT_NEAR(parseQuantity("5 \u00b5m").si, 5e-6, 1e-18);
+  EXPECT_NEAR(parseQuantity("12 micron").si, 12e-6, 1e-18);
+  EXPECT_NEAR(parseQuantity("12 microns").si, 12e-6, 1e-18);
+  EXPECT_NEAR(parseUnit("microns2").to_si, 1e-12, 1e-24);
+  EXPECT_EQ(parseUnit("micron").dim, parseUnit("m").dim);
+  EXPECT_NEAR(parseQuantity("5 \u03bcL/min").si, 5e-9 / 60.0, 1e-22);
+  EXPECT_EQ(parseUnit("\u03bcL/min").dim, parseUnit("uL/min").dim);
+  EXPECT_NEAR(fromSi(5e-6, "\u03bcm"), 5.0, 1e-12);
+}
+
 TEST(Units, DimensionNames) {
   EXPECT_EQ(dimensionName(parseUnit("Pa s").dim), "dynamic viscosity");
   EXPECT_EQ(dimensionName(parseUnit("m/s").dim), "velocity");

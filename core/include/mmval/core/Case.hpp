@@ -89,16 +89,35 @@ std::string caseNameProblem(const std::string& name);
 std::string readTextFile(const std::filesystem::path& file, std::uintmax_t max_bytes, const std::string& what,
                          const std::string& expected);
 
+/// One `--set KEY=VALUE` of the command line: a case key given a value as if
+/// the case file said `KEY = VALUE`. VALUE is read as a TOML value (64, 2.5,
+/// true, "5 um", [1, 2]); a text that is not one is taken as a string, so
+/// `--set fluid.viscosity=2e-3 Pa s` and `--set detect.polarity=dark` need no
+/// inner quotes.
+struct CaseOverride {
+  std::string key;
+  std::string value;
+  /// Splits "KEY=VALUE" at the first '='; InputError naming --set when there is
+  /// no '=' or the key is not a dotted key path.
+  static CaseOverride parse(std::string_view text);
+  std::string text() const { return key + "=" + value; }
+};
+
 /// Compares an SI value with an acceptance entry.
 MetricResult evaluateMetric(const Acceptance& acceptance, double value_si);
 
 class Case {
  public:
-  /// Loads and validates a case file; throws InputError.
-  static Case load(const std::filesystem::path& file, const CaseKindRegistry& registry);
+  /// Loads and validates a case file; throws InputError. `overrides` replace
+  /// or add keys before validation, which treats them as written in the file;
+  /// their errors name the key and the `--set` that gave it.
+  static Case load(const std::filesystem::path& file, const CaseKindRegistry& registry,
+                   const std::vector<CaseOverride>& overrides = {});
   /// Same from text; `file` is the name used in messages and for relative paths.
   static Case parse(std::string_view toml_text, const std::filesystem::path& file,
-                    const CaseKindRegistry& registry);
+                    const CaseKindRegistry& registry, const std::vector<CaseOverride>& overrides = {});
+  /// The overrides the case was loaded with, in command-line order.
+  const std::vector<CaseOverride>& overrides() const { return m_overrides; }
 
   const std::string& name() const { return m_name; }
   const std::string& kind() const { return m_kind; }
@@ -141,6 +160,7 @@ class Case {
   std::map<std::string, Value, std::less<>> m_values;
   std::map<std::string, InputLocation, std::less<>> m_where;
   std::vector<Acceptance> m_acceptance;
+  std::vector<CaseOverride> m_overrides;
 };
 
 /// Resolves a reference pointer { file, quantity, at } against reference-data.
