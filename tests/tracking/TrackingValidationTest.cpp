@@ -188,7 +188,7 @@ TEST(TrackingValidation, BrownianDiffusionFromAVideo) {
   TrackConfig c;
   c.fps = o.fps;
   c.pixel_size = o.pixel_size;
-  c.link.predict = false;  // Brownian steps are uncorrelated: the last step predicts nothing
+  c.link.predict = Prediction::none;  // Brownian steps are uncorrelated: the last step predicts nothing
   c.link.search_radius = 6;
   c.analysis.immobile_distance = 0;
   c.analysis.min_points = 10;

@@ -26,7 +26,11 @@ void videoMetrics(Schema& s) {
   s.metric("sigma_y", "um", "Time-averaged dispersion of the mobile particles along y");
   s.metric("retention_fraction", "1", "Retained over entered particles (retained over mobile when none entered)");
   s.metric("tracks", "1", "Particles tracked");
-  s.metric("immobile", "1", "Particles that never moved farther than the immobile distance");
+  s.metric("immobile", "1", "Particles that never moved farther than the immobile distance (flow); Brownian: tracks whose D is significantly below the ensemble's and not above 0");
+  // analysis.motion = "brownian" (or "auto" deciding so) reports these instead of speeds, dispersion and retention.
+  s.metric("diffusion_coefficient", "um2/s", "Brownian: D of the drift-corrected ensemble MSD fitted as 4 D t + 4 sigma^2 - (4/3) D t_E (Michalet 2010)");
+  s.metric("msd_exponent", "1", "Brownian: exponent alpha of the drift-corrected ensemble MSD, c + 4 K t^alpha (1: free diffusion)");
+  s.metric("localisation_sigma", "um", "Brownian: localisation error per axis from the MSD fit's offset (with the blur term of analysis.exposure)");
 }
 
 void syntheticMetrics(Schema& s) {

@@ -13,6 +13,54 @@
 
 namespace mmval::tracking {
 
+namespace {
+
+/// analysis.exposure is part of one frame interval.
+void requireExposureWithinFrame(const Case& c, const TrackConfig& cfg) {
+  if (cfg.analysis.brownian.exposure > 1.0 / cfg.fps * (1 + 1e-9))
+    throw InputError(c.where("analysis.exposure"), "the exposure is longer than the frame interval",
+                     fmt::format("{:g} s at {:g} frames/s", cfg.analysis.brownian.exposure, cfg.fps),
+                     fmt::format("at most {:g} s (1 / frame rate)", 1.0 / cfg.fps));
+}
+
+/// analysis.motion, link.predict and the Brownian analysis keys.
+void declareMotionKeys(Schema& s) {
+  const TrackOptions defaults;
+  s.choice("analysis.motion", {"auto", "flow", "brownian"},
+           "How tracks are analysed: flow (particles carried by a flow: velocities, dispersion, retention, deposits, speed maps) or brownian "
+           "(diffusing: ensemble drift removed, MSD fitted with a localisation-error and motion-blur term for D and its exponent, per-track D "
+           "by the covariance-based estimator, immobile by a statistical test); auto decides from the tracks (directed or carried steps: "
+           "flow) and says why in summary.json")
+      .def(motionModelName(defaults.motion));
+  s.choice("link.predict", {"auto", "none", "velocity", "neighbours"},
+           "Where a track is looked for in the next frame: where it was (none), one step along its own smoothed velocity (velocity), or "
+           "also, for a track too new to have one, along its neighbours' within link.neighbour_radius (neighbours); auto: none for Brownian "
+           "motion, otherwise velocity (neighbours when link.neighbour_radius > 0)")
+      .def("auto");
+  s.quantity("analysis.exposure", "s",
+             "Brownian: camera exposure per frame (motion blur, at most the frame interval); 0: instantaneous. D does not depend on it; with 0 "
+             "the blur reads as a smaller localisation error")
+      .def(defaults.brownian.exposure)
+      .nonNegative();
+  s.integer("analysis.brownian_min_points", "Brownian: tracks with fewer points are short, in no D estimate (a 10-point track's D has ~60 % error)")
+      .def(defaults.brownian.min_points)
+      .min(3)
+      .max(100000);
+  s.integer("analysis.msd_lags",
+            "Brownian: lags of the MSD fit for D (0: the number that gives D the smallest standard error, Michalet 2010)")
+      .def(defaults.brownian.max_lag)
+      .min(0)
+      .max(1000);
+  s.real("analysis.immobile_level",
+         "Brownian: a track is immobile when its D is below the ensemble D and not above 0, each one-sided at this significance level (the "
+         "share of free particles called immobile)")
+      .def(defaults.brownian.immobile_level)
+      .min(1e-6)
+      .max(0.5);
+}
+
+}  // namespace
+
 void declareTrackerKeys(Schema& s) {
   s.boolean("detect.subtract_background", "Remove the temporal median background (grains, stuck particles)").def(true);
   s.choice("detect.polarity", {"auto", "dark", "bright"}, "Particles darker or brighter than the background").def("auto");
@@ -77,6 +125,7 @@ void declareTrackerKeys(Schema& s) {
       .def("1 um")
       .nonNegative();
   s.quantity("analysis.stuck_window", "s", "That final window").def("2 s").positive();
+  declareMotionKeys(s);
 }
 
 TrackConfig trackerConfig(const Case& c) {
@@ -110,10 +159,21 @@ TrackConfig trackerConfig(const Case& c) {
   t.link.memory = static_cast<int>(c.integer("link.memory"));
   t.link.velocity_smoothing = c.real("link.velocity_smoothing");
   t.link.neighbour_radius = c.real("link.neighbour_radius");
+  const std::string& predict = c.text("link.predict");
+  t.link.predict = predict == "none" ? Prediction::none : predict == "velocity" ? Prediction::velocity
+                 : predict == "neighbours" ? Prediction::neighbours : Prediction::automatic;
+  if (t.link.predict == Prediction::neighbours && !(t.link.neighbour_radius > 0))
+    throw InputError(c.where("link.predict"), "prediction from the neighbours needs a neighbour radius", "neighbours with link.neighbour_radius = 0",
+                     "link.neighbour_radius > 0 px (a few particle spacings), or link.predict = \"velocity\"");
   t.smooth_frames = static_cast<int>(c.integer("link.smooth_frames"));
   t.analysis.immobile_distance = c.quantity("analysis.immobile_distance");
   t.analysis.stuck_distance = c.quantity("analysis.stuck_distance");
   t.analysis.stuck_window = c.quantity("analysis.stuck_window");
+  t.analysis.motion = parseMotionModel(c.text("analysis.motion"));
+  t.analysis.brownian.exposure = c.quantity("analysis.exposure");
+  t.analysis.brownian.min_points = static_cast<int>(c.integer("analysis.brownian_min_points"));
+  t.analysis.brownian.max_lag = static_cast<int>(c.integer("analysis.msd_lags"));
+  t.analysis.brownian.immobile_level = c.real("analysis.immobile_level");
   return t;
 }
 
@@ -133,6 +193,7 @@ RunOutput runTrackingVideo(const Case& c, const RunContext& ctx) {
   if (!(std::isfinite(cfg.fps) && cfg.fps > 0))
     throw InputError(c.where("inputs.frame_rate"), "the frame rate must be finite and positive", fmt::format("{:g} Hz", cfg.fps),
                      "a frequency such as \"20 Hz\" (or --fps 20)");
+  requireExposureWithinFrame(c, cfg);
   std::optional<cv::Rect> roi;
   if (c.has("inputs.roi")) {
     const auto& r = c.integers("inputs.roi");
@@ -167,18 +228,35 @@ RunOutput runTrackingVideo(const Case& c, const RunContext& ctx) {
     out.metrics["rmse"] = sc.rmse_px;
   }
   out.files = writeTrackOutputs(run, cfg, ctx.out_dir, extra);
-  out.metrics["mean_speed"] = stats.mean_speed;
-  out.units["mean_speed"] = "um/s";
-  out.metrics["median_speed"] = stats.median_speed;
-  out.units["median_speed"] = "um/s";
-  out.metrics["sigma_x"] = stats.sigma_x;
-  out.units["sigma_x"] = "um";
-  out.metrics["sigma_y"] = stats.sigma_y;
-  out.units["sigma_y"] = "um";
-  out.metrics["retention_fraction"] = stats.retained_fraction;
-  out.metrics["tracks"] = stats.particles;
-  out.metrics["immobile"] = stats.immobile;
+  if (run.motion.model == MotionModel::brownian) {
+    // Speeds, dispersion and retention describe a flow: for Brownian motion, D and its kin.
+    const BrownianStats b = analyseBrownian(run.tracks, cfg.analysis.brownian);
+    if (std::isfinite(b.msd.d)) {
+      out.metrics["diffusion_coefficient"] = b.msd.d;
+      out.units["diffusion_coefficient"] = "um2/s";
+    }
+    if (std::isfinite(b.msd.alpha)) out.metrics["msd_exponent"] = b.msd.alpha;
+    if (std::isfinite(b.msd.sigma2)) {
+      out.metrics["localisation_sigma"] = std::sqrt(std::max(0.0, b.msd.sigma2));
+      out.units["localisation_sigma"] = "um";
+    }
+    out.metrics["tracks"] = b.particles;
+    out.metrics["immobile"] = b.immobile;
+  } else {
+    out.metrics["mean_speed"] = stats.mean_speed;
+    out.units["mean_speed"] = "um/s";
+    out.metrics["median_speed"] = stats.median_speed;
+    out.units["median_speed"] = "um/s";
+    out.metrics["sigma_x"] = stats.sigma_x;
+    out.units["sigma_x"] = "um";
+    out.metrics["sigma_y"] = stats.sigma_y;
+    out.units["sigma_y"] = "um";
+    out.metrics["retention_fraction"] = stats.retained_fraction;
+    out.metrics["tracks"] = stats.particles;
+    out.metrics["immobile"] = stats.immobile;
+  }
   out.details = extra;
+  out.details["motion"] = {{"model", motionModelName(run.motion.model)}, {"reason", run.motion.reason}};
   out.details["frames"] = run.frame_index.size();
   std::size_t detections = 0;
   for (const auto& d : run.detections) detections += d.size();
@@ -256,6 +334,7 @@ void registerTrackingKinds(CaseKindRegistry& registry) {
     TrackConfig cfg = trackerConfig(c);
     cfg.pixel_size = o.pixel_size;
     cfg.fps = o.fps;
+    requireExposureWithinFrame(c, cfg);
     FrameSource source((ctx.out_dir / "synthetic" / "frames").string());
     const TrackRun run = runTracker(source, cfg, ctx.quiet);
     // With background removal and no search of the background for stuck particles the

@@ -30,7 +30,9 @@ void TrackLinker::push(int frame, const std::vector<Detection>& dets) {
   // the tracks with one within neighbour_radius.
   std::vector<double> pvx(m_active.size(), 0.0), pvy(m_active.size(), 0.0);
   std::vector<char> predicted(m_active.size(), 0);
-  if (m_o.predict) {
+  const bool own = m_o.predict != Prediction::none;
+  const bool borrow = m_o.predict == Prediction::neighbours || m_o.predict == Prediction::automatic;
+  if (own) {
     for (int ti = 0; ti < static_cast<int>(m_active.size()); ++ti) {
       const Track& t = m_active[ti];
       if (!t.has_velocity) continue;
@@ -38,7 +40,7 @@ void TrackLinker::push(int frame, const std::vector<Detection>& dets) {
       pvy[ti] = t.vy;
       predicted[ti] = 1;
     }
-    if (m_o.neighbour_radius > 0) {
+    if (borrow && m_o.neighbour_radius > 0) {
       std::vector<Detection> moving;  // positions of the tracks with a velocity, for the radius search
       std::vector<int> moving_track;
       for (int ti = 0; ti < static_cast<int>(m_active.size()); ++ti) {

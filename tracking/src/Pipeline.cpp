@@ -11,6 +11,7 @@
 #include <thread>
 #include <unordered_map>
 
+#include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
 #include "PipelineDetail.hpp"
@@ -22,6 +23,35 @@ namespace mmval::tracking {
 
 using namespace detail;
 
+namespace {
+
+/// analysis.motion as set, or decided from the linked tracks when "auto"; Brownian with
+/// link.predict automatic links the stored detections again without prediction (a
+/// linker pass costs a small part of the detection).
+MotionDecision chooseMotion(const TrackConfig& c, std::vector<LinkedPoint>& linked, TrackRun& run) {
+  MotionDecision m;
+  m.requested = m.model = c.analysis.motion;
+  if (c.analysis.motion != MotionModel::automatic) {
+    m.reason = fmt::format("analysis.motion = \"{}\"", motionModelName(c.analysis.motion));
+    return m;
+  }
+  Tracks raw;
+  for (const auto& p : linked) raw.points.push_back(trackPoint(c, p.frame, p.particle, p.x, p.y));
+  m = decideMotion(raw);
+  if (m.model == MotionModel::brownian && c.link.predict == Prediction::automatic) {
+    LinkOptions none = c.link;
+    none.predict = Prediction::none;
+    TrackLinker again(none);
+    for (std::size_t k = 0; k < run.detections.size(); ++k) again.push(run.frame_index[k], run.detections[k]);
+    linked = again.points();
+    run.link = again.stats();
+    m.relinked = true;
+  }
+  return m;
+}
+
+}  // namespace
+
 TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   const auto t0 = std::chrono::steady_clock::now();
   TrackRun run;
@@ -31,7 +61,11 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
     if (c.background_window > 0)
       rolling = rollingBackground(source, c.background_window, std::min(c.background_window, c.detect.background_samples), c.background_quantile);
   }
-  TrackLinker linker(c.link);
+  // Brownian steps are uncorrelated: linked without prediction when the motion is known
+  // to be Brownian; with "auto" the tracks decide after linking (below).
+  LinkOptions link_options = c.link;
+  if (c.analysis.motion == MotionModel::brownian && link_options.predict == Prediction::automatic) link_options.predict = Prediction::none;
+  TrackLinker linker(link_options);
   Progress progress("tracking", static_cast<std::size_t>(std::max(0, source.count())), quiet);
   Polarity polarity = c.detect.polarity;
   // From frames spread over the video, not the first alone: the first frame of a scene can
@@ -178,12 +212,15 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   progress.finish();
   run.polarity = polarity;
   run.link = linker.stats();
-  std::int64_t next_id = 0;
-  for (const auto& p : linker.points()) next_id = std::max(next_id, p.particle + 1);
   auto point = [&](std::int64_t frame, std::int64_t particle, double x, double y) { return trackPoint(c, frame, particle, x, y); };
-  for (const auto& p : linker.points()) run.tracks.points.push_back(point(p.frame, p.particle, p.x, p.y));
+  std::vector<LinkedPoint> linked = linker.points();
+  run.motion = chooseMotion(c, linked, run);
+  const bool flow = run.motion.model == MotionModel::flow;
+  std::int64_t next_id = 0;
+  for (const auto& p : linked) next_id = std::max(next_id, p.particle + 1);
+  for (const auto& p : linked) run.tracks.points.push_back(point(p.frame, p.particle, p.x, p.y));
   double typical_peak = 0;  // median peak of the moving detections
-  if (c.detect.find_stuck && !run.background.empty() && !run.frame_index.empty()) {
+  if (flow && c.detect.find_stuck && !run.background.empty() && !run.frame_index.empty()) {
     // Particles at rest for most of the video are part of the median background: found
     // there, each is either stuck all along (immobile, left out as the paper does), or a
     // particle that arrived and deposited: missing from the frames before its arrival and
@@ -329,14 +366,16 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
     run.tracks.points.insert(run.tracks.points.end(), rest.begin(), rest.end());
   }
   sortTracks(run.tracks.points);
-  // Particles seen to stop (at rest over the final window) are labelled deposited from
-  // where they stopped, so their resting positions stay out of velocity statistics.
-  markDeposits(run.tracks, c.analysis);
-  if (!references.empty() && typical_peak > 0) {
-    joinByReference(run, c, references, polarity, typical_peak);
+  if (flow) {
+    // Particles seen to stop (at rest over the final window) are labelled deposited from
+    // where they stopped, so their resting positions stay out of velocity statistics.
     markDeposits(run.tracks, c.analysis);
+    if (!references.empty() && typical_peak > 0) {
+      joinByReference(run, c, references, polarity, typical_peak);
+      markDeposits(run.tracks, c.analysis);
+    }
+    joinClusterArrivals(run, c);
   }
-  joinClusterArrivals(run, c);
   run.smoothed_points = smoothTracks(run.tracks, c.smooth_frames, c.pixel_size).points;
   run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return run;

@@ -2,16 +2,28 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <map>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "BrownianOutputs.hpp"
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/tracking/TrackImages.hpp"
 
 namespace mmval::tracking {
+
+namespace {
+
+/// The flow-mode files (tracks.csv to retention_time.csv); returns their statistics.
+TrackStats writeFlowOutputs(const TrackRun& run, const TrackConfig& c, const std::filesystem::path& dir,
+                            const std::function<void(const std::string&, const std::string&)>& put, std::vector<std::string>& files);
+cv::Mat baseImage(const TrackRun& run);
+cv::Mat streamlines(const TrackRun& run);
+
+}  // namespace
 
 std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfig& c, const std::filesystem::path& dir,
                                            const nlohmann::json& extra) {
@@ -27,6 +39,82 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
       det += fmt::format("{},{:.6g},{:.4f},{:.4f},{:.4f},{:.4f},{:.1f},{:.4g},{:.4g}\n", run.frame_index[k], run.frame_index[k] / c.fps, d.x, d.y,
                          d.x * c.pixel_size * 1e6, d.y * c.pixel_size * 1e6, d.area, d.mass, d.peak);
   put("detections.csv", det);
+  const auto png = [&](const std::string& name, const cv::Mat& m) {
+    const auto t = temporaryPathFor(dir / name);
+    cv::imwrite(t.string(), m);
+    commitTemporary(t, dir / name);
+    files.push_back(name);
+  };
+  nlohmann::json summary = extra;
+  const bool brownian = run.motion.model == MotionModel::brownian;
+  TrackStats s;
+  if (brownian)
+    summary.update(detail::writeBrownianOutputs(run, c, {dir, put, png, &files}));
+  else
+    s = writeFlowOutputs(run, c, dir, put, files);
+  // Streamline composite: every position of every frame, over the background.
+  if (!run.detections.empty()) {
+    png("streamlines.png", streamlines(run));
+    // Steps coloured by speed, and the mean speed binned on the pore space (bins of
+    // about two particle diameters).
+    if (!brownian) {
+      const cv::Mat base = baseImage(run);
+      png("velocity_overlay.png", velocityOverlay(base, s, c.pixel_size, 1.0 / c.fps));
+      png("speed_map.png", speedMap(base, s, c.pixel_size, std::max(4, 2 * c.detect.refine_radius)));
+    }
+  }
+  summary["motion"] = {{"requested", motionModelName(run.motion.requested)}, {"model", motionModelName(run.motion.model)},
+                       {"reason", run.motion.reason}, {"relinked_without_prediction", run.motion.relinked}};
+  if (std::isfinite(run.motion.step_correlation))
+    summary["motion"]["numbers"] = {{"step_correlation", run.motion.step_correlation}, {"step_correlation_se", run.motion.step_correlation_se},
+                                    {"brownian_bound", run.motion.correlation_bound}, {"z_directed", run.motion.z_directed},
+                                    {"drift_peclet", std::isfinite(run.motion.drift_peclet) ? nlohmann::json(run.motion.drift_peclet) : nlohmann::json(nullptr)},
+                                    {"step_pairs", run.motion.step_pairs}, {"tracks", run.motion.tracks}};
+  summary["frames"] = run.frame_index.size();
+  if (!brownian) {
+    summary["tracks"] = s.particles;
+    summary["immobile"] = s.immobile;
+    summary["retained"] = s.retained;
+    summary["entered"] = s.entered;
+    summary["retained_fraction"] = s.retained_fraction;
+    summary["mean_speed_um_per_s"] = s.mean_speed * 1e6;
+    summary["median_speed_um_per_s"] = s.median_speed * 1e6;
+  } else {
+    summary["tracks"] = summary["brownian"]["tracks"]["mobile"].get<int>() + summary["brownian"]["tracks"]["immobile"].get<int>() +
+                        summary["brownian"]["tracks"]["short"].get<int>();
+  }
+  summary["polarity"] = run.polarity == Polarity::dark ? "dark" : "bright";
+  summary["links"] = run.link.links;
+  summary["gap_closures"] = run.link.gap_closures;
+  summary["largest_component"] = run.link.largest_component;
+  summary["greedy_components"] = run.link.greedy_components;
+  if (!brownian) {
+    summary["msd_exponent"] = s.msd.alpha;
+    summary["msd_D_power_um2_per_s"] = s.msd.d_power * 1e6 * 1e6;
+    summary["msd_D_linear_um2_per_s"] = s.msd.d_linear * 1e6 * 1e6;
+  }
+  summary["parameters"] = {{"pixel_size_um", c.pixel_size * 1e6}, {"fps", c.fps}, {"blur_sigma", c.detect.blur_sigma},
+                           {"subtract_background", c.detect.subtract_background}, {"search_radius_px", c.link.search_radius},
+                           {"memory", c.link.memory}, {"linker", c.link.method == Linker::global ? "global" : "paper"},
+                           {"seeds", c.detect.method == SeedMethod::peaks ? "peaks" : "contours"}, {"threads", c.threads},
+                           {"smooth_frames", c.smooth_frames}, {"background_quantile", c.background_quantile},
+                           {"background_window", c.background_window}};
+  summary["stuck_found_in_background"] = run.stuck_found;
+  summary["deposits_joined_from_background"] = run.deposits_joined;
+  summary["deposits_not_joined"] = run.deposits_unjoined;
+  summary["cluster_arrivals"] = run.cluster_arrivals;
+  summary["deposits_found_by_reference_frames"] = run.deposits_by_reference;
+  summary["smoothed_points"] = run.smoothed_points;
+  summary["seconds"] = run.seconds;
+  summary["frames_per_second"] = run.seconds > 0 ? run.frame_index.size() / run.seconds : 0.0;
+  put("summary.json", summary.dump(2) + "\n");
+  return files;
+}
+
+namespace {
+
+TrackStats writeFlowOutputs(const TrackRun& run, const TrackConfig& c, const std::filesystem::path& dir,
+                            const std::function<void(const std::string&, const std::string&)>& put, std::vector<std::string>& files) {
   // Resting ends labelled (idempotent: runTracker has done it), so that every reader of
   // tracks.csv (compare) sees where a deposited particle stopped.
   Tracks labelled = run.tracks;
@@ -56,10 +144,15 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
     vel += fmt::format("{},{:.6g},{:.4f},{:.4f},{:.5g},{:.5g},{:.5g}\n", st.particle, st.t, st.x * 1e6, st.y * 1e6, st.vx * 1e6, st.vy * 1e6,
                        st.speed * 1e6);
   put("velocities.csv", vel);
-  std::string disp = "frame,t_s,count,mean_x_um,mean_y_um,sigma_x_um,sigma_y_um\n";
-  for (const auto& f : s.frames)
-    disp += fmt::format("{},{:.6g},{},{:.5g},{:.5g},{:.5g},{:.5g}\n", f.frame, f.t, f.count, f.mean_x * 1e6, f.mean_y * 1e6, f.sigma_x * 1e6,
-                        f.sigma_y * 1e6);
+  // The ensemble drift (Brownian.hpp) beside the dispersion: in a flow, the mean displacement.
+  const EnsembleDrift drift = ensembleDrift(labelled);
+  std::string disp = "frame,t_s,count,mean_x_um,mean_y_um,sigma_x_um,sigma_y_um,drift_x_um,drift_y_um\n";
+  for (const auto& f : s.frames) {
+    double dx, dy;
+    drift.at(f.frame, dx, dy);
+    disp += fmt::format("{},{:.6g},{},{:.5g},{:.5g},{:.5g},{:.5g},{:.5g},{:.5g}\n", f.frame, f.t, f.count, f.mean_x * 1e6, f.mean_y * 1e6,
+                        f.sigma_x * 1e6, f.sigma_y * 1e6, dx * 1e6, dy * 1e6);
+  }
   put("dispersion.csv", disp);
   std::string msd = "lag_s,msd_um2,samples\n";
   for (std::size_t i = 0; i < s.msd.lag.size(); ++i) msd += fmt::format("{:.6g},{:.6g},{}\n", s.msd.lag[i], s.msd.msd[i] * 1e12, s.msd.samples[i]);
@@ -89,74 +182,40 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
     }
     put("retention_time.csv", rt);
   }
-  // Streamline composite: every position of every frame, over the background.
-  if (!run.detections.empty()) {
-    cv::Mat base;
-    if (!run.background.empty()) {
-      run.background.convertTo(base, CV_8U, 255.0);
-    } else {
-      int w = 1, h = 1;
-      for (const auto& p : run.tracks.points) {
-        w = std::max(w, static_cast<int>(p.x_px) + 2);
-        h = std::max(h, static_cast<int>(p.y_px) + 2);
-      }
-      base = cv::Mat(h, w, CV_8U, cv::Scalar(255));
-    }
-    cv::Mat img;
-    cv::cvtColor(base, img, cv::COLOR_GRAY2BGR);
-    img = img * 0.6;
-    for (std::size_t i = 1; i < run.tracks.points.size(); ++i) {
-      const auto& a = run.tracks.points[i - 1];
-      const auto& b = run.tracks.points[i];
-      if (a.particle != b.particle) continue;
-      const cv::Scalar colour((a.particle * 67) % 200 + 55, (a.particle * 131) % 200 + 55, (a.particle * 29) % 200 + 55);
-      cv::line(img, cv::Point2d(a.x_px, a.y_px), cv::Point2d(b.x_px, b.y_px), colour, 1, cv::LINE_AA);
-    }
-    const auto png = [&](const std::string& name, const cv::Mat& m) {
-      const auto t = temporaryPathFor(dir / name);
-      cv::imwrite(t.string(), m);
-      commitTemporary(t, dir / name);
-      files.push_back(name);
-    };
-    png("streamlines.png", img);
-    // Steps coloured by speed, and the mean speed binned on the pore space (bins of
-    // about two particle diameters).
-    png("velocity_overlay.png", velocityOverlay(base, s, c.pixel_size, 1.0 / c.fps));
-    png("speed_map.png", speedMap(base, s, c.pixel_size, std::max(4, 2 * c.detect.refine_radius)));
-  }
-  nlohmann::json summary = extra;
-  summary["frames"] = run.frame_index.size();
-  summary["tracks"] = s.particles;
-  summary["immobile"] = s.immobile;
-  summary["retained"] = s.retained;
-  summary["entered"] = s.entered;
-  summary["retained_fraction"] = s.retained_fraction;
-  summary["mean_speed_um_per_s"] = s.mean_speed * 1e6;
-  summary["median_speed_um_per_s"] = s.median_speed * 1e6;
-  summary["polarity"] = run.polarity == Polarity::dark ? "dark" : "bright";
-  summary["links"] = run.link.links;
-  summary["gap_closures"] = run.link.gap_closures;
-  summary["largest_component"] = run.link.largest_component;
-  summary["greedy_components"] = run.link.greedy_components;
-  summary["msd_exponent"] = s.msd.alpha;
-  summary["msd_D_power_um2_per_s"] = s.msd.d_power * 1e12;
-  summary["msd_D_linear_um2_per_s"] = s.msd.d_linear * 1e12;
-  summary["parameters"] = {{"pixel_size_um", c.pixel_size * 1e6}, {"fps", c.fps}, {"blur_sigma", c.detect.blur_sigma},
-                           {"subtract_background", c.detect.subtract_background}, {"search_radius_px", c.link.search_radius},
-                           {"memory", c.link.memory}, {"linker", c.link.method == Linker::global ? "global" : "paper"},
-                           {"seeds", c.detect.method == SeedMethod::peaks ? "peaks" : "contours"}, {"threads", c.threads},
-                           {"smooth_frames", c.smooth_frames}, {"background_quantile", c.background_quantile},
-                           {"background_window", c.background_window}};
-  summary["stuck_found_in_background"] = run.stuck_found;
-  summary["deposits_joined_from_background"] = run.deposits_joined;
-  summary["deposits_not_joined"] = run.deposits_unjoined;
-  summary["cluster_arrivals"] = run.cluster_arrivals;
-  summary["deposits_found_by_reference_frames"] = run.deposits_by_reference;
-  summary["smoothed_points"] = run.smoothed_points;
-  summary["seconds"] = run.seconds;
-  summary["frames_per_second"] = run.seconds > 0 ? run.frame_index.size() / run.seconds : 0.0;
-  put("summary.json", summary.dump(2) + "\n");
-  return files;
+  return s;
 }
+
+/// 8-bit grey picture under the drawings: the background, or white the size of the tracks.
+cv::Mat baseImage(const TrackRun& run) {
+  cv::Mat base;
+  if (!run.background.empty()) {
+    run.background.convertTo(base, CV_8U, 255.0);
+  } else {
+    int w = 1, h = 1;
+    for (const auto& p : run.tracks.points) {
+      w = std::max(w, static_cast<int>(p.x_px) + 2);
+      h = std::max(h, static_cast<int>(p.y_px) + 2);
+    }
+    base = cv::Mat(h, w, CV_8U, cv::Scalar(255));
+  }
+  return base;
+}
+
+/// Every track drawn over the dimmed base, one colour per particle.
+cv::Mat streamlines(const TrackRun& run) {
+  cv::Mat img;
+  cv::cvtColor(baseImage(run), img, cv::COLOR_GRAY2BGR);
+  img = img * 0.6;
+  for (std::size_t i = 1; i < run.tracks.points.size(); ++i) {
+    const auto& a = run.tracks.points[i - 1];
+    const auto& b = run.tracks.points[i];
+    if (a.particle != b.particle) continue;
+    const cv::Scalar colour((a.particle * 67) % 200 + 55, (a.particle * 131) % 200 + 55, (a.particle * 29) % 200 + 55);
+    cv::line(img, cv::Point2d(a.x_px, a.y_px), cv::Point2d(b.x_px, b.y_px), colour, 1, cv::LINE_AA);
+  }
+  return img;
+}
+
+}  // namespace
 
 }  // namespace mmval::tracking

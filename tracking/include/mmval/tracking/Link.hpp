@@ -23,17 +23,27 @@ namespace mmval::tracking {
 
 enum class Linker { paper, global };
 
+/// Where a track is looked for in the next frame. none: where it was (Brownian steps
+/// are uncorrelated: the last one predicts nothing, and extrapolating it doubles the
+/// distance to the right candidate); velocity: one smoothed step further along the
+/// track's own velocity; neighbours: as velocity, and a track too new to have one borrows
+/// the mean velocity of the tracks within neighbour_radius (particles in a pore flow
+/// follow nearby streamlines); automatic: velocity, with neighbours when
+/// neighbour_radius > 0 (the tracker sets none for Brownian motion, Pipeline.hpp).
+enum class Prediction { automatic, none, velocity, neighbours };
+
 struct LinkOptions {
   Linker method = Linker::global;
   double search_radius = 8.0;  ///< px per frame
   int memory = 2;              ///< frames a track may be missed and still continue
-  bool predict = true;         ///< extrapolate with the track's last velocity
+  Prediction predict = Prediction::automatic;
   double angle_weight = 0.5;   ///< paper: weight of the turning angle against the distance
   /// weight of the previous velocity in the prediction's exponential filter (0: last step only)
   double velocity_smoothing = 0.7;
   int max_component = 400;     ///< larger candidate components fall back to greedy (logged in stats)
   /// px: a track without a velocity of its own predicts with the mean velocity of the tracks
-  /// that have one within this distance (0: no prediction until its second point)
+  /// that have one within this distance (0: no prediction until its second point); used by
+  /// Prediction::neighbours and automatic
   double neighbour_radius = 0.0;
 };
 

@@ -51,6 +51,8 @@ struct TrackRun {
   /// reference frames before the end lack and after it show: deposited there.
   int deposits_by_reference = 0;
   long long smoothed_points = 0;  ///< moving points refined along their track (smooth_frames)
+  /// Flow or Brownian analysis (analysis.motion), decided from the tracks when "auto".
+  MotionDecision motion;
 };
 
 /// Runs the tracker over the whole source; a progress bar unless quiet. Memory stays
@@ -58,13 +60,19 @@ struct TrackRun {
 /// With detect.find_stuck, particles at rest in the median background are immobile
 /// tracks (stuck from the start) or continue the track that ends where and when they
 /// arrived (deposited). Tracks at rest over their final analysis.stuck_window are
-/// labelled "deposited" from where they stopped (markDeposits).
+/// labelled "deposited" from where they stopped (markDeposits). With analysis.motion
+/// "auto" the linked tracks decide flow or Brownian (decideMotion); Brownian with
+/// link.predict automatic links again without prediction. Deposits and the stuck-
+/// particle joins are flow-mode steps, skipped for Brownian motion.
 TrackRun runTracker(FrameSource& source, const TrackConfig& config, bool quiet);
 
 /// Writes detections.csv, tracks.csv, track_summary.csv, velocities.csv,
 /// dispersion.csv, msd.csv, speed_time.csv, retention.csv, retention_time.csv
 /// (deposited count per frame), streamlines.png and summary.json into `dir`;
-/// returns the file names.
+/// returns the file names. For Brownian motion (run.motion) the flow files (velocities,
+/// speed, retention, speed map) are not written; instead track_diffusion.csv,
+/// van_hove.csv, diffusion_histogram.csv/.png and a "brownian" block in summary.json
+/// (BrownianOutputs.hpp).
 std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfig& config, const std::filesystem::path& dir,
                                            const nlohmann::json& extra_summary);
 

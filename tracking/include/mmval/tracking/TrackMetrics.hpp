@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 
 #include "mmval/core/Tracks.hpp"
+#include "mmval/tracking/Brownian.hpp"
 
 namespace mmval::tracking {
 
@@ -25,6 +26,11 @@ struct TrackOptions {
   /// of the field of view (or in the first frames) is a particle entering; one that begins
   /// deeper inside, later, is the continuation of a track the tracker lost
   double entry_margin = 0.05;
+  /// flow: the statistics below (velocities, dispersion, retention, deposits); brownian:
+  /// Brownian.hpp (drift, D, exponent, localisation error); automatic: decideMotion on
+  /// the tracks (the tracker decides, Pipeline.hpp). analyseTracks is the flow analysis.
+  MotionModel motion = MotionModel::automatic;
+  BrownianOptions brownian;
 };
 
 struct Step {
