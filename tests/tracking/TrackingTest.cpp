@@ -296,8 +296,8 @@ TEST(Frames, BadInputsAreNamed) {
 
 TEST(Link, GapClosingBridgesMissedFrames) {
   // One particle moving 2 px per frame, missing in frames 3 and 4.
-  TrackLinker with({Linker::global, 5.0, 2, true});
-  TrackLinker without({Linker::global, 5.0, 0, true});
+  TrackLinker with({Linker::global, 5.0, 2, Prediction::automatic});
+  TrackLinker without({Linker::global, 5.0, 0, Prediction::automatic});
   for (int f = 0; f < 8; ++f) {
     std::vector<Detection> d;
     if (f != 3 && f != 4) d.push_back({10.0 + 2 * f, 20.0, 5, 1, 1});
@@ -359,7 +359,7 @@ TEST(Link, NewTracksFollowTheirNeighboursVelocity) {
 TEST(Link, DenseFieldStaysLinear) {
   // 2,500 particles per frame on a lattice drifting 1 px per frame: every one linked,
   // components stay small (no combinatorial blow-up).
-  TrackLinker linker({Linker::global, 3.0, 0, true});
+  TrackLinker linker({Linker::global, 3.0, 0, Prediction::automatic});
   for (int f = 0; f < 5; ++f) {
     std::vector<Detection> d;
     for (int i = 0; i < 50; ++i)

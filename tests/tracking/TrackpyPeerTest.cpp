@@ -117,7 +117,7 @@ TEST(TrackpyPeer, LinkingPartitionsMatch) {
   for (const auto& [file, memory] : std::vector<std::pair<std::string, int>>{{"link_sr5_mem0_ids.csv", 0}, {"link_sr5_mem2_ids.csv", 2}}) {
     const auto ids = readCsv(kData / "reference" / file);
     ASSERT_EQ(ids.size(), input.size());
-    TrackLinker linker({Linker::global, 5.0, memory, false});
+    TrackLinker linker({Linker::global, 5.0, memory, Prediction::none});
     std::map<int, std::vector<Detection>> frames;
     std::map<std::pair<int, std::pair<double, double>>, std::size_t> row_of;
     for (std::size_t i = 0; i < input.size(); ++i) {
@@ -149,7 +149,7 @@ TEST(TrackpyPeer, StuckSpotsInAMultiPageTiffAreImmobile) {
   // Contours with Otsu: the 44 spots are bright and well separated; local maxima would
   // also pick up a few flickering noise bumps on this dark, noisy 16-bit background.
   o.method = SeedMethod::contours;
-  TrackLinker linker({Linker::global, 3.0, 0, false});
+  TrackLinker linker({Linker::global, 3.0, 0, Prediction::none});
   cv::Mat f;
   int i = 0;
   std::size_t per_frame = 0;
