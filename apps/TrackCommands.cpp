@@ -17,6 +17,7 @@
 #include "mmval/core/Run.hpp"
 #include "mmval/tracking/Kinds.hpp"
 #include "mmval/tracking/Synth.hpp"
+#include "mmval/tracking/SynthSlab.hpp"
 #include "SynthFlow.hpp"
 
 namespace fs = std::filesystem;
@@ -34,10 +35,17 @@ struct TrackCli {
 };
 
 struct SynthCli {
-  std::string out, geometry, grains = "dark";
+  std::string out, geometry, grains = "dark", scene = "flow", format = "png";
   double amplitude = 0.35, snr = 0;
   tracking::SynthOptions o;
   double pixel_um = 1;
+  tracking::BrownianSlabOptions slab;  ///< --scene brownian-slab; its defaults are the real video's class
+  std::vector<double> drift_um_s, drift_change_um_s2;
+  bool bright_particles = false;
+  /// Options shared by both scenes, whose defaults differ (the slab takes its own unless given).
+  CLI::Option *width = nullptr, *height = nullptr, *frames = nullptr, *fps = nullptr, *pixel = nullptr, *particles = nullptr, *noise = nullptr;
+  CLI::Option *diffusion = nullptr, *temperature = nullptr, *viscosity = nullptr, *bright = nullptr;
+  std::vector<CLI::Option*> flow_only, slab_only;
 };
 
 /// A real-valued option given on the command line must be finite and in its range; NaN and
@@ -46,6 +54,73 @@ struct SynthCli {
 void requireOptionValue(const char* option, double value, double lo, bool lo_open, double hi, const std::string& expected) {
   const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
   if (!ok) throw InputError({}, fmt::format("option {} has an invalid value", option), fmt::format("{} {:g}", option, value), expected);
+}
+
+/// The Brownian slab scene's own options (synth --scene brownian-slab); see SynthSlab.hpp for the models.
+void addSlabOptions(CLI::App* synth, SynthCli& sy) {
+  auto& s = sy.slab;
+  auto slab = [&](CLI::Option* opt) { sy.slab_only.push_back(opt->capture_default_str()); };
+  sy.diffusion = synth->add_option("--diffusion-um2s", s.diffusion_um2_s, "brownian-slab: diffusion coefficient in um^2/s (instead of Stokes-Einstein from --temperature-K, --viscosity-Pa-s, --radius-um)");
+  sy.temperature = synth->add_option("--temperature-K", s.temperature_K, "brownian-slab: temperature for Stokes-Einstein");
+  sy.viscosity = synth->add_option("--viscosity-Pa-s", s.viscosity_Pa_s, "brownian-slab: fluid viscosity for Stokes-Einstein (water at 22 C)");
+  for (CLI::Option* opt : {sy.diffusion, sy.temperature, sy.viscosity}) slab(opt);
+  slab(synth->add_option("--radius-um", s.radius_um, "brownian-slab: particle radius (Stokes-Einstein and the in-focus spot size)"));
+  slab(synth->add_option("--slab-um", s.slab_um, "brownian-slab: range of particle centre heights between the reflecting walls"));
+  slab(synth->add_option("--focus-um", s.focus_um, "brownian-slab: height of the focal plane above the lower wall (< 0: mid-slab)"));
+  sy.slab_only.push_back(synth->add_option("--drift-um-s", sy.drift_um_s, "brownian-slab: uniform drift X,Y in um/s (default 0.6,0)")->delimiter(',')->expected(2));
+  sy.slab_only.push_back(
+      synth->add_option("--drift-change-um-s2", sy.drift_change_um_s2, "brownian-slab: rate of change of the drift X,Y in um/s^2 (default 0,0)")->delimiter(',')->expected(2));
+  slab(synth->add_option("--na", s.numerical_aperture, "brownian-slab: objective numerical aperture (defocus blur and depth of field)"));
+  slab(synth->add_option("--medium-index", s.medium_index, "brownian-slab: refractive index of the sample medium"));
+  slab(synth->add_option("--wavelength-um", s.wavelength_um, "brownian-slab: illumination wavelength"));
+  slab(synth->add_option("--contrast", s.contrast, "brownian-slab: peak darkening of an in-focus particle, fraction of the background"));
+  slab(synth->add_option("--flicker", s.flicker, "brownian-slab: relative std of the per-frame illumination"));
+  slab(synth->add_option("--photons", s.photons, "brownian-slab: photons at full scale for shot noise (0: none)"));
+  slab(synth->add_option("--exposure-s", s.exposure_s, "brownian-slab: exposure time for motion blur (0: none; at most 1/fps)"));
+  slab(synth->add_option("--exposure-substeps", s.exposure_substeps, "brownian-slab: positions averaged over the exposure")->check(CLI::Range(1, 1000)));
+  sy.bright = synth->add_flag("--bright-particles", sy.bright_particles, "brownian-slab: bright particles on a dim background (default dark on bright)");
+  sy.slab_only.push_back(sy.bright);
+}
+
+/// synth --scene brownian-slab: shared options given on the command line replace the slab's defaults.
+void runBrownianSlab(SynthCli& sy) {
+  tracking::BrownianSlabOptions s = sy.slab;
+  if (sy.width->count() > 0) s.width = sy.o.width;
+  if (sy.height->count() > 0) s.height = sy.o.height;
+  if (sy.frames->count() > 0) s.frames = sy.o.frames;
+  if (sy.fps->count() > 0) s.fps_hz = sy.o.fps;
+  if (sy.pixel->count() > 0) s.pixel_size_um = sy.pixel_um;
+  if (sy.particles->count() > 0) s.particles = sy.o.particles;
+  if (sy.noise->count() > 0) s.noise = sy.o.noise;
+  s.seed = sy.o.seed;
+  s.format = tracking::parseSynthFormat(sy.format);
+  s.dark_particles = !sy.bright_particles;
+  if (sy.diffusion->count() > 0 && (sy.temperature->count() > 0 || sy.viscosity->count() > 0))
+    throw InputError({}, "options --diffusion-um2s and --temperature-K/--viscosity-Pa-s both set D", fmt::format("--diffusion-um2s {:g}", s.diffusion_um2_s),
+                     "either D directly (--diffusion-um2s) or Stokes-Einstein's inputs (--temperature-K, --viscosity-Pa-s, --radius-um)");
+  if (!sy.drift_um_s.empty()) s.drift_um_s = {sy.drift_um_s[0], sy.drift_um_s[1]};
+  if (!sy.drift_change_um_s2.empty()) s.drift_change_um_s2 = {sy.drift_change_um_s2[0], sy.drift_change_um_s2[1]};
+  if (s.diffusion_um2_s != 0) requireOptionValue("--diffusion-um2s", s.diffusion_um2_s, 0, true, 1e6, "a diffusion coefficient in um^2/s, finite and > 0");
+  requireOptionValue("--temperature-K", s.temperature_K, 0, true, 1e4, "an absolute temperature in K, finite and > 0 (e.g. 295.15)");
+  requireOptionValue("--viscosity-Pa-s", s.viscosity_Pa_s, 0, true, 1e6, "a viscosity in Pa s, finite and > 0 (water at 22 C: 0.9544e-3)");
+  requireOptionValue("--radius-um", s.radius_um, 0, true, 1e4, "a particle radius in um, finite and > 0");
+  requireOptionValue("--slab-um", s.slab_um, 0, true, 1e6, "a slab thickness in um, finite and > 0");
+  if (!(s.focus_um < 0)) requireOptionValue("--focus-um", s.focus_um, 0, false, s.slab_um, "a focal-plane height from 0 to --slab-um (or < 0 for mid-slab)");
+  for (double v : {s.drift_um_s[0], s.drift_um_s[1]}) requireOptionValue("--drift-um-s", v, -1e6, false, 1e6, "two finite velocities X,Y in um/s");
+  for (double v : {s.drift_change_um_s2[0], s.drift_change_um_s2[1]})
+    requireOptionValue("--drift-change-um-s2", v, -1e6, false, 1e6, "two finite rates X,Y in um/s^2");
+  requireOptionValue("--medium-index", s.medium_index, 1, false, 5, "a refractive index from 1 to 5 (water: 1.33)");
+  requireOptionValue("--na", s.numerical_aperture, 0, true, s.medium_index * (1 - 1e-9), "a numerical aperture > 0 and below --medium-index");
+  requireOptionValue("--wavelength-um", s.wavelength_um, 0, true, 100, "a wavelength in um, finite and > 0 (e.g. 0.55)");
+  requireOptionValue("--contrast", s.contrast, 0, false, 1, "a contrast from 0 to 1 of the background");
+  requireOptionValue("--flicker", s.flicker, 0, false, 0.5, "a relative brightness std from 0 to 0.5");
+  requireOptionValue("--photons", s.photons, 0, false, 1e12, "a photon count at full scale, finite and >= 0 (0: no shot noise)");
+  requireOptionValue("--exposure-s", s.exposure_s, 0, false, 1 / s.fps_hz, fmt::format("an exposure time from 0 to one frame interval (1/fps = {:g} s)", 1 / s.fps_hz));
+  StagedDirectory staged(sy.out);
+  const auto r = tracking::writeBrownianSlabVideo(s, staged.path());
+  staged.commit();
+  std::printf("synth: %d frames (%s), Brownian slab with D %.4g um^2/s: %.0f particles per frame in view, %.0f in focus, %lld distinct -> %s, truth.csv, truth.json\n",
+              s.frames, sy.format.c_str(), r.diffusion_um2_s, r.mean_in_view, r.mean_in_focus, static_cast<long long>(r.distinct_in_view), sy.out.c_str());
 }
 
 }  // namespace
@@ -110,28 +185,50 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
   });
 
   auto sy = std::make_shared<SynthCli>();
-  CLI::App* synth = app.add_subcommand("synth", "Write a synthetic micromodel video (PNG frames) with its ground truth (truth.csv)");
+  CLI::App* synth = app.add_subcommand("synth", "Write a synthetic video with its ground truth (truth.csv): micromodel flow, or Brownian particles in a slab");
   synth->add_option("--out", sy->out, "Output folder")->required();
-  synth->add_option("--width", sy->o.width, "px")->capture_default_str()->check(CLI::Range(32, 8192));
-  synth->add_option("--height", sy->o.height, "px")->capture_default_str()->check(CLI::Range(32, 8192));
-  synth->add_option("--frames", sy->o.frames, "Frames")->capture_default_str()->check(CLI::Range(2, 1000000));
-  synth->add_option("--fps", sy->o.fps, "Frames per second")->capture_default_str();
-  synth->add_option("--pixel-size-um", sy->pixel_um, "Pixel size")->capture_default_str();
-  synth->add_option("--particles", sy->o.particles, "Moving particles")->capture_default_str()->check(CLI::Range(0, 1000000));
-  synth->add_option("--immobile", sy->o.immobile, "Particles stuck from the start")->capture_default_str()->check(CLI::Range(0, 1000000));
-  synth->add_option("--grains", sy->o.grains, "Grains")->capture_default_str()->check(CLI::Range(0, 10000));
-  synth->add_option("--speed", sy->o.speed, "Flow speed, px per frame")->capture_default_str();
-  synth->add_option("--noise", sy->o.noise, "Camera noise, fraction of full scale")->capture_default_str();
+  synth->add_option("--scene", sy->scene, "flow (micromodel flow past grains) or brownian-slab (3D diffusion in a slab, depth-dependent defocus, drift, flicker)")
+      ->check(CLI::IsMember({"flow", "brownian-slab"}))
+      ->capture_default_str();
+  synth->add_option("--format", sy->format, "Frames as png (8-bit grey), rgba (RGBA PNG), tiff16 (16-bit grey TIFF) or mp4 (one lossy video.mp4)")
+      ->check(CLI::IsMember({"png", "rgba", "tiff16", "mp4"}))
+      ->capture_default_str();
+  sy->width = synth->add_option("--width", sy->o.width, "px (brownian-slab: 640)")->capture_default_str()->check(CLI::Range(32, 8192));
+  sy->height = synth->add_option("--height", sy->o.height, "px (brownian-slab: 424)")->capture_default_str()->check(CLI::Range(32, 8192));
+  sy->frames = synth->add_option("--frames", sy->o.frames, "Frames (brownian-slab: 300)")->capture_default_str()->check(CLI::Range(2, 1000000));
+  sy->fps = synth->add_option("--fps", sy->o.fps, "Frames per second (brownian-slab: 24)")->capture_default_str();
+  sy->pixel = synth->add_option("--pixel-size-um", sy->pixel_um, "Pixel size (brownian-slab: 0.15)")->capture_default_str();
+  sy->particles = synth->add_option("--particles", sy->o.particles, "Moving particles (brownian-slab: 600, mean number in view at all depths)")
+                      ->capture_default_str()
+                      ->check(CLI::Range(0, 1000000));
+  sy->flow_only.push_back(synth->add_option("--immobile", sy->o.immobile, "Particles stuck from the start")->capture_default_str()->check(CLI::Range(0, 1000000)));
+  sy->flow_only.push_back(synth->add_option("--grains", sy->o.grains, "Grains")->capture_default_str()->check(CLI::Range(0, 10000)));
+  sy->flow_only.push_back(synth->add_option("--speed", sy->o.speed, "Flow speed, px per frame")->capture_default_str());
+  sy->noise = synth->add_option("--noise", sy->o.noise, "Camera noise, fraction of full scale (brownian-slab: 0.01 read noise)")->capture_default_str();
   synth->add_option("--seed", sy->o.seed, "Random seed")->capture_default_str();
-  synth->add_option("--geometry", sy->geometry, "Binary pore image: grains from it, particles carried by its Stokes flow (mmval's solver)");
-  synth->add_option("--grain-pixels", sy->grains, "Which pixels of --geometry are grains")->check(CLI::IsMember({"dark", "bright"}))->capture_default_str();
+  sy->flow_only.push_back(synth->add_option("--geometry", sy->geometry, "Binary pore image: grains from it, particles carried by its Stokes flow (mmval's solver)"));
+  sy->flow_only.push_back(
+      synth->add_option("--grain-pixels", sy->grains, "Which pixels of --geometry are grains")->check(CLI::IsMember({"dark", "bright"}))->capture_default_str());
   CLI::Option* snr_opt = synth->add_option("--snr", sy->snr, "Signal-to-noise ratio (spot amplitude / noise std); overrides --noise");
+  sy->flow_only.push_back(snr_opt);
+  addSlabOptions(synth, *sy);
   synth->callback([sy, snr_opt] {
     // NaN passes CLI11's range checks and used to write NaN times: every real option is checked here (exit 2).
     requireOptionValue("--fps", sy->o.fps, 0, true, 1e9, "a frame rate in frames per second, finite and > 0 (e.g. --fps 10)");
     requireOptionValue("--pixel-size-um", sy->pixel_um, 0, true, 1e6, "a pixel size in micrometres, finite and > 0");
     requireOptionValue("--speed", sy->o.speed, 0, false, 1e6, "a flow speed in px per frame, finite and >= 0");
     requireOptionValue("--noise", sy->o.noise, 0, false, 0.5, "a camera noise between 0 and 0.5 of full scale");
+    // Each scene's own options are refused in the other, rather than silently ignored.
+    const bool slab = sy->scene == "brownian-slab";
+    for (CLI::Option* opt : slab ? sy->flow_only : sy->slab_only)
+      if (opt->count() > 0)
+        throw InputError({}, fmt::format("option {} does not apply to --scene {}", opt->get_name(), sy->scene), opt->get_name(),
+                         fmt::format("--scene {} for it, or leave it out", slab ? "flow" : "brownian-slab"));
+    if (slab) {
+      runBrownianSlab(*sy);
+      return;
+    }
+    sy->o.format = tracking::parseSynthFormat(sy->format);
     if (snr_opt->count() > 0) requireOptionValue("--snr", sy->snr, 0, true, 1e12, "a signal-to-noise ratio, finite and > 0");
     sy->o.pixel_size = sy->pixel_um * 1e-6;
     if (sy->snr > 0) sy->o.noise = sy->o.spot_amplitude / sy->snr;
@@ -156,7 +253,7 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
     StagedDirectory staged(sy->out);
     const auto r = tracking::writeSyntheticVideo(sy->o, staged.path());
     staged.commit();
-    std::printf("synth: %zu frames, %d moving, %d depositing, %d immobile -> %s/frames, truth.csv\n", r.frames.size(), r.moving, r.deposited,
+    std::printf("synth: %d frames, %d moving, %d depositing, %d immobile -> %s, truth.csv\n", sy->o.frames, r.moving, r.deposited,
                 r.immobile, sy->out.c_str());
   });
 }

@@ -3,10 +3,12 @@
 #include <cmath>
 #include <algorithm>
 #include <random>
+#include <stdexcept>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Resources.hpp"
@@ -40,6 +42,89 @@ bool inGrain(const std::vector<Grain>& grains, double x, double y, double margin
 }
 
 }  // namespace
+
+SynthFormat parseSynthFormat(const std::string& name) {
+  if (name == "png") return SynthFormat::png8;
+  if (name == "rgba") return SynthFormat::rgba_png;
+  if (name == "tiff16") return SynthFormat::tiff16;
+  if (name == "mp4") return SynthFormat::mp4;
+  throw std::invalid_argument("unknown synthetic frame format '" + name + "' (png, rgba, tiff16 or mp4)");
+}
+
+std::string synthFormatName(SynthFormat format) {
+  switch (format) {
+    case SynthFormat::png8: return "png";
+    case SynthFormat::rgba_png: return "rgba";
+    case SynthFormat::tiff16: return "tiff16";
+    case SynthFormat::mp4: return "mp4";
+  }
+  return "png";
+}
+
+struct SynthFrameWriter::Video {
+  cv::VideoWriter writer;
+};
+
+SynthFrameWriter::SynthFrameWriter(std::filesystem::path dir, SynthFormat format, double fps_hz)
+    : m_dir(std::move(dir)), m_format(format), m_fps_hz(fps_hz) {
+  std::filesystem::create_directories(m_format == SynthFormat::mp4 ? m_dir : m_dir / "frames");
+}
+
+SynthFrameWriter::~SynthFrameWriter() {
+  if (m_video) {
+    m_video->writer.release();
+    std::error_code ec;
+    std::filesystem::remove(m_video_tmp, ec);
+  }
+}
+
+std::string SynthFrameWriter::write(int frame, const cv::Mat& image) {
+  if (m_format == SynthFormat::mp4) {
+    cv::Mat bytes, bgr;
+    image.convertTo(bytes, CV_8U, 255.0);
+    cv::cvtColor(bytes, bgr, cv::COLOR_GRAY2BGR);
+    if (!m_video) {
+      m_video = std::make_unique<Video>();
+      m_video_tmp = temporaryPathFor(m_dir / "video.mp4");
+      // MPEG-4 part 2 ('mp4v') is what Debian's OpenCV + FFMPEG writes into .mp4 without extra codecs.
+      if (!m_video->writer.open(m_video_tmp.string(), cv::CAP_FFMPEG, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), m_fps_hz, bgr.size(), true))
+        throw std::runtime_error("this OpenCV build cannot write an mp4 video (FFMPEG backend, mp4v codec): choose another frame format");
+    }
+    m_video->writer.write(bgr);
+    return (m_dir / "video.mp4").string();
+  }
+  cv::Mat out;
+  std::string ext = ".png";
+  switch (m_format) {
+    case SynthFormat::tiff16:
+      image.convertTo(out, CV_16U, 65535.0);
+      ext = ".tif";
+      break;
+    case SynthFormat::rgba_png: {
+      cv::Mat bytes;
+      image.convertTo(bytes, CV_8U, 255.0);
+      cv::cvtColor(bytes, out, cv::COLOR_GRAY2BGRA);  // alpha 255
+      break;
+    }
+    default: image.convertTo(out, CV_8U, 255.0);
+  }
+  const auto name = m_dir / "frames" / fmt::format("frame_{:05d}{}", frame, ext);
+  const auto tmp = temporaryPathFor(name);
+  if (!cv::imwrite(tmp.string(), out)) throw std::runtime_error("cannot write the frame " + name.string());
+  commitTemporary(tmp, name);
+  m_files.push_back(name.string());
+  return name.string();
+}
+
+std::vector<std::string> SynthFrameWriter::finish() {
+  if (m_video) {
+    m_video->writer.release();
+    m_video.reset();
+    commitTemporary(m_video_tmp, m_dir / "video.mp4");
+    m_files.push_back((m_dir / "video.mp4").string());
+  }
+  return m_files;
+}
 
 SynthResult writeSyntheticVideo(const SynthOptions& options, const std::filesystem::path& dir) {
   SynthOptions o = options;
@@ -123,7 +208,7 @@ SynthResult writeSyntheticVideo(const SynthOptions& options, const std::filesyst
   }
 
   SynthResult result;
-  std::filesystem::create_directories(dir / "frames");
+  SynthFrameWriter writer(dir, o.format, o.fps);
   for (int f = 0; f < o.frames; ++f) {
     cv::Mat img = scene.clone();
     for (const auto& p : ps) {
@@ -154,13 +239,7 @@ SynthResult writeSyntheticVideo(const SynthOptions& options, const std::filesyst
         }
     for (int y = 0; y < img.rows; ++y)
       for (int x = 0; x < img.cols; ++x) img.at<float>(y, x) += static_cast<float>(o.noise * N01(rng));
-    cv::Mat bytes;
-    img.convertTo(bytes, CV_8U, 255.0);
-    const auto name = dir / "frames" / fmt::format("frame_{:05d}.png", f);
-    const auto tmp = temporaryPathFor(name);
-    cv::imwrite(tmp.string(), bytes);
-    commitTemporary(tmp, name);
-    result.frames.push_back(name.string());
+    writer.write(f, img);
     // Advance: RK2 in the flow field; particles leaving at the right re-enter as new ones.
     for (auto& p : ps) {
       if (p.immobile || (p.stop_frame >= 0 && f >= p.stop_frame)) continue;
@@ -188,6 +267,7 @@ SynthResult writeSyntheticVideo(const SynthOptions& options, const std::filesyst
       if (p.x >= o.width - 1 || p.x < 0 || p.y < 1 || p.y > o.height - 2) p = spawn(true);
     }
   }
+  result.frames = writer.finish();
   for (const auto& p : ps) {
     if (p.immobile) {
       ++result.immobile;
