@@ -13,12 +13,15 @@
 
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Case.hpp"
+#include "mmval/core/DataPaths.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Run.hpp"
+#include "mmval/core/Strings.hpp"
 #include "mmval/openfoam/Kinds.hpp"
 #include "mmval/openfoam/Peer.hpp"
 #include "mmval/reports/Report.hpp"
 #include "mmval/reports/Summary.hpp"
+#include "StarterCase.hpp"
 
 namespace fs = std::filesystem;
 
@@ -36,16 +39,22 @@ struct CaseDocOptions {
   std::string out;
 };
 
+struct InitOptions {
+  std::string kind;
+  std::string out;
+};
+
 struct RunOptionsCli {
   std::string file;
   std::string out;
+  std::vector<std::string> set;  ///< KEY=VALUE overrides, in order
   bool quiet = false;
   bool resume = false;
 };
 
 struct ValidateOptions {
   std::string out = "out/validate";
-  std::string cases = "cases";
+  std::string cases;  ///< empty: the example cases of mmval's data folder (DataPaths.hpp)
   std::string tag = "default";
   bool full = false;
   bool resume = false;
@@ -107,6 +116,25 @@ void requireOwnedFolder(const fs::path& out) {
   if (ec || !fs::exists(st)) return;
   if (fs::is_directory(st) && (fs::is_empty(out, ec) || fs::exists(out / kOutputMarker))) return;
   checkReplaceable(out);  // throws the message that says what is in the way
+}
+
+/// The cases folder validate reads: --cases when given, else the installed or
+/// source tree's cases/ (DataPaths.hpp), else ./cases as before.
+fs::path casesFolder(const std::string& given) {
+  if (!given.empty()) return given;
+  if (const fs::path dir = exampleCasesDirectory(); !dir.empty()) return dir;
+  if (fs::is_directory("cases")) return "cases";
+  throw InputError({"(command line)", 0, 0, "--cases"}, "no cases folder given and none found", dataDirectorySearched(),
+                   "--cases DIR, or MMVAL_DATA_DIR set to a folder holding cases/ and reference-data/");
+}
+
+/// Writes `text` to `file` unless something is there already (mmval init never overwrites).
+void writeNewFile(const fs::path& file, const std::string& text) {
+  std::error_code ec;
+  if (fs::exists(fs::symlink_status(file, ec)))
+    throw InputError({file.string(), 0, 0, "--out"}, "the file exists; mmval init does not overwrite files", {},
+                     "a new file name, or remove the file first");
+  writeFileAtomic(file, text);
 }
 
 void writeSummary(const fs::path& out, const reports::Summary& summary) {
@@ -176,6 +204,25 @@ void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
       writeFileAtomic(doc_opts->out, text);
   });
 
+  // init
+  auto init_opts = std::make_shared<InitOptions>();
+  CLI::App* init = app.add_subcommand("init", "Print a commented starter case file of a kind (every key with its meaning, unit and default)");
+  init->add_option("kind", init_opts->kind, "Case kind (`mmval case-doc` lists them)")->required();
+  init->add_option("--out", init_opts->out, "Write to this new file instead of stdout (an existing file is refused)");
+  init->callback([init_opts, &registry] {
+    if (registry.find(init_opts->kind) == nullptr) {
+      const auto names = registry.names();
+      const std::string near = nearest(init_opts->kind, names);
+      throw InputError({"(command line)", 0, 0, "kind"}, "unknown case kind" + (near.empty() ? std::string() : "; did you mean '" + near + "'?"),
+                       init_opts->kind, "one of " + join(names, ", "));
+    }
+    const std::string text = starterCase(registry.schema(init_opts->kind));
+    if (init_opts->out.empty())
+      std::fputs(text.c_str(), stdout);
+    else
+      writeNewFile(init_opts->out, text);
+  });
+
   // run
   auto run_opts = std::make_shared<RunOptionsCli>();
   CLI::App* run = app.add_subcommand("run", "Run one case file and write DIR/result.json (metrics against their references)");
@@ -183,8 +230,13 @@ void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
   run->add_option("--out", run_opts->out, "Output folder (written as DIR.partial, renamed when complete)")->required();
   run->add_flag("--quiet", run_opts->quiet, "No progress output");
   run->add_flag("--resume", run_opts->resume, "Continue an interrupted run from DIR.partial");
+  run->add_option("--set", run_opts->set,
+                  "KEY=VALUE: set a case key as if the case file said KEY = VALUE (repeatable; recorded in result.json)")
+      ->allow_extra_args(false);
   run->callback([run_opts, &registry] {
-    const Case c = Case::load(run_opts->file, registry);
+    std::vector<CaseOverride> overrides;
+    for (const auto& s : run_opts->set) overrides.push_back(CaseOverride::parse(s));
+    const Case c = Case::load(run_opts->file, registry, overrides);
     const RunSummary s = runCase(c, registry, run_opts->out, {run_opts->quiet, run_opts->resume});
     printMetrics(s);
     if (!s.all_pass) throw MetricsFailed(fmt::format("case '{}': an acceptance metric failed (see {})", c.name(), s.result_file.string()));
@@ -194,7 +246,8 @@ void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
   auto val_opts = std::make_shared<ValidateOptions>();
   CLI::App* val = app.add_subcommand("validate", "Run the default validation cases and write metrics.json, index.md and index.html");
   val->add_option("--out", val_opts->out, "Output folder")->capture_default_str();
-  val->add_option("--cases", val_opts->cases, "Folder of case files")->capture_default_str();
+  val->add_option("--cases", val_opts->cases,
+                  "Folder of case files (default: the cases/ of mmval's data folder: $MMVAL_DATA_DIR, the installed share/mmval, or the source tree)");
   val->add_option("--tag", val_opts->tag, "Run the cases carrying this tag in case.tags ('all' for every case)")->capture_default_str();
   val->add_flag("--full", val_opts->full, "Also run the cases tagged 'full' (resolution ladders, full-length scenes)");
   val->add_flag("--resume", val_opts->resume,
@@ -207,9 +260,11 @@ void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
     // The output folder is checked and locked before any case runs.
     const fs::path out = normaliseOutputPath(val_opts->out);
     requireOwnedFolder(out);
-    const auto files = casesTagged(val_opts->cases, wanted, registry);
+    const fs::path cases_dir = casesFolder(val_opts->cases);
+    const auto files = casesTagged(cases_dir, wanted, registry);
     if (files.empty())
-      throw InputError({val_opts->cases, 0, 0, "case.tags"}, "no case carries the tag '" + val_opts->tag + "'", {}, "at least one case to run");
+      throw InputError({cases_dir.string(), 0, 0, "case.tags"}, "no case carries the tag '" + val_opts->tag + "'", {}, "at least one case to run");
+    std::fprintf(stderr, "validate: %zu case(s) from %s\n", files.size(), cases_dir.string().c_str());
     fs::create_directories(out / "runs");
     const FolderLock lock(out, out.string());
     writeOutputMarker(out);

@@ -14,6 +14,7 @@
 #include "mmval/reports/InputFiles.hpp"
 #include "mmval/reports/Summary.hpp"
 
+#include "mmval/core/DataPaths.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ReferenceData.hpp"
 
@@ -92,11 +93,7 @@ fs::path findReferenceData(const ReportInput& input) {
     const fs::path dir = fs::path(file).parent_path().parent_path() / "reference-data";
     if (fs::is_directory(dir)) return dir;
   }
-#ifdef MMVAL_REPORTS_SOURCE_DIR
-  const fs::path dir = fs::path(MMVAL_REPORTS_SOURCE_DIR) / "reference-data";
-  if (fs::is_directory(dir)) return dir;
-#endif
-  return {};
+  return referenceDataDirectory();  // mmval's own: installed, MMVAL_DATA_DIR or the source tree (DataPaths.hpp)
 }
 
 std::string table3CaseOf(const std::string& name, const nlohmann::json& details) {

@@ -24,7 +24,7 @@ struct Table {
 };
 
 /// reference-data/ beside the case files of the runs (case.file/../..), else
-/// the source tree's; empty when neither exists.
+/// mmval's own (mmval/core/DataPaths.hpp); empty when neither exists.
 std::filesystem::path findReferenceData(const ReportInput& input);
 
 /// "I".."V" when the run is one of the paper's Table 3 cases: details.table3_case,
