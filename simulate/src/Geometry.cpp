@@ -1,8 +1,10 @@
 #include "mmval/simulate/Geometry.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -92,6 +94,106 @@ double MaskShape::distanceAlong(double x, double y, int axis, int sign, double m
 }
 
 Eigen::Vector2d MaskShape::centre(int) const { return {m_ox + 0.5 * width(), m_oy + 0.5 * height()}; }
+
+namespace {
+
+/// How far inside its own side the smoothed field keeps each pixel centre (of the 0 .. 1 range).
+constexpr double kKeepMargin = 0.02;
+
+/// Cubic convolution kernel of Keys (1981) with a = -1/2.
+double keys(double t) {
+  t = std::abs(t);
+  if (t < 1) return (1.5 * t - 2.5) * t * t + 1;
+  if (t < 2) return ((-0.5 * t + 2.5) * t - 4) * t + 2;
+  return 0;
+}
+
+/// 1-D Gaussian weights of standard deviation sigma (pixels), radius ceil(3 sigma), summing to 1.
+std::vector<double> gaussian(double sigma) {
+  if (!(sigma > 0)) return {1.0};
+  const int r = static_cast<int>(std::ceil(3 * sigma));
+  std::vector<double> w(static_cast<std::size_t>(2 * r + 1));
+  double sum = 0;
+  for (int k = -r; k <= r; ++k) sum += w[static_cast<std::size_t>(k + r)] = std::exp(-0.5 * k * k / (sigma * sigma));
+  for (auto& v : w) v /= sum;
+  return w;
+}
+
+}  // namespace
+
+SmoothMaskShape::SmoothMaskShape(const Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic>& solid, double pixel_m, double sigma_px, double origin_x,
+                                 double origin_y)
+    : m_rows(static_cast<int>(solid.rows())), m_cols(static_cast<int>(solid.cols())), m_pixel(pixel_m), m_ox(origin_x), m_oy(origin_y) {
+  if (solid.size() == 0 || !(pixel_m > 0)) throw std::invalid_argument("a mask needs pixels and a positive pixel size");
+  if (!(sigma_px >= 0) || sigma_px > 8) throw std::invalid_argument("the smoothing width must be in [0, 8] pixels");
+  // Separable Gaussian with the border replicated (an edge grain continues beyond the image).
+  const std::vector<double> w = gaussian(sigma_px);
+  const int r = static_cast<int>(w.size() / 2);
+  auto clampi = [](int i, int n) { return std::clamp(i, 0, n - 1); };
+  Eigen::ArrayXXd rowpass(m_rows, m_cols);
+  for (int i = 0; i < m_rows; ++i)
+    for (int j = 0; j < m_cols; ++j) {
+      double s = 0;
+      for (int k = -r; k <= r; ++k) s += w[static_cast<std::size_t>(k + r)] * (solid(i, clampi(j + k, m_cols)) ? 1.0 : 0.0);
+      rowpass(i, j) = s;
+    }
+  Eigen::ArrayXXd blurred(m_rows, m_cols);
+  for (int i = 0; i < m_rows; ++i)
+    for (int j = 0; j < m_cols; ++j) {
+      double s = 0;
+      for (int k = -r; k <= r; ++k) s += w[static_cast<std::size_t>(k + r)] * rowpass(clampi(i + k, m_rows), j);
+      // Every pixel centre stays on its side of the boundary: the smoothing rounds the staircase
+      // but never closes a one-pixel gap or removes a one-pixel grain or wall.
+      blurred(i, j) = solid(i, j) ? std::max(s, 0.5 + kKeepMargin) : std::min(s, 0.5 - kKeepMargin);
+    }
+  m_field.resize(m_rows + 4, m_cols + 4);
+  for (int i = -2; i < m_rows + 2; ++i)
+    for (int j = -2; j < m_cols + 2; ++j) m_field(i + 2, j + 2) = static_cast<float>(blurred(clampi(i, m_rows), clampi(j, m_cols)) - 0.5);
+}
+
+double SmoothMaskShape::level(double x, double y) const {
+  const double u = (x - m_ox) / m_pixel, v = (m_oy + height() - y) / m_pixel;  // column, row coordinates (pixel edges at integers)
+  if (u < 0 || v < 0 || u > m_cols || v > m_rows) return -0.5;
+  const double cu = u - 0.5, cv = v - 0.5;  // pixel centres at integers
+  const int i0 = static_cast<int>(std::floor(cv)), j0 = static_cast<int>(std::floor(cu));
+  const double ti = cv - i0, tj = cu - j0;
+  double wi[4], wj[4];
+  for (int k = 0; k < 4; ++k) {
+    wi[k] = keys(ti - (k - 1));
+    wj[k] = keys(tj - (k - 1));
+  }
+  double s = 0;
+  for (int a = 0; a < 4; ++a) {
+    const int ri = std::clamp(i0 + a - 1 + 2, 0, m_rows + 3);
+    double row = 0;
+    for (int b = 0; b < 4; ++b) row += wj[b] * m_field(ri, std::clamp(j0 + b - 1 + 2, 0, m_cols + 3));
+    s += wi[a] * row;
+  }
+  return s;
+}
+
+int SmoothMaskShape::bodyAt(double x, double y) const { return level(x, y) > 0 ? 0 : -1; }
+
+double SmoothMaskShape::distanceAlong(double x, double y, int axis, int sign, double max_distance) const {
+  auto at = [&](double t) { return axis == 0 ? level(x + sign * t, y) : level(x, y + sign * t); };
+  const double step = m_pixel / 8;
+  double lo = 0;
+  for (;;) {
+    const double hi = std::min(lo + step, max_distance);
+    if (at(hi) > 0) {
+      double a = lo, b = hi;
+      for (int k = 0; k < 50 && b - a > 1e-12 * m_pixel; ++k) {
+        const double mid = 0.5 * (a + b);
+        (at(mid) > 0 ? b : a) = mid;
+      }
+      return 0.5 * (a + b);
+    }
+    if (hi >= max_distance) return max_distance;
+    lo = hi;
+  }
+}
+
+Eigen::Vector2d SmoothMaskShape::centre(int) const { return {m_ox + 0.5 * width(), m_oy + 0.5 * height()}; }
 
 Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic> readMask(const std::filesystem::path& file, bool grains_dark) {
   const cv::Mat img = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);

@@ -43,6 +43,13 @@ void imagePermeabilityMetrics(Schema& s) {
   s.metric("permeability_2d", "D", "Permeability of the plane 2D model (per unit depth)");
   s.metric("permeability_depth_averaged", "D", "Permeability of the depth-averaged (Hele-Shaw friction) model");
   s.metric("depth_model_ratio", "1", "Depth-averaged over 2D permeability");
+  // A cells_per_pixel_levels ladder (Celik et al. 2008, J. Fluids Eng. 130 078001).
+  s.metric("permeability_2d_extrapolated", "D", "Ladder: plane 2D permeability Richardson-extrapolated with the observed order (monotone convergence)");
+  s.metric("permeability_2d_observed_order", "1", "Ladder: observed order of the plane 2D permeability from the three finest levels");
+  s.metric("permeability_2d_gci", "1", "Ladder: grid convergence index of the finest plane 2D permeability, relative (Roache; Fs 1.25, 3 without an observed order)");
+  s.metric("permeability_depth_averaged_extrapolated", "D", "Ladder: depth-averaged permeability Richardson-extrapolated with the observed order");
+  s.metric("permeability_depth_averaged_observed_order", "1", "Ladder: observed order of the depth-averaged permeability from the three finest levels");
+  s.metric("permeability_depth_averaged_gci", "1", "Ladder: grid convergence index of the finest depth-averaged permeability, relative");
   s.metric("permeability_3d", "D", "Permeability of the coarse 3D Stokes model, finest level");
   s.metric("permeability_3d_extrapolated", "D", "3D permeability Richardson-extrapolated over the last two depth levels");
   s.metric("porosity_3d_grid", "1", "Connected porosity of the block-averaged 3D grid");

@@ -23,7 +23,8 @@ std::string scaledUp(double key_value, double factor) {
 
 }  // namespace
 
-double checkThroats(const FlowProblem& p, const std::string& key, double key_value, RunOutput& out, bool quiet) {
+double checkThroats(const FlowProblem& p, const std::string& key, double key_value, RunOutput& out, bool quiet, double warn_cells, double image_pixel_m,
+                    ThroatFound* found) {
   if (!p.shape) return std::numeric_limits<double>::infinity();
   const bool px = p.boundary[0].type == BoundaryType::periodic, py = p.boundary[2].type == BoundaryType::periodic;
   Throat t;
@@ -36,17 +37,29 @@ double checkThroats(const FlowProblem& p, const std::string& key, double key_val
   if (!std::isfinite(t.width_m)) return t.width_m;
   const double h = std::min(p.x.width(p.x.cellOf(t.x_m)), p.y.width(p.y.cellOf(t.y_m)));
   const double cells = t.width_m / h;
-  const std::string where = fmt::format("{:.3g} m at x = {:.4g} m, y = {:.4g} m", t.width_m, t.x_m, t.y_m);
+  std::string where = fmt::format("{:.3g} m at x = {:.4g} m, y = {:.4g} m", t.width_m, t.x_m, t.y_m);
+  ThroatFound f;
+  f.throat = t;
+  f.cells = cells;
+  if (image_pixel_m > 0) {
+    // The throat's pixel (its centre) as the image's column and row, row 0 at the top.
+    f.x_px = std::floor((t.x_m - p.x.lo()) / image_pixel_m);
+    f.y_px = std::floor((p.y.hi() - t.y_m) / image_pixel_m);
+    f.width_px = t.width_m / image_pixel_m;
+    where = fmt::format("{:.3g} px = {:.3g} m at pixel x = {:.0f}, y = {:.0f} of the image (column, row from its top-left corner)", f.width_px,
+                        t.width_m, f.x_px, f.y_px);
+  }
+  if (found != nullptr) *found = f;
   if (cells < 1.0 - 1e-6)  // a throat of exactly one cell (a one-pixel throat at 1 cell per pixel) still carries flow
     throw NumericalFailure(fmt::format("the narrowest throat of the flow path is {:.2f} cells wide ({}) at {} = {}: narrower than one cell, the grid "
                                        "cannot carry flow through it",
                                        cells, where, key, key_value),
                            key, fmt::format("at least {} (2 cells across the throat)", scaledUp(key_value, kWarnThroatCells / cells)));
-  if (cells < kWarnThroatCells) {
+  if (cells < warn_cells) {
     const std::string w = fmt::format("the narrowest throat of the flow path is {:.2f} cells wide ({}) at {} = {}: below {} cells the flow through it is "
                                       "under-resolved and the result can be off by a large factor (a one-pixel throat at 1 cell per pixel: +197 %); "
                                       "raise '{}' to at least {}",
-                                      cells, where, key, key_value, kWarnThroatCells, key, scaledUp(key_value, kWarnThroatCells / cells));
+                                      cells, where, key, key_value, warn_cells, key, scaledUp(key_value, warn_cells / cells));
     if (!out.details.contains("warnings")) out.details["warnings"] = nlohmann::json::array();
     out.details["warnings"].push_back(w);
     if (!quiet && PetscSession::rank() == 0) std::fprintf(stderr, "mmval: warning: %s\n", w.c_str());

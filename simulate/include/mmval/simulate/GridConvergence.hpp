@@ -1,0 +1,46 @@
+// Grid convergence of a resolution ladder (issue 25): observed order, Richardson extrapolation and
+// Roache's grid convergence index, for grids refined by any ratios.
+//
+// Three grids (1 finest, spacings h1 < h2 < h3, values f1, f2, f3), after Celik et al. (2008),
+// "Procedure for estimation and reporting of uncertainty due to discretization in CFD
+// applications", J. Fluids Eng. 130, 078001, Eqs. (3)-(7): with e21 = f2 - f1, e32 = f3 - f2,
+// s = sign(e32 / e21), r21 = h2 / h1, r32 = h3 / h2, the observed order p solves
+//   p ln r21 = ln|e32 / e21| + ln((r21^p - s) / (r32^p - s))
+// (for r21 = r32 the last term vanishes); the extrapolated value is
+//   f_ext = (r21^p f1 - f2) / (r21^p - 1)
+// and the fine grid's convergence index (Roache 1994, J. Fluids Eng. 116, 405)
+//   GCI = Fs |(f1 - f2) / f1| / (r21^p - 1),  Fs = 1.25.
+// Convergence that is not monotone (s < 0: the values oscillate) or not converging (the change
+// grows on refinement) has no observed order: the result says so, carries no extrapolated value,
+// and its GCI falls back to the two-grid form: Fs = 3 with the scheme's formal order. Two grids
+// give that form too.
+#pragma once
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace mmval::simulate {
+
+struct GridConvergence {
+  static constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  /// "monotone" (order observed), "oscillatory", "diverging", "unchanged" (the finest two
+  /// values are equal), "two levels" or "one level".
+  std::string status;
+  bool has_order = false;        ///< status "monotone"
+  double observed_order = nan;   ///< p from the three finest levels (has_order only)
+  double order_used = nan;       ///< p in the GCI: observed, else the formal order given
+  double safety_factor = nan;    ///< Fs: 1.25 with an observed order, else 3
+  double extrapolated = nan;     ///< Richardson f_ext (NaN unless has_order or two levels)
+  double fine = nan;             ///< value of the finest level
+  double gci = nan;              ///< relative GCI of the finest level (fraction of |fine|)
+  double band_lo = nan, band_hi = nan;  ///< fine -/+ gci |fine|
+  std::string note;              ///< one sentence for people (why no order, ...)
+};
+
+/// `h` the grid spacings (or 1 / resolution) of the levels, `f` their values, in the same order;
+/// the three (two) finest levels are used. formal_order: the scheme's order, used when no order can
+/// be observed. Throws std::invalid_argument for mismatched sizes, spacings that are not positive
+/// or two levels with the same spacing.
+GridConvergence gridConvergence(const std::vector<double>& h, const std::vector<double>& f, double formal_order);
+
+}  // namespace mmval::simulate
