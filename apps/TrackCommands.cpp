@@ -119,7 +119,7 @@ void runBrownianSlab(SynthCli& sy) {
   StagedDirectory staged(sy.out);
   const auto r = tracking::writeBrownianSlabVideo(s, staged.path());
   staged.commit();
-  std::printf("synth: %d frames (%s), Brownian slab with D %.4g um^2/s: %.0f particles per frame in view, %.0f in focus, %lld distinct -> %s, truth.csv, truth.json\n",
+  std::printf("synth: %d frames (%s), Brownian slab with D %.4g um^2/s: %.0f particles per frame in view, %.0f in focus, %lld distinct -> %s, truth.csv, truth_in_focus.csv, truth.json\n",
               s.frames, sy.format.c_str(), r.diffusion_um2_s, r.mean_in_view, r.mean_in_focus, static_cast<long long>(r.distinct_in_view), sy.out.c_str());
 }
 

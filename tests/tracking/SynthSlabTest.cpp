@@ -276,6 +276,7 @@ TEST(SynthSlab, TruthIsTheSharedSchemaWithFocusColumns) {
   const double p = optics.depth_of_field_um / o.slab_um;
   EXPECT_NEAR(static_cast<double>(focused) / rows, p, 3 * std::sqrt(p * (1 - p) / (rows / o.frames)));
   EXPECT_TRUE(fs::exists(dir / "truth.json"));
+  EXPECT_EQ(static_cast<int>(readTracksCsv(dir / "truth_in_focus.csv").points.size()), focused);
 }
 
 TEST(SynthSlab, FlickerShowsInTheFrameMeans) {
@@ -318,7 +319,7 @@ TEST(SynthSlab, SameSeedSameFiles) {
     EXPECT_EQ(slurp(e.path()), slurp(b / rel)) << rel;
     ++files;
   }
-  EXPECT_EQ(files, 6);  // four frames, truth.csv, truth.json
+  EXPECT_EQ(files, 7);  // four frames, truth.csv, truth_in_focus.csv, truth.json
   EXPECT_NE(slurp(a / "truth.csv"), slurp(c / "truth.csv"));
   EXPECT_NE(slurp(a / "frames" / "frame_00002.png"), slurp(c / "frames" / "frame_00002.png"));
 }

@@ -233,10 +233,12 @@ void addCameraNoise(cv::Mat& img, const BrownianSlabOptions& o, std::mt19937_64&
   }
 }
 
-void writeTruthCsv(const std::filesystem::path& file, const BrownianSlabOptions& o, const SlabOptics& optics, const SlabSimulation& sim) {
+/// Rows of the particles in view (only those within the depth of field with `in_focus_only`), by particle then frame.
+void writeTruthCsv(const std::filesystem::path& file, const BrownianSlabOptions& o, const SlabOptics& optics, const SlabSimulation& sim,
+                   bool in_focus_only) {
   std::vector<const SlabRecord*> rows;
   for (const auto& r : sim.records)
-    if (r.in_view) rows.push_back(&r);
+    if (r.in_view && (!in_focus_only || optics.inFocus(r.z_um))) rows.push_back(&r);
   std::stable_sort(rows.begin(), rows.end(), [](const SlabRecord* a, const SlabRecord* b) {
     return a->particle != b->particle ? a->particle < b->particle : a->frame < b->frame;
   });
@@ -286,7 +288,8 @@ BrownianSlabResult writeBrownianSlabVideo(const BrownianSlabOptions& o, const st
   for (const auto& r : sim.records)
     if (r.in_view) ids.insert(r.particle);
   result.distinct_in_view = static_cast<std::int64_t>(ids.size());
-  writeTruthCsv(dir / "truth.csv", o, optics, sim);
+  writeTruthCsv(dir / "truth.csv", o, optics, sim, false);
+  writeTruthCsv(dir / "truth_in_focus.csv", o, optics, sim, true);
 
   const double dt = 1 / o.fps_hz, d = result.diffusion_um2_s;
   const double blur_te = o.exposure_s > 0 ? o.exposure_s * (1 - 1.0 / (k_sub * k_sub)) : 0;

@@ -142,7 +142,9 @@ struct BrownianSlabResult {
 /// Writes the frames (as o.format says), truth.csv (frame, particle, x, y, x_um,
 /// y_um, t_s, z_um, dz_um, sigma_px, peak_contrast, in_focus; the shared tracks
 /// schema plus columns, positions averaged over the exposure, t_s at the frame's
-/// start) and truth.json (inputs, derived D and optics, drift, counts) into `dir`.
+/// start), truth_in_focus.csv (its rows within the depth of field: what `mmval track
+/// --truth` should be scored against) and truth.json (inputs, derived D and optics,
+/// drift, counts) into `dir`.
 /// Throws std::invalid_argument for options out of range, InputError beyond memory limits.
 BrownianSlabResult writeBrownianSlabVideo(const BrownianSlabOptions& o, const std::filesystem::path& dir);
 
