@@ -36,15 +36,21 @@ void addExamples(CLI::App& app) {
               "  mmval run cases/fluid-poiseuille.toml --out out/poiseuille-wide --set \"geometry.width=200 um\" --set \"numerics.levels=[16, 32, 64]\""},
       {"validate", "mmval validate\n  mmval validate --tag coupled --out out/coupled\n  mmval validate --full --resume"},
       {"peer", "mmval peer openfoam cases/fluid-schaefer-turek-2d1.toml --out out/st-openfoam --np 2"},
+      {"openfoam", "mmval peer openfoam cases/fluid-schaefer-turek-2d1.toml --out out/st-openfoam --np 2 --levels 32,64"},
       {"track", "mmval track video.avi --pixel-size-um 10 --fps 2 --out out/tracks\n"
                 "  mmval track 'frames/*.png' --config my-tracking.toml --out out/tracks"},
       {"synth", "mmval synth --out out/synth"},
       {"compare", "mmval compare --experiment out/tracks/tracks.csv --simulation out/run/trajectories.csv --out out/compare"},
       {"report", "mmval report out/validate --out out/report\n  mmval report --diff old/metrics.json new/metrics.json"},
   };
-  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; }))
-    for (const auto& [name, text] : examples)
-      if (sub->get_name() == name) sub->footer("\nExamples:\n  " + text);
+  const auto all = [](CLI::App*) { return true; };
+  for (CLI::App* sub : app.get_subcommands(all)) {
+    std::vector<CLI::App*> with_nested{sub};
+    for (CLI::App* nested : sub->get_subcommands(all)) with_nested.push_back(nested);
+    for (CLI::App* s : with_nested)
+      for (const auto& [name, text] : examples)
+        if (s->get_name() == name) s->footer("\nExamples:\n  " + text);
+  }
   app.footer(
       "\nExamples:\n  mmval init channel --out my-channel.toml\n  mmval run my-channel.toml --out out/my-channel\n  mmval validate --out out/validate\n"
       "\nData: reference-data/ and the example cases/ are read from $MMVAL_DATA_DIR, else from ../share/mmval beside the\n"
