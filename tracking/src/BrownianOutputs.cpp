@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
@@ -67,7 +68,9 @@ cv::Mat diffusionHistogram(const std::vector<double>& edges, const std::vector<l
 }
 
 nlohmann::json writeBrownianOutputs(const TrackRun& run, const TrackConfig& c, const OutputSink& out) {
-  const BrownianStats b = analyseBrownian(run.tracks, c.analysis.brownian);
+  std::optional<BrownianStats> own;  // runTracker's, unless the run was put together otherwise
+  if (!run.brownian) own = analyseBrownian(run.tracks, c.analysis.brownian);
+  const BrownianStats& b = run.brownian ? *run.brownian : *own;
   std::map<std::int64_t, const TrackDiffusion*> by_id;
   for (const auto& t : b.tracks) by_id[t.particle] = &t;
   {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -230,7 +231,9 @@ RunOutput runTrackingVideo(const Case& c, const RunContext& ctx) {
   out.files = writeTrackOutputs(run, cfg, ctx.out_dir, extra);
   if (run.motion.model == MotionModel::brownian) {
     // Speeds, dispersion and retention describe a flow: for Brownian motion, D and its kin.
-    const BrownianStats b = analyseBrownian(run.tracks, cfg.analysis.brownian);
+    std::optional<BrownianStats> own;  // runTracker's, unless the run was put together otherwise
+    if (!run.brownian) own = analyseBrownian(run.tracks, cfg.analysis.brownian);
+    const BrownianStats& b = run.brownian ? *run.brownian : *own;
     if (std::isfinite(b.msd.d)) {
       out.metrics["diffusion_coefficient"] = b.msd.d;
       out.units["diffusion_coefficient"] = "um2/s";

@@ -377,6 +377,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
     joinClusterArrivals(run, c);
   }
   run.smoothed_points = smoothTracks(run.tracks, c.smooth_frames, c.pixel_size).points;
+  if (!flow) run.brownian = analyseBrownian(run.tracks, c.analysis.brownian);
   run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return run;
 }

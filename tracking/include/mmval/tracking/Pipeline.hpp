@@ -2,6 +2,7 @@
 // streamed frame by frame, and the files a researcher looks at.
 #pragma once
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -53,6 +54,9 @@ struct TrackRun {
   long long smoothed_points = 0;  ///< moving points refined along their track (smooth_frames)
   /// Flow or Brownian analysis (analysis.motion), decided from the tracks when "auto".
   MotionDecision motion;
+  /// Brownian motion: the analysis of `tracks` (runTracker does it once; writers and the
+  /// kinds read it). Empty for flow, or when the tracks were changed after runTracker.
+  std::optional<BrownianStats> brownian;
 };
 
 /// Runs the tracker over the whole source; a progress bar unless quiet. Memory stays
