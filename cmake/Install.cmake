@@ -12,6 +12,15 @@
 include(GNUInstallDirs)
 
 install(TARGETS mmval RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+# The libraries are static by default and live inside the binary; a
+# -DBUILD_SHARED_LIBS=ON build installs them beside it, in ../lib (the run path).
+if(BUILD_SHARED_LIBS)
+  foreach(lib mmval_core mmval_tracking mmval_simulate mmval_openfoam mmval_particles mmval_compare mmval_reports)
+    if(TARGET ${lib})
+      install(TARGETS ${lib} LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+    endif()
+  endforeach()
+endif()
 
 set(MMVAL_INSTALL_DATADIR ${CMAKE_INSTALL_DATADIR}/mmval)
 install(DIRECTORY ${CMAKE_SOURCE_DIR}/reference-data/ DESTINATION ${MMVAL_INSTALL_DATADIR}/reference-data)
