@@ -12,12 +12,18 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <random>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
+#include "mmval/core/Case.hpp"
+#include "mmval/core/CaseKind.hpp"
+#include "mmval/core/Error.hpp"
 #include "mmval/tracking/Brownian.hpp"
+#include "mmval/tracking/Kinds.hpp"
 #include "mmval/tracking/Pipeline.hpp"
 #include "mmval/tracking/Synth.hpp"
 
@@ -370,6 +376,66 @@ fs::path render(const char* name, const SynthOptions& o) {
 nlohmann::json summaryOf(const fs::path& dir) {
   std::ifstream in(dir / "summary.json");
   return nlohmann::json::parse(in);
+}
+
+
+CaseKindRegistry& registry() {
+  static CaseKindRegistry r = [] {
+    CaseKindRegistry reg;
+    registerTrackingKinds(reg);
+    return reg;
+  }();
+  return r;
+}
+
+/// A tracking-video case over three blank frames with `extra` TOML appended.
+Case blankCase(const std::string& name, const std::string& extra) {
+  const fs::path d = fs::path(MMVAL_BINARY_DIR) / "test-output" / name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  for (int k = 0; k < 3; ++k) cv::imwrite((d / ("f" + std::to_string(k) + ".png")).string(), cv::Mat(40, 40, CV_8U, cv::Scalar(128)));
+  return Case::parse("[case]\nname = \"t\"\nkind = \"tracking-video\"\n[inputs]\nvideo = \"" + d.string() +
+                         "\"\nframe_rate = \"10 Hz\"\npixel_size = \"1 um\"\n" + extra,
+                     d / "case.toml", registry());
+}
+
+std::string inputErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no InputError)";
+}
+
+TEST(BrownianKeys, CaseKeysReachTheTracker) {
+  const Case c = blankCase("brownian-keys", "[analysis]\nmotion = \"brownian\"\nexposure = \"20 ms\"\nbrownian_min_points = 25\n"
+                                            "msd_lags = 4\nimmobile_level = 0.001\n[link]\npredict = \"velocity\"\n");
+  const TrackConfig t = trackerConfig(c);
+  EXPECT_EQ(t.analysis.motion, MotionModel::brownian);
+  EXPECT_NEAR(t.analysis.brownian.exposure, 0.02, 1e-15);
+  EXPECT_EQ(t.analysis.brownian.min_points, 25);
+  EXPECT_EQ(t.analysis.brownian.max_lag, 4);
+  EXPECT_NEAR(t.analysis.brownian.immobile_level, 0.001, 1e-15);
+  EXPECT_EQ(t.link.predict, Prediction::velocity);
+  // Defaults: auto and auto.
+  const TrackConfig d = trackerConfig(blankCase("brownian-defaults", ""));
+  EXPECT_EQ(d.analysis.motion, MotionModel::automatic);
+  EXPECT_EQ(d.link.predict, Prediction::automatic);
+}
+
+TEST(BrownianKeys, ExposureLongerThanAFrameIsNamed) {
+  const Case c = blankCase("brownian-exposure", "[analysis]\nexposure = \"0.2 s\"\n");
+  const std::string msg = inputErrorOf([&] { runTrackingVideo(c, {c.file().parent_path() / "out", true}); });
+  EXPECT_NE(msg.find("analysis.exposure"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("0.1 s"), std::string::npos) << msg;  // what is allowed: 1 / frame rate
+}
+
+TEST(BrownianKeys, NeighbourPredictionWithoutARadiusIsNamed) {
+  const Case c = blankCase("brownian-neighbours", "[link]\npredict = \"neighbours\"\n");
+  const std::string msg = inputErrorOf([&] { trackerConfig(c); });
+  EXPECT_NE(msg.find("link.predict"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("link.neighbour_radius"), std::string::npos) << msg;
 }
 
 TEST(BrownianPipeline, AutoPicksFlowForAFlowVideoAndKeepsItsOutputs) {
