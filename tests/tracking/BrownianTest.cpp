@@ -364,6 +364,21 @@ TEST(Motion, AutoTellsDiffusionFromFlow) {
   std::printf("plug flow: %s\n", d.reason.c_str());
   EXPECT_EQ(d.model, MotionModel::flow);
   EXPECT_GT(d.drift_peclet, 1.0);
+  // Nothing moves: particles at rest under localisation noise stay with flow (the default).
+  Walk rest = plug;
+  rest.vx = 0;
+  rest.seed = 13;
+  const MotionDecision e = decideMotion(walks(rest));
+  std::printf("at rest: %s\n", e.reason.c_str());
+  EXPECT_EQ(e.model, MotionModel::flow);
+  EXPECT_NEAR(e.step_correlation, -0.5, 4 * e.step_correlation_se);
+  // Diffusion under noise ten times the step is still Brownian: -0.5 + 1/22 correlation.
+  Walk noisy = brown;
+  noisy.sigma = std::sqrt(10 * noisy.d * noisy.dt);
+  noisy.seed = 14;
+  const MotionDecision f = decideMotion(walks(noisy));
+  std::printf("noisy diffusion: %s\n", f.reason.c_str());
+  EXPECT_EQ(f.model, MotionModel::brownian);
 }
 
 fs::path render(const char* name, const SynthOptions& o) {

@@ -68,6 +68,7 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
   if (std::isfinite(run.motion.step_correlation))
     summary["motion"]["numbers"] = {{"step_correlation", run.motion.step_correlation}, {"step_correlation_se", run.motion.step_correlation_se},
                                     {"brownian_bound", run.motion.correlation_bound}, {"z_directed", run.motion.z_directed},
+                                    {"z_diffusing", run.motion.z_diffusing},
                                     {"drift_peclet", std::isfinite(run.motion.drift_peclet) ? nlohmann::json(run.motion.drift_peclet) : nlohmann::json(nullptr)},
                                     {"step_pairs", run.motion.step_pairs}, {"tracks", run.motion.tracks}};
   summary["frames"] = run.frame_index.size();

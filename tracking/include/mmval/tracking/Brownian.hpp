@@ -137,7 +137,9 @@ ImmobileTest immobileTest(const CveEstimate& e, double d_ensemble, double frame_
 /// frame; localisation noise only lowers it) by more than `z_directed` standard errors
 /// (ratio estimator over whole tracks); or when the ensemble as a whole is carried: its
 /// rms drift per frame exceeds `peclet` times the rms drift-corrected step (noise of the
-/// ensemble mean removed). Otherwise Brownian.
+/// ensemble mean removed); or when nothing diffuses: the correlation is not above the
+/// -1/2 of localisation noise about fixed places by `z_directed` standard errors (a
+/// video of stuck particles stays with flow, the default). Otherwise Brownian.
 struct MotionDecision {
   MotionModel requested = MotionModel::flow;
   MotionModel model = MotionModel::flow;
@@ -145,6 +147,7 @@ struct MotionDecision {
   double step_correlation = kNaN, step_correlation_se = kNaN;
   double correlation_bound = 0.25;
   double z_directed = kNaN;
+  double z_diffusing = kNaN;  ///< (correlation + 1/2) / its standard error
   double drift_peclet = kNaN;
   long long step_pairs = 0;
   int tracks = 0;
