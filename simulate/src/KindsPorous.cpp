@@ -299,11 +299,12 @@ CaseKind imagePermeabilityKind() {
     s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def("1e-3 Pa s").positive();
     s.quantity("flow.pressure_drop", "Pa", "Inlet minus outlet pressure (keep Re << 1)").def("1 Pa").positive();
     s.choice("geometry.boundary", {"pixels", "smooth"},
-             "Grain boundary the solver cuts its cells against: smooth (reconstructed below pixel resolution: the 1/2 level of the mask "
-             "smoothed by geometry.smoothing, cubic interpolation, every pixel centre kept on its side; the permeability converges at second "
-             "order in cells per pixel) or pixels (the mask's staircase, first order; on disc packings rendered to pixels it gave 17-41 % "
-             "below the discs' permeability, smooth 1-3 % above)")
-        .def("smooth");
+             "Grain boundary the 2D and depth-averaged models cut their cells against: pixels (the mask's staircase: the permeability "
+             "converges at about first order in cells per pixel, and on disc packings rendered to pixels it settled 17-41 % below the "
+             "discs' own) or smooth (reconstructed below pixel resolution: the 1/2 level of the mask smoothed by geometry.smoothing, cubic "
+             "interpolation, every pixel centre kept on its side: second order, 1-3 % above the discs'). pixels is the default because the "
+             "coarse 3D model and the OpenFOAM peer still mesh the pixels: comparisons between them stay on one geometry")
+        .def("pixels");
     s.real("geometry.smoothing", "Smooth boundary: Gaussian width in pixels applied to the mask before its 1/2 level is taken (0.75 removes the "
                                  "staircase's pixel-period steps; wider rounds corners more and narrows gaps of 1-2 pixels)")
         .def(0.75)
