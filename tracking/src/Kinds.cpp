@@ -53,8 +53,8 @@ void declareMotionKeys(Schema& s) {
       .min(0)
       .max(1000);
   s.real("analysis.immobile_level",
-         "Brownian: a track is immobile when its D is below the ensemble D and not above 0, each one-sided at this significance level (the "
-         "share of free particles called immobile)")
+         "Brownian: a track is immobile when its D is below the ensemble D and not above 0, each one-sided at this significance level (at "
+         "most the share of free particles called immobile)")
       .def(defaults.brownian.immobile_level)
       .min(1e-6)
       .max(0.5);
@@ -120,7 +120,7 @@ void declareTrackerKeys(Schema& s) {
       .def(0)
       .min(0)
       .max(10);
-  s.quantity("analysis.immobile_distance", "um", "Particles that never move farther are immobile (left out of velocities)").def("2 um").nonNegative();
+  s.quantity("analysis.immobile_distance", "um", "Flow: particles that never move farther are immobile (left out of velocities)").def("2 um").nonNegative();
   s.quantity("analysis.stuck_distance", "um",
              "Moving less than this (plus what the track's own localisation noise explains) over the final window counts as deposited")
       .def("1 um")
