@@ -32,7 +32,73 @@ struct TrackCli {
   std::vector<int> roi;
   int first = 0, last = -1, smooth = -1;
   bool quiet = false, no_background = false;
+  /// trackpy's names (docs/trackpy-mapping.md), read as text and checked here so that a
+  /// bad value names its flag; empty: not given.
+  std::string diameter, minmass, separation, search_range, memory, threads;
+  bool invert = false;
+  std::vector<std::string> set;  ///< --set KEY=VALUE, in order
 };
+
+/// A number given to a trackpy-style flag, finite and in [lo, hi]; InputError naming the
+/// flag and `expected` otherwise.
+double flagNumber(const char* flag, const std::string& text, double lo, double hi, const std::string& expected) {
+  double v = 0;
+  std::size_t used = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || !std::isfinite(v) || v < lo || v > hi)
+    throw InputError({}, fmt::format("option {} has an invalid value", flag), fmt::format("{} {}", flag, text), expected);
+  return v;
+}
+
+/// Whole-number flags: as flagNumber, and no fraction.
+std::int64_t flagInteger(const char* flag, const std::string& text, std::int64_t lo, std::int64_t hi, const std::string& expected) {
+  const double v = flagNumber(flag, text, static_cast<double>(lo), static_cast<double>(hi), expected);
+  if (v != std::floor(v)) throw InputError({}, fmt::format("option {} has an invalid value", flag), fmt::format("{} {}", flag, text), expected);
+  return static_cast<std::int64_t>(v);
+}
+
+/// The case keys the trackpy-style flags set (docs/trackpy-mapping.md), flag by key.
+/// --diameter stands for trackpy's locate: its band pass, centroid, mass disc and
+/// separation, and none of mmval's own filters that trackpy lacks.
+std::vector<std::pair<std::string, std::pair<std::string, Value>>> trackpyKeys(const TrackCli& t) {
+  std::vector<std::pair<std::string, std::pair<std::string, Value>>> keys;
+  auto put = [&](const char* flag, const char* key, Value v) { keys.push_back({flag, {key, std::move(v)}}); };
+  if (!t.diameter.empty()) {
+    const std::int64_t d = flagInteger("--diameter", t.diameter, 3, 101, "an odd whole number of pixels from 3 to 101 (trackpy's feature diameter)");
+    if (d % 2 == 0)
+      throw InputError({}, "option --diameter has an invalid value", fmt::format("--diameter {}", t.diameter),
+                       "an odd whole number of pixels from 3 to 101 (trackpy requires an odd diameter)");
+    const std::int64_t radius = d / 2;
+    put("--diameter", "detect.method", std::string("peaks"));
+    put("--diameter", "detect.refinement", std::string("disc"));
+    put("--diameter", "detect.refine_radius", radius);
+    put("--diameter", "detect.local_background", radius);
+    put("--diameter", "detect.blur_sigma", 1.0);
+    put("--diameter", "detect.subtract_background", false);
+    put("--diameter", "detect.min_snr", 0.0);
+    put("--diameter", "detect.min_area", 1.0);
+    put("--diameter", "detect.min_percentile", 64.0);
+    put("--diameter", "detect.max_size_ratio", 0.0);
+    if (t.separation.empty()) put("--diameter", "detect.separation", d + 1);
+  }
+  if (!t.separation.empty())
+    put("--separation", "detect.separation",
+        static_cast<std::int64_t>(std::lround(flagNumber("--separation", t.separation, 1, 100, "a distance in px from 1 to 100 (trackpy's separation)"))));
+  if (!t.minmass.empty())
+    put("--minmass", "detect.min_mass_relative",
+        flagNumber("--minmass", t.minmass, 0, 1e9, "a mass >= 0 in trackpy's units for 8-bit frames (e.g. --minmass 140)") / 255.0);
+  if (!t.search_range.empty())
+    put("--search-range", "link.search_radius",
+        flagNumber("--search-range", t.search_range, 0.1, 1e4, "a distance in px per frame from 0.1 to 10000 (trackpy's search_range)"));
+  if (!t.memory.empty()) put("--memory", "link.memory", flagInteger("--memory", t.memory, 0, 100, "a whole number of frames from 0 to 100 (trackpy's memory)"));
+  if (!t.threads.empty()) put("--threads", "detect.threads", flagInteger("--threads", t.threads, 1, 256, "a whole number of threads from 1 to 256"));
+  if (t.invert) put("--invert", "detect.polarity", std::string("dark"));
+  return keys;
+}
 
 struct SynthCli {
   std::string out, geometry, grains = "dark", scene = "flow", format = "png";
@@ -144,6 +210,16 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
       ->check(CLI::Range(0, 10));
   track->add_flag("--no-background", t->no_background, "Do not subtract the median background (to count stuck particles)");
   track->add_flag("--quiet", t->quiet, "No progress bar");
+  // trackpy's parameter names (docs/trackpy-mapping.md says which keys each sets).
+  track->add_option("--diameter", t->diameter, "trackpy: feature diameter, px (odd); sets trackpy's locate (band pass, disc centroid and mass, separation)");
+  track->add_option("--minmass", t->minmass, "trackpy: smallest integrated brightness, trackpy's units for 8-bit frames (detect.min_mass_relative x 255)");
+  track->add_option("--separation", t->separation, "trackpy: smallest distance between features, px (detect.separation; default with --diameter: diameter + 1)");
+  track->add_option("--search-range", t->search_range, "trackpy: largest displacement per frame, px (link.search_radius)");
+  track->add_option("--memory", t->memory, "trackpy: frames a particle may vanish and keep its id (link.memory)");
+  track->add_option("--threads", t->threads, "Frames detected in parallel (detect.threads)");
+  track->add_flag("--invert", t->invert, "trackpy: dark features on a bright background (detect.polarity = \"dark\"; mmval otherwise guesses)");
+  track->add_option("--set", t->set, "KEY=VALUE: set any key of a tracking-video case as if the --config file said KEY = VALUE (repeatable)")
+      ->allow_extra_args(false);
   track->callback([t, &registry, pixel_opt, fps_opt] {
     // Given values are checked here, not mistaken for absent ones (a bad --fps used to read "missing").
     if (pixel_opt->count() > 0)
@@ -165,7 +241,18 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
       if (probe.kind() != "tracking-video")
         throw InputError(probe.where("case.kind"), "a --config file must be a tracking-video case", probe.kind(), "kind = \"tracking-video\"");
     }
-    Case c = t->config.empty() ? Case::parse("[case]\nname = \"track\"\nkind = \"tracking-video\"\n", file, registry) : Case::load(file, registry);
+    std::vector<CaseOverride> overrides;
+    for (const auto& text : t->set) overrides.push_back(CaseOverride::parse(text));
+    // The trackpy-style flags are checked before the case, and may not contradict a --set.
+    const auto trackpy = trackpyKeys(*t);
+    for (const auto& [flag, kv] : trackpy)
+      for (const auto& o : overrides)
+        if (o.key == kv.first)
+          throw InputError({}, fmt::format("options {} and --set {} both set {}", flag, o.text(), o.key), fmt::format("--set {}", o.text()),
+                           fmt::format("one of them (docs/trackpy-mapping.md lists the keys {} sets)", flag));
+    Case c = t->config.empty() ? Case::parse("[case]\nname = \"track\"\nkind = \"tracking-video\"\n", file, registry, overrides)
+                               : Case::load(file, registry, overrides);
+    for (const auto& [flag, kv] : trackpy) c.set(kv.first, kv.second);
     c.set("inputs.video", fs::absolute(t->input).string());
     if (pixel_opt->count() > 0) c.set("inputs.pixel_size", t->pixel_um * 1e-6);
     if (fps_opt->count() > 0) c.set("inputs.frame_rate", t->fps);

@@ -49,6 +49,15 @@ std::optional<std::int64_t> parseInteger(const std::string& text) {
   return v;
 }
 
+/// The quality columns in file order, with the member each fills.
+struct QualityColumn {
+  const char* name;
+  double SpotQuality::*member;
+};
+constexpr QualityColumn kQualityColumns[] = {{"sigma_px", &SpotQuality::sigma_px}, {"eccentricity", &SpotQuality::eccentricity},
+                                             {"signal", &SpotQuality::signal},     {"mass", &SpotQuality::mass},
+                                             {"background", &SpotQuality::background}, {"ep_px", &SpotQuality::ep_px}};
+
 }  // namespace
 
 Tracks readTracksCsv(const std::filesystem::path& file, double pixel_size) {
@@ -89,6 +98,9 @@ Tracks readTracksCsv(const std::filesystem::path& file, double pixel_size) {
   const double scale = have_um ? 1e-6 : pixel_size;
   const int c_z = col.count("z_um") ? col["z_um"] : -1;
   const int c_xp = have_px ? col["x_px"] : -1, c_yp = have_px ? col["y_px"] : -1;
+  std::vector<std::pair<int, double SpotQuality::*>> c_quality;
+  for (const auto& q : kQualityColumns)
+    if (col.count(q.name)) c_quality.emplace_back(col[q.name], q.member);
   auto number = [&](const std::vector<std::string>& f, int c, const std::string& name) {
     if (c >= static_cast<int>(f.size())) throw InputError({file.string(), line_no, 0, name}, "row has too few fields", std::to_string(f.size()), std::to_string(header.size()) + " fields");
     try {
@@ -123,6 +135,10 @@ Tracks readTracksCsv(const std::filesystem::path& file, double pixel_size) {
       p.y_px = number(f, c_yp, "y_px");
     }
     if (c_state >= 0 && c_state < static_cast<int>(f.size())) p.state = f[c_state];
+    // A quality field may be empty (a point without a measured spot), as the writer
+    // leaves it and pandas writes NaN.
+    for (const auto& [c, member] : c_quality)
+      if (c < static_cast<int>(f.size()) && !f[c].empty() && f[c] != "nan" && f[c] != "NaN") p.quality.*member = number(f, c, header[c]);
     tracks.points.push_back(p);
   }
   std::stable_sort(tracks.points.begin(), tracks.points.end(), [](const TrackPoint& a, const TrackPoint& b) {
@@ -132,13 +148,17 @@ Tracks readTracksCsv(const std::filesystem::path& file, double pixel_size) {
 }
 
 void writeTracksCsv(const std::filesystem::path& file, const Tracks& tracks, double pixel_size) {
-  bool px = pixel_size > 0, z = false, state = false;
+  bool px = pixel_size > 0, z = false, state = false, quality = false;
   for (const auto& p : tracks.points) {
     px = px || std::isfinite(p.x_px);
     z = z || std::isfinite(p.z);
     state = state || !p.state.empty();
+    quality = quality || p.quality.measured();
   }
-  std::string out = std::string("frame,particle") + (px ? ",x,y" : "") + ",x_um,y_um,t_s" + (z ? ",z_um" : "") + (state ? ",state" : "") + "\n";
+  std::string out = std::string("frame,particle") + (px ? ",x,y" : "") + ",x_um,y_um,t_s" + (z ? ",z_um" : "");
+  if (quality)
+    for (const auto& q : kQualityColumns) out += std::string(",") + q.name;
+  out += std::string(state ? ",state" : "") + "\n";
   for (const auto& p : tracks.points) {
     out += fmt::format("{},{}", p.frame, p.particle);
     if (px) {
@@ -148,6 +168,11 @@ void writeTracksCsv(const std::filesystem::path& file, const Tracks& tracks, dou
     }
     out += fmt::format(",{:.5f},{:.5f},{:.9g}", p.x * 1e6, p.y * 1e6, p.t);
     if (z) out += fmt::format(",{:.5f}", std::isfinite(p.z) ? p.z * 1e6 : 0.0);
+    if (quality)
+      for (const auto& q : kQualityColumns) {
+        const double v = p.quality.*q.member;
+        out += std::isfinite(v) ? fmt::format(",{:.5g}", v) : std::string(",");
+      }
     if (state) out += "," + (p.state.empty() ? std::string("mobile") : p.state);
     out += "\n";
   }

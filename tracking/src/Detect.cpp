@@ -339,6 +339,15 @@ std::vector<Detection> contourSeeds(const cv::Mat& smooth, double floor_level, c
 std::vector<Detection> peakSeeds(const cv::Mat& smooth, double floor_level, const DetectOptions& o) {
   const int sep = o.separation > 0 ? o.separation : std::max(1, o.refine_radius);
   double level = std::max(o.min_contrast, floor_level);
+  if (o.min_percentile > 0) {
+    // trackpy's `percentile`: maxima below this percentile of the band-passed frame's
+    // pixels are background texture, not features (crowded frames raise it).
+    thread_local std::vector<float> all;
+    all.assign(smooth.begin<float>(), smooth.end<float>());
+    const auto k = static_cast<std::ptrdiff_t>(std::min(o.min_percentile / 100.0, 1.0) * static_cast<double>(all.size() - 1));
+    std::nth_element(all.begin(), all.begin() + k, all.end());
+    level = std::max(level, static_cast<double>(all[static_cast<std::size_t>(k)]));
+  }
   if (o.threshold == ThresholdMode::manual) level = std::max(level, o.threshold_value);
   // Maxima of the square inscribed in the disc of radius `sep` (clipped to the frame); the
   // greedy suppression below then enforces the round distance. Only pixels above `level`
@@ -453,7 +462,11 @@ std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, P
     if (polarity == Polarity::dark) cv::subtract(cv::Scalar(level), frame, signal);
     else cv::subtract(frame, cv::Scalar(level), signal);
   }
+  thread_local cv::Mat before_high_pass;
   if (o.local_background > 0) {
+    // The spots' quality is measured on the signal before the high-pass, which carves a
+    // negative ring around every spot (measureSpot takes its own local background).
+    signal.copyTo(before_high_pass);
     // Spatial high-pass: what is left of uneven illumination and slow background
     // drift varies over more than a particle; a boxcar mean wider than the particle removes it.
     cv::blur(signal, local, cv::Size(2 * o.local_background + 1, 2 * o.local_background + 1), cv::Point(-1, -1), cv::BORDER_REFLECT);
@@ -506,6 +519,12 @@ std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, P
     const double sm = refine.refine_sigma > 0 ? refine.refine_sigma : std::max(1.0, 0.5 * o.refine_radius);
     deblend(zero_mean, sm, o.blur_sigma, std::max(o.min_contrast, floor_level), sep, noise, seeds);
   }
+  double mass_floor = o.min_mass;
+  if (o.min_mass_relative > 0) {
+    double top = 0;
+    cv::minMaxLoc(smooth, nullptr, &top);
+    mass_floor = std::max(mass_floor, o.min_mass_relative * top);
+  }
   std::vector<Detection> out;
   out.reserve(seeds.size());
   for (Detection d : seeds) {
@@ -523,9 +542,23 @@ std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, P
       for (int x = std::max(0, px - w); x <= std::min(signal.cols - 1, px + w); ++x) mass += row[x];
     }
     d.mass = mass;
-    if (d.mass < o.min_mass) continue;
+    if (d.mass < mass_floor) continue;
     out.push_back(d);
   }
+  // Quality of each spot, then the focus filter on it (SpotQuality.cpp).
+  const double sigma0 = refine.refine_sigma > 0 ? refine.refine_sigma : std::max(1.0, 0.5 * o.refine_radius);
+  const double pixel_noise = detail::pixelNoise(signal);
+  thread_local cv::Mat quality_src;
+  if (o.local_background > 0 && !out.empty()) {
+    if (o.blur_sigma > 0) cv::GaussianBlur(before_high_pass, quality_src, cv::Size(0, 0), o.blur_sigma);
+    else before_high_pass.copyTo(quality_src);
+  }
+  const cv::Mat& measured = o.local_background > 0 ? quality_src : zero_mean;
+  for (Detection& d : out) {
+    detail::measureSpot(measured, frame, sigma0, o.blur_sigma, pixel_noise, d);
+    d.quality.mass = d.mass;
+  }
+  detail::focusFilter(out, o.max_size_ratio, o.blur_sigma);
   return out;
 }
 
@@ -541,6 +574,7 @@ std::vector<Detection> detectStuck(const cv::Mat& background, Polarity polarity,
   d.deblend = false;
   d.local_background = 0;
   d.find_stuck = false;
+  d.max_size_ratio = 0;  // the hat's residues are judged by runTracker against the moving spots
   // A stuck particle is a round spot no larger than the hat kernel; narrow grain
   // tips and corners also survive the hat but are elongated or larger.
   d.max_area = std::min(o.max_area, 0.6 * M_PI * 0.25 * o.stuck_kernel * o.stuck_kernel);

@@ -86,6 +86,21 @@ void declareTrackerKeys(Schema& s) {
   s.real("detect.refine_sigma", "Sigma of the Gaussian mask of the intensity centroid, px (0: from the spots' size)").def(0).min(0).max(20);
   s.real("detect.min_mass", "Smallest integrated signal within refine_radius, fraction of full scale x px^2 (0: no filter)").def(0).min(0);
   s.real("detect.min_snr", "Smallest peak over the frame's robust noise floor (0: no filter)").def(5).min(0);
+  s.real("detect.max_size_ratio",
+         "Focus filter: drop spots whose measured sigma exceeds this multiple of the frame's modal (in-focus) sigma; blurred, "
+         "out-of-focus particles are localised worse (0: off; docs/trackpy-mapping.md)")
+      .def(DetectOptions{}.max_size_ratio)
+      .min(0)
+      .max(100);
+  s.real("detect.min_mass_relative",
+         "Smallest mass over the frame's brightest band-passed value, px^2: trackpy's minmass / 255 for 8-bit frames (/ 65535 for 16-bit), "
+         "which trackpy sums on the band-passed frame rescaled to fill the integer range (0: no filter)")
+      .def(DetectOptions{}.min_mass_relative)
+      .min(0);
+  s.real("detect.min_percentile", "peaks: maxima must exceed this percentile of the band-passed frame's pixels (trackpy's percentile; 0: off)")
+      .def(DetectOptions{}.min_percentile)
+      .min(0)
+      .max(100);
   s.boolean("detect.deblend",
             "peaks + intensity: fit overlapping spots jointly, look for spots hidden beside brighter ones, split blobs two spots fit "
             "significantly better than one").def(true);
@@ -152,6 +167,9 @@ TrackConfig trackerConfig(const Case& c) {
   t.detect.min_mass = c.real("detect.min_mass");
   t.detect.refine_sigma = c.real("detect.refine_sigma");
   t.detect.min_snr = c.real("detect.min_snr");
+  t.detect.max_size_ratio = c.real("detect.max_size_ratio");
+  t.detect.min_mass_relative = c.real("detect.min_mass_relative");
+  t.detect.min_percentile = c.real("detect.min_percentile");
   t.threads = static_cast<int>(c.integer("detect.threads"));
   t.background_quantile = c.real("detect.background_quantile");
   t.background_window = static_cast<int>(c.integer("detect.background_window"));

@@ -218,7 +218,10 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   const bool flow = run.motion.model == MotionModel::flow;
   std::int64_t next_id = 0;
   for (const auto& p : linked) next_id = std::max(next_id, p.particle + 1);
-  for (const auto& p : linked) run.tracks.points.push_back(point(p.frame, p.particle, p.x, p.y));
+  for (const auto& p : linked) {
+    run.tracks.points.push_back(point(p.frame, p.particle, p.x, p.y));
+    run.tracks.points.back().quality = p.detection.quality;  // the spot's quality columns of tracks.csv
+  }
   double typical_peak = 0;  // median peak of the moving detections
   if (flow && c.detect.find_stuck && !run.background.empty() && !run.frame_index.empty()) {
     // Particles at rest for most of the video are part of the median background: found

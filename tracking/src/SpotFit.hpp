@@ -52,4 +52,29 @@ void maskedSums(const cv::Mat& img, int cx, int cy, int r, const float* ex, cons
 /// seeds' separation (px); `noise`: the robust std of `zero_mean` (0: no split test).
 void deblend(const cv::Mat& zero_mean, double sm, double blur, double level, int sep, double noise, std::vector<Detection>& dets);
 
+// Per-detection quality (SpotQuality.cpp).
+
+/// Per-pixel noise std of `img` (float): 1.4826 x the median |difference of horizontal
+/// neighbours| / sqrt(2), which smooth structure (spots, illumination) barely moves.
+double pixelNoise(const cv::Mat& img);
+
+/// Fills d.quality but its mass: sigma, eccentricity and amplitude (signal) by adaptive
+/// Gaussian-weighted moments of `zero_mean` (the smoothed, background-removed signal,
+/// blurred by `blur` px) above the median of a ring around the spot; background: that
+/// ring's median in `frame`; ep_px: the Cramer-Rao localisation uncertainty from the
+/// amplitude, sigma and `pixel_noise` (the unsmoothed signal's per-pixel noise std).
+/// `sigma0`: a first guess of the spot's sigma. Leaves d.quality unmeasured (NaN) when the
+/// spot has no positive weight above its background.
+void measureSpot(const cv::Mat& zero_mean, const cv::Mat& frame, double sigma0, double blur, double pixel_noise, Detection& d);
+
+/// The half-sample mode of `v` (Bickel & Fruehwirth 2006); NaN when empty.
+double halfSampleMode(std::vector<double> v);
+
+/// The focus filter: drops detections whose sigma exceeds `max_ratio` x the half-sample
+/// mode of the frame's sigmas by more than 3 x their ep_px (the sigma's standard error),
+/// unless a detection that passes lies within 3 modal smoothed sigmas
+/// (sqrt(mode^2 + blur^2)). Returns the mode; NaN (nothing dropped) when `max_ratio` <= 0
+/// or fewer than kFocusMinSpots spots are measured.
+double focusFilter(std::vector<Detection>& dets, double max_ratio, double blur);
+
 }  // namespace mmval::tracking::detail

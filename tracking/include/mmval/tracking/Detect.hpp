@@ -23,6 +23,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "mmval/core/Tracks.hpp"
 #include "mmval/tracking/Frames.hpp"
 
 namespace mmval::tracking {
@@ -57,6 +58,13 @@ struct DetectOptions {
   int local_background = 0;         ///< px half-width of a boxcar local mean subtracted from the signal (spatial high-pass); 0: off
   int separation = 0;               ///< peaks: minimum distance between maxima, px (0: refine_radius)
   double min_mass = 0;              ///< smallest integrated signal inside refine_radius, fraction of full scale x px^2; 0: off
+  /// Smallest mass relative to the frame's largest band-passed value, px^2: trackpy's
+  /// minmass / 255 for 8-bit frames (trackpy sums the mass on the band-passed frame rescaled
+  /// so that its maximum fills the integer range); 0: off.
+  double min_mass_relative = 0;
+  /// peaks: maxima must exceed this percentile of the band-passed frame's pixels
+  /// (trackpy's `percentile`, 64 in its locate); 0: off.
+  double min_percentile = 0;
   /// peaks with intensity/gaussian refinement: fit overlapping spots jointly and look for
   /// spots hidden beside brighter ones in the residual (see detect())
   bool deblend = true;
@@ -67,13 +75,26 @@ struct DetectOptions {
   /// then the centroid's fixed point is the least-squares position). 0: automatic, from
   /// the frame's median half-maximum area with `peaks`, refine_radius / 2 with contours.
   double refine_sigma = 0;
+  /// Focus filter: drop spots whose measured sigma exceeds this multiple of the in-focus
+  /// sigma, the mode of the frame's spot sigmas (out-of-focus particles are blurred, dim,
+  /// and localised worse: the uncertainty grows as sigma^2 at constant light). 0: off.
+  /// A spot counts as blurred when its sigma exceeds the limit by 3 of its standard errors
+  /// (~ep_px). Needs kFocusMinSpots spots in the frame; a blurred spot with a sharp one
+  /// within 3 modal sigmas is kept (its sigma is their pair's). See docs/trackpy-mapping.md.
+  double max_size_ratio = 1.5;
 };
+
+/// Fewest spots in a frame for the focus filter to judge their modal sigma.
+constexpr int kFocusMinSpots = 10;
 
 struct Detection {
   double x = 0, y = 0;  ///< px; the centre of pixel (column i, row j) is (i, j)
   double area = 0;      ///< px^2 of the thresholded blob
   double mass = 0;      ///< integrated background-removed signal
   double peak = 0;      ///< peak signal
+  /// Size, shape, amplitude, local background and localisation uncertainty of the spot
+  /// (measured for every detection; quality.mass is `mass`).
+  SpotQuality quality;
 };
 
 /// Up to `samples` frames spread evenly over the source (rewinds it).
@@ -92,7 +113,9 @@ Polarity guessPolarity(const cv::Mat& frame, const cv::Mat& background);
 /// `background` empty: the frames' temporal median. Dark when nothing deviates.
 Polarity guessPolarity(const std::vector<cv::Mat>& frames, const cv::Mat& background);
 
-/// Particles in one frame (float grey in [0, 1]); `background` may be empty.
+/// Particles in one frame (float grey in [0, 1]); `background` may be empty. Each
+/// detection carries its measured quality (SpotQuality), and the focus filter
+/// (max_size_ratio) has dropped the blurred ones.
 std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, Polarity polarity, const DetectOptions& options);
 
 /// Particles that sit still for the whole video are part of the median
