@@ -71,7 +71,8 @@ void measureSpot(const cv::Mat& zero_mean, const cv::Mat& frame, double sigma0, 
 double halfSampleMode(std::vector<double> v);
 
 /// The focus filter: drops detections whose sigma exceeds `max_ratio` x the half-sample
-/// mode of the frame's sigmas by more than 3 x their ep_px (the sigma's standard error),
+/// mode of the frame's sigmas by more than 3 x their ep_px (the sigma's standard error) and
+/// that are round (eccentricity < 0.6) or dim (peak < 0.5 x the in-focus spots' median),
 /// unless a detection that passes lies within 3 modal smoothed sigmas
 /// (sqrt(mode^2 + blur^2)). Returns the mode; NaN (nothing dropped) when `max_ratio` <= 0
 /// or fewer than kFocusMinSpots spots are measured.

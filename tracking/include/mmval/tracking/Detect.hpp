@@ -79,8 +79,9 @@ struct DetectOptions {
   /// sigma, the mode of the frame's spot sigmas (out-of-focus particles are blurred, dim,
   /// and localised worse: the uncertainty grows as sigma^2 at constant light). 0: off.
   /// A spot counts as blurred when its sigma exceeds the limit by 3 of its standard errors
-  /// (~ep_px). Needs kFocusMinSpots spots in the frame; a blurred spot with a sharp one
-  /// within 3 modal sigmas is kept (its sigma is their pair's). See docs/trackpy-mapping.md.
+  /// (~ep_px) and it is round or dim (a wide, elongated, bright spot is a blend of sharp
+  /// ones). Needs kFocusMinSpots spots in the frame; a blurred spot with a sharp one within
+  /// 3 modal sigmas is kept (its sigma is their pair's). See docs/trackpy-mapping.md.
   double max_size_ratio = 1.5;
 };
 
