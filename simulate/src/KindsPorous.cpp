@@ -435,7 +435,11 @@ CaseKind imagePermeabilityKind() {
       }
       addObservedOrder(rows, nxs);
       k_of[m] = ks.back();
-      const GridConvergence g = gridConvergence(h, ks, geo.formal_order);
+      // In darcy, so that the notes read in the unit of the results; back to m2 for the metrics.
+      std::vector<double> ks_darcy;
+      for (const double v : ks) ks_darcy.push_back(v / kDarcy);
+      GridConvergence g = gridConvergence(h, ks_darcy, geo.formal_order);
+      for (double* v : {&g.fine, &g.extrapolated, &g.band_lo, &g.band_hi}) *v *= kDarcy;
       convergence[m] = convergenceJson(g, rows);
       if (levels.size() >= 2) addConvergenceMetrics(m, g, out);
       if ((m == "depth-averaged" || !want_da) && levels.size() >= 2) out.details["ladder"] = rows;
