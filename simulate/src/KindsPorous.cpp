@@ -1,6 +1,7 @@
 // Porous-media kinds: periodic square arrays (Stokes permeability) and chip
 // permeability from a binary mask.
 #include <cmath>
+#include <cstdio>
 
 #include <fmt/format.h>
 
@@ -193,7 +194,7 @@ nlohmann::json convergenceJson(const GridConvergence& g, const nlohmann::json& r
 
 /// The ladder's metrics of one depth model: extrapolated permeability and observed order when
 /// the convergence is monotone, the finest level's GCI always.
-void addConvergenceMetrics(const std::string& m, const GridConvergence& g, RunOutput& out) {
+void addConvergenceMetrics(const std::string& m, const GridConvergence& g, RunOutput& out, bool quiet) {
   const bool two_d = m == "2d";
   if (std::isfinite(g.extrapolated)) {
     if (two_d) {
@@ -216,6 +217,7 @@ void addConvergenceMetrics(const std::string& m, const GridConvergence& g, RunOu
     const std::string w = fmt::format("{} permeability: {}", m, g.note);
     if (!out.details.contains("warnings")) out.details["warnings"] = nlohmann::json::array();
     out.details["warnings"].push_back(w);
+    if (!quiet && PetscSession::rank() == 0) std::fprintf(stderr, "mmval: warning: %s\n", w.c_str());
   }
 }
 }  // namespace
@@ -441,7 +443,7 @@ CaseKind imagePermeabilityKind() {
       GridConvergence g = gridConvergence(h, ks_darcy, geo.formal_order);
       for (double* v : {&g.fine, &g.extrapolated, &g.band_lo, &g.band_hi}) *v *= kDarcy;
       convergence[m] = convergenceJson(g, rows);
-      if (levels.size() >= 2) addConvergenceMetrics(m, g, out);
+      if (levels.size() >= 2) addConvergenceMetrics(m, g, out, ctx.quiet);
       if ((m == "depth-averaged" || !want_da) && levels.size() >= 2) out.details["ladder"] = rows;
     }
     progress.finish();
