@@ -11,6 +11,8 @@
 #include "TrackPoints.hpp"
 #include "mmval/core/Error.hpp"
 
+#include "../TestScratch.hpp"
+
 namespace mmval::compare {
 namespace {
 
@@ -124,7 +126,7 @@ TEST(Compare, FasterSimulationFailsSpeedWithTheRightError) {
 }
 
 TEST(Compare, WritesFilesAndReadsBackTheSchema) {
-  const auto dir = std::filesystem::path(MMVAL_BINARY_DIR) / "test-output" / "compare";
+  const auto dir = mmval::test::scratch("compare-files");
   std::filesystem::remove_all(dir);
   const auto files = writeComparison(compareTracks(scene(), scene(1.2), CompareOptions{}), dir);
   EXPECT_THAT(files, ::testing::Contains("streamlines.png"));
@@ -208,7 +210,7 @@ TEST(Compare, KnownRetentionIsReportedExactly) {
 }
 
 TEST(TracksCsv, BadInputNamesFileLineAndColumn) {
-  const auto dir = std::filesystem::path(MMVAL_BINARY_DIR) / "test-output" / "compare";
+  const auto dir = mmval::test::scratch("compare-bad-input");
   std::filesystem::create_directories(dir);
   std::ofstream(dir / "bad1.csv") << "frame,particle,t_s,x_um\n0,1,0.0,5\n";
   try {

@@ -16,6 +16,8 @@
 #include "mmval/reports/Report.hpp"
 #include "mmval/reports/Site.hpp"
 
+#include "../TestScratch.hpp"
+
 namespace mmval::reports {
 namespace {
 
@@ -83,7 +85,7 @@ void fakePng(const fs::path& file) {
 /// A validation folder: a failing and a passing cylinder run, a confined benchmark, a
 /// field image with its .vtr, a rendered-video tracking run and the pipeline check on it.
 fs::path buildFixture(const std::string& name) {
-  const fs::path root = fs::path(MMVAL_BINARY_DIR) / "test-output" / name;
+  const fs::path root = mmval::test::scratch(name);  // per process: ctest runs each test of this suite as its own process, in parallel
   fs::remove_all(root);
   const std::string dc = "S. C. R. Dennis, G.-Z. Chang (1970). J. Fluid Mech. 42(3), 471-489., doi:10.1017/S0022112070001428";
   fakeRun(root, "cyl-re20", "cylinder-channel", nlohmann::json::array({metric("c_D (Dennis & Chang)", 2.12, "1", 2.045, true, dc)}), {{"Re", 20.0}},

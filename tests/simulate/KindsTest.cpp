@@ -14,20 +14,14 @@
 #include "mmval/simulate/Kinds.hpp"
 
 #include "../TestScratch.hpp"
+#include "FluidRegistry.hpp"
 
 namespace fs = std::filesystem;
 using namespace mmval;
 
 namespace {
 
-const CaseKindRegistry& registry() {
-  static CaseKindRegistry r = [] {
-    CaseKindRegistry reg;
-    simulate::registerFluidKinds(reg);
-    return reg;
-  }();
-  return r;
-}
+const CaseKindRegistry& registry() { return test_support::fluidRegistry(); }
 
 Case loadCase(const std::string& name) { return Case::load(fs::path(MMVAL_SOURCE_DIR) / "cases" / name, registry()); }
 

@@ -13,20 +13,14 @@
 #include "mmval/simulate/Kinds.hpp"
 
 #include "../TestScratch.hpp"
+#include "FluidRegistry.hpp"
 
 namespace fs = std::filesystem;
 using namespace mmval;
 
 namespace {
 
-const CaseKindRegistry& registry() {
-  static CaseKindRegistry r = [] {
-    CaseKindRegistry reg;
-    simulate::registerFluidKinds(reg);
-    return reg;
-  }();
-  return r;
-}
+const CaseKindRegistry& registry() { return test_support::fluidRegistry(); }
 
 RunOutput run(const Case& c) { return registry().find(c.kind())->run(c, RunContext{{}, true, false, 0}); }
 

@@ -18,20 +18,14 @@
 #include "mmval/simulate/Kinds.hpp"
 
 #include "../TestScratch.hpp"
+#include "FluidRegistry.hpp"
 
 namespace fs = std::filesystem;
 using namespace mmval;
 
 namespace {
 
-const CaseKindRegistry& registry() {
-  static CaseKindRegistry r = [] {
-    CaseKindRegistry reg;
-    simulate::registerFluidKinds(reg);
-    return reg;
-  }();
-  return r;
-}
+const CaseKindRegistry& registry() { return test_support::fluidRegistry(); }
 
 std::string bytesOf(const fs::path& f) {
   std::ifstream in(f, std::ios::binary);
