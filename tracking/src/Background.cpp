@@ -38,32 +38,35 @@ cv::Mat RollingBackground::at(int index) const {
   return out;
 }
 
-RollingBackground rollingBackground(FrameSource& source, int window, int samples, double q) {
+std::vector<std::vector<int>> rollingSamplePositions(int count, int window, int samples) {
   if (window < 1 || samples < 1) throw std::invalid_argument("rollingBackground: window and samples must be >= 1");
-  RollingBackground rb;
   const int stride = std::max(1, window / samples);
+  std::vector<std::vector<int>> blocks;
+  for (int first = 0; first < count; first += window) {
+    std::vector<int>& b = blocks.emplace_back();
+    for (int pos = first; pos < std::min(count, first + window) && static_cast<int>(b.size()) < samples; pos += stride) b.push_back(pos);
+  }
+  return blocks;
+}
+
+RollingBackground rollingBackground(FrameSource& source, int window, int samples, double q) {
+  RollingBackground rb;
+  const int n = source.count();
+  const std::vector<std::vector<int>> blocks = rollingSamplePositions(n, window, samples);
   std::vector<cv::Mat> block;
-  int first = -1, last = -1, pos = 0;
-  const auto close = [&] {
-    if (block.empty()) return;
-    rb.centres.push_back((first + last) / 2);
-    rb.backgrounds.push_back(quantileOfFrames(block, q));
-    block.clear();
-  };
   cv::Mat f;
   int index = 0;
-  source.rewind();
-  while (source.next(f, index)) {
-    if (pos % window == 0) {
-      close();
-      first = index;
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    block.clear();
+    for (int pos : blocks[b]) {
+      source.sample(pos, f, index);
+      block.push_back(f);
     }
-    last = index;
-    if ((pos % window) % stride == 0 && static_cast<int>(block.size()) < samples) block.push_back(f.clone());
-    ++pos;
+    // The block's centre: the middle of its first and last input frame.
+    const int first = static_cast<int>(b) * window, last = std::min(n, first + window) - 1;
+    rb.centres.push_back((source.indexOf(first) + source.indexOf(last)) / 2);
+    rb.backgrounds.push_back(quantileOfFrames(block, q));
   }
-  close();
-  source.rewind();
   return rb;
 }
 

@@ -16,18 +16,21 @@
 
 namespace mmval::tracking {
 
+std::vector<int> samplePositions(int count, int samples) {
+  const int stride = std::max(1, count / std::max(1, samples));
+  std::vector<int> positions;
+  for (int pos = 0; pos < count && static_cast<int>(positions.size()) < samples; pos += stride) positions.push_back(pos);
+  return positions;
+}
+
 std::vector<cv::Mat> sampleFrames(FrameSource& source, int samples) {
-  const int n = source.count();
-  const int stride = std::max(1, n / std::max(1, samples));
   std::vector<cv::Mat> frames;
   cv::Mat f;
-  int index = 0, k = 0;
-  source.rewind();
-  while (source.next(f, index)) {
-    if (k++ % stride == 0) frames.push_back(f.clone());
-    if (static_cast<int>(frames.size()) >= samples) break;
+  int index = 0;
+  for (int pos : samplePositions(source.count(), samples)) {
+    source.sample(pos, f, index);
+    frames.push_back(f);
   }
-  source.rewind();
   return frames;
 }
 

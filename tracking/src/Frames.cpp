@@ -100,6 +100,7 @@ FrameSource::FrameSource(const std::string& input, std::optional<cv::Rect> roi, 
                                  : std::string("an input with at least one readable frame"));
   }
   // The tracker holds ~64 frames as 32-bit float at once (60 sampled for the median background,
+  // which the frame cache shares; the cache itself stays within a quarter of the limit;
   // the detection batch): refuse frames too large for that before the first is decoded.
   constexpr double kTrackerBytesPerPixel = 64 * 4;
   const double limit = defaultMaxMemoryBytes();
@@ -112,12 +113,27 @@ FrameSource::FrameSource(const std::string& input, std::optional<cv::Rect> roi, 
     const std::string first = m_kind == Kind::tiff ? input : m_files[static_cast<std::size_t>(std::min<int>(m_range.first, static_cast<int>(m_files.size()) - 1))];
     requireImageWithin(first, {first, 0, 0, "inputs.video"}, limit, kTrackerBytesPerPixel, advice);
   }
-  rewind();
+  if (m_kind == Kind::video && m_range.first > 0) m_video.set(cv::CAP_PROP_POS_FRAMES, m_range.first);
+  m_video_at = m_kind == Kind::video ? m_range.first : 0;
 }
 
-void FrameSource::rewind() {
-  m_pos = 0;
-  if (m_kind == Kind::video) m_video.set(cv::CAP_PROP_POS_FRAMES, m_range.first);
+void FrameSource::rewind() { m_pos = 0; }
+
+bool FrameSource::readVideo(int index, cv::Mat& out) {
+  if (index < m_video_at) {
+    // Back to the first selected frame (the position the constructor relies on too),
+    // then forward: seeking to an arbitrary frame lands on a key frame in some codecs.
+    m_video.set(cv::CAP_PROP_POS_FRAMES, m_range.first);
+    m_video_at = m_range.first;
+  }
+  for (; m_video_at < index; ++m_video_at) {
+    if (!m_video.grab()) return false;
+    ++m_stats->grabbed;
+  }
+  ++m_video_at;
+  if (!m_video.read(out) || out.empty()) return false;
+  ++m_stats->decoded;
+  return true;
 }
 
 bool FrameSource::readRaw(int index, cv::Mat& out) {
@@ -126,6 +142,7 @@ bool FrameSource::readRaw(int index, cv::Mat& out) {
       if (index >= static_cast<int>(m_files.size())) return false;
       out = cv::imread(m_files[index], cv::IMREAD_UNCHANGED);
       if (out.empty()) throw InputError({m_files[index], 0, 0, {}}, "cannot read the image", {}, "PNG, TIFF or JPEG, 8 or 16 bit");
+      ++m_stats->decoded;
       return true;
     case Kind::tiff: {
       if (index >= m_total) return false;
@@ -133,32 +150,24 @@ bool FrameSource::readRaw(int index, cv::Mat& out) {
       if (!cv::imreadmulti(m_input, pages, index, 1, cv::IMREAD_UNCHANGED) || pages.empty())
         throw InputError({m_input, 0, 0, {}}, "cannot read TIFF page " + std::to_string(index));
       out = pages.front();
+      ++m_stats->decoded;
       return true;
     }
     case Kind::video:
-      return m_video.read(out) && !out.empty();
-  }
-  return false;
-}
-
-bool FrameSource::next(cv::Mat& frame, int& index) {
-  if (m_pos >= m_count) return false;
-  index = m_range.first + m_pos * m_range.step;
-  cv::Mat raw;
-  if (m_kind == Kind::video) {
-    // Sequential read; skip frames between steps.
-    for (int k = 0; k < (m_pos == 0 ? 1 : m_range.step); ++k)
-      if (!readRaw(index, raw))
+      if (!readVideo(index, out))
         // The container announced more frames than can be decoded: a truncated or
         // damaged file. Say so rather than stop quietly with part of the video.
         throw InputError({m_input, 0, 0, {}}, "the video ends early (truncated or damaged): frame " + std::to_string(index) + " cannot be decoded",
                          std::to_string(index) + " of " + std::to_string(m_total) + " frames",
                          "a complete file, or inputs.last_frame below " + std::to_string(index) + " to use the readable part");
-  } else if (!readRaw(index, raw)) {
-    return false;
+      return true;
   }
-  ++m_pos;
-  if (raw.depth() == CV_16U && m_range16[1] <= m_range16[0]) {
+  return false;
+}
+
+void FrameSource::fixFirst(const cv::Mat& raw) {
+  if (m_first_fixed) return;
+  if (raw.depth() == CV_16U) {
     // Scientific cameras put 10-14 bit data (often a narrow band of it) in 16-bit
     // containers: stretch by the first frame's range, the same for every frame.
     cv::Mat grey = raw;
@@ -166,21 +175,114 @@ bool FrameSource::next(cv::Mat& frame, int& index) {
     cv::minMaxLoc(grey, &m_range16[0], &m_range16[1]);
     if (m_range16[1] <= m_range16[0]) m_range16[1] = m_range16[0] + 1;
   }
-  if (m_size.area() == 0) m_size = raw.size();
+  m_size = raw.size();
+  m_first_fixed = true;
+}
+
+bool FrameSource::takeCached(int pos, cv::Mat& frame) const {
+  const std::lock_guard<std::mutex> lock(m_stats->mutex);
+  const auto it = m_stats->cache.find(pos);
+  if (it == m_stats->cache.end()) return false;
+  frame = it->second;
+  m_stats->cache.erase(it);
+  return true;
+}
+
+void FrameSource::putCached(int pos, const cv::Mat& frame) {
+  const double frame_bytes = static_cast<double>(frame.total() * frame.elemSize());
+  const int by_bytes = frame_bytes > 0 ? static_cast<int>(std::min<double>(kMaxCachedFrames, 0.25 * defaultMaxMemoryBytes() / frame_bytes)) : 0;
+  const std::lock_guard<std::mutex> lock(m_stats->mutex);
+  if (static_cast<int>(m_stats->cache.size()) < std::min(m_cache_limit, by_bytes)) m_stats->cache.emplace(pos, frame);
+}
+
+bool FrameSource::primeFirst(cv::Mat& frame) {
+  if (m_first_fixed) return false;
+  cv::Mat raw;
+  const int index = m_range.first;
+  if (!readRaw(index, raw)) throw InputError({m_input, 0, 0, {}}, "cannot read the first selected frame " + std::to_string(index));
+  fixFirst(raw);
+  finish(raw, index, frame);
+  putCached(0, frame);
+  return true;
+}
+
+void FrameSource::sample(int pos, cv::Mat& frame, int& index) {
+  if (pos < 0 || pos >= m_count) throw std::out_of_range("FrameSource::sample");
+  index = m_range.first + pos * m_range.step;
+  cv::Mat first;
+  if (primeFirst(first) && pos == 0) {
+    frame = first;
+    return;
+  }
+  {
+    const std::lock_guard<std::mutex> lock(m_stats->mutex);
+    const auto it = m_stats->cache.find(pos);
+    if (it != m_stats->cache.end()) {
+      frame = it->second;
+      return;
+    }
+  }
+  cv::Mat raw;
+  if (!readRaw(index, raw)) throw InputError({m_input, 0, 0, {}}, "cannot read frame " + std::to_string(index));
+  finish(raw, index, frame);
+  putCached(pos, frame);
+}
+
+void FrameSource::prefetch(std::vector<int> positions) {
+  if (m_cache_limit <= 0) return;
+  std::sort(positions.begin(), positions.end());
+  positions.erase(std::unique(positions.begin(), positions.end()), positions.end());
+  cv::Mat f;
+  int index = 0;
+  const auto cached = [&] {
+    const std::lock_guard<std::mutex> lock(m_stats->mutex);
+    return m_stats->cache.size();
+  };
+  for (int pos : positions) {
+    const std::size_t before = cached();
+    sample(pos, f, index);
+    // Full (the frame was decoded but not kept): the samplers decode the rest themselves.
+    if (cached() == before && m_stats->decoded > 0 && !m_stats->cache.count(pos)) return;
+  }
+}
+
+bool FrameSource::next(cv::Mat& frame, int& index) {
+  if (m_pos >= m_count) return false;
+  index = m_range.first + m_pos * m_range.step;
+  if (takeCached(m_pos, frame)) {
+    ++m_pos;
+    return true;
+  }
+  cv::Mat raw;
+  if (!readRaw(index, raw)) return false;
+  ++m_pos;
+  fixFirst(raw);
   finish(raw, index, frame);
   return true;
 }
 
 void FrameSource::readAt(int pos, cv::Mat& frame, int& index) const {
-  if (m_kind != Kind::images) throw std::logic_error("FrameSource::readAt: only image files can be read out of order");
+  if (m_kind == Kind::video) throw std::logic_error("FrameSource::readAt: a video can only be read in order");
   index = m_range.first + pos * m_range.step;
-  if (pos < 0 || pos >= m_count || index >= static_cast<int>(m_files.size())) throw std::out_of_range("FrameSource::readAt");
-  const cv::Mat raw = cv::imread(m_files[index], cv::IMREAD_UNCHANGED);
-  if (raw.empty()) throw InputError({m_files[index], 0, 0, {}}, "cannot read the image", {}, "PNG, TIFF or JPEG, 8 or 16 bit");
+  if (pos < 0 || pos >= m_count || index >= m_total) throw std::out_of_range("FrameSource::readAt");
+  if (takeCached(pos, frame)) return;
+  cv::Mat raw;
+  if (m_kind == Kind::images) {
+    raw = cv::imread(m_files[index], cv::IMREAD_UNCHANGED);
+    if (raw.empty()) throw InputError({m_files[index], 0, 0, {}}, "cannot read the image", {}, "PNG, TIFF or JPEG, 8 or 16 bit");
+  } else {
+    std::vector<cv::Mat> pages;
+    if (!cv::imreadmulti(m_input, pages, index, 1, cv::IMREAD_UNCHANGED) || pages.empty())
+      throw InputError({m_input, 0, 0, {}}, "cannot read TIFF page " + std::to_string(index));
+    raw = pages.front();
+  }
+  ++m_stats->decoded;
   finish(raw, index, frame);
 }
 
 void FrameSource::finish(const cv::Mat& raw, int index, cv::Mat& frame) const {
+  // Always a new buffer: `frame` may share its pixels with the cache or a sampler's list.
+  frame.release();
   const std::string name = m_kind == Kind::images ? m_files[index] : m_input;
   if (raw.size() != m_size)
     throw InputError({name, 0, 0, {}}, "frame size differs from the first frame", std::to_string(raw.cols) + " x " + std::to_string(raw.rows),

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -119,7 +120,7 @@ void declareTrackerKeys(Schema& s) {
             "the whole video")
       .def(0)
       .min(0);
-  s.integer("detect.threads", "Frames detected in parallel (linking stays in frame order)").def(1).min(1).max(256);
+  s.integer("detect.threads", "Frames decoded and detected in parallel (linking stays in frame order; results do not depend on it); 0: every core").def(0).min(0).max(256);
   s.choice("link.method", {"global", "paper"}, "Linker: optimal assignment with gap closing, or the paper's distance + angle rule").def("global");
   s.real("link.search_radius", "Search radius, px per frame").def(8).min(0.1);
   s.integer("link.memory", "Frames a particle may be missed (gap closing)").def(2).min(0).max(100);
@@ -171,6 +172,7 @@ TrackConfig trackerConfig(const Case& c) {
   t.detect.min_mass_relative = c.real("detect.min_mass_relative");
   t.detect.min_percentile = c.real("detect.min_percentile");
   t.threads = static_cast<int>(c.integer("detect.threads"));
+  if (t.threads == 0) t.threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));  // reported as used
   t.background_quantile = c.real("detect.background_quantile");
   t.background_window = static_cast<int>(c.integer("detect.background_window"));
   t.link.method = c.text("link.method") == "paper" ? Linker::paper : Linker::global;

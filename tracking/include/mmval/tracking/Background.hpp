@@ -26,9 +26,15 @@ struct RollingBackground {
   cv::Mat at(int index) const;
 };
 
-/// One pass over `source` in blocks of `window` frames of its selected range; each block's
-/// background is the q-quantile of `samples` frames spread evenly over the block (all of
-/// them when the block is shorter). The source is rewound before and after.
+/// Positions (in a selected range of `count` frames) of the frames each block of `window`
+/// frames samples: up to `samples`, stride max(1, window / samples) from the block's
+/// first frame. Throws std::invalid_argument unless window, samples >= 1.
+std::vector<std::vector<int>> rollingSamplePositions(int count, int window, int samples);
+
+/// Blocks of `window` frames of the source's selected range; each block's background is
+/// the q-quantile of the frames rollingSamplePositions() picks (all of them when the
+/// block is shorter). Only those frames are decoded (FrameSource::sample, which keeps
+/// them for the main pass while its cache has room); next()'s position is unchanged.
 RollingBackground rollingBackground(FrameSource& source, int window, int samples, double q);
 
 }  // namespace mmval::tracking

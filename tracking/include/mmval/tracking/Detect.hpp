@@ -98,7 +98,13 @@ struct Detection {
   SpotQuality quality;
 };
 
-/// Up to `samples` frames spread evenly over the source (rewinds it).
+/// Positions (in the selected range of `count` frames) of up to `samples` frames spread
+/// evenly: 0, s, 2 s, ... with stride s = max(1, count / samples).
+std::vector<int> samplePositions(int count, int samples);
+
+/// The frames at samplePositions(source.count(), samples), each decoded only (read with
+/// FrameSource::sample, so the main pass takes them from its cache); the frames share
+/// their pixels with the cache: do not write into them. next()'s position is unchanged.
 std::vector<cv::Mat> sampleFrames(FrameSource& source, int samples);
 
 /// Dark or bright particles from one frame: the sign of the strongest deviation from the

@@ -21,7 +21,7 @@ struct TrackConfig {
   TrackOptions analysis;
   double pixel_size = 1e-6;  ///< m per px
   double fps = 10;
-  int threads = 1;  ///< detection threads (frames are detected in parallel, linked in order)
+  int threads = 0;  ///< decoding and detection threads (frames in parallel, linked in order); 0: every core
   /// Half-width, in frames, of the along-track quadratic fit of moving particles'
   /// positions (TrackSmooth.hpp); 0: positions as detected.
   int smooth_frames = 0;
