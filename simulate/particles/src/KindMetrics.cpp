@@ -20,15 +20,28 @@ void channelMetrics(Schema& s) {
 }
 
 void micromodelMetrics(Schema& s) {
-  s.metric("retained_fraction", "1", "Retained (deposited) over injected particles");
+  s.metric("retained_fraction", "1",
+           "Retained (deposited) over injected particles, the paper's retention; particles never injected (never_injected) are in neither");
   s.metric("left_fraction", "1", "Particles that left through the outlet over injected");
   s.metric("count_balance_error", "1", "injected - inside - retained - left (0: counts balance)");
-  s.metric("injected", "1", "Simulated particles injected");
+  s.metric("injected", "1", "Simulated particles injected (placed in the chip)");
+  s.metric("scheduled", "1", "Simulated particles the injection schedule called for by the run's planned end");
+  s.metric("never_injected", "1",
+           "scheduled - injected: particles that never entered the chip (the pump stalled, or the inlet strip stayed full); counted apart");
+  s.metric("window_injected", "1", "Particles injected within analysis.retention_window (from, to] (to cut at the run's end)");
+  s.metric("window_retained", "1", "Of those, particles retained by the window's end");
+  s.metric("window_retained_fraction", "1", "window_retained over window_injected (absent when nothing was injected in the window)");
+  s.metric("pressure_drop_initial", "Pa", "Pressure drop the set flow rate needs across the clean simulated geometry (Darcy's law, mu u L / k0)");
+  s.metric("pressure_drop_final", "Pa", "Pressure drop the set flow rate needed at the last fluid solve that found a flow path");
+  s.metric("pump_stall_time", "s", "Time the pump stalled (pressure above flow.max_pressure, or no flow path left): injection stopped and the run ended (absent when it never stalled)");
+  s.metric("pump_stall_pressure", "Pa", "Pressure drop the set rate needed when the pump stalled at its limit (absent otherwise, and when no flow path was left)");
   s.metric("retained", "1", "Simulated particles deposited");
   s.metric("left", "1", "Simulated particles that left through the outlet");
   s.metric("inside", "1", "Simulated particles still moving at the end");
   s.metric("represented_particles", "1", "Physical particles the injected ones stand for (injected / particles.sample_fraction)");
-  s.metric("not_placed", "1", "Particles due by the end but never placed because the inlet strip stayed full (inlet clogging)");
+  s.metric("not_placed", "1",
+           "Particles due by the end of injection (the run's end, or a pump stall) but never placed because the inlet strip stayed full "
+           "(inlet clogging); part of never_injected");
   s.metric("mean_speed", "um/s", "Mean speed of the mobile particles");
   s.metric("k_over_k0", "1", "Final over clean permeability");
   s.metric("permeability_reduction", "%", "1 - k / k0");

@@ -5,9 +5,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <functional>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <limits>
 #include <sstream>
 
@@ -19,6 +21,7 @@
 #include "mmval/core/Tracks.hpp"
 #include "mmval/particles/DepositGrid.hpp"
 #include "mmval/particles/EngineComparison.hpp"
+#include "mmval/particles/MicromodelBookkeeping.hpp"
 #include "mmval/particles/MicromodelFlow.hpp"
 #include "mmval/particles/OverdampedEngine.hpp"
 #include "mmval/particles/SceneSelection.hpp"
@@ -69,7 +72,7 @@ struct RunnerState {
 void writeCheckpoint(const fs::path& file, const std::string& fp, const RunnerState& s, const std::vector<SizeClass>& classes,
                      const DepositGrid& deposits, const MicromodelFlow& flow) {
   CheckpointWriter w;
-  w.putString("mmval-micromodel-checkpoint-4");
+  w.putString("mmval-micromodel-checkpoint-5");
   w.putString(fp);
   w.put(s.next_frame); w.put(s.next_id); w.put(s.resolves); w.put(s.steps_at_checkpoint);
   w.put(s.wall_deposits); w.put(s.plate_deposits); w.put(s.lost_at_solve); w.put(s.blocked_at);
@@ -97,7 +100,7 @@ void writeCheckpoint(const fs::path& file, const std::string& fp, const RunnerSt
 bool readCheckpoint(const fs::path& file, const std::string& fp, RunnerState& s, std::vector<SizeClass>& classes, DepositGrid& deposits,
                     MicromodelFlow& flow) {
   CheckpointReader r(readBinaryFile(file), file.string());
-  if (r.getString() != "mmval-micromodel-checkpoint-4") throw std::runtime_error("checkpoint " + file.string() + ": unknown format");
+  if (r.getString() != "mmval-micromodel-checkpoint-5") throw std::runtime_error("checkpoint " + file.string() + ": unknown format");
   if (r.getString() != fp) return false;  // another scene: start afresh
   s.next_frame = r.get<std::int64_t>(); s.next_id = r.get<std::int64_t>(); s.resolves = r.get<std::int64_t>();
   s.steps_at_checkpoint = r.get<std::int64_t>();
@@ -233,6 +236,9 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   fo.darcy_velocity = u_darcy;
   fo.cells_per_pixel = c.real("numerics.cells_per_pixel");
   MicromodelFlow flow(grains, fo);
+  // The syringe pump's pressure limit (0: none); the pressure a solve needs is mu u L / k across the geometry.
+  const double max_pressure = c.has("flow.max_pressure") ? c.quantity("flow.max_pressure") : 0.0;
+  const auto pressureFor = [&](double k) { return k > 0 ? fo.viscosity * u_darcy * W / k : 0.0; };
 
   // Engine choice from the scene's numbers (for the largest class: the most inertial).
   SceneScales scales;
@@ -298,6 +304,14 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   if (dt_out > duration)
     throw InputError(c.where("run.output_interval"), "longer than the run", fmt::format("{:g} s", dt_out), fmt::format("<= run.duration ({:g} s)", duration));
   const double t_inj = c.quantity("particles.injection_time") > 0 ? c.quantity("particles.injection_time") : duration;
+  std::vector<double> window;
+  if (c.has("analysis.retention_window")) {
+    window = c.reals("analysis.retention_window");
+    if (window.size() != 2 || !(window[1] > window[0]))
+      throw InputError(c.where("analysis.retention_window"), "a window needs two times, the first before the second",
+                       window.size() == 2 ? fmt::format("[{:g} s, {:g} s]", window[0], window[1]) : fmt::format("{} entries", window.size()),
+                       "[from, to] with from < to, e.g. [\"0 s\", \"600 s\"]");
+  }
   const std::int64_t count = c.integer("particles.count");
   const double inject_rate = count > 0 ? count / t_inj : conc * u_darcy * H * h * sample;  // simulated particles per second
   const std::int64_t frames = outputFrames(c);
@@ -318,6 +332,10 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   if (!resumed) {
     const FlowSolveResult r0 = flow.solve({});
     if (r0.blocked) throw InputError(c.where("geometry.mask"), "the flow solver found no flow through the geometry", {}, "a mask with an open pore path");
+    if (max_pressure > 0 && r0.pressure_drop > max_pressure)
+      throw InputError(c.where("flow.max_pressure"), "the clean chip already needs more pressure than the pump's limit at the set flow rate",
+                       fmt::format("{:.4g} Pa", max_pressure),
+                       fmt::format("a limit above the {:.4g} Pa the clean geometry needs, or a lower flow rate", r0.pressure_drop));
     s.k = s.k0 = r0.permeability;
     s.solve_seconds = r0.seconds;
   }
@@ -335,6 +353,9 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
     return n;
   };
   std::vector<std::vector<ParticleState>> ps(classes.size());
+  // Set when a fluid solve finds that the pump cannot deliver the set rate: injection
+  // stops, the frame is written and the run ends (Micromodel.hpp, "The pump").
+  std::optional<PumpStall> stall;
   for (std::int64_t k = s.next_frame; k <= frames; ++k) {
     const double t = k * dt_out;
     for (std::size_t ci = 0; ci < classes.size(); ++ci) {
@@ -366,6 +387,7 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
         s.lost_at_solve = deposits.lostColumns();
         s.k = r.permeability;
         if (r.blocked && s.blocked_at < 0) s.blocked_at = t;
+        stall = pumpStall(r, max_pressure, t);
         for (std::size_t ci = 0; ci < classes.size(); ++ci) {
           classes[ci].engine->captureInSolid();
           ps[ci] = classes[ci].engine->particles();
@@ -373,9 +395,9 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
       }
     }
     // Injection: each class's particles due by t, placed in the inlet strip the flow filled during the last interval.
-    for (std::size_t ci = 0; ci < classes.size(); ++ci) {
+    for (std::size_t ci = 0; ci < classes.size() && !stall; ++ci) {
       auto& cl = classes[ci];
-      const auto due = static_cast<std::int64_t>(std::floor(inject_rate * cl.fraction * std::min(t, t_inj) + 1e-9));
+      const std::int64_t due = dueBy(inject_rate, cl.fraction, t, t_inj);
       if (due <= cl.injected) continue;
       const double strip = std::min(std::max(strip_u, cl.diameter), 0.5 * W);
       const std::uint64_t sseed = seed * 1000003ULL + static_cast<std::uint64_t>(k) + 7919ULL * ci;
@@ -439,6 +461,7 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
     s.retention += fmt::format("{:.9g},{},{},{},{}\n", t, n.injected, n.deposited, n.left, n.inside);
     s.permeability += fmt::format("{:.9g},{:.9g},{:.9g},{:.9g},{}\n", t, s.k, s.k / kDarcy, s.k / s.k0, s.resolves);
     s.next_frame = k + 1;
+    if (stall) break;
     const std::int64_t steps = totalSteps();
     const bool stop = stop_after > 0 && s.next_frame >= stop_after && k < frames;
     if (stop || (checkpoint_every > 0 && steps - s.steps_at_checkpoint >= checkpoint_every && k < frames)) {
@@ -482,7 +505,9 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   st.wall_seconds = 0;
   st.min_dt = std::numeric_limits<double>::infinity();
   nlohmann::json settings = nlohmann::json::array(), per_class = nlohmann::json::array();
-  std::int64_t deferred = 0;
+  std::int64_t deferred = 0, scheduled = 0;
+  // What the schedule called for by the run's planned end (a stall does not shorten the schedule).
+  const double t_planned = static_cast<double>(frames) * dt_out;
   for (const auto& cl : classes) {
     const Counts nc = cl.engine->counts();
     const EngineStats e = cl.engine->stats();
@@ -497,8 +522,11 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
     st.max_dt = std::max(st.max_dt, e.max_dt);
     settings.push_back(cl.engine->describe());
     deferred += cl.deferred;
-    per_class.push_back({{"diameter_um", cl.diameter * 1e6}, {"fraction", cl.fraction}, {"injected", nc.injected}, {"not_yet_placed", cl.deferred},
-                         {"retained", nc.deposited}, {"left", nc.left}, {"inside", nc.inside}});
+    const std::int64_t sched = dueBy(inject_rate, cl.fraction, t_planned, t_inj);
+    scheduled += sched;
+    per_class.push_back({{"diameter_um", cl.diameter * 1e6}, {"fraction", cl.fraction}, {"scheduled", sched}, {"injected", nc.injected},
+                         {"never_injected", sched - nc.injected}, {"not_yet_placed", cl.deferred}, {"retained", nc.deposited},
+                         {"left", nc.left}, {"inside", nc.inside}});
   }
   out.files = {"trajectories.csv", "retention.csv", "permeability.csv"};
   const double inj = static_cast<double>(n.injected);
@@ -510,8 +538,79 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   out.metrics["left"] = static_cast<double>(n.left);
   out.metrics["inside"] = static_cast<double>(n.inside);
   out.metrics["represented_particles"] = inj / sample;
-  // Due by the end but never placed because the inlet strip stayed full (inlet clogging); not part of "injected".
+  // Due by the end of injection but never placed because the inlet strip stayed full (inlet clogging); not part of "injected".
   out.metrics["not_placed"] = static_cast<double>(deferred);
+  // The schedule against what entered: never-injected particles are in neither retained nor injected.
+  out.metrics["scheduled"] = static_cast<double>(scheduled);
+  out.metrics["never_injected"] = static_cast<double>(scheduled - n.injected);
+  const double t_end = static_cast<double>(s.next_frame - 1) * dt_out;  // the last frame written
+  out.details["end_time_s"] = t_end;
+  {
+    // The pump: the pressure drop the set rate needed on the clean chip and at the last solve with a flow path.
+    double k_open = s.k0;
+    std::istringstream rows(s.permeability);
+    std::string line;
+    std::getline(rows, line);
+    while (std::getline(rows, line)) {
+      double t = 0, km2 = 0;
+      char sep = 0;
+      std::istringstream l(line);
+      l >> t >> sep >> km2;
+      if (km2 > 0) k_open = km2;
+    }
+    out.metrics["pressure_drop_initial"] = pressureFor(s.k0);
+    out.units["pressure_drop_initial"] = "Pa";
+    out.metrics["pressure_drop_final"] = pressureFor(k_open);
+    out.units["pressure_drop_final"] = "Pa";
+    out.details["pump"] = {{"max_pressure_Pa", max_pressure > 0 ? nlohmann::json(max_pressure) : nlohmann::json(nullptr)},
+                           {"pressure_drop_initial_Pa", pressureFor(s.k0)},
+                           {"pressure_drop_final_Pa", pressureFor(k_open)},
+                           {"scope", "inlet to outlet of the simulated geometry at its Darcy velocity (Darcy's law, mu u L / k); tubing and "
+                                     "unsimulated chip length not included"},
+                           {"stalled", stall.has_value()}};
+  }
+  if (stall) {
+    out.metrics["pump_stall_time"] = stall->time_s;
+    out.units["pump_stall_time"] = "s";
+    if (std::isfinite(stall->pressure_Pa)) {
+      out.metrics["pump_stall_pressure"] = stall->pressure_Pa;
+      out.units["pump_stall_pressure"] = "Pa";
+    }
+    out.details["pump_stall"] = {{"time_s", stall->time_s},
+                                 {"reason", stall->reasonName()},
+                                 {"pressure_Pa", std::isfinite(stall->pressure_Pa) ? nlohmann::json(stall->pressure_Pa) : nlohmann::json(nullptr)},
+                                 {"max_pressure_Pa", max_pressure > 0 ? nlohmann::json(max_pressure) : nlohmann::json(nullptr)},
+                                 {"message", stall->describe()},
+                                 {"then", "injection stopped and the run ended at this frame; particles still moving are counted as inside"},
+                                 {"never_injected", scheduled - n.injected}};
+    std::fprintf(stderr, "mmval: %s; injection stopped and the run ended there (%lld of %lld scheduled particles never injected)\n",
+                 stall->describe().c_str(), static_cast<long long>(scheduled - n.injected), static_cast<long long>(scheduled));
+  }
+  if (!window.empty()) {
+    // Retention of the particles injected in (from, to], from the trajectories' rows: a
+    // particle enters in the frame of its first row and is retained in that of its deposited row.
+    std::map<std::int64_t, ParticleLife> lives;
+    for (const auto& r : s.rows) {
+      const auto [it, fresh] = lives.try_emplace(r.particle, ParticleLife{r.t, -1.0});
+      if (r.deposited) it->second.retained_s = r.t;
+    }
+    std::vector<ParticleLife> all;
+    all.reserve(lives.size());
+    for (const auto& [id, life] : lives) all.push_back(life);
+    const double to = std::min(window[1], t_end);
+    nlohmann::json wj = {{"from_s", window[0]}, {"to_s", window[1]}, {"counted_to_s", to}};
+    if (to > window[0]) {
+      const WindowRetention w = retentionInWindow(all, window[0], to);
+      out.metrics["window_injected"] = static_cast<double>(w.injected);
+      out.metrics["window_retained"] = static_cast<double>(w.retained);
+      if (w.injected > 0) out.metrics["window_retained_fraction"] = w.fraction();
+      wj["injected"] = w.injected;
+      wj["retained"] = w.retained;
+    } else {
+      wj["note"] = "the run ended before the window began: nothing to count";
+    }
+    out.details["retention_window"] = wj;
+  }
   out.metrics["mean_speed"] = s.speed_n ? s.speed_sum / s.speed_n : 0.0;
   out.units["mean_speed"] = "um/s";
   out.metrics["k_over_k0"] = s.k / s.k0;
@@ -576,7 +675,8 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
                              {"pixel_capacity_um3", deposits.capacity() * 1e18},
                              {"deposited_volume_um3", deposits.depositedVolume() * 1e18},
                              {"fluid_grid_cells", {std::lround(grains.cols() * fo.cells_per_pixel), std::lround(grains.rows() * fo.cells_per_pixel)}}};
-  out.details["counts"] = {{"injected", n.injected}, {"inside", n.inside}, {"deposited", n.deposited}, {"left", n.left}};
+  out.details["counts"] = {{"scheduled", scheduled}, {"injected", n.injected}, {"never_injected", scheduled - n.injected},
+                           {"inside", n.inside}, {"deposited", n.deposited}, {"left", n.left}};
   out.details["steps"] = st.steps;
   out.details["particle_steps"] = st.particle_steps;
   out.details["dt_min_s"] = std::isfinite(st.min_dt) ? st.min_dt : 0.0;

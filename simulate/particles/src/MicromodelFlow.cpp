@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <queue>
 #include <stdexcept>
 
@@ -117,6 +118,7 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
     if (!spanning) {
       FlowSolveResult blocked;
       blocked.blocked = true;
+      blocked.pressure_drop = m_opt.darcy_velocity > 0 ? std::numeric_limits<double>::infinity() : 0.0;
       m_ux.assign(m_ux.size(), 0.0);
       m_uy.assign(m_uy.size(), 0.0);
       if (!m_ux.empty()) m_field->update(m_ux, m_uy, m_h, m_solid);
@@ -169,6 +171,7 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
   r.blocked = !(q > 0) || !std::isfinite(q);
   r.permeability = r.blocked ? 0.0 : m_opt.viscosity * q * W / (H * kPressureDrop);
   r.flux_scale = r.blocked ? 0.0 : m_opt.darcy_velocity * H / q;
+  r.pressure_drop = r.blocked ? (m_opt.darcy_velocity > 0 ? std::numeric_limits<double>::infinity() : 0.0) : r.flux_scale * kPressureDrop;
   const Eigen::ArrayXXd cu = solver.cellVelocity(0), cv = solver.cellVelocity(1);
   const double dxc = W / nx, dyc = H / ny;
   const auto interp = [&](const Eigen::ArrayXXd& a, double x, double y) {

@@ -31,6 +31,12 @@ void declareMicromodel(Schema& s) {
              "velocity rate / (width x depth). 0: the rate goes through the simulated geometry itself")
       .def("10 mm").nonNegative();
   s.quantity("flow.darcy_velocity", "cm/min", "Darcy (superficial) velocity; given, it replaces flow.rate (Table 3 gives velocities)").optional().nonNegative();
+  s.quantity("flow.max_pressure", "Pa",
+             "Pressure limit of the syringe pump: when the pressure drop the set flow rate needs across the simulated geometry "
+             "(inlet to outlet, Darcy's law on each fluid solve) exceeds it, the pump stalls, injection stops and the run ends there "
+             "(details.pump_stall). Absent: no limit, and the pump stalls only when deposits leave no flow path")
+      .optional()
+      .positive();
   s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def("1e-3 Pa s").positive();
   s.quantity("fluid.density", "kg/m3", "Fluid density").def("998.2 kg/m3").positive();
   s.quantity("fluid.temperature", "K", "Temperature (Brownian motion)").def("293.15 K").positive();
@@ -89,6 +95,11 @@ void declareMicromodel(Schema& s) {
       .positive();
   s.realList("engines.compare_step_fractions", "Overdamped step settings compared (largest displacement per step, radii); empty: the scene's")
       .optional();
+  s.quantityList("analysis.retention_window", "s",
+                 "[from, to]: also report the retention of the particles injected in (from, to], those retained by `to` over those "
+                 "injected (window_retained_fraction); a window past the end of the run is cut at it")
+      .optional()
+      .nonNegative();
   s.quantity("run.duration", "s", "Physical time simulated").def("20 min").positive();
   s.quantity("run.output_interval", "s", "Output (frame) interval").def("1 s").positive();
   s.integer("run.seed", "Random seed (Brownian motion, injection)").def(1).min(0);

@@ -21,6 +21,20 @@
 //                     frame after it deposited, with state "deposited")
 //   retention.csv     t_s, injected, retained, left, inside  (injected = retained + left + inside)
 //   permeability.csv  t_s, k_m2, k_D, k_over_k0, resolves
+// The pump (issue 24; MicromodelBookkeeping.hpp). Each fluid solve gives the
+// pressure drop the set flow rate needs across the simulated geometry. When a
+// re-solve finds no flow path left, or that pressure above flow.max_pressure
+// (the syringe pump's limit, optional), the pump stalls: that frame injects
+// nothing, is written, and the run ends there (details.pump_stall: time,
+// reason, pressure; one line on stderr). Ending rather than going on without
+// flow: a stalled chip moves nothing but by sedimentation, which would turn the
+// particles still in the pores into "retained" ones that no flow placed there.
+// They are reported as inside. A clean chip that already needs more than
+// flow.max_pressure is an InputError.
+// Counts: scheduled (what the injection schedule called for by the planned end)
+// = injected + never_injected; retained_fraction = retained / injected (the
+// paper's definition); analysis.retention_window adds the same ratio for the
+// particles injected within a window.
 // Long runs write checkpoint.bin every run.checkpoint_every engine steps (at
 // the next output frame); `mmval run --resume` continues from it bit for bit.
 #pragma once

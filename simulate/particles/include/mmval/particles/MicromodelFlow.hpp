@@ -43,6 +43,10 @@ struct MicromodelFlowOptions {
 struct FlowSolveResult {
   double permeability = 0;     ///< m2 (depth-averaged model)
   double flux_scale = 0;       ///< velocity factor from the 1 Pa solve to the target Darcy velocity
+  /// Pa: inlet-to-outlet pressure drop across the geometry that drives the target
+  /// Darcy velocity, mu u L / k by Darcy's law (the solve's 1 Pa times flux_scale);
+  /// +infinity when blocked with a positive target (no pressure can drive it), 0 at zero flow.
+  double pressure_drop = 0;
   double seconds = 0;          ///< wall time of the solve
   bool blocked = false;        ///< no flow path left (k = 0)
 };
