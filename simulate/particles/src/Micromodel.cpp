@@ -172,6 +172,79 @@ void compareEnginesOnTheScene(const Case& c, std::shared_ptr<const FlowField> fi
   out.details["engine_comparison"] = rows;
 }
 
+/// The pump's outputs (issue 24): the pressure drop the set rate needed on the clean
+/// chip and at the last solve with a flow path (Darcy: mu u L / k, `mu_u_L` = mu u L),
+/// and the stall if there was one, also as one line on stderr.
+void reportPump(const RunnerState& s, const std::optional<PumpStall>& stall, double max_pressure, double mu_u_L, std::int64_t scheduled,
+                std::int64_t injected, RunOutput& out) {
+  const auto pressureFor = [&](double k) { return k > 0 ? mu_u_L / k : 0.0; };
+  double k_open = s.k0;
+  std::istringstream rows(s.permeability);
+  std::string line;
+  std::getline(rows, line);
+  while (std::getline(rows, line)) {
+    double t = 0, km2 = 0;
+    char sep = 0;
+    std::istringstream l(line);
+    l >> t >> sep >> km2;
+    if (km2 > 0) k_open = km2;
+  }
+  const nlohmann::json limit = max_pressure > 0 ? nlohmann::json(max_pressure) : nlohmann::json(nullptr);
+  out.metrics["pressure_drop_initial"] = pressureFor(s.k0);
+  out.units["pressure_drop_initial"] = "Pa";
+  out.metrics["pressure_drop_final"] = pressureFor(k_open);
+  out.units["pressure_drop_final"] = "Pa";
+  out.details["pump"] = {{"max_pressure_Pa", limit},
+                         {"pressure_drop_initial_Pa", pressureFor(s.k0)},
+                         {"pressure_drop_final_Pa", pressureFor(k_open)},
+                         {"scope", "inlet to outlet of the simulated geometry at its Darcy velocity (Darcy's law, mu u L / k); tubing and "
+                                   "unsimulated chip length not included"},
+                         {"stalled", stall.has_value()}};
+  if (!stall) return;
+  out.metrics["pump_stall_time"] = stall->time_s;
+  out.units["pump_stall_time"] = "s";
+  if (std::isfinite(stall->pressure_Pa)) {
+    out.metrics["pump_stall_pressure"] = stall->pressure_Pa;
+    out.units["pump_stall_pressure"] = "Pa";
+  }
+  out.details["pump_stall"] = {{"time_s", stall->time_s},
+                               {"reason", stall->reasonName()},
+                               {"pressure_Pa", std::isfinite(stall->pressure_Pa) ? nlohmann::json(stall->pressure_Pa) : nlohmann::json(nullptr)},
+                               {"max_pressure_Pa", limit},
+                               {"message", stall->describe()},
+                               {"then", "injection stopped and the run ended at this frame; particles still moving are counted as inside"},
+                               {"never_injected", scheduled - injected}};
+  std::fprintf(stderr, "mmval: %s; injection stopped and the run ended there (%lld of %lld scheduled particles never injected)\n",
+               stall->describe().c_str(), static_cast<long long>(scheduled - injected), static_cast<long long>(scheduled));
+}
+
+/// Retention of the particles injected in the window (from, to], `to` cut at the last
+/// frame `t_end`, from the trajectories' rows: a particle enters in the frame of its
+/// first row and is retained in that of its deposited row.
+void reportWindow(const RunnerState& s, const std::vector<double>& window, double t_end, RunOutput& out) {
+  std::map<std::int64_t, ParticleLife> lives;
+  for (const auto& r : s.rows) {
+    const auto it = lives.try_emplace(r.particle, ParticleLife{r.t, -1.0}).first;
+    if (r.deposited) it->second.retained_s = r.t;
+  }
+  std::vector<ParticleLife> all;
+  all.reserve(lives.size());
+  for (const auto& [id, life] : lives) all.push_back(life);
+  const double to = std::min(window[1], t_end);
+  nlohmann::json wj = {{"from_s", window[0]}, {"to_s", window[1]}, {"counted_to_s", to}};
+  if (to > window[0]) {
+    const WindowRetention w = retentionInWindow(all, window[0], to);
+    out.metrics["window_injected"] = static_cast<double>(w.injected);
+    out.metrics["window_retained"] = static_cast<double>(w.retained);
+    if (w.injected > 0) out.metrics["window_retained_fraction"] = w.fraction();
+    wj["injected"] = w.injected;
+    wj["retained"] = w.retained;
+  } else {
+    wj["note"] = "the run ended before the window began: nothing to count";
+  }
+  out.details["retention_window"] = wj;
+}
+
 RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   const auto t_start = std::chrono::steady_clock::now();
   outputFrames(c);  // a run whose frames cannot fit in memory is refused before the mask is read
@@ -236,9 +309,8 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   fo.darcy_velocity = u_darcy;
   fo.cells_per_pixel = c.real("numerics.cells_per_pixel");
   MicromodelFlow flow(grains, fo);
-  // The syringe pump's pressure limit (0: none); the pressure a solve needs is mu u L / k across the geometry.
+  // The syringe pump's pressure limit (0: none); each solve says what pressure the set rate needs.
   const double max_pressure = c.has("flow.max_pressure") ? c.quantity("flow.max_pressure") : 0.0;
-  const auto pressureFor = [&](double k) { return k > 0 ? fo.viscosity * u_darcy * W / k : 0.0; };
 
   // Engine choice from the scene's numbers (for the largest class: the most inertial).
   SceneScales scales;
@@ -545,72 +617,8 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   out.metrics["never_injected"] = static_cast<double>(scheduled - n.injected);
   const double t_end = static_cast<double>(s.next_frame - 1) * dt_out;  // the last frame written
   out.details["end_time_s"] = t_end;
-  {
-    // The pump: the pressure drop the set rate needed on the clean chip and at the last solve with a flow path.
-    double k_open = s.k0;
-    std::istringstream rows(s.permeability);
-    std::string line;
-    std::getline(rows, line);
-    while (std::getline(rows, line)) {
-      double t = 0, km2 = 0;
-      char sep = 0;
-      std::istringstream l(line);
-      l >> t >> sep >> km2;
-      if (km2 > 0) k_open = km2;
-    }
-    out.metrics["pressure_drop_initial"] = pressureFor(s.k0);
-    out.units["pressure_drop_initial"] = "Pa";
-    out.metrics["pressure_drop_final"] = pressureFor(k_open);
-    out.units["pressure_drop_final"] = "Pa";
-    out.details["pump"] = {{"max_pressure_Pa", max_pressure > 0 ? nlohmann::json(max_pressure) : nlohmann::json(nullptr)},
-                           {"pressure_drop_initial_Pa", pressureFor(s.k0)},
-                           {"pressure_drop_final_Pa", pressureFor(k_open)},
-                           {"scope", "inlet to outlet of the simulated geometry at its Darcy velocity (Darcy's law, mu u L / k); tubing and "
-                                     "unsimulated chip length not included"},
-                           {"stalled", stall.has_value()}};
-  }
-  if (stall) {
-    out.metrics["pump_stall_time"] = stall->time_s;
-    out.units["pump_stall_time"] = "s";
-    if (std::isfinite(stall->pressure_Pa)) {
-      out.metrics["pump_stall_pressure"] = stall->pressure_Pa;
-      out.units["pump_stall_pressure"] = "Pa";
-    }
-    out.details["pump_stall"] = {{"time_s", stall->time_s},
-                                 {"reason", stall->reasonName()},
-                                 {"pressure_Pa", std::isfinite(stall->pressure_Pa) ? nlohmann::json(stall->pressure_Pa) : nlohmann::json(nullptr)},
-                                 {"max_pressure_Pa", max_pressure > 0 ? nlohmann::json(max_pressure) : nlohmann::json(nullptr)},
-                                 {"message", stall->describe()},
-                                 {"then", "injection stopped and the run ended at this frame; particles still moving are counted as inside"},
-                                 {"never_injected", scheduled - n.injected}};
-    std::fprintf(stderr, "mmval: %s; injection stopped and the run ended there (%lld of %lld scheduled particles never injected)\n",
-                 stall->describe().c_str(), static_cast<long long>(scheduled - n.injected), static_cast<long long>(scheduled));
-  }
-  if (!window.empty()) {
-    // Retention of the particles injected in (from, to], from the trajectories' rows: a
-    // particle enters in the frame of its first row and is retained in that of its deposited row.
-    std::map<std::int64_t, ParticleLife> lives;
-    for (const auto& r : s.rows) {
-      const auto [it, fresh] = lives.try_emplace(r.particle, ParticleLife{r.t, -1.0});
-      if (r.deposited) it->second.retained_s = r.t;
-    }
-    std::vector<ParticleLife> all;
-    all.reserve(lives.size());
-    for (const auto& [id, life] : lives) all.push_back(life);
-    const double to = std::min(window[1], t_end);
-    nlohmann::json wj = {{"from_s", window[0]}, {"to_s", window[1]}, {"counted_to_s", to}};
-    if (to > window[0]) {
-      const WindowRetention w = retentionInWindow(all, window[0], to);
-      out.metrics["window_injected"] = static_cast<double>(w.injected);
-      out.metrics["window_retained"] = static_cast<double>(w.retained);
-      if (w.injected > 0) out.metrics["window_retained_fraction"] = w.fraction();
-      wj["injected"] = w.injected;
-      wj["retained"] = w.retained;
-    } else {
-      wj["note"] = "the run ended before the window began: nothing to count";
-    }
-    out.details["retention_window"] = wj;
-  }
+  reportPump(s, stall, max_pressure, fo.viscosity * u_darcy * W, scheduled, n.injected, out);
+  if (!window.empty()) reportWindow(s, window, t_end, out);
   out.metrics["mean_speed"] = s.speed_n ? s.speed_sum / s.speed_n : 0.0;
   out.units["mean_speed"] = "um/s";
   out.metrics["k_over_k0"] = s.k / s.k0;
