@@ -1,0 +1,171 @@
+// Tracker speed on real-format input (issue 23, item 4): a synthetic Brownian slab
+// video (640 x 424 px, ~600 particles, `mmval synth --scene brownian-slab`) written
+// as an RGBA PNG folder, 16-bit TIFF files and an mp4, tracked end to end (decode,
+// background and polarity sampling, detection, linking, analysis, output files) with
+// default settings, next to a pure-decoding loop over the same files, so that the
+// gap to the decoding limit is visible. Never asserts on time.
+//
+//   decode-1     cv::imread (cv::VideoCapture::read for the mp4) of every frame, one thread
+//   decode-N     the same with N threads taking frames from a shared counter (files only)
+//   track-1/-N   runTracker + writeTrackOutputs with detect.threads 1 / N
+//   grab        (mp4) cv::VideoCapture::grab() of every frame: what skipping costs
+//   old-1        emulated old path, one thread: the old samplers read the video twice
+//                more in order (background: every frame up to its 60th sample; polarity:
+//                up to its 24th) before the main pass decoded every frame: track-1 plus
+//                the time of those two in-order passes of FrameSource::next().
+//
+// The "decode share" of a tracking run is decode-1 time x threads used / run time
+// for one thread (the time the run spends decoding, if it decodes as fast as the pure
+// loop); frames/s are frames / wall time. The machine's load changes wall times: quote
+// ratios from one run.
+//
+// Usage: bench_tracking_decode [--frames N] [--threads N] [--dir DIR] [--formats rgba,tiff16,mp4]
+// DIR holds (or receives) one folder per format, as mmval synth writes them.
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <functional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "mmval/tracking/Frames.hpp"
+#include "mmval/tracking/Pipeline.hpp"
+#include "mmval/tracking/SynthSlab.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace mmval::tracking;
+
+double seconds(const std::function<void()>& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  f();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// The input FrameSource opens for a synth folder: frames/ or video.mp4.
+fs::path inputOf(const fs::path& dir) { return fs::exists(dir / "video.mp4") ? dir / "video.mp4" : dir / "frames"; }
+
+fs::path prepare(const fs::path& root, const std::string& format, int frames) {
+  const fs::path dir = root / (format + "-" + std::to_string(frames));
+  if (fs::exists(dir / "truth.csv")) return dir;
+  BrownianSlabOptions o;
+  o.frames = frames;
+  o.format = parseSynthFormat(format);
+  std::printf("writing %s (%d frames of %d x %d) ...\n", dir.string().c_str(), frames, o.width, o.height);
+  std::fflush(stdout);
+  writeBrownianSlabVideo(o, dir);
+  return dir;
+}
+
+/// Pure decoding with `threads` threads (files) or in order (a video); returns the frames read.
+int decodeAll(const fs::path& input, int threads) {
+  if (!fs::is_directory(input)) {
+    cv::VideoCapture cap(input.string());
+    cv::Mat f;
+    int n = 0;
+    while (cap.read(f)) ++n;
+    return n;
+  }
+  std::vector<std::string> files;
+  for (const auto& e : fs::directory_iterator(input)) files.push_back(e.path().string());
+  std::sort(files.begin(), files.end());
+  std::atomic<std::size_t> next{0};
+  auto work = [&] {
+    for (std::size_t k; (k = next++) < files.size();) (void)cv::imread(files[k], cv::IMREAD_UNCHANGED);
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+  return static_cast<int>(files.size());
+}
+
+TrackConfig defaults(int threads) {
+  TrackConfig c;  // the tracker's defaults (as mmval track uses them), Brownian slab units
+  c.pixel_size = 0.15e-6;
+  c.fps = 24;
+  c.threads = threads;
+  return c;
+}
+
+double track(const fs::path& input, int threads, const fs::path& out, long& decoded, long& grabbed) {
+  return seconds([&] {
+    FrameSource src(input.string());
+    const TrackRun run = runTracker(src, defaults(threads), true);
+    writeTrackOutputs(run, defaults(threads), out, nlohmann::json::object());
+    decoded = src.decoded();
+    grabbed = src.grabbed();
+  });
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int frames = 300, threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  fs::path root = fs::temp_directory_path() / "mmval-bench-decode";
+  std::string formats = "rgba,tiff16,mp4";
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string a = argv[i];
+    if (a == "--frames") frames = std::atoi(argv[i + 1]);
+    else if (a == "--threads") threads = std::atoi(argv[i + 1]);
+    else if (a == "--dir") root = argv[i + 1];
+    else if (a == "--formats") formats = argv[i + 1];
+  }
+  cv::setNumThreads(1);  // one core per tracker thread, as the tracking bench does
+  std::printf("%-7s %6s %10s %10s %10s %10s %10s %8s %9s %9s\n", "format", "frames", "decode-1", "decode-N", "track-1", "track-N", "old-1",
+              "old/new", "dec.share", "decodes");
+  std::printf("%-7s %6s %10s %10s %10s %10s %10s %8s %9s %9s\n", "", "", "frames/s", "frames/s", "frames/s", "frames/s", "frames/s", "1 thread",
+              "1 thread", "per frame");
+  std::stringstream list(formats);
+  for (std::string format; std::getline(list, format, ',');) {
+    const fs::path dir = prepare(root, format, frames);
+    const fs::path input = inputOf(dir), out = dir / "out";
+    int n = 0;
+    const double dec1 = seconds([&] { n = decodeAll(input, 1); });
+    const double decn = fs::is_directory(input) ? seconds([&] { decodeAll(input, threads); }) : dec1;
+    long decoded1 = 0, decodedn = 0, decoded_old = 0, grabbed1 = 0, grabbedn = 0;
+    const double t1 = track(input, 1, out, decoded1, grabbed1);
+    const double tn = track(input, threads, out, decodedn, grabbedn);
+    // Old path: the old samplers read in order up to their last sample (background: 60
+    // samples, polarity: 24) and cloned the ones they kept; everything else the runs share.
+    long old_reads = 0;
+    const double passes = seconds([&] {
+      for (int samples : {TrackConfig{}.detect.background_samples, 24}) {
+        FrameSource src(input.string());
+        const int stride = std::max(1, src.count() / samples);
+        const int last = std::min(src.count() - 1, (samples - 1) * stride);
+        cv::Mat f;
+        int index = 0;
+        for (int k = 0; k <= last && src.next(f, index); ++k) ++old_reads;
+      }
+    });
+    const double t_old = passes + t1;
+    decoded_old = decoded1 + old_reads;
+    std::printf("%-7s %6d %10.1f %10.1f %10.1f %10.1f %10.1f %8.2f %8.0f%% %4.2f/%4.2f\n", format.c_str(), n, n / dec1, n / decn, n / t1, n / tn,
+                n / t_old, t_old / t1, 100.0 * dec1 / t1, static_cast<double>(decoded1) / n, static_cast<double>(decoded_old) / n);
+    if (!fs::is_directory(input)) {
+      // What a sampler's grab() saves over read(): the pixel conversion only.
+      const double grab = seconds([&] {
+        cv::VideoCapture cap(input.string());
+        while (cap.grab()) {
+        }
+      });
+      std::printf("%-7s grab() only: %.1f frames/s (read(): %.1f); the tracking run grabbed %.2f frames per frame besides its decodes\n", "",
+                  n / grab, n / dec1, static_cast<double>(grabbed1) / n);
+    }
+    std::fflush(stdout);
+  }
+  std::printf("threads N = %d; decodes per frame: new / emulated old (full decodes, grab() not counted)\n", threads);
+  return 0;
+}
