@@ -1,7 +1,9 @@
 #include "mmval/tracking/Frames.hpp"
 
 #include <algorithm>
+#include <exception>
 #include <regex>
+#include <thread>
 #include <stdexcept>
 
 #include <opencv2/imgcodecs.hpp>
@@ -228,22 +230,46 @@ void FrameSource::sample(int pos, cv::Mat& frame, int& index) {
   putCached(pos, frame);
 }
 
-void FrameSource::prefetch(std::vector<int> positions) {
-  if (m_cache_limit <= 0) return;
-  std::sort(positions.begin(), positions.end());
-  positions.erase(std::unique(positions.begin(), positions.end()), positions.end());
+void FrameSource::prefetch(std::vector<int> positions, int threads) {
+  if (m_cache_limit <= 0 || m_count == 0) return;
   cv::Mat f;
   int index = 0;
-  const auto cached = [&] {
-    const std::lock_guard<std::mutex> lock(m_stats->mutex);
-    return m_stats->cache.size();
-  };
-  for (int pos : positions) {
-    const std::size_t before = cached();
-    sample(pos, f, index);
-    // Full (the frame was decoded but not kept): the samplers decode the rest themselves.
-    if (cached() == before && m_stats->decoded > 0 && !m_stats->cache.count(pos)) return;
+  primeFirst(f);
+  std::sort(positions.begin(), positions.end());
+  positions.erase(std::unique(positions.begin(), positions.end()), positions.end());
+  std::erase_if(positions, [&](int pos) { return pos < 0 || pos >= m_count || m_stats->cache.count(pos) != 0; });
+  // As many as the cache has room for (the samplers decode the rest themselves).
+  const double frame_bytes = 4.0 * m_size.area();
+  const int room = static_cast<int>(std::min<double>(std::min(m_cache_limit, kMaxCachedFrames), 0.25 * defaultMaxMemoryBytes() / std::max(1.0, frame_bytes))) -
+                   static_cast<int>(m_stats->cache.size());
+  if (room <= 0) return;
+  if (static_cast<int>(positions.size()) > room) positions.resize(static_cast<std::size_t>(room));
+  if (threads <= 1 || !randomAccess()) {
+    for (int pos : positions) sample(pos, f, index);
+    return;
   }
+  // Files: decoded by `threads` workers taking positions from a shared counter.
+  std::atomic<std::size_t> next{0};
+  std::vector<std::exception_ptr> failed(static_cast<std::size_t>(threads));
+  auto work = [&](int t) {
+    try {
+      cv::Mat frame;
+      int at = 0;
+      for (std::size_t k; (k = next++) < positions.size();) {
+        decodeAt(positions[k], frame, at);
+        putCached(positions[k], frame);
+      }
+    } catch (...) {
+      failed[static_cast<std::size_t>(t)] = std::current_exception();
+      next = positions.size();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(work, t);
+  work(0);
+  for (auto& t : pool) t.join();
+  for (const auto& e : failed)
+    if (e) std::rethrow_exception(e);
 }
 
 bool FrameSource::next(cv::Mat& frame, int& index) {
@@ -266,6 +292,11 @@ void FrameSource::readAt(int pos, cv::Mat& frame, int& index) const {
   index = m_range.first + pos * m_range.step;
   if (pos < 0 || pos >= m_count || index >= m_total) throw std::out_of_range("FrameSource::readAt");
   if (takeCached(pos, frame)) return;
+  decodeAt(pos, frame, index);
+}
+
+void FrameSource::decodeAt(int pos, cv::Mat& frame, int& index) const {
+  index = m_range.first + pos * m_range.step;
   cv::Mat raw;
   if (m_kind == Kind::images) {
     raw = cv::imread(m_files[index], cv::IMREAD_UNCHANGED);

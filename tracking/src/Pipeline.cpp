@@ -56,6 +56,8 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   const auto t0 = std::chrono::steady_clock::now();
   TrackRun run;
   RollingBackground rolling;
+  // threads 0: every core (the decoding and detection of frames are independent).
+  const int threads = c.threads > 0 ? c.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   {
     // Every frame is decoded once: the samplers below read only the frames they keep,
     // in one forward pass (videos), into the source's cache, which the main pass reads.
@@ -70,7 +72,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
       const std::vector<int> more = samplePositions(source.count(), 24);
       sampled.insert(sampled.end(), more.begin(), more.end());
     }
-    source.prefetch(sampled);
+    source.prefetch(sampled, threads);
   }
   if (c.detect.subtract_background) {
     run.background = quantileOfFrames(sampleFrames(source, c.detect.background_samples), c.background_quantile);
@@ -87,8 +89,6 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   // From frames spread over the video, not the first alone: the first frame of a scene can
   // hold no moving particle yet, only the absence of deposits that arrive later.
   if (polarity == Polarity::automatic) polarity = guessPolarity(sampleFrames(source, 24), run.background);
-  // threads 0: every core (the decoding and detection of frames are independent).
-  const int threads = c.threads > 0 ? c.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   // Stuck-particle candidates (spots of the median background) and, per candidate, the
   // frames in which the spot is missing from the frame: there the frame is brighter (dark
   // polarity) than the background by about the spot's amplitude.

@@ -62,9 +62,10 @@ class FrameSource {
   /// in increasing `pos` (prefetch()); a smaller pos than the capture's seeks back to
   /// the first selected frame and grabs forward. Throws like next().
   void sample(int pos, cv::Mat& frame, int& index);
-  /// Decodes the given positions (any order, duplicates allowed) in increasing order
-  /// into the cache, as far as it has room: one forward pass over a video.
-  void prefetch(std::vector<int> positions);
+  /// Decodes the given positions (any order, duplicates allowed) into the cache, as far
+  /// as it has room: one forward pass over a video; image files and TIFF pages with
+  /// `threads` threads. Throws like next().
+  void prefetch(std::vector<int> positions, int threads = 1);
   /// Frames fully decoded so far (imread, TIFF page, video read/retrieve), and video
   /// frames skipped with grab() (codec only): for tests and benchmarks.
   long decoded() const { return m_stats->decoded.load(); }
@@ -83,6 +84,8 @@ class FrameSource {
   /// Decodes the first selected frame into `frame` (and the cache) unless done; true if it did.
   bool primeFirst(cv::Mat& frame);
   bool takeCached(int pos, cv::Mat& frame) const;
+  /// Image file or TIFF page at `pos`, decoded (thread-safe once the first frame is fixed).
+  void decodeAt(int pos, cv::Mat& frame, int& index) const;
   void putCached(int pos, const cv::Mat& frame);
   struct Shared {
     std::mutex mutex;
