@@ -27,10 +27,7 @@ MotionModel parseMotionModel(const std::string& name) {
   throw std::invalid_argument("motion model '" + name + "': expected flow, brownian or auto");
 }
 
-namespace {
-
-/// [first, last) of each track in points sorted by particle, then frame.
-std::vector<std::pair<std::size_t, std::size_t>> spans(const std::vector<TrackPoint>& pts) {
+std::vector<std::pair<std::size_t, std::size_t>> trackRanges(const std::vector<TrackPoint>& pts) {
   std::vector<std::pair<std::size_t, std::size_t>> out;
   for (std::size_t i = 0; i < pts.size();) {
     std::size_t j = i;
@@ -40,6 +37,8 @@ std::vector<std::pair<std::size_t, std::size_t>> spans(const std::vector<TrackPo
   }
   return out;
 }
+
+namespace {
 
 /// Weighted least squares line y = a + b x; false with fewer than two distinct x.
 bool weightedLine(const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& w, double& a, double& b) {
@@ -217,7 +216,7 @@ Tracks driftCorrected(const Tracks& tracks, const EnsembleDrift& drift) {
 MsdFit fitEnsembleMsd(const Tracks& tracks, double dt, const BrownianOptions& o) {
   MsdFit out;
   const auto& pts = tracks.points;
-  const auto sp = spans(pts);
+  const auto sp = trackRanges(pts);
   out.tracks = static_cast<int>(sp.size());
   if (sp.empty() || !(dt > 0)) return out;
   std::vector<std::int64_t> lengths;

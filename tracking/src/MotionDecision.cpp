@@ -10,22 +10,6 @@
 
 namespace mmval::tracking {
 
-namespace {
-
-/// [first, last) of each track in points sorted by particle, then frame.
-std::vector<std::pair<std::size_t, std::size_t>> trackSpans(const std::vector<TrackPoint>& pts) {
-  std::vector<std::pair<std::size_t, std::size_t>> out;
-  for (std::size_t i = 0; i < pts.size();) {
-    std::size_t j = i;
-    while (j < pts.size() && pts[j].particle == pts[i].particle) ++j;
-    out.emplace_back(i, j);
-    i = j;
-  }
-  return out;
-}
-
-}  // namespace
-
 MotionDecision decideMotion(const Tracks& tracks, double z_directed, double peclet) {
   MotionDecision m;
   m.requested = MotionModel::automatic;
@@ -37,7 +21,7 @@ MotionDecision decideMotion(const Tracks& tracks, double z_directed, double pecl
   double num = 0, den = 0, step_sq = 0;
   long long steps = 0;
   std::vector<std::pair<double, double>> per_track;
-  for (const auto& [i, j] : trackSpans(pts)) {
+  for (const auto& [i, j] : trackRanges(pts)) {
     double tn = 0, td = 0;
     for (std::size_t k = i + 1; k + 1 < j; ++k) {
       if (pts[k].frame - pts[k - 1].frame != 1 || pts[k + 1].frame - pts[k].frame != 1) continue;

@@ -21,6 +21,7 @@
 #include <limits>
 #include <string>
 #include <unordered_set>
+#include <utility>
 #include <vector>
 
 #include "mmval/core/Tracks.hpp"
@@ -109,6 +110,9 @@ struct CveEstimate {
   double mean_square = kNaN; ///< m^2: <dx^2> per axis
   double covariance = kNaN;  ///< m^2: <dx_n dx_n+1> per axis
 };
+
+/// [first, last) index ranges of each track in points sorted by particle, then frame.
+std::vector<std::pair<std::size_t, std::size_t>> trackRanges(const std::vector<TrackPoint>& points);
 
 /// CVE of points [first, last) of one track (sorted by frame).
 CveEstimate cveEstimate(const std::vector<TrackPoint>& points, std::size_t first, std::size_t last, double frame_interval, double exposure);
