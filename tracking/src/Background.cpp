@@ -12,17 +12,20 @@ cv::Mat quantileOfFrames(const std::vector<cv::Mat>& frames, double q) {
   const std::size_t n = frames.size();
   const std::size_t rank = std::min(n - 1, static_cast<std::size_t>(std::floor(q * static_cast<double>(n))));
   cv::Mat bg(frames[0].size(), CV_32F);
-  std::vector<const float*> rows(n);
-  std::vector<float> v(n);
-  for (int r = 0; r < bg.rows; ++r) {
-    for (std::size_t i = 0; i < n; ++i) rows[i] = frames[i].ptr<float>(r);
-    float* out = bg.ptr<float>(r);
-    for (int c = 0; c < bg.cols; ++c) {
-      for (std::size_t i = 0; i < n; ++i) v[i] = rows[i][c];
-      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(rank), v.end());
-      out[c] = v[rank];
+  // Rows in parallel (OpenCV's pool, cv::setNumThreads): each pixel is independent.
+  cv::parallel_for_(cv::Range(0, bg.rows), [&](const cv::Range& range) {
+    std::vector<const float*> rows(n);
+    std::vector<float> v(n);
+    for (int r = range.start; r < range.end; ++r) {
+      for (std::size_t i = 0; i < n; ++i) rows[i] = frames[i].ptr<float>(r);
+      float* out = bg.ptr<float>(r);
+      for (int c = 0; c < bg.cols; ++c) {
+        for (std::size_t i = 0; i < n; ++i) v[i] = rows[i][c];
+        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(rank), v.end());
+        out[c] = v[rank];
+      }
     }
-  }
+  });
   return bg;
 }
 
