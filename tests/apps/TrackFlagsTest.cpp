@@ -19,6 +19,7 @@
 
 #include "RunMmval.hpp"
 #include "mmval/core/Tracks.hpp"
+#include "../NumericCsv.hpp"
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
@@ -29,20 +30,7 @@ namespace {
 
 const fs::path kData = fs::path(MMVAL_SHARED_DATA_DIR) / "trackpy-tests";
 
-std::vector<std::vector<double>> readCsv(const fs::path& p) {
-  std::ifstream in(p);
-  std::string line;
-  std::getline(in, line);
-  std::vector<std::vector<double>> rows;
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string cell;
-    std::vector<double> r;
-    while (std::getline(ss, cell, ',')) r.push_back(std::stod(cell));
-    if (!r.empty()) rows.push_back(r);
-  }
-  return rows;
-}
+std::vector<std::vector<double>> readCsv(const fs::path& p) { return mmval::test::readNumericCsv(p); }
 
 /// Index of our nearest point of `frame` to (x, y) within 1 px, or -1.
 int nearestWithin1px(const mmval::Tracks& t, std::int64_t frame, double x, double y) {

@@ -15,6 +15,7 @@
 #include "mmval/tracking/Frames.hpp"
 #include "mmval/tracking/Link.hpp"
 #include "mmval/tracking/TrackMetrics.hpp"
+#include "../NumericCsv.hpp"
 
 namespace mmval::tracking {
 namespace {
@@ -22,20 +23,7 @@ namespace {
 namespace fs = std::filesystem;
 const fs::path kData = fs::path(MMVAL_SHARED_DATA_DIR) / "trackpy-tests";
 
-std::vector<std::vector<double>> readCsv(const fs::path& p) {
-  std::ifstream in(p);
-  std::string line;
-  std::getline(in, line);
-  std::vector<std::vector<double>> rows;
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string cell;
-    std::vector<double> r;
-    while (std::getline(ss, cell, ',')) r.push_back(std::stod(cell));
-    rows.push_back(r);
-  }
-  return rows;
-}
+std::vector<std::vector<double>> readCsv(const fs::path& p) { return mmval::test::readNumericCsv(p); }
 
 struct PeerMatch {
   std::size_t ours = 0;
