@@ -60,7 +60,10 @@ struct TrackRun {
 };
 
 /// Runs the tracker over the whole source; a progress bar unless quiet. Memory stays
-/// bounded: frames are read in batches of 2 x threads, only detections are kept.
+/// bounded: frames are read in batches of 2 x threads, only detections are kept, and the
+/// frames sampled for the background and the polarity wait in the source's bounded cache
+/// for the main pass, so that each frame is decoded once (Frames.hpp). config.threads 0:
+/// every core; results do not depend on the number of threads.
 /// With detect.find_stuck, particles at rest in the median background are immobile
 /// tracks (stuck from the start) or continue the track that ends where and when they
 /// arrived (deposited). Tracks at rest over their final analysis.stuck_window are
