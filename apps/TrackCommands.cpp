@@ -95,7 +95,7 @@ std::vector<std::pair<std::string, std::pair<std::string, Value>>> trackpyKeys(c
     put("--search-range", "link.search_radius",
         flagNumber("--search-range", t.search_range, 0.1, 1e4, "a distance in px per frame from 0.1 to 10000 (trackpy's search_range)"));
   if (!t.memory.empty()) put("--memory", "link.memory", flagInteger("--memory", t.memory, 0, 100, "a whole number of frames from 0 to 100 (trackpy's memory)"));
-  if (!t.threads.empty()) put("--threads", "detect.threads", flagInteger("--threads", t.threads, 1, 256, "a whole number of threads from 1 to 256"));
+  if (!t.threads.empty()) put("--threads", "detect.threads", flagInteger("--threads", t.threads, 0, 256, "a whole number of threads from 0 (every core) to 256"));
   if (t.invert) put("--invert", "detect.polarity", std::string("dark"));
   return keys;
 }
@@ -216,7 +216,7 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
   track->add_option("--separation", t->separation, "trackpy: smallest distance between features, px (detect.separation; default with --diameter: diameter + 1)");
   track->add_option("--search-range", t->search_range, "trackpy: largest displacement per frame, px (link.search_radius)");
   track->add_option("--memory", t->memory, "trackpy: frames a particle may vanish and keep its id (link.memory)");
-  track->add_option("--threads", t->threads, "Frames detected in parallel (detect.threads)");
+  track->add_option("--threads", t->threads, "Frames decoded and detected in parallel (detect.threads; default 0: every core; results do not depend on it)");
   track->add_flag("--invert", t->invert, "trackpy: dark features on a bright background (detect.polarity = \"dark\"; mmval otherwise guesses)");
   track->add_option("--set", t->set, "KEY=VALUE: set any key of a tracking-video case as if the --config file said KEY = VALUE (repeatable)")
       ->allow_extra_args(false);

@@ -150,7 +150,7 @@ TEST(TrackFlags, BadValuesAreInputErrorsNamingTheFlag) {
       {"--search-range 5px", {"--search-range"}},
       {"--memory 1.5", {"--memory", "whole number"}},
       {"--memory 101", {"--memory"}},
-      {"--threads 0", {"--threads"}},
+      {"--threads -1", {"--threads", "every core"}},
       {"--set detect.min_snr=abc", {"detect.min_snr", "--set"}},
       {"--set detect.min_snr=-1", {"detect.min_snr"}},
       {"--set detect.nosuch=1", {"detect.nosuch"}},
