@@ -26,6 +26,7 @@
 #include "mmval/tracking/Kinds.hpp"
 #include "mmval/tracking/Pipeline.hpp"
 #include "mmval/tracking/Synth.hpp"
+#include "../InputErrorMessage.hpp"
 
 namespace mmval::tracking {
 namespace {
@@ -414,14 +415,7 @@ Case blankCase(const std::string& name, const std::string& extra) {
                      d / "case.toml", registry());
 }
 
-std::string inputErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no InputError)";
-}
+std::string inputErrorOf(const std::function<void()>& f) { return mmval::test::inputErrorMessage(f); }
 
 TEST(BrownianKeys, CaseKeysReachTheTracker) {
   const Case c = blankCase("brownian-keys", "[analysis]\nmotion = \"brownian\"\nexposure = \"20 ms\"\nbrownian_min_points = 25\n"

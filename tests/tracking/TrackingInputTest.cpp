@@ -23,6 +23,7 @@
 #include "mmval/tracking/Kinds.hpp"
 #include "mmval/tracking/Pipeline.hpp"
 #include "mmval/tracking/TrackMetrics.hpp"
+#include "../InputErrorMessage.hpp"
 
 namespace mmval::tracking {
 namespace {
@@ -47,14 +48,7 @@ cv::Mat spots16(const std::vector<cv::Point2d>& at, double level, double depth) 
   return out;
 }
 
-std::string messageOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no InputError)";
-}
+std::string messageOf(const std::function<void()>& f) { return mmval::test::inputErrorMessage(f); }
 
 TEST(TrackingInput, TruncatedVideoSaysWhereItEnds) {
   const fs::path d = scratch("truncated");

@@ -1,4 +1,4 @@
-// Per-detection quality (issue 23): the size, shape and amplitude of each spot by
+// Per-detection quality: the size, shape and amplitude of each spot by
 // adaptive Gaussian-weighted moments, its local background, its localisation
 // uncertainty, and the focus filter that drops blurred spots.
 #include "SpotFit.hpp"
@@ -86,12 +86,17 @@ void measureSpot(const cv::Mat& zero_mean, const cv::Mat& frame, double sigma0, 
   int r = 0;
   bool ok = false;
   float ex[2 * 37 + 1], ey[2 * 37 + 1];
+  int level_r = -1;  // the window radius the background level below was taken for
+  double level = 0;
   for (int it = 0; it < kMomentIterations; ++it) {
     r = std::max(2, static_cast<int>(std::ceil(3 * m)));
     // The local background: the median of a ring just outside the window (robust to a
     // neighbour or two in it), taken off the signal before the moments.
-    const double bg = ringMedian(zero_mean, cx, cy, r + 1, r + 3);
-    const double level = std::isnan(bg) ? 0.0 : bg;
+    if (r != level_r) {  // the ring depends on r only: the iterations mostly keep it
+      const double bg = ringMedian(zero_mean, cx, cy, r + 1, r + 3);
+      level = std::isnan(bg) ? 0.0 : bg;
+      level_r = r;
+    }
     const double a = 1 / (2 * m * m);
     gaussianRow(ex, 2 * r + 1, cx - r, d.x, a);
     gaussianRow(ey, 2 * r + 1, cy - r, d.y, a);
