@@ -1,4 +1,4 @@
-// Tracker speed on real-format input (issue 23, item 4): a synthetic Brownian slab
+// Tracker speed on real-format input: a synthetic Brownian slab
 // video (640 x 424 px, ~600 particles, `mmval synth --scene brownian-slab`) written
 // as an RGBA PNG folder, 16-bit TIFF files and an mp4, tracked end to end (decode,
 // background and polarity sampling, detection, linking, analysis, output files) with

@@ -69,7 +69,7 @@ TEST(TrackFlags, TrackpySettingsAsFlagsFindTrackpysFeaturesOnItsFrames) {
   EXPECT_NEAR(resolved["link"]["search_radius"].get<double>(), 5.0, 1e-12);
   EXPECT_EQ(resolved["link"]["memory"], 0);
 
-  // Frame 0 against trackpy's locate on it (344 features, (y, x)): issue 23 asks >= 90 %
+  // Frame 0 against trackpy's locate on it (344 features, (y, x)): the target is >= 90 %
   // within 1 px; the detector's own peer test (TrackpyPeerTest) finds 343 with settings
   // written in code. The count stays near trackpy's (its minmass, our min_mass_relative).
   const auto ref = readCsv(kData / "reference" / "locate_first_frame_d9_minmass140.csv");

@@ -1,4 +1,4 @@
-// Honest bookkeeping of the micromodel scene (issue 24): the syringe pump's
+// Honest bookkeeping of the micromodel scene: the syringe pump's
 // pressure limit, particles never injected counted apart, retention = retained /
 // injected by direct count from the run's outputs, and a run that never stalls
 // unchanged. The pieces (pump verdict, schedule, window count) on hand-made

@@ -23,7 +23,7 @@ SceneConfig still() {
   return c;
 }
 
-// Free Stokes settling of 5 um polystyrene through 20 um: 28 s (benchmarks.md,
+// Free Stokes settling of 5 um polystyrene through 20 um: 28 s (Stokes' law, v = 2 drho g a^2 / (9 mu),
 // 2 digits: +-0.5 s). The capture time resolves it to one step (0.01 a / v_s = 0.035 s).
 TEST(Overdamped, SettlesThrough20umInStokesTime) {
   SceneConfig c = still();

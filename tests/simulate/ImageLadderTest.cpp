@@ -1,4 +1,4 @@
-// Chip-image permeability with its error bar (issue 25): the grid-convergence arithmetic
+// Chip-image permeability with its error bar: the grid-convergence arithmetic
 // (observed order, Richardson extrapolation, GCI; Celik et al. 2008, J. Fluids Eng. 130 078001),
 // the sub-pixel grain boundary reconstructed from a mask (SmoothMaskShape), and the
 // image-permeability ladder (numerics.cells_per_pixel_levels) against Sangani & Acrivos (1982) on

@@ -1,4 +1,4 @@
-// Numerical failures a user can fix (issue 22), through the fluid case kinds on 1 MPI rank: a
+// Numerical failures a user can fix, through the fluid case kinds on 1 MPI rank: a
 // gap narrower than one cell is a NumericalFailure (exit 5) naming the resolution key before
 // anything is solved, a throat narrower than two cells a warning in details.warnings; exit 4 is
 // left for bugs. Integration tier: small grids, seconds.

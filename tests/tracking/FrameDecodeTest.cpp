@@ -1,4 +1,4 @@
-// Decoding cost and determinism of the frame sources (issue 23, item 4): in one
+// Decoding cost and determinism of the frame sources: in one
 // tracker run every frame is decoded exactly once, whatever samples the background
 // and the polarity guess take; sampled frames equal the frames the main pass reads;
 // tracks.csv is byte-identical for one and several threads. Unit tier: small

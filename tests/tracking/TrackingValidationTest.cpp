@@ -167,7 +167,7 @@ TEST(TrackingValidation, CleanSparseSpotsAreNotSplit) {
 
 TEST(TrackingValidation, BrownianDiffusionFromAVideo) {
   // Free Brownian particles, D = 0.8 px^2/frame, nothing else moving: the MSD's slope
-  // gives D. Reference: D as rendered. Tolerance 5 % (issue 3): the statistical error
+  // gives D. Reference: D as rendered. Tolerance 5 %: the statistical error
   // of the ensemble MSD over ~150 particles x 60 frames is ~1.5 %, localisation noise
   // adds 4 sigma_loc^2 ~ 0.02 px^2 to the MSD (< 1 % of 4 D).
   SynthOptions o;

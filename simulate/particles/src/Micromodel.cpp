@@ -172,7 +172,7 @@ void compareEnginesOnTheScene(const Case& c, std::shared_ptr<const FlowField> fi
   out.details["engine_comparison"] = rows;
 }
 
-/// The pump's outputs (issue 24): the pressure drop the set rate needed on the clean
+/// The pump's outputs: the pressure drop the set rate needed on the clean
 /// chip and at the last solve with a flow path (Darcy: mu u L / k, `mu_u_L` = mu u L),
 /// and the stall if there was one, also as one line on stderr.
 void reportPump(const RunnerState& s, const std::optional<PumpStall>& stall, double max_pressure, double mu_u_L, std::int64_t scheduled,

@@ -11,7 +11,7 @@
 
 namespace mmval {
 
-/// Process exit codes used by the `mmval` command (house style rule 1).
+/// Process exit codes used by the `mmval` command.
 enum class ExitCode : int {
   ok = 0,
   usage = 1,          ///< wrong command-line usage

@@ -9,7 +9,7 @@
 // given by the caller); pixel columns are optional for simulated
 // trajectories. x_px/y_px are read as synonyms of x/y. Readers find columns
 // by name, so a column they do not know is skipped (the quality columns were
-// added in issue 23; files without them read as before).
+// newer columns; files without them read as before).
 //
 // The quality columns describe the detected spot behind each point (the
 // tracker writes them; simulated trajectories have none): see SpotQuality.

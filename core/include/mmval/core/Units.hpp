@@ -1,4 +1,4 @@
-// Physical quantities with units at the boundaries, SI inside (house style rule 7).
+// Physical quantities with units at the boundaries, SI inside.
 //
 // A quantity string is a number followed by a unit expression:
 //   "5 um", "0.024 cm/min", "5 uL/min", "2.5 D", "1.05 g/cm3", "20 min", "1e-3 Pa s".

@@ -75,7 +75,7 @@ class MaskShape final : public Shape {
   double m_pixel, m_ox, m_oy;
 };
 
-/// A grain boundary below pixel resolution, reconstructed from a binary mask (issue 25): the mask
+/// A grain boundary below pixel resolution, reconstructed from a binary mask: the mask
 /// (1 grain, 0 pore at each pixel centre) smoothed by a Gaussian of sigma_px pixels, interpolated
 /// by cubic convolution (Keys 1981, IEEE Trans. ASSP 29(6) 1153, a = -1/2: C1, exact for
 /// quadratics); grains are where that field exceeds 1/2. The 1/2 level of a straight step lies on

@@ -1,4 +1,4 @@
-// Grid convergence of a resolution ladder (issue 25): observed order, Richardson extrapolation and
+// Grid convergence of a resolution ladder: observed order, Richardson extrapolation and
 // Roache's grid convergence index, for grids refined by any ratios.
 //
 // Three grids (1 finest, spacings h1 < h2 < h3, values f1, f2, f3), after Celik et al. (2008),

@@ -1,4 +1,4 @@
-// Resolution checks the fluid case kinds run before a solve (issue 22). A flow path
+// Resolution checks the fluid case kinds run before a solve. A flow path
 // is only as resolved as its narrowest throat: narrower than one cell the grid cannot carry flow
 // through it (the solve fails or returns a number that means nothing), narrower than two the
 // answer can be off by a large factor (a one-pixel throat at 1 cell per pixel: +197 %). The case
@@ -15,7 +15,7 @@ namespace mmval::simulate {
 
 /// Throats narrower than this many cells get a warning.
 inline constexpr double kWarnThroatCells = 2.0;
-/// image-permeability warns below this many cells across (issue 25): a throat of a staircase
+/// image-permeability warns below this many cells across: a throat of a staircase
 /// mask changes the chip's permeability by several percent until ~4 cells cross it.
 inline constexpr double kWarnImageThroatCells = 4.0;
 

@@ -1,5 +1,5 @@
 // A synthetic brightfield video of colloids diffusing in a slab, with ground
-// truth: the realistic reference for Brownian tracking (issue 23, item 5).
+// truth: the realistic reference for Brownian tracking.
 //
 // Physics and optics, each a stated model:
 // - Motion: free 3D Brownian motion with the Stokes-Einstein coefficient

@@ -4,7 +4,7 @@
 // pressure probes and fluxes. The generated case stays on disk so a user can
 // rerun or change it by hand.
 //
-// Environment facts this relies on (docs/openfoam-notes.md): WM_PROJECT_DIR
+// Environment facts this relies on (Debian's OpenFOAM v1912 packages): WM_PROJECT_DIR
 // must point at /usr/share/openfoam; mpirun needs --allow-run-as-root as
 // root; scotch/metis are stubs, so decomposition is "simple"; nothing
 // compiled at run time works, so inlet profiles use exprFixedValue.

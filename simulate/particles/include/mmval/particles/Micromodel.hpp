@@ -1,4 +1,4 @@
-// The coupled validation scene, case kind "particles-micromodel" (issue 6):
+// The coupled validation scene, case kind "particles-micromodel":
 // the micromodel experiment of the paper (paper-notes.md, "The micromodel
 // experiment") on a pore mask. The geometry comes from a binary image (pixel
 // size and chip depth from the case), the depth-averaged Stokes flow from
@@ -21,7 +21,7 @@
 //                     frame after it deposited, with state "deposited")
 //   retention.csv     t_s, injected, retained, left, inside  (injected = retained + left + inside)
 //   permeability.csv  t_s, k_m2, k_D, k_over_k0, resolves
-// The pump (issue 24; MicromodelBookkeeping.hpp). Each fluid solve gives the
+// The pump (MicromodelBookkeeping.hpp). Each fluid solve gives the
 // pressure drop the set flow rate needs across the simulated geometry. When a
 // re-solve finds no flow path left, or that pressure above flow.max_pressure
 // (the syringe pump's limit, optional), the pump stalls: that frame injects

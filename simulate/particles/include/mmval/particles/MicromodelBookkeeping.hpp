@@ -1,8 +1,9 @@
-// Bookkeeping of the micromodel scene (issue 24, "Honest bookkeeping"): the
+// Bookkeeping of the micromodel scene: the
 // syringe pump's limits and the particle counts a retention is made of.
 //
 // The pump. The experiment drives its chip with a syringe pump at a set flow
-// rate (paper-notes.md, "The micromodel experiment"). A syringe pump keeps that
+// rate (the source paper, doi:10.1016/j.powtec.2022.117130; reference-data/
+// micromodel-experiment.toml). A syringe pump keeps that
 // rate only up to its pressure limit, and a chip without an open path from
 // inlet to outlet takes no flow at any pressure. Each fluid solve of the scene
 // gives the pressure drop the set rate needs across the simulated geometry
@@ -11,7 +12,7 @@
 // ends) is stated in Micromodel.hpp.
 //
 // The counts. Retention is retained over injected, the paper's definition
-// ("about 6000 particles injected ... 42.3 % retained", paper-notes.md).
+// (about 6000 particles injected, 42.3 % retained: reference-data/micromodel-experiment.toml).
 // Particles the injection schedule called for that never entered the chip (the
 // pump stalled, or the inlet strip stayed full) are counted apart and are in
 // neither number. retentionInWindow() gives the same ratio for the particles

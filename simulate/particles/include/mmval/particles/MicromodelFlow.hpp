@@ -1,4 +1,4 @@
-// The fluid side of the coupled micromodel scene (issue 6): a pore mask (image
+// The fluid side of the coupled micromodel scene: a pore mask (image
 // pixels, row 0 at the top, y up in metres as simulate::MaskShape has it), its
 // depth-averaged Stokes flow from mmval's own solver (simulate::SteadyFlowSolver,
 // Hele-Shaw friction -12 mu u / h^2 of the chip depth), scaled to a given Darcy

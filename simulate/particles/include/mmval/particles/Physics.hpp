@@ -1,6 +1,6 @@
 // Single-particle hydrodynamics and contact formulas shared by both engines.
-// SI throughout; each formula names its source. Reference values are in
-// ../shared/docs/benchmarks.md ("Particles in a viscous fluid").
+// SI throughout; each formula names its source. The tests in tests/particles
+// check them against the closed forms they come from.
 #pragma once
 
 namespace mmval::particles {
@@ -10,7 +10,7 @@ inline constexpr double kBoltzmann = 1.380649e-23;  ///< J/K (SI 2019, exact)
 
 struct Fluid {
   double viscosity = 1.0e-3;     ///< Pa s (water near 20 C)
-  double density = 998.2;        ///< kg/m3 (water at 20 C; benchmarks.md settling speeds use it)
+  double density = 998.2;        ///< kg/m3 (water at 20 C)
   double temperature = 293.15;   ///< K
 };
 
