@@ -2,6 +2,7 @@
 #include "mmval/particles/KindMetrics.hpp"
 
 #include "CaseScene.hpp"
+#include "checks/PhysicsChecks.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -222,6 +223,7 @@ void registerParticleKinds(CaseKindRegistry& registry) {
   registry.add(micromodelKind());
   registry.add(resolvedKind());
   declareParticleMetrics(registry);
+  checks::registerPhysicsChecks(registry);
 }
 
 void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {

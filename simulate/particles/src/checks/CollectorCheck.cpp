@@ -1,0 +1,7 @@
+#include "PhysicsChecks.hpp"
+
+namespace mmval::particles::checks {
+
+void registerCollectorChecks(CaseKindRegistry& /*registry*/) {}
+
+}  // namespace mmval::particles::checks
