@@ -53,6 +53,7 @@ Vec3 HydroModel::fluidVelocity(const Vec3& x) const {
   if (m_flow->isSolid(x.x(), x.y())) return Vec3::Zero();
   const double h = m_flow->depth(x.x(), x.y()), a = m_radius;
   const Vec2 um = m_flow->meanVelocity(x.x(), x.y());
+  if (!m_cfg.depth_profile) return {um.x(), um.y(), 0.0};
   double profile = poiseuilleProfile(x.z(), h);
   if (m_cfg.faxen_curvature) profile -= 2.0 * a * a / (h * h);  // a^2/6 d2u/dz2 of the parabola
   return {um.x() * profile, um.y() * profile, 0.0};

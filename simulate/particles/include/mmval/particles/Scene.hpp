@@ -61,6 +61,10 @@ struct SceneConfig {
   bool brownian = true;             ///< overdamped engine: Brownian displacements (Stokes-Einstein)
   bool wall_hindrance = true;       ///< Faxen / Brenner corrections from the two plates
   bool faxen_curvature = true;      ///< Faxen's a^2/6 lap(u) term of the depth profile
+  /// The in-plane velocity follows the parabolic Hele-Shaw profile across the depth (a chip).
+  /// false: plane flow, the same velocity at every height (checks against plane-flow theory,
+  /// e.g. collectors in Stokes flow); Faxen's curvature term is then zero.
+  bool depth_profile = true;
   AttachmentModel attachment;
   double outlet_x = std::numeric_limits<double>::quiet_NaN();  ///< m; NaN: the field's x1
   std::uint64_t seed = 1;
