@@ -1,0 +1,1 @@
+#include "mmval/particles/Dlvo.hpp"
