@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "mmval/compare/Compare.hpp"
+#include "mmval/compare/ForeignTracks.hpp"
 #include "mmval/compare/Scene.hpp"
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Error.hpp"
@@ -22,6 +23,8 @@ namespace {
 struct CompareCli {
   std::string experiment, simulation, out;
   double pixel_size_um = 0;
+  std::string experiment_format = "auto", simulation_format = "auto";
+  double fps = 0;
   double immobile_um = 2, stuck_um = 1, stuck_window_s = 2, cell_um = 5;
   int time_bins = 20;
   std::string mask, register_frame, grains = "dark";
@@ -90,8 +93,16 @@ void throwIfAnyMetricFailed(const compare::Comparison& result, const std::string
 }
 
 void runCompare(const CompareCli& c) {
-  const Tracks experiment = readTracksCsv(c.experiment, c.pixel_size_um * kMetresPerMicrometre);
-  const Tracks simulation = readTracksCsv(c.simulation, c.pixel_size_um * kMetresPerMicrometre);
+  compare::TrackImport opts;
+  opts.pixel_size = c.pixel_size_um * kMetresPerMicrometre;
+  opts.fps = c.fps;
+  opts.format = compare::parseTrackFormat(c.experiment_format);
+  const compare::ImportedTracks exp = compare::readTracksAnyFormat(c.experiment, opts);
+  opts.format = compare::parseTrackFormat(c.simulation_format);
+  const compare::ImportedTracks sim = compare::readTracksAnyFormat(c.simulation, opts);
+  std::printf("experiment: %s (%s)\nsimulation: %s (%s)\n", c.experiment.c_str(), exp.note.c_str(), c.simulation.c_str(), sim.note.c_str());
+  const Tracks& experiment = exp.tracks;
+  const Tracks& simulation = sim.tracks;
   const compare::Comparison result = compare::compareScene(experiment, simulation, sceneSpecOf(c), compareOptionsOf(c));
   StagedDirectory staged(c.out);
   compare::writeComparison(result, staged.path());
@@ -125,6 +136,14 @@ void registerReportCommands(CLI::App& app) {
   cmp->add_option("--simulation", c->simulation, "Trajectories CSV from a simulation")->required();
   cmp->add_option("--out", c->out, "Output folder")->required();
   cmp->add_option("--pixel-size-um", c->pixel_size_um, "Pixel size when a file has positions in pixels only");
+  const auto formats = CLI::IsMember({"auto", "mmval", "trackpy", "trackmate"});
+  cmp->add_option("--experiment-format", c->experiment_format,
+                  "Who wrote the experiment file: mmval (tracks.csv), trackpy (a linked DataFrame saved with to_csv; needs --fps and "
+                  "--pixel-size-um), trackmate (its Spots table as CSV), or auto (from the header)")
+      ->check(formats)
+      ->capture_default_str();
+  cmp->add_option("--simulation-format", c->simulation_format, "Who wrote the simulation file (as --experiment-format)")->check(formats)->capture_default_str();
+  cmp->add_option("--fps", c->fps, "Frame rate, for files that store frame numbers rather than times (trackpy; TrackMate without time units)");
   cmp->add_option("--immobile-um", c->immobile_um, "Particles that never move farther than this are immobile (left out)")->capture_default_str();
   cmp->add_option("--stuck-um", c->stuck_um, "A particle moving less than this over its last window is retained")->capture_default_str();
   cmp->add_option("--stuck-window-s", c->stuck_window_s, "Length of that final window")->capture_default_str();

@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "mmval/compare/Compare.hpp"
+#include "mmval/compare/ForeignTracks.hpp"
 #include "mmval/compare/KindMetrics.hpp"
 #include "mmval/compare/Scene.hpp"
 #include "mmval/core/Error.hpp"
@@ -20,6 +21,14 @@ void registerCompareKinds(CaseKindRegistry& registry) {
     s.string("inputs.experiment_run", "Instead of inputs.experiment: a case run earlier in the same validation; its tracks.csv").optional();
     s.string("inputs.simulation_run", "Instead of inputs.simulation: a case run earlier in the same validation; its trajectories.csv").optional();
     s.quantity("inputs.pixel_size", "um", "Pixel size, for files with positions in pixels only").def(0.0).nonNegative();
+    s.choice("inputs.experiment_format", {"auto", "mmval", "trackpy", "trackmate"},
+             "Who wrote inputs.experiment: mmval, trackpy (a linked DataFrame saved with to_csv; needs inputs.fps and inputs.pixel_size), "
+             "trackmate (its Spots table as CSV), or auto (from the header)")
+        .def("auto");
+    s.choice("inputs.simulation_format", {"auto", "mmval", "trackpy", "trackmate"}, "Who wrote inputs.simulation (as inputs.experiment_format)").def("auto");
+    s.quantity("inputs.fps", "Hz", "Frame rate, for files that store frame numbers rather than times (trackpy; TrackMate without time units); 0: none")
+        .def(0.0)
+        .nonNegative();
     s.path("geometry.mask", "Geometry mask image the simulation was built from (enables registration and per-region speeds)").optional();
     s.quantity("geometry.pixel_size", "um", "Size of one mask pixel").optional().positive();
     s.choice("geometry.grains", {"dark", "light"}, "Which pixels of the mask are grains").def("dark");
@@ -81,13 +90,21 @@ void registerCompareKinds(CaseKindRegistry& registry) {
       spec.window = SceneSpec::Window{c.quantity("window.origin_x"), c.quantity("window.origin_y"), c.quantity("window.rotation"), c.quantity("window.pixel_size")};
     }
     spec.region_options.throat_width = c.quantity("regions.throat_width");
-    const Comparison cmp =
-        compareScene(readTracksCsv(fileOrRunFile(c, ctx, "inputs.experiment", "tracks.csv"), px), readTracksCsv(fileOrRunFile(c, ctx, "inputs.simulation", "trajectories.csv"), px), spec, o);
+    TrackImport opts;
+    opts.pixel_size = px;
+    opts.fps = c.quantity("inputs.fps");
+    opts.format = parseTrackFormat(c.text("inputs.experiment_format"));
+    const ImportedTracks exp = readTracksAnyFormat(fileOrRunFile(c, ctx, "inputs.experiment", "tracks.csv"), opts);
+    opts.format = parseTrackFormat(c.text("inputs.simulation_format"));
+    const ImportedTracks sim = readTracksAnyFormat(fileOrRunFile(c, ctx, "inputs.simulation", "trajectories.csv"), opts);
+    const Comparison cmp = compareScene(exp.tracks, sim.tracks, spec, o);
     RunOutput out;
     out.files = writeComparison(cmp, ctx.out_dir);
     out.evaluated = cmp.metrics;
     out.details = cmp.toJson();
     out.details.erase("metrics");
+    out.details["inputs"] = {{"experiment_format", trackFormatName(exp.format)}, {"experiment_note", exp.note},
+                             {"simulation_format", trackFormatName(sim.format)}, {"simulation_note", sim.note}};
     return out;
   };
   registry.add(k);

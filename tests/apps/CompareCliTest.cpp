@@ -109,4 +109,51 @@ TEST(CompareCli, FailedMetricExitsThreeAfterWritingOutputs) {
   EXPECT_NEAR(metricValue(d / "out" / "metrics.json", "mean_speed"), 80.0, 1e-6);
 }
 
+/// The rows of movingRows as trackpy saves a linked DataFrame (index column, y before x,
+/// frame and particle; pixels of 0.5 um, frames 0.1 s apart).
+std::string trackpyRows(const std::vector<std::int64_t>& ids, double speed_um_s) {
+  std::string rows = ",y,x,mass,frame,particle\n";
+  int index = 0;
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    for (int f = 0; f < 20; ++f) rows += fmt::format("{},{:g},{:g},120.5,{},{}\n", index++, 100.0 * i / 0.5, speed_um_s * (i + 1) * 0.1 * f / 0.5, f, ids[i]);
+  return rows;
+}
+
+/// The rows of movingRows as TrackMate 7 exports its Spots table (keys, names, short names, units).
+std::string trackmateRows(const std::vector<std::int64_t>& ids, double speed_um_s) {
+  std::string rows =
+      "LABEL,ID,TRACK_ID,QUALITY,POSITION_X,POSITION_Y,POSITION_Z,POSITION_T,FRAME\n"
+      "Label,Spot ID,Track ID,Quality,X,Y,Z,T,Frame\nLabel,Spot ID,Track ID,Quality,X,Y,Z,T,Frame\n"
+      ",,,(quality),(micron),(micron),(micron),(sec),\n";
+  int spot = 0;
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    for (int f = 0; f < 20; ++f, ++spot)
+      rows += fmt::format("ID{},{},{},1.0,{:g},{:g},0,{:.1f},{}\n", spot, spot, ids[i], speed_um_s * (i + 1) * 0.1 * f, 100.0 * i, 0.1 * f, f);
+  return rows;
+}
+
+TEST(CompareCli, TrackpyAndTrackmateFilesCompareLikeMmvalsOwn) {
+  const fs::path d = scratch("foreign");
+  std::ofstream(d / "exp-trackpy.csv") << trackpyRows({1, 2, 3}, 20);
+  std::ofstream(d / "sim-trackmate.csv") << trackmateRows({7, 8, 9}, 20);
+  const Outcome o = mmval(fmt::format("compare --experiment {} --simulation {} --fps 10 --pixel-size-um 0.5 --out {}", (d / "exp-trackpy.csv").string(),
+                                      (d / "sim-trackmate.csv").string(), (d / "out").string()));
+  EXPECT_EQ(o.status, 0) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("trackpy tracks"));
+  EXPECT_THAT(o.output, HasSubstr("TrackMate spots"));
+  ASSERT_TRUE(fs::exists(d / "out" / "metrics.json")) << o.output;
+  // The same motion in mmval's own schema gives the same metrics.
+  const fs::path ref = scratch("foreign-reference");
+  const Outcome r = compareTexts(ref, movingRows({1, 2, 3}, 20), movingRows({7, 8, 9}, 20));
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const char* metric : {"mean_speed", "median_speed"})
+    EXPECT_NEAR(metricValue(d / "out" / "metrics.json", metric), metricValue(ref / "out" / "metrics.json", metric), 1e-9) << metric;
+  EXPECT_NEAR(metricValue(d / "out" / "metrics.json", "mean_speed"), 40.0, 1e-6);
+  // trackpy without a frame rate: exit 2 naming the flag.
+  const Outcome no_fps = mmval(fmt::format("compare --experiment {} --simulation {} --pixel-size-um 0.5 --out {}", (d / "exp-trackpy.csv").string(),
+                                           (d / "sim-trackmate.csv").string(), (d / "out2").string()));
+  EXPECT_EQ(no_fps.status, 2) << no_fps.output;
+  EXPECT_THAT(no_fps.output, HasSubstr("--fps"));
+}
+
 }  // namespace
