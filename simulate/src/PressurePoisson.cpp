@@ -4,8 +4,10 @@
 #include <stdexcept>
 #include <vector>
 
+#include <fmt/format.h>
 #include <petscksp.h>
 
+#include "mmval/core/Error.hpp"
 #include "mmval/simulate/Petsc.hpp"
 
 namespace mmval::simulate {
@@ -107,7 +109,7 @@ Eigen::ArrayXXd PressurePoisson::solve(const Eigen::ArrayXXd& f) {
   KSPSolve(m->ksp, m->b, m->s);
   KSPConvergedReason reason;
   KSPGetConvergedReason(m->ksp, &reason);
-  if (reason < 0) throw std::runtime_error("pressure Poisson solve did not converge");
+  if (reason < 0) throw NumericalFailure(fmt::format("the pressure Poisson solve did not converge ({})", KSPConvergedReasons[reason]), "", "a finer or smoother source, or a looser tolerance");
   PetscInt its = 0;
   KSPGetIterationNumber(m->ksp, &its);
   m->stats.iterations = static_cast<int>(its);

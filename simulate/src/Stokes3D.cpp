@@ -11,6 +11,7 @@
 #include <petscksp.h>
 
 #include "SolverUtil.hpp"
+#include "mmval/core/Error.hpp"
 #include "mmval/simulate/Petsc.hpp"
 
 namespace mmval::simulate {
@@ -322,7 +323,8 @@ struct Stokes3DSolver::Impl {
       KSPGetIterationNumber(ksp, &its);
       st.iterations = static_cast<int>(its);
       if (reason < 0)
-        throw std::runtime_error(fmt::format("the 3D Stokes solve did not converge ({} after {} FGMRES iterations)", KSPConvergedReasons[reason], its));
+        throw NumericalFailure(fmt::format("the 3D Stokes solve did not converge ({} after {} FGMRES iterations)", KSPConvergedReasons[reason], its),
+                               "numerics.schur_3d", "another Schur-complement preconditioner (lsc, selfp, mass), or fewer cells (numerics.cells_per_pixel_3d)");
       gather(xs);
       st.solve_seconds = secondsSince(t0);
     } catch (...) {
