@@ -674,6 +674,7 @@ void Case::set(std::string_view key, Value v) {
   const KeyDecl* d = m_schema->find(key);
   if (d == nullptr) throw std::logic_error("case kind '" + m_kind + "' declares no key '" + std::string(key) + "'");
   if (const double* x = std::get_if<double>(&v)) {
+    if (!std::isfinite(*x)) throw InputError(where(key), "not a finite number", fmt::format("{:g}", *x), "a finite value");
     if ((d->min && *x < *d->min) || (d->max && *x > *d->max))
       throw InputError(where(key), "value out of range", fmt::format("{:g}", *x), "within the declared range");
   }

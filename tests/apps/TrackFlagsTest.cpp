@@ -162,6 +162,12 @@ TEST(TrackFlags, BadValuesAreInputErrorsNamingTheFlag) {
     EXPECT_EQ(o.status, 2) << args << "\n" << o.output;
     for (const auto& n : names) EXPECT_THAT(o.output, HasSubstr(n)) << args;
   }
+  // NaN is not a frame rate (Case::set refuses a non-finite number too, behind this check).
+  const Outcome nan_fps =
+      runMmval(fmt::format("track {} --out {} --pixel-size-um 1 --fps nan --quiet", (kData / "frames").string(), (out / "run-nan").string()));
+  EXPECT_EQ(nan_fps.status, 2) << nan_fps.output;
+  EXPECT_THAT(nan_fps.output, HasSubstr("--fps"));
+  EXPECT_THAT(nan_fps.output, HasSubstr("finite"));
 }
 
 }  // namespace
