@@ -151,7 +151,9 @@ void registerReportCommands(CLI::App& app) {
   cmp->add_option("--time-bins", c->time_bins, "Bins of the time series")->capture_default_str();
   cmp->add_option("--mask,--register-mask", c->mask, "Geometry mask the simulation was built from: per-region speeds, and the target of --register-frame");
   cmp->add_option("--mask-pixel-size-um", c->mask_pixel_size_um, "Size of one mask pixel");
-  cmp->add_option("--mask-grains", c->grains, "Grains are the dark or light pixels of the mask")->check(CLI::IsMember({"dark", "light"}))->capture_default_str();
+  cmp->add_option("--mask-grains", c->grains, "Grains are the dark or bright pixels of the mask (\"light\" is an older spelling of \"bright\")")
+      ->check(CLI::IsMember({"dark", "bright", "light"}))
+      ->capture_default_str();
   cmp->add_flag("--mask-y-down", c->y_down, "Simulation y runs down the image from its upper-left corner (default: up from the lower-left, as mmval's solver)");
   cmp->add_option("--register-frame", c->register_frame, "First video frame or the tracker's background image: registered to the mask (OpenCV ECC) to put the experiment in the simulation frame");
   cmp->add_option("--frame-pixel-size-um", c->frame_pixel_size_um, "Camera pixel size (default: from the experiment tracks)");
