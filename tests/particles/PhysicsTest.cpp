@@ -4,7 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <stdexcept>
 
+#include "mmval/core/DataPaths.hpp"
+#include "mmval/core/ReferenceData.hpp"
 #include "mmval/particles/Physics.hpp"
 
 namespace mmval::particles {
@@ -56,6 +59,108 @@ TEST(Physics, BrennerPerpendicularMatchesTabulatedValues) {
   EXPECT_NEAR(brennerPerpendicular(1.0, 10.0), 1.126, 5e-4);
   // Far field: method of reflections 1 / (1 - 9/8 a/h) + O((a/h)^3)
   EXPECT_NEAR(brennerPerpendicular(1.0, 1000.0), 1.0 / (1.0 - 9.0 / 8000.0), 1e-8);
+}
+
+// Goldman, Cox & Brenner's (1967) exact tables (reference-data/goldman-cox-brenner.toml).
+const ReferenceFile& gcb() { return loadReferenceFile(referenceDataDirectory() / "goldman-cox-brenner.toml"); }
+double gcbRow(const std::string& quantity, double h_over_a) {
+  const auto rows = gcb().find(quantity, AtMap{{"h_over_a", h_over_a}});
+  EXPECT_EQ(rows.size(), 1u) << quantity << " at " << h_over_a;
+  return rows.empty() ? 0.0 : *rows.front()->value;
+}
+constexpr double kGcbHeights[] = {10.0677, 3.7622, 2.3524, 1.5431, 1.1276, 1.0453, 1.005004, 1.003202};
+
+// The parallel drag of a sphere free to rotate against the table (torque-free value
+// derived from GCB I's resistances): the join of lubrication and Faxen is within 1.1 %
+// (at h/a = 1.1276), so 1.2 %; Faxen alone is 23 % low near contact.
+TEST(Physics, FreeSphereParallelDragMatchesGoldmanCoxBrenner) {
+  for (const double s : kGcbHeights) {
+    const double ref = gcbRow("lambda_free", s);
+    EXPECT_NEAR(freeSphereParallel(1.0, s), ref, 0.012 * ref) << "h/a = " << s;
+  }
+  EXPECT_LT(faxenParallel(1.0, 1.003202), 0.8 * gcbRow("lambda_free", 1.003202));
+  // Beyond a gap of one radius it is Faxen's series exactly; below 0.01 a the lubrication
+  // forms exactly: GCB I's F_t, T_t, T_r at delta/a = 1e-3, combined by hand.
+  EXPECT_DOUBLE_EQ(freeSphereParallel(1.0, 2.0), faxenParallel(1.0, 2.0));
+  EXPECT_DOUBLE_EQ(freeSphereParallel(1.0, 5.0), faxenParallel(1.0, 5.0));
+  const double L = std::log(1e3);
+  const double f_t = 8.0 / 15.0 * L + 0.9588, t_t = L / 10.0 - 0.1895, t_r = 0.4 * L + 0.3817;
+  EXPECT_NEAR(freeSphereParallel(1.0, 1.001), f_t - 4.0 / 3.0 * t_t * t_t / t_r, 1e-12);
+  EXPECT_THROW(freeSphereParallel(1.0, 1.0), std::invalid_argument);
+}
+
+// Smooth, monotone join: on 4000 log-spaced gaps from 1e-4 a to 100 a the drag factor falls
+// strictly, and neighbouring samples (0.15 % apart in gap) differ by < 0.5 % (no kink or step).
+TEST(Physics, ParallelDragJoinIsMonotoneAndSmooth) {
+  double prev = freeSphereParallel(1.0, 1.0 + 1e-4);
+  for (int k = 1; k <= 4000; ++k) {
+    const double gap = std::pow(10.0, -4.0 + 6.0 * k / 4000.0), lam = freeSphereParallel(1.0, 1.0 + gap);
+    ASSERT_LT(lam, prev) << "gap/a = " << gap;
+    ASSERT_LT((prev - lam) / lam, 5e-3) << "gap/a = " << gap;
+    prev = lam;
+  }
+  EXPECT_DOUBLE_EQ(nearContactWeight(1.0, 1.005), 1.0);
+  EXPECT_DOUBLE_EQ(nearContactWeight(1.0, 2.5), 0.0);
+  EXPECT_NEAR(nearContactWeight(1.0, 1.1), 0.5, 1e-12);  // ln-midpoint of [0.01, 1]
+}
+
+// Free sphere in shear against the table (values derived from GCB's resistances by the
+// force and torque balance): velocity within 1.0 %, rotation within 2.5 %, so 1.2 % and 3 %.
+TEST(Physics, FreeSphereInShearMatchesGoldmanCoxBrenner) {
+  for (const double s : kGcbHeights) {
+    const auto r = freeSphereInShear(1.0, s);
+    const double u = gcbRow("U_over_gamma_h", s), om = gcbRow("Omega_over_gamma", s);
+    EXPECT_NEAR(r.velocity, u, 0.012 * u) << "h/a = " << s;
+    EXPECT_NEAR(r.rotation, om, 0.03 * om) << "h/a = " << s;
+  }
+  // Far away: Faxen / GCB II's method of reflections exactly.
+  EXPECT_DOUBLE_EQ(freeSphereInShear(1.0, 4.0).velocity, 1.0 - 5.0 / 16.0 / 64.0);
+  EXPECT_DOUBLE_EQ(freeSphereInShear(1.0, 4.0).rotation, 0.5 * (1.0 - 5.0 / 16.0 / 64.0));
+  EXPECT_THROW(freeSphereInShear(1.0, 0.9), std::invalid_argument);
+}
+
+// Near contact the model tends to GCB II's leading-order asymptote U/(gamma a) ~
+// 0.7431 / (0.6376 - 0.2 ln(delta/a)); the terms it keeps beyond that order shrink
+// like 1/ln(a/delta): 9 % away at delta/a = 1e-3, < 3 % at 1e-12.
+TEST(Physics, FreeSphereInShearTendsToGcbAsymptote) {
+  const auto ratio = [](double gap) {
+    return freeSphereInShear(1.0, 1.0 + gap).velocity * (1.0 + gap) / (0.7431 / (0.6376 - 0.2 * std::log(gap)));
+  };
+  EXPECT_GT(ratio(1e-3), ratio(1e-6));
+  EXPECT_GT(ratio(1e-6), ratio(1e-12));
+  EXPECT_NEAR(ratio(1e-12), 1.0, 0.03);
+  EXPECT_NEAR(ratio(1e-3), 1.0, 0.1);
+}
+
+// A sphere further from the wall moves faster (U = gamma z f rises with z) and turns faster.
+TEST(Physics, FreeSphereInShearIsMonotoneInHeight) {
+  double u_prev = 0, om_prev = 0;
+  for (int k = 0; k <= 4000; ++k) {
+    const double z = 1.0 + std::pow(10.0, -4.0 + 6.0 * k / 4000.0);
+    const auto r = freeSphereInShear(1.0, z);
+    ASSERT_GT(r.velocity * z, u_prev) << "z/a = " << z;
+    ASSERT_GT(r.rotation, om_prev) << "z/a = " << z;
+    u_prev = r.velocity * z;
+    om_prev = r.rotation;
+  }
+}
+
+// The slit's lag is symmetric about the mid-plane; its depth average (Gauss-Legendre on
+// graded panels) agrees with a 2e5-point midpoint rule to 1e-5 u_mean; without the lag the
+// closed form (6 s (1 - s) averaged over [a/h, 1 - a/h], minus Faxen's 2 a^2/h^2).
+TEST(Physics, SlitLagIsSymmetricAndItsDepthAverageConverges) {
+  const double a = 2.5e-6, h = 20e-6;
+  EXPECT_NEAR(slitShearLag(a, 4e-6, h), slitShearLag(a, h - 4e-6, h), 1e-15);
+  EXPECT_LT(slitShearLag(a, 1.01 * a, h), slitShearLag(a, 0.5 * h, h));
+  const int n = 200000;
+  double sum = 0;
+  for (int i = 0; i < n; ++i) sum += slitShearLag(a, a + (i + 0.5) * (h - 2 * a) / n, h);
+  const double s0 = a / h, s1 = 1 - s0;
+  const double plain = (3 * (s1 * s1 - s0 * s0) - 2 * (s1 * s1 * s1 - s0 * s0 * s0)) / (s1 - s0);
+  EXPECT_NEAR(slitMeanParticleSpeed(a, h, false, false), plain, 1e-12);
+  EXPECT_NEAR(slitMeanParticleSpeed(a, h, true, false), plain - 2 * s0 * s0, 1e-12);
+  EXPECT_NEAR(slitMeanParticleSpeed(a, h, true, true), plain - 2 * s0 * s0 + sum / n, 1e-5);
+  EXPECT_THROW(slitMeanParticleSpeed(a, 2 * a, true, true), std::invalid_argument);
 }
 
 TEST(Physics, HertzContactTimeFormulaAndRayleighStep) {

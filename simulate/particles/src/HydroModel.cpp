@@ -16,6 +16,7 @@ constexpr int kTable = 801;
 // Gaps below this fraction of the radius are evaluated at it: the factor is
 // ~1000 there, and a smaller floor only makes a non-sticky wall a trap.
 constexpr double kMinGapFraction = 1e-3;
+
 }  // namespace
 
 HydroModel::HydroModel(std::shared_ptr<const FlowField> flow, const SceneConfig& config) : m_flow(std::move(flow)), m_cfg(config) {
@@ -23,6 +24,9 @@ HydroModel::HydroModel(std::shared_ptr<const FlowField> flow, const SceneConfig&
   m_radius = m_cfg.particle.radius();
   m_drag0 = stokesDragCoefficient(m_cfg.fluid, m_cfg.particle.diameter);
   m_diffusivity = stokesEinstein(m_cfg.fluid, m_cfg.particle.diameter);
+  // No wall hydrodynamics at all without wall_hindrance (a point particle): no lag either.
+  m_near_wall_shear = m_cfg.wall_hindrance && m_cfg.near_wall_shear;
+  m_near_contact_drag = m_cfg.near_contact_drag;
   m_perp_table.resize(kTable);
   for (int i = 0; i < kTable; ++i) {
     const double g = std::exp(kLogGapMin + (kLogGapMax - kLogGapMin) * i / (kTable - 1));
@@ -44,9 +48,17 @@ std::pair<double, double> HydroModel::hindrance(double z, double h) const {
   if (!m_cfg.wall_hindrance) return {1.0, 1.0};
   const double a = m_radius, floor = a * kMinGapFraction;
   const double g_b = std::max(z - a, floor), g_t = std::max(h - z - a, floor);
-  const double par = 1.0 + (faxenParallel(a, a + g_b) - 1.0) + (faxenParallel(a, a + g_t) - 1.0);
+  const auto parallel = [&](double gap) { return m_near_contact_drag ? freeSphereParallel(a, a + gap) : faxenParallel(a, a + gap); };
+  const double par = 1.0 + (parallel(g_b) - 1.0) + (parallel(g_t) - 1.0);
   const double perp = 1.0 + (perpendicularFactor(g_b) - 1.0) + (perpendicularFactor(g_t) - 1.0);
   return {par, perp};
+}
+
+double HydroModel::normalHindrance(double z, double h) const {
+  if (!m_cfg.wall_hindrance) return 1.0;
+  const double a = m_radius, floor = a * kMinGapFraction;
+  const double g_b = std::max(z - a, floor), g_t = std::max(h - z - a, floor);
+  return 1.0 + (perpendicularFactor(g_b) - 1.0) + (perpendicularFactor(g_t) - 1.0);
 }
 
 Vec3 HydroModel::fluidVelocity(const Vec3& x) const {
@@ -57,6 +69,13 @@ Vec3 HydroModel::fluidVelocity(const Vec3& x) const {
   double profile = poiseuilleProfile(x.z(), h);
   if (m_cfg.faxen_curvature) profile -= 2.0 * a * a / (h * h);  // a^2/6 d2u/dz2 of the parabola
   return {um.x() * profile, um.y() * profile, 0.0};
+}
+
+Vec3 HydroModel::shearLag(const Vec3& x) const {
+  if (!m_near_wall_shear || !m_cfg.depth_profile || m_flow->isSolid(x.x(), x.y())) return Vec3::Zero();
+  const double f = slitShearLag(m_radius, x.z(), m_flow->depth(x.x(), x.y()));
+  const Vec2 um = m_flow->meanVelocity(x.x(), x.y());
+  return {um.x() * f, um.y() * f, 0.0};
 }
 
 Vec3 HydroModel::force(const Vec3& x) const {

@@ -16,6 +16,7 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Resources.hpp"
 #include "mmval/core/Tracks.hpp"
+#include "mmval/core/VtkWriter.hpp"
 #include "mmval/particles/EngineFactory.hpp"
 #include "mmval/particles/Micromodel.hpp"
 #include "mmval/particles/SceneSelection.hpp"
@@ -70,14 +71,6 @@ SceneConfig sceneFromCase(const Case& c, const EngineChoice& choice, const std::
   s.rayleigh_fraction = c.real("numerics.rayleigh_fraction");
   s.work_dir = work_dir;
   return s;
-}
-
-/// Mean of 6 s (1 - s) over s in [a/h, 1 - a/h], minus Faxen's 2 a^2/h^2: the mean
-/// speed (in units of u_mean) of particles spread evenly across the accessible depth.
-double uniformDepthSpeedFactor(double a, double h, bool faxen) {
-  const double s0 = a / h, s1 = 1 - a / h;
-  const auto F = [](double s) { return 3 * s * s - 2 * s * s * s; };
-  return (F(s1) - F(s0)) / (s1 - s0) - (faxen ? 2 * s0 * s0 : 0.0);
 }
 
 RunOutput runChannel(const Case& c, const RunContext& ctx) {
@@ -170,6 +163,9 @@ RunOutput runChannel(const Case& c, const RunContext& ctx) {
     return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
   });
   writeTracksCsv(ctx.out_dir / "trajectories.csv", traj, pixel);
+  // The particles as a .vtp series (docs/outputs.md): the channel's own frame, metres.
+  const std::vector<std::string> particle_series = vtk::writeParticleSeries(
+      ctx.out_dir, "particles", traj, [](const TrackPoint& q) { return std::array<double, 3>{q.x, q.y, std::isfinite(q.z) ? q.z : 0.0}; });
   writeFileAtomic(ctx.out_dir / "retention.csv", retention.str());
 
   const Counts n = engine->counts();
@@ -177,6 +173,7 @@ RunOutput runChannel(const Case& c, const RunContext& ctx) {
   const EngineStats st = engine->stats();
   RunOutput out;
   out.files = {"trajectories.csv", "retention.csv"};
+  if (!particle_series.empty()) out.files.push_back(particle_series.back());  // particles.pvd stands for its snapshots
   out.metrics["retained_fraction"] = n.injected ? static_cast<double>(n.deposited) / n.injected : 0.0;
   out.metrics["left_fraction"] = n.injected ? static_cast<double>(n.left) / n.injected : 0.0;
   out.metrics["injected"] = static_cast<double>(n.injected);
@@ -187,7 +184,7 @@ RunOutput runChannel(const Case& c, const RunContext& ctx) {
   const double mean_speed = speed_n ? speed_sum / speed_n : 0.0;
   out.metrics["mean_speed"] = mean_speed;
   out.units["mean_speed"] = "um/s";
-  const double factor = uniformDepthSpeedFactor(0.5 * d, h, scene.faxen_curvature);
+  const double factor = slitMeanParticleSpeed(0.5 * d, h, scene.faxen_curvature, scene.wall_hindrance && scene.near_wall_shear);
   out.metrics["mean_speed_ratio"] = U > 0 ? mean_speed / (U * factor) : 0.0;
   out.metrics["particle_steps_per_second"] = wall > 0 ? static_cast<double>(st.particle_steps) / wall : 0.0;
   out.units["particle_steps_per_second"] = "Hz";
@@ -206,7 +203,7 @@ RunOutput runChannel(const Case& c, const RunContext& ctx) {
       {"u_mean_m_s", U},
       {"depth_factor", factor},
       {"meaning", "mean_speed_ratio = measured mean x-speed of mobile particles / (u_mean x mean of the depth profile over the "
-                  "accessible heights [a, h - a], minus Faxen 2 a^2/h^2): 1 for particles spread evenly across the depth"}};
+                  "accessible heights [a, h - a], minus Faxen 2 a^2/h^2, plus the plates' shear lag (Goldman-Cox-Brenner)): 1 for particles spread evenly across the depth"}};
   return out;
 }
 
@@ -231,6 +228,12 @@ void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {
   s.choice("physics.brownian", {"auto", "on", "off"}, "Brownian motion (overdamped engine); auto follows the Peclet numbers").def("auto");
   s.boolean("physics.wall_hindrance", "Faxen / Brenner drag corrections from the plates").def(true);
   s.boolean("physics.faxen_curvature", "Faxen's a^2/6 lap(u) term of the depth profile").def(true);
+  s.boolean("physics.near_wall_shear",
+            "A free sphere near a plate lags the wall shear of the depth profile (Goldman, Cox & Brenner 1967); false: it moves with the fluid at its centre")
+      .def(true);
+  s.boolean("physics.near_contact_drag",
+            "Parallel drag near the plates of a sphere free to rotate: Goldman-Cox-Brenner lubrication joined to Faxen's series; false: Faxen's series alone")
+      .def(true);
   s.quantity("deposition.capture_distance", "um", "Surface gap at which a particle attaches to a sticky surface (0: never)").def("0.1 um").nonNegative();
   s.boolean("deposition.bottom", "The bottom plate is sticky").def(true);
   s.boolean("deposition.top", "The top plate is sticky").def(false);
@@ -279,6 +282,8 @@ void physicsAndDepositionFromCase(const Case& c, const EngineChoice& choice, Sce
   s.brownian = b == "auto" ? choice.brownian : b == "on";
   s.wall_hindrance = c.flag("physics.wall_hindrance");
   s.faxen_curvature = c.flag("physics.faxen_curvature");
+  s.near_wall_shear = c.flag("physics.near_wall_shear");
+  s.near_contact_drag = c.flag("physics.near_contact_drag");
   s.attachment.capture_distance = c.quantity("deposition.capture_distance");
   s.attachment.bottom = c.flag("deposition.bottom");
   s.attachment.top = c.flag("deposition.top");

@@ -145,7 +145,7 @@ void LiggghtsEngine::applyFluidForces(long long ntimestep, int nlocal, int* tag,
       }
       continue;
     }
-    const Vec3 u = m_model.fluidVelocity(xi);
+    const Vec3 u = m_model.fluidVelocity(xi) + m_model.shearLag(xi);  // the free sphere's velocity near a plate (Goldman, Cox & Brenner)
     const Vec3 fb = m_model.force(xi);
     const double h = flow.depth(xi.x(), xi.y());
     const auto [par, perp] = m_model.hindrance(xi.z(), h);

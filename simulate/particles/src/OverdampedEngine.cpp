@@ -40,12 +40,12 @@ Vec3 OverdampedEngine::driftVelocity(const Vec3& x) const {
   const double h = m_flow->depth(x.x(), x.y()), a = m_radius, g0 = m_model.drag0();
   const auto [par, perp] = m_model.hindrance(x.z(), h);
   const Vec3 f = m_model.force(x);
-  Vec3 v = m_model.fluidVelocity(x) + Vec3(f.x() / (g0 * par), f.y() / (g0 * par), f.z() / (g0 * perp));
+  Vec3 v = m_model.fluidVelocity(x) + m_model.shearLag(x) + Vec3(f.x() / (g0 * par), f.y() / (g0 * par), f.z() / (g0 * perp));
   if (m_cfg.brownian && m_cfg.wall_hindrance) {
     // Ito drift k_B T d(1/(6 pi mu a lambda_perp))/dz keeps the equilibrium distribution right.
     const double e = 1e-3 * a;
     const double zm = std::max(x.z() - e, a), zp = std::min(x.z() + e, h - a);
-    if (zp > zm) v.z() += m_model.diffusivity() * (1.0 / m_model.hindrance(zp, h).second - 1.0 / m_model.hindrance(zm, h).second) / (zp - zm);
+    if (zp > zm) v.z() += m_model.diffusivity() * (1.0 / m_model.normalHindrance(zp, h) - 1.0 / m_model.normalHindrance(zm, h)) / (zp - zm);
   }
   return v;
 }
@@ -385,6 +385,10 @@ nlohmann::json OverdampedEngine::describe() const {
           {"brownian", c.brownian},
           {"wall_hindrance", c.wall_hindrance},
           {"faxen_curvature", c.faxen_curvature},
+          {"parallel_drag", !c.wall_hindrance             ? "none (Stokes)"
+                            : m_model.nearContactDrag() ? "Goldman-Cox-Brenner lubrication joined to Faxen (free to rotate)"
+                                                        : "Faxen series"},
+          {"near_wall_shear_lag", m_model.nearWallShear()},
           {"capture_distance_um", c.attachment.capture_distance * 1e6},
           {"hamaker_J", c.attachment.hamaker},
           {"plate_attachment", c.attachment.torque_balance ? "torque balance (GCB shear vs DMT adhesion)" : "capture distance"},

@@ -242,8 +242,8 @@ template <class Config>
 void pointParticleHydrodynamics(Config& c) {
   c.wall_hindrance = false;
   c.faxen_curvature = false;
-  if constexpr (requires { c.near_wall_shear; }) c.near_wall_shear = false;
-  if constexpr (requires { c.near_contact_drag; }) c.near_contact_drag = false;
+  c.near_wall_shear = false;
+  c.near_contact_drag = false;
 }
 
 double cubicF(double s) { return 3 * s * s - 2 * s * s * s; }

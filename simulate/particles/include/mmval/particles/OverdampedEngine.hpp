@@ -1,11 +1,16 @@
 // The overdamped colloid engine (ours): for Stokes numbers << 1 a particle's
 // inertia relaxes in tau_p (~1.5 us for 5 um polystyrene), far below any time
 // that matters, so its velocity is the force balance
-//   v = u_f(x, z) + M(z) F + Brownian,                  (Ermak & McCammon 1978)
+//   v = u_f(x, z) + u_lag(x, z) + M(z) F + Brownian,    (Ermak & McCammon 1978)
 //   u_f = u_mean(x, y) [6 z (h - z) / h^2 - 2 a^2 / h^2]  (depth profile + Faxen's a^2/6 lap u)
-//   M = diag(1/lambda_par, 1/lambda_par, 1/lambda_perp) / (6 pi mu a)   (Faxen, Brenner; two plates)
+//   u_lag: a free sphere's lag behind the shear near each plate (Goldman, Cox &
+//          Brenner 1967; HydroModel::shearLag, the plates superposed)
+//   M = diag(1/lambda_par, 1/lambda_par, 1/lambda_perp) / (6 pi mu a)
+//       (Goldman-Cox-Brenner joined to Faxen for a sphere free to rotate, Brenner; two plates)
 //   F = gravity - buoyancy along -z + van der Waals attraction to sticky surfaces
 //   dx_B = sqrt(2 D dt) xi with D = k_B T M, plus the drift k_B T dM/dz (Ito).
+//   Only M_zz depends on z in a way the drift sees (M_xx depends on z, not x), so the
+//   drift is k_B T d(1/lambda_perp)/dz / (6 pi mu a) alone, unchanged by the parallel model.
 // Contacts are hard: after each step overlaps with other particles, the plates
 // and grains are removed by moving particles apart along the line of centres
 // (Heyes & Melrose 1993, J. Non-Newtonian Fluid Mech. 46:1), so no contact
@@ -18,8 +23,8 @@
 // distance, or that would have penetrated it, deposits and stays; on the plates
 // optionally only when the adhesive torque holds against the shear's
 // (AttachmentModel::torque_balance, HydroModel::plateAdhesionHolds).
-// Not modelled: the near-wall lag of a sphere in shear (Goldman, Cox & Brenner
-// 1967) beyond Faxen's far-field terms, in-plane hindrance by grains,
+// Not modelled: the wall correction of the lag for the parabola's curvature (the
+// lag is that of the wall's linear shear), in-plane hindrance by grains,
 // hydrodynamic interactions between particles, re-entrainment.
 #pragma once
 #include <memory>

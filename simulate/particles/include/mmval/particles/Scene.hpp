@@ -61,6 +61,12 @@ struct SceneConfig {
   bool brownian = true;             ///< overdamped engine: Brownian displacements (Stokes-Einstein)
   bool wall_hindrance = true;       ///< Faxen / Brenner corrections from the two plates
   bool faxen_curvature = true;      ///< Faxen's a^2/6 lap(u) term of the depth profile
+  /// Overdamped engine: a free sphere near a plate lags the wall shear of the depth profile
+  /// (Goldman, Cox & Brenner 1967; HydroModel::shearLag). false: it moves with the fluid at its centre.
+  bool near_wall_shear = true;
+  /// Parallel drag near the plates of a sphere free to rotate: Goldman-Cox-Brenner lubrication
+  /// joined to Faxen's series (Physics.hpp, freeSphereParallel). false: Faxen's series alone.
+  bool near_contact_drag = true;
   /// The in-plane velocity follows the parabolic Hele-Shaw profile across the depth (a chip).
   /// false: plane flow, the same velocity at every height (checks against plane-flow theory,
   /// e.g. collectors in Stokes flow); Faxen's curvature term is then zero.
