@@ -12,6 +12,7 @@
 
 #include <fmt/format.h>
 
+#include "mmval/core/VtkWriter.hpp"
 #include "mmval/reports/InputFiles.hpp"
 #include "mmval/reports/Summary.hpp"
 
@@ -146,33 +147,20 @@ std::string colourBarHtml(double lo, double hi, const std::string& unit, const s
 double maxSpeedOfVtr(const fs::path& vtr) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   if (!fs::exists(vtr)) return nan;
-  std::string text;
+  std::vector<double> u;
+  int comps = 3;
   try {
-    text = readInputFile(vtr);
+    u = mmval::vtk::readArray(vtr, "U", &comps);
   } catch (const std::exception&) {
     return nan;
   }
-  const auto at = text.find("Name=\"U\"");
-  if (at == std::string::npos) return nan;
-  const auto open = text.rfind("<DataArray", at);
-  const auto body = text.find('>', at);
-  const auto close = text.find("</DataArray>", body);
-  if (open == std::string::npos || body == std::string::npos || close == std::string::npos) return nan;
-  const std::string tag = text.substr(open, body - open);
-  if (tag.find("format=\"ascii\"") == std::string::npos) return nan;
-  int comps = 3;
-  std::smatch m;
-  if (std::regex_search(tag, m, std::regex("NumberOfComponents=\"(\\d+)\""))) comps = std::stoi(m[1]);
-  std::istringstream in(text.substr(body + 1, close - body - 1));
-  double best = 0, sum = 0, x = 0;
-  int k = 0;
-  while (in >> x) {
-    sum += x * x;
-    if (++k == comps) {
-      best = std::max(best, std::sqrt(sum));
-      sum = 0;
-      k = 0;
-    }
+  if (comps < 1) return nan;
+  const auto n = static_cast<std::size_t>(comps);
+  double best = 0;
+  for (std::size_t k = 0; k + n <= u.size(); k += n) {
+    double sum = 0;
+    for (std::size_t c = 0; c < n; ++c) sum += u[k + c] * u[k + c];
+    best = std::max(best, std::sqrt(sum));
   }
   return best;
 }
@@ -320,3 +308,4 @@ std::vector<std::string> brokenLinks(const fs::path& dir) {
 }
 
 }  // namespace mmval::reports
+

@@ -2,23 +2,17 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/VtkWriter.hpp"
 
 namespace mmval::simulate {
 
 namespace {
-
-void axisArray(std::ostringstream& o, const Axis& a, const char* name) {
-  o << "<DataArray type=\"Float64\" Name=\"" << name << "\" format=\"ascii\">";
-  for (double f : a.faces()) o << f << ' ';
-  o << "</DataArray>\n";
-}
 
 void writePng(const cv::Mat& img, const std::filesystem::path& file) {
   std::vector<unsigned char> buf;
@@ -50,28 +44,27 @@ Snapshot snapshot(const ResolvedStokes& s) {
   return {s.problem(), static_cast<int>(p.cols()), static_cast<int>(p.rows()), p, s.cellVelocity(0), s.cellVelocity(1), s.cellSolidFraction()};
 }
 
-void writeVtrOf(const Snapshot& s, const std::filesystem::path& file) {
-  const FlowProblem& pr = s.pr;
-  const int nx = s.nx, ny = s.ny;
-  const Eigen::ArrayXXd &ux = s.ux, &uy = s.uy, &chi = s.chi;
-  std::ostringstream o;
-  o.precision(10);
-  o << "<?xml version=\"1.0\"?>\n<VTKFile type=\"RectilinearGrid\" version=\"0.1\" byte_order=\"LittleEndian\">\n";
-  o << "<RectilinearGrid WholeExtent=\"0 " << nx << " 0 " << ny << " 0 0\">\n<Piece Extent=\"0 " << nx << " 0 " << ny << " 0 0\">\n";
-  o << "<CellData Scalars=\"p\" Vectors=\"U\">\n<DataArray type=\"Float64\" Name=\"p\" format=\"ascii\">";
-  for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) o << s.p(j, i) << ' ';
-  o << "</DataArray>\n<DataArray type=\"Float64\" Name=\"U\" NumberOfComponents=\"3\" format=\"ascii\">";
-  for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) o << ux(j, i) << ' ' << uy(j, i) << " 0 ";
-  o << "</DataArray>\n<DataArray type=\"Float64\" Name=\"solid_fraction\" format=\"ascii\">";
-  for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) o << chi(j, i) << ' ';
-  o << "</DataArray>\n</CellData>\n<Coordinates>\n";
-  axisArray(o, pr.x, "x");
-  axisArray(o, pr.y, "y");
-  o << "<DataArray type=\"Float64\" Name=\"z\" format=\"ascii\">0</DataArray>\n</Coordinates>\n</Piece>\n</RectilinearGrid>\n</VTKFile>\n";
-  writeFileAtomic(file, o.str());
+/// Cells ordered x fastest, then y (then z): VTK's order for cell data.
+std::vector<double> cellOrder(const Eigen::ArrayXXd& a) {
+  std::vector<double> v;
+  v.reserve(static_cast<std::size_t>(a.size()));
+  for (Eigen::Index j = 0; j < a.rows(); ++j)
+    for (Eigen::Index i = 0; i < a.cols(); ++i) v.push_back(a(j, i));
+  return v;
+}
+
+void writeVtrOf(const Snapshot& s, const std::filesystem::path& file, double time_s) {
+  vtk::RectilinearGrid g;
+  g.x = s.pr.x.faces();
+  g.y = s.pr.y.faces();
+  g.z = {0.0};
+  std::vector<double> u;
+  u.reserve(3 * static_cast<std::size_t>(s.nx) * s.ny);
+  for (int j = 0; j < s.ny; ++j)
+    for (int i = 0; i < s.nx; ++i) u.insert(u.end(), {s.ux(j, i), s.uy(j, i), 0.0});
+  g.cell_data = {vtk::Array::float64("p", "Pa", 1, cellOrder(s.p)), vtk::Array::float64("U", "m/s", 3, u),
+                 vtk::Array::float32("solid", "1", 1, cellOrder(s.chi))};
+  vtk::writeVtr(file, g, time_s);
 }
 
 void writeSpeedPngOf(const Snapshot& s, const std::filesystem::path& file, int max_pixels, const std::vector<std::vector<Eigen::Vector2d>>& paths = {}) {
@@ -124,36 +117,34 @@ bool solidCell3d(const Stokes3DSolver& s, int i, int j) {
 void writeVtr(const Stokes3DSolver& s, const std::filesystem::path& file) {
   const auto& pr = s.problem();
   const int nx = pr.nx, ny = pr.ny, nz = pr.nz;
-  std::ostringstream o;
-  o.precision(8);
-  o << "<?xml version=\"1.0\"?>\n<VTKFile type=\"RectilinearGrid\" version=\"0.1\" byte_order=\"LittleEndian\">\n";
-  o << "<RectilinearGrid WholeExtent=\"0 " << nx << " 0 " << ny << " 0 " << nz << "\">\n<Piece Extent=\"0 " << nx << " 0 " << ny << " 0 " << nz << "\">\n";
-  o << "<CellData Scalars=\"p\" Vectors=\"U\">\n<DataArray type=\"Float64\" Name=\"p\" format=\"ascii\">";
+  // The solver's y cell j is image row j (top down); the file is y up (docs/outputs.md):
+  // file row jj holds solver row ny - 1 - jj, and the y velocity changes sign.
+  std::vector<double> p, u, solid;
+  const std::size_t n = static_cast<std::size_t>(nx) * ny * nz;
+  p.reserve(n);
+  u.reserve(3 * n);
+  solid.reserve(n);
   for (int k = 0; k < nz; ++k)
-    for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i) o << (solidCell3d(s, i, j) ? 0.0 : s.p(i, j, k)) << ' ';
-  o << "</DataArray>\n<DataArray type=\"Float64\" Name=\"U\" NumberOfComponents=\"3\" format=\"ascii\">";
-  for (int k = 0; k < nz; ++k)
-    for (int j = 0; j < ny; ++j)
+    for (int jj = 0; jj < ny; ++jj)
       for (int i = 0; i < nx; ++i) {
-        const Eigen::Vector3d u = cellVelocity3d(s, i, j, k);
-        o << u.x() << ' ' << u.y() << ' ' << u.z() << ' ';
+        const int j = ny - 1 - jj;
+        const bool in_solid = solidCell3d(s, i, j);
+        const Eigen::Vector3d v = cellVelocity3d(s, i, j, k);
+        p.push_back(in_solid ? 0.0 : s.p(i, j, k));
+        u.insert(u.end(), {v.x(), -v.y(), v.z()});
+        solid.push_back(in_solid ? 1.0 : 0.0);
       }
-  o << "</DataArray>\n<DataArray type=\"UInt8\" Name=\"solid\" format=\"ascii\">";
-  for (int k = 0; k < nz; ++k)
-    for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i) o << (solidCell3d(s, i, j) ? 1 : 0) << ' ';
-  o << "</DataArray>\n</CellData>\n<Coordinates>\n";
-  const auto axis = [&](const char* name, int n, double len) {
-    o << "<DataArray type=\"Float64\" Name=\"" << name << "\" format=\"ascii\">";
-    for (int q = 0; q <= n; ++q) o << len * q / n << ' ';
-    o << "</DataArray>\n";
+  vtk::RectilinearGrid g;
+  const auto axis = [](int cells, double len) {
+    std::vector<double> a;
+    for (int q = 0; q <= cells; ++q) a.push_back(len * q / cells);
+    return a;
   };
-  axis("x", nx, pr.length);
-  axis("y", ny, pr.width);
-  axis("z", nz, pr.depth);
-  o << "</Coordinates>\n</Piece>\n</RectilinearGrid>\n</VTKFile>\n";
-  writeFileAtomic(file, o.str());
+  g.x = axis(nx, pr.length);
+  g.y = axis(ny, pr.width);
+  g.z = axis(nz, pr.depth);
+  g.cell_data = {vtk::Array::float64("p", "Pa", 1, p), vtk::Array::float64("U", "m/s", 3, u), vtk::Array::float32("solid", "1", 1, solid)};
+  vtk::writeVtr(file, g);
 }
 
 void writeMidDepthSpeedPng(const Stokes3DSolver& s, const std::filesystem::path& file) {
@@ -179,11 +170,11 @@ void writeMidDepthSpeedPng(const Stokes3DSolver& s, const std::filesystem::path&
   writePng(color, file);
 }
 
-void writeVtr(const SteadyFlowSolver& s, const std::filesystem::path& file) { writeVtrOf(snapshot(s), file); }
-void writeVtr(const UnsteadyFlowSolver& s, const std::filesystem::path& file) { writeVtrOf(snapshot(s), file); }
+void writeVtr(const SteadyFlowSolver& s, const std::filesystem::path& file) { writeVtrOf(snapshot(s), file, vtk::kNoTime); }
+void writeVtr(const UnsteadyFlowSolver& s, const std::filesystem::path& file) { writeVtrOf(snapshot(s), file, s.time()); }
 void writeSpeedPng(const SteadyFlowSolver& s, const std::filesystem::path& file, int max_pixels) { writeSpeedPngOf(snapshot(s), file, max_pixels); }
 void writeSpeedPng(const UnsteadyFlowSolver& s, const std::filesystem::path& file, int max_pixels) { writeSpeedPngOf(snapshot(s), file, max_pixels); }
-void writeVtr(const ResolvedStokes& s, const std::filesystem::path& file) { writeVtrOf(snapshot(s), file); }
+void writeVtr(const ResolvedStokes& s, const std::filesystem::path& file) { writeVtrOf(snapshot(s), file, vtk::kNoTime); }
 void writeSpeedPng(const ResolvedStokes& s, const std::filesystem::path& file, int max_pixels, const std::vector<std::vector<Eigen::Vector2d>>& paths) {
   writeSpeedPngOf(snapshot(s), file, max_pixels, paths);
 }

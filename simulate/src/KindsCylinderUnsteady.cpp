@@ -15,6 +15,7 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Run.hpp"
+#include "mmval/core/VtkWriter.hpp"
 #include "mmval/simulate/FieldOutput.hpp"
 #include "mmval/simulate/ForceHistory.hpp"
 #include "mmval/simulate/Petsc.hpp"
@@ -24,7 +25,21 @@ namespace mmval::simulate::detail {
 
 namespace {
 constexpr const char* kCheckpointFormat = "mmval-unsteady-cylinder-checkpoint-1";
+
+std::string snapshotName(long long k) { return fmt::format("fields/fields-{:04d}.vtr", k); }
+
+/// fields.pvd over the snapshots written (each one's own TimeValue gives its time, also for
+/// those written before a resume); rank 0 only.
+void writeSnapshotSeries(const std::filesystem::path& dir, long long snapshots) {
+  if (PetscSession::rank() != 0) return;
+  std::vector<vtk::PvdEntry> entries;
+  for (long long k = 1; k <= snapshots; ++k) {
+    const std::string name = snapshotName(k);
+    if (std::filesystem::exists(dir / name)) entries.push_back({vtk::readArray(dir / name, "TimeValue").at(0), name});
+  }
+  vtk::writePvd(dir / "fields.pvd", entries);
 }
+}  // namespace
 
 void declareUnsteadyCylinderKeys(Schema& s) {
   s.real("numerics.max_courant", "Unsteady (mmval): Courant limit of the adaptive time step, max over cells of dt (|u|/dx + |v|/dy)").def(1.0).min(0.05).max(4.0);
@@ -41,6 +56,12 @@ void declareUnsteadyCylinderKeys(Schema& s) {
          "Unsteady: write checkpoint.bin every this many minutes of wall time (0: never); `mmval run --resume` continues from it")
       .def(5.0)
       .min(0.0);
+  s.integer("output.snapshots",
+            "Unsteady: flow fields written at this many times evenly spread over the finest level's run (the first step at or after "
+            "each k end_time / n), as fields/fields-NNNN.vtr listed in fields.pvd for ParaView; 0 or 1: only the flow at the end time (fields.vtr)")
+      .def(0)
+      .min(0)
+      .max(10000);
   s.integer("run.stop_after_steps", "Unsteady: stop (as if killed) after this many time steps of a level, leaving a checkpoint; a resumed run does not stop again (0: run to the end; tests)")
       .def(0)
       .min(0);
@@ -137,6 +158,12 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::f
       w.putVector(hist.lift());
       writeFileAtomic(ckpt, w.bytes());
     };
+    // Snapshots of the finest level (output.snapshots): the first state at or after each
+    // k end_time / n. A resumed level continues from the next one still due.
+    const bool final_level = li + 1 == levels.size();
+    const long long snapshots = ctx.out_dir.empty() || !final_level ? 0 : c.integer("output.snapshots");
+    long long next_snapshot = 1;
+    while (snapshots >= 2 && next_snapshot <= snapshots && solver.time() >= end_time * next_snapshot / snapshots * (1 - 1e-12)) ++next_snapshot;
     auto last_checkpoint = std::chrono::steady_clock::now();
     Progress progress(fmt::format("fluid {} (level {}/{})", c.name(), li + 1, levels.size()), 1000, ctx.quiet);
     while (solver.time() < end_time * (1 - 1e-12)) {
@@ -150,6 +177,10 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::f
       const BodyLoad L = solver.bodyLoads()[0];
       hist.add(solver.time(), coef * L.force.x(), coef * L.force.y());
       progress.update(static_cast<std::size_t>(1000 * solver.time() / end_time));
+      if (snapshots >= 2 && next_snapshot <= snapshots && solver.time() >= end_time * next_snapshot / snapshots * (1 - 1e-12)) {
+        if (PetscSession::rank() == 0) writeVtr(solver, ctx.out_dir / snapshotName(next_snapshot));
+        ++next_snapshot;
+      }
       if (ckpt.empty() || solver.time() >= end_time * (1 - 1e-12)) continue;
       const bool stop = stop_after > 0 && resumed_from == 0 && solver.stepStats().steps == stop_after;
       if (stop || (checkpoint_s > 0 && secondsSince(last_checkpoint) >= checkpoint_s)) {
@@ -189,7 +220,6 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::f
                           {"value", st.cd_max}};
     ladder.push_back(row);
     if (!ctx.out_dir.empty()) {
-      const bool final_level = li + 1 == levels.size();
       const std::string name = final_level ? "forces.csv" : fmt::format("forces-level{}.csv", li);
       if (PetscSession::rank() == 0) {
         hist.writeCsv(ctx.out_dir / name);
@@ -202,6 +232,10 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::f
       if (final_level) {
         out.files.push_back("fields.vtr");
         out.files.push_back("fields-speed.png");
+        if (snapshots >= 2) {
+          writeSnapshotSeries(ctx.out_dir, snapshots);
+          out.files.push_back("fields.pvd");  // stands for its snapshots (the report lists files one by one)
+        }
       }
     }
     out.details["cells"] = fs.cells;

@@ -83,8 +83,12 @@ TEST(CaseWriter, CylinderCaseHasParabolicInletForcesAndProbes) {
   const long long cells = writeCase(s, dir, 2);
   EXPECT_GT(cells, 0);
   for (const char* f : {"system/blockMeshDict", "system/controlDict", "system/fvSchemes", "system/fvSolution",
-                        "system/decomposeParDict", "constant/transportProperties", "constant/turbulenceProperties", "0/U", "0/p", "Allrun"})
+                        "system/decomposeParDict", "constant/transportProperties", "constant/turbulenceProperties", "0/U", "0/p", "Allrun", "Allclean", "case.foam"})
     EXPECT_TRUE(std::filesystem::exists(dir / f)) << f;
+  const std::string allrun = slurp(dir / "Allrun");
+  EXPECT_THAT(allrun, HasSubstr("checkMesh > log.checkMesh 2>&1 || exit 1\n"));
+  EXPECT_THAT(allrun, HasSubstr("reconstructPar -latestTime > log.reconstructPar 2>&1 || exit 1\n"));  // written for 2 ranks
+  EXPECT_THAT(slurp(dir / "Allclean"), HasSubstr("rm -rf constant/polyMesh postProcessing processor[0-9]* log.*"));
   const std::string u = slurp(dir / "0/U");
   EXPECT_THAT(u, HasSubstr("exprFixedValue"));
   EXPECT_THAT(u, HasSubstr("4*0.3*pos().y()*(0.41-pos().y())"));

@@ -11,6 +11,7 @@
 
 #include "BrownianOutputs.hpp"
 #include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/VtkWriter.hpp"
 #include "mmval/tracking/TrackImages.hpp"
 
 namespace mmval::tracking {
@@ -22,6 +23,39 @@ TrackStats writeFlowOutputs(const TrackRun& run, const TrackConfig& c, const std
                             const std::function<void(const std::string&, const std::string&)>& put, std::vector<std::string>& files);
 cv::Mat baseImage(const TrackRun& run);
 cv::Mat streamlines(const TrackRun& run);
+
+/// tracks.vtp: one polyline per particle in the frame of docs/outputs.md (metres, x right,
+/// y up, origin at the image's bottom-left corner), so that the tracks overlay the fields
+/// of a simulation of the same mask at the same pixel size. A tracker position (x_px, y_px)
+/// has pixel (c, r)'s centre at (c, r), as in tracks.csv (trackpy's convention), so
+/// X = (x_px + 1/2) p and Y = (rows - y_px - 1/2) p. Returns false (nothing written) when
+/// the frame height is unknown (no background image was taken).
+bool writeTracksVtp(const std::filesystem::path& file, const Tracks& tracks, double pixel_size_m, int rows) {
+  if (rows <= 0 || !(pixel_size_m > 0)) return false;
+  vtk::PolyData d;
+  std::vector<std::int64_t> particle, frame, line_particle;
+  std::vector<double> t;
+  std::vector<std::uint8_t> deposited;
+  for (const auto& q : tracks.points) {
+    if (d.lines.empty() || q.particle != line_particle.back()) {
+      d.lines.emplace_back();
+      line_particle.push_back(q.particle);
+    }
+    const double xp = std::isfinite(q.x_px) ? q.x_px : q.x / pixel_size_m;
+    const double yp = std::isfinite(q.y_px) ? q.y_px : q.y / pixel_size_m;
+    d.lines.back().push_back(static_cast<std::int64_t>(d.points.size()));
+    d.points.push_back({(xp + 0.5) * pixel_size_m, (rows - yp - 0.5) * pixel_size_m, 0.0});
+    particle.push_back(q.particle);
+    frame.push_back(q.frame);
+    t.push_back(q.t);
+    deposited.push_back(q.state == "deposited" ? 1 : 0);
+  }
+  d.point_data = {vtk::Array::int64("particle", "1", particle), vtk::Array::int64("frame", "1", frame), vtk::Array::float64("t", "s", 1, t),
+                  vtk::Array::uint8("deposited", "1", deposited)};
+  d.cell_data = {vtk::Array::int64("particle", "1", line_particle)};
+  vtk::writeVtp(file, d);
+  return true;
+}
 
 }  // namespace
 
@@ -52,6 +86,7 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
     summary.update(detail::writeBrownianOutputs(run, c, {dir, put, png, &files}));
   else
     s = writeFlowOutputs(run, c, dir, put, files);
+  if (brownian && writeTracksVtp(dir / "tracks.vtp", run.tracks, c.pixel_size, run.background.rows)) files.push_back("tracks.vtp");
   // Streamline composite: every position of every frame, over the background.
   if (!run.detections.empty()) {
     png("streamlines.png", streamlines(run));
@@ -134,6 +169,7 @@ TrackStats writeFlowOutputs(const TrackRun& run, const TrackConfig& c, const std
     }
     writeTracksCsv(dir / "tracks.csv", labelled, c.pixel_size);
     files.push_back("tracks.csv");
+    if (writeTracksVtp(dir / "tracks.vtp", labelled, c.pixel_size, run.background.rows)) files.push_back("tracks.vtp");
   }
   std::string summ = "particle,points,duration_s,mean_speed_um_per_s,path_length_um,net_displacement_um,straightness,state\n";
   for (const auto& t : s.tracks)

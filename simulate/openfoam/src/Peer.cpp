@@ -274,16 +274,28 @@ long long writeCase(const Scene& s, const fs::path& dir, int ranks) {
   put(dir / "constant" / "turbulenceProperties", turbulenceProperties());
   put(dir / "0" / "U", u_file);
   put(dir / "0" / "p", p_file);
+  // Allrun repeats the runner's steps (runWrittenCase): mesh, checkMesh, solve, and for a
+  // parallel run the latest time reconstructed so that case.foam opens it whole in ParaView.
   put(dir / "Allrun",
-      fmt::format("#!/bin/sh\n# Reruns this case by hand (written by mmval).\ncd \"$(dirname \"$0\")\"\n"
+      fmt::format("#!/bin/sh\n# Reruns this case by hand (written by mmval); ./Allclean undoes it.\ncd \"$(dirname \"$0\")\"\n"
                   "export WM_PROJECT_DIR=${{WM_PROJECT_DIR:-/usr/share/openfoam}}\n"
-                  "blockMesh > log.blockMesh 2>&1 || exit 1\n{}{}",
+                  "blockMesh > log.blockMesh 2>&1 || exit 1\n{}"
+                  "checkMesh > log.checkMesh 2>&1 || exit 1\n{}",
                   s.kind == Scene::Kind::image ? "snappyHexMesh -overwrite > log.snappyHexMesh 2>&1 || exit 1\n" : "",
                   ranks > 1 ? fmt::format("decomposePar -force > log.decomposePar 2>&1 || exit 1\n"
-                                          "mpirun --allow-run-as-root -np {} {} -parallel > log.solver 2>&1\n",
+                                          "mpirun --allow-run-as-root -np {} {} -parallel > log.solver 2>&1 || exit 1\n"
+                                          "reconstructPar -latestTime > log.reconstructPar 2>&1 || exit 1\n",
                                           ranks, s.unsteady ? "pimpleFoam" : "simpleFoam")
                             : fmt::format("{} > log.solver 2>&1\n", s.unsteady ? "pimpleFoam" : "simpleFoam")));
-  fs::permissions(dir / "Allrun", fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec, fs::perm_options::add);
+  // Allclean removes what Allrun and the solver wrote (meshes, time folders other than 0,
+  // processor folders, logs, postProcessing); the files mmval wrote stay.
+  put(dir / "Allclean",
+      "#!/bin/sh\n# Removes what ./Allrun wrote, back to the case as mmval wrote it.\ncd \"$(dirname \"$0\")\"\n"
+      "rm -rf constant/polyMesh postProcessing processor[0-9]* log.*\n"
+      "for d in [0-9]*; do\n  [ -d \"$d\" ] && [ \"$d\" != 0 ] && rm -rf \"$d\"\ndone\nexit 0\n");
+  put(dir / "case.foam", "");  // ParaView's OpenFOAM reader opens the case through this (empty) file
+  for (const char* script : {"Allrun", "Allclean"})
+    fs::permissions(dir / script, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec, fs::perm_options::add);
   return mesh.cellCount();
 }
 

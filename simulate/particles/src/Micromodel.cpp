@@ -19,6 +19,7 @@
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Tracks.hpp"
+#include "mmval/core/VtkWriter.hpp"
 #include "mmval/particles/DepositGrid.hpp"
 #include "mmval/particles/EngineComparison.hpp"
 #include "mmval/particles/MicromodelBookkeeping.hpp"
@@ -567,6 +568,11 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
     return x.particle != y.particle ? x.particle < y.particle : x.frame < y.frame;
   });
   writeTracksCsv(ctx.out_dir / "trajectories.csv", traj, pixel);
+  // The particles as a .vtp series in the fields' frame (docs/outputs.md: metres, y up from
+  // the image's bottom edge): the inverse of the pixel columns' x_px = X/p - 1/2, y_px = (H - Y)/p - 1/2.
+  const std::vector<std::string> particle_series = vtk::writeParticleSeries(ctx.out_dir, "particles", traj, [&](const TrackPoint& q) {
+    return std::array<double, 3>{(q.x_px + 0.5) * pixel, H - (q.y_px + 0.5) * pixel, std::isfinite(q.z) ? q.z : 0.0};
+  });
   writeFileAtomic(ctx.out_dir / "retention.csv", s.retention);
   writeFileAtomic(ctx.out_dir / "permeability.csv", s.permeability);
   std::error_code ec;
@@ -601,6 +607,7 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
                          {"left", nc.left}, {"inside", nc.inside}});
   }
   out.files = {"trajectories.csv", "retention.csv", "permeability.csv"};
+  if (!particle_series.empty()) out.files.push_back(particle_series.back());  // particles.pvd stands for its snapshots
   const double inj = static_cast<double>(n.injected);
   out.metrics["retained_fraction"] = n.injected ? n.deposited / inj : 0.0;
   out.metrics["left_fraction"] = n.injected ? n.left / inj : 0.0;

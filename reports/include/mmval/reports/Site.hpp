@@ -46,8 +46,8 @@ std::string pageFoot();
 /// `unit`, as inline HTML; `label` names the quantity.
 std::string colourBarHtml(double lo, double hi, const std::string& unit, const std::string& label);
 
-/// Largest cell speed |U| of a 2D ASCII .vtr (CellData "U"); NaN when the
-/// file is missing, binary or has no "U" (the colour bar then says "not recorded").
+/// Largest cell speed |U| of an mmval .vtr (binary or ASCII, CellData "U"); NaN when
+/// the file is missing, unreadable or has no "U" (the colour bar then says "not recorded").
 double maxSpeedOfVtr(const std::filesystem::path& vtr);
 
 /// The data behind a plot as CSV: one row per point, columns series, x, y
