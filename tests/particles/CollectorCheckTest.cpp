@@ -1,1 +1,155 @@
+// Check 5 of issue 24: single-collector efficiency of a post in its Kuwabara cell
+// against fibre-filtration theory. The shipped cases (cases/physics-collector-*.toml)
+// run through runCase and must meet their acceptance entries; the theory the runner
+// prints is compared with reference-data/fibre-filtration.toml (values evaluated
+// independently of the runner's code); bad input names its key.
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "mmval/core/Case.hpp"
+#include "mmval/core/Error.hpp"
+#include "mmval/core/ReferenceData.hpp"
+#include "mmval/core/Run.hpp"
+#include "mmval/particles/Kinds.hpp"
+
+#include "../TestScratch.hpp"
+
+namespace mmval::particles {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kSource = fs::path(MMVAL_SOURCE_DIR);
+
+/// A CSV with a header row, as columns by name.
+std::map<std::string, std::vector<double>> readCsv(const fs::path& file) {
+  std::ifstream in(file);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> names;
+  std::stringstream hs(line);
+  for (std::string n; std::getline(hs, n, ',');) names.push_back(n);
+  std::map<std::string, std::vector<double>> cols;
+  while (std::getline(in, line)) {
+    std::stringstream ls(line);
+    std::size_t k = 0;
+    for (std::string v; std::getline(ls, v, ',') && k < names.size(); ++k) cols[names[k]].push_back(std::stod(v));
+  }
+  return cols;
+}
+
+RunSummary runShipped(const std::string& name, const CaseKindRegistry& reg) {
+  const Case c = Case::load(kSource / "cases" / (name + ".toml"), reg);
+  const RunSummary s = runCase(c, reg, test::scratch(name), {.quiet = true});
+  for (const auto& m : s.metrics)
+    std::cout << m.name << " = " << m.value << " " << m.unit << (m.pass ? (*m.pass ? "  PASS" : "  FAIL") : "") << "\n";
+  return s;
+}
+
+double referenceValue(const std::string& quantity, const AtMap& at) {
+  const auto& ref = loadReferenceFile(kSource / "reference-data" / "fibre-filtration.toml");
+  const auto rows = ref.find(quantity, at);
+  if (rows.size() != 1 || !rows.front()->value) throw std::runtime_error("no unique reference row for " + quantity + " " + toString(at));
+  return *rows.front()->value;
+}
+
+class CollectorCheck : public ::testing::Test {
+ protected:
+  void SetUp() override { registerParticleKinds(m_reg); }
+  CaseKindRegistry m_reg;
+};
+
+// Streamline-following particles (Brownian motion off): the grazing trajectory's offset
+// against the exact Kuwabara interception, R = 0.02-0.2. The runner's theory column
+// must match the values stored in the reference data (evaluated from the stream function
+// outside mmval, 5 digits), and every measured eta must be within 1 % of it (the case's
+// own tolerance is the worst over the sweep).
+TEST_F(CollectorCheck, InterceptionMatchesKuwabara) {
+  const RunSummary s = runShipped("physics-collector-interception", m_reg);
+  EXPECT_TRUE(s.all_pass);
+  const auto cols = readCsv(test::scratch("physics-collector-interception") / "collector-interception.csv");
+  ASSERT_EQ(cols.at("R").size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i) {
+    const double r = cols.at("R_capture")[i];
+    const double ref = referenceValue("eta_R", {{"phi", 0.1}, {"R", r}});
+    EXPECT_NEAR(cols.at("eta_theory_kuwabara")[i] / ref, 1.0, 1e-4) << "R = " << r;  // 5 stored digits
+    // Explicit Euler steps of 0.01 radii: first-order error measured at 0.2-0.5 % (3 % at 0.1 radii).
+    EXPECT_NEAR(cols.at("eta_measured")[i] / ref, 1.0, 0.01) << "R = " << r;
+    // Interception grows ~R^2: Lee & Liu's small-R form (1 - phi)/Ku R^2/(1 + R) is 4.7 % below the exact value at R = 0.2.
+    EXPECT_NEAR(cols.at("eta_measured")[i] / cols.at("eta_theory_lee_liu")[i], 1.0, 0.06) << "R = " << r;
+  }
+}
+
+// Brownian capture at Pe = 200, 600, 2000 against Stechkina, Kirsch & Fuchs and the -2/3 law.
+TEST_F(CollectorCheck, DiffusionMatchesStechkinaFuchs) {
+  const RunSummary s = runShipped("physics-collector-diffusion", m_reg);
+  EXPECT_TRUE(s.all_pass);
+  const auto cols = readCsv(test::scratch("physics-collector-diffusion") / "collector-diffusion.csv");
+  ASSERT_EQ(cols.at("Pe").size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    const double pe = cols.at("Pe")[i];
+    const double ref = referenceValue("eta", {{"phi", 0.1}, {"R", 0.0102}, {"Pe", pe}});
+    EXPECT_NEAR(cols.at("eta_theory")[i] / ref, 1.0, 1e-4) << "Pe = " << pe;
+    // Each point within 3 binomial standard errors plus the correlation's 10 % spread (2.9 vs Lee & Liu's 2.6)
+    // and the engine's per-step capture check (up to 8 % low at Pe = 2000, measured; see the case file).
+    const double tol = 3 * cols.at("eta_std_error")[i] + 0.18 * ref;
+    EXPECT_NEAR(cols.at("eta_measured")[i], ref, tol) << "Pe = " << pe;
+    // The release band held every captured particle with room to spare.
+    EXPECT_LT(cols.at("outermost_capture_over_band")[i], 1.0);
+  }
+}
+
+// The same search in the square array's flow solved by mmval's fluid solver (coarse grid, R = 0.2
+// only): the solved flow must carry the Sangani & Acrivos (1982) permeability at phi = 0.1, which
+// checks the scaling to face velocity, and the array captures more than the cell model by about
+// the margin measured on 192 and 384 cells (+11.7 %, +11.2 %; a regression bound, not theory).
+TEST_F(CollectorCheck, SquareArrayFlowAgainstKuwabara) {
+  std::vector<CaseOverride> set;
+  for (const char* s : {"collector.square_array=true", "numerics.array_cells=96", "sweep.interception=[0.2]", "search.rounds=3"})
+    set.push_back(CaseOverride::parse(s));
+  const Case c = Case::load(kSource / "cases" / "physics-collector-interception.toml", m_reg, set);
+  const RunSummary s = runCase(c, m_reg, test::scratch("collector-array"), {.quiet = true});
+  const auto& info = s.result["details"]["square_array"];
+  std::cout << info.dump(1) << "\n";
+  const double k = info["permeability_over_L2"].get<double>();
+  const auto& ref = loadReferenceFile(kSource / "reference-data" / "square-array-permeability.toml");
+  const auto rows = ref.find("k_over_L2", {{"phi", 0.10}});
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_NEAR(k / *rows.front()->value, 1.0, 0.02) << "96 cells across the period (34 per post diameter)";
+  const auto cols = readCsv(test::scratch("collector-array") / "collector-interception.csv");
+  ASSERT_EQ(cols.at("R").size(), 1u);
+  const double ratio = cols.at("eta_square_array")[0] / cols.at("eta_theory_kuwabara")[0];
+  EXPECT_GT(ratio, 1.0);
+  EXPECT_LT(ratio, 1.25);
+}
+
+// A capture radius that reaches far into the cell is refused, naming the key.
+TEST_F(CollectorCheck, CaptureRadiusBeyondTheCellIsAnInputError) {
+  const std::string text = R"(
+[case]
+name = "bad-collector"
+kind = "physics-collector-interception"
+[collector]
+solid_fraction = 0.4
+[sweep]
+interception = [0.5]
+)";
+  const Case c = Case::parse(text, test::scratch("bad-collector.toml"), m_reg);
+  try {
+    runCase(c, m_reg, test::scratch("bad-collector"), {.quiet = true});
+    FAIL() << "expected an InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where().key, "sweep.interception") << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace mmval::particles
