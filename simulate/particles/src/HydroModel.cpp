@@ -100,7 +100,7 @@ Vec3 HydroModel::force(const Vec3& x) const {
   return f;
 }
 
-bool HydroModel::plateAdhesionHolds(const Vec3& x, bool bottom, double* margin) const {
+bool HydroModel::plateAdhesionHolds(const Vec3& x, bool bottom, double* margin, double adhesion_force) const {
   const auto& c = m_cfg;
   const auto& at = c.attachment;
   const double a = m_radius, mu = c.fluid.viscosity;
@@ -111,7 +111,7 @@ bool HydroModel::plateAdhesionHolds(const Vec3& x, bool bottom, double* margin) 
   const double torque = 0.944 * 4.0 * kPi * mu * a * a * a * shear;
   const double applied = drag * a + torque;  // moment about the contact point
   const double z0 = at.adhesion_separation;
-  const double adhesion = at.hamaker > 0 && z0 > 0 ? at.hamaker * a / (6.0 * z0 * z0) : 0.0;
+  const double adhesion = adhesion_force >= 0 ? adhesion_force : at.hamaker > 0 && z0 > 0 ? at.hamaker * a / (6.0 * z0 * z0) : 0.0;
   const double weight = (c.particle.density - c.fluid.density) * c.particle.volume() * c.gravity;
   const double load = std::max(adhesion + (bottom ? weight : -weight), 0.0);
   const double contact = at.contact_modulus > 0 ? std::cbrt(load * a / at.contact_modulus) : 0.0;

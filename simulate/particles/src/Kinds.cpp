@@ -8,6 +8,7 @@
 #include <cmath>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -223,6 +224,56 @@ void registerParticleKinds(CaseKindRegistry& registry) {
   checks::registerPhysicsChecks(registry);
 }
 
+void declareChemistry(Schema& s, bool with_temperature) {
+  // Defaults from the struct (Dlvo.hpp); their sources are in reference-data/dlvo-materials.toml.
+  const DlvoParameters d;
+  constexpr double kMillivolt = 1e-3;
+  s.real("chemistry.particle_zeta_mv",
+         "Particle surface (zeta) potential in mV, taken as the double layer's surface potential. The paper gives none: "
+         "an assumption (reference-data/dlvo-materials.toml)")
+      .def(d.particle_potential / kMillivolt).min(-300).max(300);
+  s.real("chemistry.collector_zeta_mv",
+         "Collector surface (zeta) potential in mV: the chip's glass (plates and grains); an assumption, reference-data/dlvo-materials.toml")
+      .def(d.collector_potential / kMillivolt).min(-300).max(300);
+  s.quantity("chemistry.ionic_strength", "mol/m3", "Ionic strength I of the symmetric z:z electrolyte (mol/m3 = mM)")
+      .def(d.electrolyte.ionic_strength).min(1e-4).max(5000);
+  s.integer("chemistry.valence", "Valence z of both ions of the symmetric electrolyte (1: KCl, NaCl)").def(1).min(1).max(4);
+  if (with_temperature) s.quantity("chemistry.temperature", "K", "Temperature").def(d.electrolyte.temperature).min(200).max(450);
+  s.real("chemistry.relative_permittivity", "Relative permittivity of the solvent (water at 25 C: 78.5)").def(d.electrolyte.relative_permittivity).min(1).max(200);
+  s.quantity("chemistry.hamaker", "J", "Hamaker constant particle-water-collector (an assumption, reference-data/dlvo-materials.toml)")
+      .def(d.hamaker).nonNegative().max(1e-18);
+  s.quantity("chemistry.retardation_wavelength", "nm", "Characteristic wavelength lambda of Gregory's (1981) retarded van der Waals form")
+      .def(d.retardation_wavelength).positive();
+  s.choice("chemistry.double_layer", {"hhf", "lsa"},
+           "Double-layer model: hhf (Hogg-Healy-Fuerstenau, constant potential; low potentials, |psi| <~ 25 mV) or lsa (linear "
+           "superposition; any potential, weak overlap kappa h >~ 1)")
+      .def("lsa");
+  s.boolean("chemistry.born", "Born repulsion (Ruckenstein & Prieve 1976), which bounds the primary minimum").def(d.born);
+  s.quantity("chemistry.born_collision_diameter", "nm", "Collision diameter sigma of the Born term (0.5 nm: a common choice, an assumption)")
+      .def(d.born_collision_diameter).positive();
+}
+
+DlvoParameters chemistryFromCase(const Case& c, const char* temperature_key) {
+  DlvoParameters p;
+  p.particle_potential = c.real("chemistry.particle_zeta_mv") * 1e-3;
+  p.collector_potential = c.real("chemistry.collector_zeta_mv") * 1e-3;
+  p.electrolyte.ionic_strength = c.quantity("chemistry.ionic_strength");
+  p.electrolyte.valence = static_cast<int>(c.integer("chemistry.valence"));
+  p.electrolyte.temperature = c.quantity(temperature_key);
+  p.electrolyte.relative_permittivity = c.real("chemistry.relative_permittivity");
+  p.hamaker = c.quantity("chemistry.hamaker");
+  p.retardation_wavelength = c.quantity("chemistry.retardation_wavelength");
+  p.double_layer = c.text("chemistry.double_layer") == "hhf" ? DoubleLayerModel::hhf : DoubleLayerModel::lsa;
+  p.born = c.flag("chemistry.born");
+  p.born_collision_diameter = c.quantity("chemistry.born_collision_diameter");
+  try {
+    (void)DlvoInteraction(p);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(c.where("chemistry"), fmt::format("the chemistry does not define a DLVO interaction: {}", e.what()));
+  }
+  return p;
+}
+
 void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {
   s.quantity("physics.gravity", "m/s2", "Gravity along -z (the depth); 0: no settling").def("9.81 m/s2").nonNegative();
   s.choice("physics.brownian", {"auto", "on", "off"}, "Brownian motion (overdamped engine); auto follows the Peclet numbers").def("auto");
@@ -234,6 +285,18 @@ void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {
   s.boolean("physics.near_contact_drag",
             "Parallel drag near the plates of a sphere free to rotate: Goldman-Cox-Brenner lubrication joined to Faxen's series; false: Faxen's series alone")
       .def(true);
+  s.boolean("physics.ito_drift",
+            "For checks only: the Ito drift k_B T dM/dz of the position-dependent mobility (overdamped engine). false shows what "
+            "leaving it out does (a wrong equilibrium distribution near the plates)")
+      .def(SceneConfig{}.ito_drift);
+  s.choice("deposition.model", {"capture", "dlvo"},
+           "What decides attachment of a particle within the capture distance of a sticky surface. capture: it attaches (with "
+           "plate_rule and plate_attachment_efficiency on the plates). dlvo (overdamped engine): the DLVO profile of the surface "
+           "type from the [chemistry] keys (plates and grains: sphere-plate against chemistry.collector_zeta_mv; deposits: "
+           "sphere-sphere against the particle's own potential), one draw per arrival: primary-minimum attachment with the "
+           "interaction-force-boundary-layer efficiency, else secondary-minimum capture (Maxwell fraction, wells deeper than 1 kT; "
+           "on a plate only if the well's pull-off force holds against the shear's torque), else the particle stays mobile")
+      .def("capture");
   s.quantity("deposition.capture_distance", "um", "Surface gap at which a particle attaches to a sticky surface (0: never)").def("0.1 um").nonNegative();
   s.boolean("deposition.bottom", "The bottom plate is sticky").def(true);
   s.boolean("deposition.top", "The top plate is sticky").def(false);
@@ -258,6 +321,7 @@ void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {
   s.quantity("deposition.contact_modulus", "GPa",
              "Composite contact modulus K = 4/3 / ((1 - nu1^2)/E1 + (1 - nu2^2)/E2); default polystyrene (3.4 GPa, 0.33) on glass (70 GPa, 0.22)")
       .def("4.84 GPa").positive();
+  declareChemistry(s, false);  // the temperature is fluid.temperature
 }
 
 std::int64_t outputFrames(const Case& c) {
@@ -299,6 +363,18 @@ void physicsAndDepositionFromCase(const Case& c, const EngineChoice& choice, Sce
                      "1 (LIGGGHTS' sjkr cohesion decides attachment), or particles.engine = \"overdamped\"");
   s.attachment.adhesion_separation = c.quantity("deposition.adhesion_separation");
   s.attachment.contact_modulus = c.quantity("deposition.contact_modulus");
+  s.ito_drift = c.flag("physics.ito_drift");
+  if (c.text("deposition.model") == "dlvo") {
+    const auto conflict = [&](const char* key, const std::string& value, const char* expected) {
+      throw InputError(c.where(key), "does not go with deposition.model = \"dlvo\" (the DLVO profile decides attachment)", value, expected);
+    };
+    if (choice.engine == EngineKind::liggghts) conflict("particles.engine", "liggghts", "\"overdamped\", or deposition.model = \"capture\"");
+    if (!(s.attachment.capture_distance > 0)) conflict("deposition.capture_distance", "0", "> 0: arrivals are drawn within it");
+    if (s.attachment.plate_efficiency < 1) conflict("deposition.plate_attachment_efficiency", fmt::format("{:g}", s.attachment.plate_efficiency), "1");
+    if (s.attachment.torque_balance) conflict("deposition.plate_rule", "torque-balance", "\"capture\"");
+    s.attachment.rule = AttachmentModel::Rule::dlvo;
+    s.attachment.chemistry = chemistryFromCase(c, "fluid.temperature");
+  }
 }
 
 }  // namespace mmval::particles

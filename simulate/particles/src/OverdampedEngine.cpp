@@ -21,6 +21,33 @@ struct OverdampedEngine::Rng {
   double normal() { return gsl_ran_gaussian_ziggurat(r, 1.0); }
 };
 
+namespace {
+
+/// The attachment of one surface type from its DLVO profile (Dlvo.hpp); ~20 ms.
+SurfaceChemistry surfaceChemistry(const DlvoParameters& p) {
+  SurfaceChemistry sc;
+  sc.parameters = p;
+  const DlvoInteraction v(p);
+  sc.profile = profileFeatures(v);
+  sc.attachment = attachmentEfficiency(v);
+  // IFBL alpha is the ratio of rates with and without the double layer; a double layer that
+  // attracts (opposite charges) can make it exceed 1, where every arrival attaches.
+  sc.alpha = sc.attachment.primary_minimum_reachable ? std::min(1.0, sc.attachment.alpha()) : 0.0;
+  // A well shallower than ~1 kT holds nothing against Brownian motion: no secondary capture.
+  const double depth = sc.profile.has_secondary_minimum ? -sc.profile.secondary_minimum_kT : 0.0;
+  sc.secondary_capture = depth > 1.0 ? secondaryMinimumCaptureProbability(depth) : 0.0;
+  if (sc.secondary_capture > 0) {
+    // Pull-off force of the secondary minimum: the largest attraction -dV/dh < 0 between the
+    // well and the far field (a particle pulled harder than this leaves the well).
+    const double g0 = sc.profile.secondary_minimum_gap, g1 = std::max(5e-6, 10 * g0);
+    const int n = 400;
+    for (int k = 1; k <= n; ++k) sc.secondary_force = std::max(sc.secondary_force, -v.force(g0 * std::pow(g1 / g0, static_cast<double>(k) / n)));
+  }
+  return sc;
+}
+
+}  // namespace
+
 OverdampedEngine::OverdampedEngine(std::shared_ptr<const FlowField> flow, SceneConfig config)
     : m_flow(std::move(flow)), m_cfg(std::move(config)), m_model(m_flow, m_cfg) {
   const auto& p = m_cfg.particle;
@@ -31,6 +58,50 @@ OverdampedEngine::OverdampedEngine(std::shared_ptr<const FlowField> flow, SceneC
   m_radius = p.radius();
   m_outlet = std::isnan(m_cfg.outlet_x) ? m_flow->bounds().x1 : m_cfg.outlet_x;
   m_rng = std::make_unique<Rng>(m_cfg.seed);
+  if (m_cfg.attachment.rule == AttachmentModel::Rule::dlvo) {
+    // Plates and grains are the chip's material (sphere-plate against the collector
+    // potential); deposits are the particle's own (sphere-sphere, both at its potential).
+    DlvoParameters plate = m_cfg.attachment.chemistry;
+    plate.particle_radius = m_radius;
+    plate.collector_radius = std::numeric_limits<double>::infinity();
+    DlvoParameters deposit = plate;
+    deposit.collector_radius = m_radius;
+    deposit.collector_potential = plate.particle_potential;
+    m_plate_chem = std::make_unique<SurfaceChemistry>(surfaceChemistry(plate));
+    m_deposit_chem = std::make_unique<SurfaceChemistry>(surfaceChemistry(deposit));
+  }
+}
+
+const SurfaceChemistry* OverdampedEngine::chemistry(Surface s) const {
+  if (s == Surface::deposit) return m_deposit_chem.get();
+  if (s == Surface::bottom || s == Surface::top || s == Surface::grain) return m_plate_chem.get();
+  return nullptr;
+}
+
+nlohmann::json SurfaceChemistry::describe() const {
+  const auto& p = parameters;
+  const auto& f = profile;
+  nlohmann::json j = {{"geometry", std::isinf(p.collector_radius) ? "sphere-plate" : "sphere-sphere"},
+                      {"particle_zeta_mV", p.particle_potential * 1e3},
+                      {"collector_zeta_mV", p.collector_potential * 1e3},
+                      {"ionic_strength_mM", p.electrolyte.ionic_strength},
+                      {"valence", p.electrolyte.valence},
+                      {"temperature_K", p.electrolyte.temperature},
+                      {"hamaker_J", p.hamaker},
+                      {"double_layer", p.double_layer == DoubleLayerModel::hhf ? "HHF" : "LSA"},
+                      {"born", p.born},
+                      {"has_barrier", f.has_barrier},
+                      {"has_secondary_minimum", f.has_secondary_minimum},
+                      {"has_primary_minimum", f.has_primary_minimum},
+                      {"primary_minimum_reachable", attachment.primary_minimum_reachable},
+                      {"alpha", alpha},
+                      {"ln_alpha", std::isfinite(attachment.ln_alpha) ? nlohmann::json(attachment.ln_alpha) : nlohmann::json("-inf")},
+                      {"secondary_capture_probability", secondary_capture},
+                      {"secondary_minimum_force_N", secondary_force}};
+  if (f.has_barrier) j["barrier_kT"] = f.barrier_kT, j["barrier_gap_nm"] = f.barrier_gap * 1e9;
+  if (f.has_secondary_minimum) j["secondary_minimum_kT"] = f.secondary_minimum_kT, j["secondary_minimum_gap_nm"] = f.secondary_minimum_gap * 1e9;
+  if (f.has_primary_minimum) j["primary_minimum_kT"] = f.primary_minimum_kT, j["primary_minimum_gap_nm"] = f.primary_minimum_gap * 1e9;
+  return j;
 }
 
 OverdampedEngine::~OverdampedEngine() = default;
@@ -41,7 +112,7 @@ Vec3 OverdampedEngine::driftVelocity(const Vec3& x) const {
   const auto [par, perp] = m_model.hindrance(x.z(), h);
   const Vec3 f = m_model.force(x);
   Vec3 v = m_model.fluidVelocity(x) + m_model.shearLag(x) + Vec3(f.x() / (g0 * par), f.y() / (g0 * par), f.z() / (g0 * perp));
-  if (m_cfg.brownian && m_cfg.wall_hindrance) {
+  if (m_cfg.brownian && m_cfg.wall_hindrance && m_cfg.ito_drift) {
     // Ito drift k_B T d(1/(6 pi mu a lambda_perp))/dz keeps the equilibrium distribution right.
     const double e = 1e-3 * a;
     const double zm = std::max(x.z() - e, a), zp = std::min(x.z() + e, h - a);
@@ -129,6 +200,7 @@ void OverdampedEngine::advance(double t_end) {
     dt = std::min(dt, t_end - m_t);
     if (mobile) {
       const auto& c = m_cfg;
+      m_touch.assign(m_particles.size(), 0);
       for (std::size_t k = 0; k < m_mobile.size(); ++k) {
         auto& p = m_particles[m_mobile[k]];
         const Vec3 before = p.x;
@@ -140,10 +212,25 @@ void OverdampedEngine::advance(double t_end) {
         }
         p.x += dx;
         p.v = drift[k];
-        applyWallsAndCapture(p, before);
-        if (p.status != ParticleStatus::mobile) p.t_event = m_t + dt;
+        m_touch[m_mobile[k]] = applyWalls(p, before);
       }
+      // Attachment only once every overlap of the step is removed: a particle attached
+      // earlier would be left out of the contact sweeps and could stay inside a deposit.
       resolveContacts();
+      std::vector<int> fresh;  // deposited in this step, not yet in m_dep_cells
+      for (const int i : m_mobile) {
+        auto& p = m_particles[i];
+        if (p.status != ParticleStatus::mobile) continue;
+        decideAttachment(p, m_touch[i]);
+        if (p.status != ParticleStatus::deposited) continue;
+        if (overlapsDeposit(p, fresh)) {
+          p.status = ParticleStatus::mobile;  // a push undone at a grain left an overlap: try again next step
+          p.held_by = Surface::none;
+          p.secondary = false;
+          continue;
+        }
+        fresh.push_back(i);
+      }
       compactMobile(m_t + dt);
       m_stats.particle_steps += mobile;
       ++m_stats.steps;
@@ -163,6 +250,7 @@ std::int64_t OverdampedEngine::captureInSolid() {
     auto& p = m_particles[i];
     if (!m_flow->isSolid(p.x.x(), p.x.y())) continue;
     p.status = ParticleStatus::deposited;
+    p.held_by = Surface::solid;
     p.t_event = m_t;
     ++n;
   }
@@ -170,22 +258,20 @@ std::int64_t OverdampedEngine::captureInSolid() {
   return n;
 }
 
-void OverdampedEngine::applyWallsAndCapture(ParticleState& p, const Vec3& before) {
-  const auto& at = m_cfg.attachment;
+std::uint8_t OverdampedEngine::applyWalls(ParticleState& p, const Vec3& before) {
   const double a = m_radius;
-  const bool capture = at.capture_distance > 0;
+  std::uint8_t touched = 0;
   // Grains and side walls: a step into solid is taken back in-plane; a particle
   // closer than a radius is pushed out along the wall normal.
-  bool touched_grain = false;
   if (m_flow->isSolid(p.x.x(), p.x.y())) {
     p.x.x() = before.x();
     p.x.y() = before.y();
-    touched_grain = true;
+    touched |= kGrain;
   }
   const Bounds2 b = m_flow->bounds();
   if (p.x.x() > m_outlet || p.x.x() < b.x0 || p.x.y() < b.y0 || p.x.y() > b.y1) {
     p.status = ParticleStatus::left;
-    return;
+    return touched;
   }
   double d = m_flow->wallDistance(p.x.x(), p.x.y());
   if (d < a) {
@@ -193,7 +279,7 @@ void OverdampedEngine::applyWallsAndCapture(ParticleState& p, const Vec3& before
     // corners. Where no push helps (a throat narrower than the particle: walls on
     // both sides) the move is refused, so a particle never squeezes through a gap
     // smaller than itself.
-    touched_grain = true;
+    touched |= kGrain;
     for (int pass = 0; pass < 3 && d < a; ++pass) {
       const Vec2 n = m_flow->wallNormal(p.x.x(), p.x.y());
       p.x.x() += n.x() * (a - d);
@@ -206,19 +292,45 @@ void OverdampedEngine::applyWallsAndCapture(ParticleState& p, const Vec3& before
     }
   }
   const double h = m_flow->depth(p.x.x(), p.x.y());
-  bool touched_bottom = false, touched_top = false;
   if (p.x.z() < a) {
     p.x.z() = a;
-    touched_bottom = true;
+    touched |= kBottom;
   }
   if (p.x.z() > h - a) {
     p.x.z() = h - a;
-    touched_top = true;
+    touched |= kTop;
   }
-  if (!capture) return;
-  const double cd = at.capture_distance;
-  const bool on_bottom = at.bottom && (touched_bottom || p.x.z() - a <= cd);
-  const bool on_top = at.top && (touched_top || h - p.x.z() - a <= cd);
+  return touched;
+}
+
+void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched) {
+  const auto& at = m_cfg.attachment;
+  if (!(at.capture_distance > 0)) return;
+  const double a = m_radius, cd = at.capture_distance;
+  const double h = m_flow->depth(p.x.x(), p.x.y());
+  const bool on_bottom = at.bottom && ((touched & kBottom) != 0 || p.x.z() - a <= cd);
+  const bool on_top = at.top && ((touched & kTop) != 0 || h - p.x.z() - a <= cd);
+  const bool on_grain = at.grains && ((touched & kGrain) != 0 || m_flow->wallDistance(p.x.x(), p.x.y()) - a <= cd);
+  const bool on_deposit = at.deposited && (touched & kDeposit) != 0;
+  const auto hold = [&](Surface s) {
+    p.status = ParticleStatus::deposited;
+    p.held_by = s;
+  };
+  if (at.rule == AttachmentModel::Rule::dlvo) {
+    // One draw per arrival and surface type; a surface the particle has left may draw again.
+    const std::pair<Surface, bool> near[] = {{Surface::deposit, on_deposit}, {Surface::grain, on_grain}, {Surface::bottom, on_bottom}, {Surface::top, on_top}};
+    for (const auto& [s, is_near] : near) {
+      const auto bit = static_cast<std::uint8_t>(1u << static_cast<unsigned>(s));
+      if (!is_near) p.rejected = static_cast<std::uint8_t>(p.rejected & ~bit);
+    }
+    for (const auto& [s, is_near] : near) {
+      const auto bit = static_cast<std::uint8_t>(1u << static_cast<unsigned>(s));
+      if (!is_near || (p.rejected & bit) != 0) continue;
+      if (dlvoArrival(p, s, *chemistry(s))) return hold(s);
+      p.rejected = static_cast<std::uint8_t>(p.rejected | bit);
+    }
+    return;
+  }
   bool plate = on_bottom || on_top;
   // Torque balance (optional): a particle the shear would roll off the plate stays mobile.
   if (plate && at.torque_balance) plate = m_model.plateAdhesionHolds(p.x, on_bottom);
@@ -232,7 +344,40 @@ void OverdampedEngine::applyWallsAndCapture(ParticleState& p, const Vec3& before
       plate = false;
     }
   }
-  if (plate || (at.grains && (touched_grain || m_flow->wallDistance(p.x.x(), p.x.y()) - a <= cd))) p.status = ParticleStatus::deposited;
+  if (on_deposit) hold(Surface::deposit);
+  else if (plate) hold(on_bottom ? Surface::bottom : Surface::top);
+  else if (on_grain) hold(Surface::grain);
+}
+
+bool OverdampedEngine::dlvoArrival(ParticleState& p, Surface s, const SurfaceChemistry& sc) {
+  p.secondary = false;
+  const double u = arrivalDraw(p.id, ++p.arrivals);
+  if (u < sc.alpha) return true;  // over the barrier into the primary minimum
+  // Not over the barrier: captured in the secondary minimum with the Maxwell probability
+  // (the same draw, rescaled to [0, 1) on the rest of the interval).
+  if (sc.alpha >= 1 || (u - sc.alpha) / (1 - sc.alpha) >= sc.secondary_capture) return false;
+  // Held at a distance by the well's attraction alone: on a plate, only while that
+  // pull-off force holds against the shear's torque (released otherwise).
+  if ((s == Surface::bottom || s == Surface::top) && !m_model.plateAdhesionHolds(p.x, s == Surface::bottom, nullptr, sc.secondary_force)) return false;
+  p.secondary = true;
+  return true;
+}
+
+bool OverdampedEngine::overlapsDeposit(const ParticleState& p, const std::vector<int>& fresh) const {
+  // Tolerance: the contact sweeps stop at 4 passes; 1e-3 radii is far below any length that matters.
+  const double dmin = 2 * m_radius * (1 - 1e-3);
+  const auto hit = [&](int j) { return &m_particles[j] != &p && (m_particles[j].x - p.x).norm() < dmin; };
+  for (const int j : fresh)
+    if (hit(j)) return true;
+  const double cs4 = 4 * m_radius, d = 2 * m_radius;
+  const auto x0 = static_cast<std::int64_t>(std::floor((p.x.x() - d) / cs4)), x1 = static_cast<std::int64_t>(std::floor((p.x.x() + d) / cs4));
+  const auto y0 = static_cast<std::int64_t>(std::floor((p.x.y() - d) / cs4)), y1 = static_cast<std::int64_t>(std::floor((p.x.y() + d) / cs4));
+  for (auto ix = x0; ix <= x1; ++ix)
+    for (auto iy = y0; iy <= y1; ++iy)
+      if (const auto it = m_dep_cells.find((ix * 73856093) ^ (iy * 19349663)); it != m_dep_cells.end())
+        for (const int j : it->second)
+          if (hit(j)) return true;
+  return false;
 }
 
 double OverdampedEngine::arrivalDraw(std::int64_t id, std::uint32_t arrival) const {
@@ -248,7 +393,7 @@ double OverdampedEngine::arrivalDraw(std::int64_t id, std::uint32_t arrival) con
 
 void OverdampedEngine::resolveContacts() {
   const double a = m_radius, d = 2 * a;
-  const bool stick = m_cfg.attachment.deposited && m_cfg.attachment.capture_distance > 0;
+
   const auto fits = [&](const Vec3& x) { return !m_flow->isSolid(x.x(), x.y()) && m_flow->wallDistance(x.x(), x.y()) >= 0.9 * a; };
   std::vector<Vec3> start(m_mobile.size());
   for (std::size_t k = 0; k < m_mobile.size(); ++k) start[k] = m_particles[m_mobile[k]].x;
@@ -274,7 +419,7 @@ void OverdampedEngine::resolveContacts() {
       any = true;
       if (q.status == ParticleStatus::deposited) {
         p.x += r * overlap;
-        if (stick) p.status = ParticleStatus::deposited;
+        m_touch[i] |= kDeposit;  // an arrival on a deposit, decided after the sweeps
       } else {
         p.x += 0.5 * overlap * r;
         q.x -= 0.5 * overlap * r;
@@ -319,7 +464,7 @@ void OverdampedEngine::resolveContacts() {
 }
 
 void OverdampedEngine::saveState(CheckpointWriter& w) const {
-  w.putString("overdamped-v2");
+  w.putString("overdamped-v3");
   w.put(m_t);
   w.put(m_stats);
   w.put<std::uint64_t>(m_particles.size());
@@ -331,6 +476,10 @@ void OverdampedEngine::saveState(CheckpointWriter& w) const {
     w.put(p.t_event);
     w.put(p.plate_arrivals);
     w.put(static_cast<std::uint8_t>(p.plate_rejected));
+    w.put(p.arrivals);
+    w.put(p.rejected);
+    w.put(static_cast<std::uint8_t>(p.held_by));
+    w.put(static_cast<std::uint8_t>(p.secondary));
   }
   w.putVector(m_dep_order);
   w.putString(gsl_rng_name(m_rng->r));
@@ -338,7 +487,7 @@ void OverdampedEngine::saveState(CheckpointWriter& w) const {
 }
 
 void OverdampedEngine::loadState(CheckpointReader& r) {
-  if (r.getString() != "overdamped-v2") throw std::runtime_error("checkpoint " + r.name() + ": not an overdamped-engine state");
+  if (r.getString() != "overdamped-v3") throw std::runtime_error("checkpoint " + r.name() + ": not an overdamped-engine state");
   m_t = r.get<double>();
   m_stats = r.get<EngineStats>();
   const auto n = r.get<std::uint64_t>();
@@ -355,6 +504,12 @@ void OverdampedEngine::loadState(CheckpointReader& r) {
     p.t_event = r.get<double>();
     p.plate_arrivals = r.get<std::uint32_t>();
     p.plate_rejected = r.get<std::uint8_t>() != 0;
+    p.arrivals = r.get<std::uint32_t>();
+    p.rejected = r.get<std::uint8_t>();
+    const auto held = r.get<std::uint8_t>();
+    if (held > static_cast<std::uint8_t>(Surface::solid)) throw std::runtime_error("checkpoint " + r.name() + ": bad surface of a deposit");
+    p.held_by = static_cast<Surface>(held);
+    p.secondary = r.get<std::uint8_t>() != 0;
   }
   const auto order = r.getVector<int>();
   if (r.getString() != gsl_rng_name(m_rng->r)) throw std::runtime_error("checkpoint " + r.name() + ": other random generator");
@@ -376,7 +531,14 @@ void OverdampedEngine::loadState(CheckpointReader& r) {
 
 nlohmann::json OverdampedEngine::describe() const {
   const auto& c = m_cfg;
-  return {{"engine", "overdamped"},
+  nlohmann::json by_surface = nlohmann::json::object();
+  std::int64_t secondary = 0;
+  for (const auto& p : m_particles)
+    if (p.status == ParticleStatus::deposited) {
+      by_surface[surfaceName(p.held_by)] = by_surface.value(surfaceName(p.held_by), 0) + 1;
+      secondary += p.secondary ? 1 : 0;
+    }
+  nlohmann::json j = {{"engine", "overdamped"},
           {"diameter_um", c.particle.diameter * 1e6},
           {"density_kg_m3", c.particle.density},
           {"tau_p_s", relaxationTime(c.fluid, c.particle)},
@@ -397,7 +559,19 @@ nlohmann::json OverdampedEngine::describe() const {
           {"contact_modulus_GPa", c.attachment.contact_modulus * 1e-9},
           {"max_step_fraction", c.max_step_fraction},
           {"seed", c.seed},
-          {"contacts", "hard spheres, Heyes-Melrose overlap removal"}};
+          {"contacts", "hard spheres, Heyes-Melrose overlap removal"},
+          {"ito_drift", c.ito_drift},
+          {"attachment_rule", c.attachment.rule == AttachmentModel::Rule::dlvo ? "dlvo" : "capture"},
+          {"deposited_by_surface", by_surface}};
+  if (m_plate_chem) {
+    j["dlvo"] = {{"assumed_chemistry",
+                  "the experiment gives no solution chemistry: ionic strength, valence, zeta potentials and Hamaker constant are "
+                  "assumptions (case inputs), not measurements"},
+                 {"plates_and_grains", m_plate_chem->describe()},
+                 {"deposits", m_deposit_chem->describe()},
+                 {"deposited_in_secondary_minimum", secondary}};
+  }
+  return j;
 }
 
 }  // namespace mmval::particles

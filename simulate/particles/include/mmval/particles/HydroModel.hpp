@@ -24,7 +24,8 @@
 //   body force       -(rho_p - rho_f) V g e_z
 //   attraction       sphere-plate van der Waals A a / (6 gap^2) towards sticky
 //                    surfaces within `attraction_range` (AttachmentModel)
-//   capture          gap to a sticky surface <= capture distance
+//   capture          gap to a sticky surface <= capture distance (an arrival; the
+//                    engine's attachment rule decides whether it attaches)
 //   plate adhesion   (optional) torque balance of a sphere resting on a plate in
 //                    the wall shear of the depth profile: Goldman, Cox & Brenner
 //                    (1967, Chem. Eng. Sci. 22:653) drag 1.7009 x 6 pi mu a^2 G and
@@ -69,7 +70,9 @@ class HydroModel {
   bool captured(const Vec3& x) const;
   /// Torque balance of a particle resting on the bottom (or top) plate at x (header
   /// comment): true when adhesion holds it. `margin` receives adhesive / applied torque.
-  bool plateAdhesionHolds(const Vec3& x, bool bottom, double* margin = nullptr) const;
+  /// `adhesion_force` (N, >= 0) replaces the DMT contact adhesion A a / (6 z0^2): the
+  /// dlvo rule passes the largest attraction of the secondary minimum (a particle held there).
+  bool plateAdhesionHolds(const Vec3& x, bool bottom, double* margin = nullptr, double adhesion_force = -1.0) const;
   bool nearWallShear() const { return m_near_wall_shear; }    ///< shear lag on (SceneConfig::near_wall_shear and wall_hindrance)
   bool nearContactDrag() const { return m_near_contact_drag; }  ///< GCB parallel drag on (SceneConfig::near_contact_drag)
   /// Single-wall Brenner factor at surface gap `gap` (tabulated, log-interpolated; exact series in Physics.hpp).

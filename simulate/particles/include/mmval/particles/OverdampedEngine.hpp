@@ -8,7 +8,8 @@
 //   M = diag(1/lambda_par, 1/lambda_par, 1/lambda_perp) / (6 pi mu a)
 //       (Goldman-Cox-Brenner joined to Faxen for a sphere free to rotate, Brenner; two plates)
 //   F = gravity - buoyancy along -z + van der Waals attraction to sticky surfaces
-//   dx_B = sqrt(2 D dt) xi with D = k_B T M, plus the drift k_B T dM/dz (Ito).
+//   dx_B = sqrt(2 D dt) xi with D = k_B T M, plus the drift k_B T dM/dz (Ito; SceneConfig::ito_drift,
+//   off only in checks that show what leaving it out does).
 //   Only M_zz depends on z in a way the drift sees (M_xx depends on z, not x), so the
 //   drift is k_B T d(1/lambda_perp)/dz / (6 pi mu a) alone, unchanged by the parallel model.
 // Contacts are hard: after each step overlaps with other particles, the plates
@@ -19,10 +20,15 @@
 // A move (or a contact push) that leaves a particle overlapping a grain after
 // three pushes along the wall normal is refused: particles never squeeze
 // through a throat narrower than themselves (straining).
-// Attachment: a particle whose gap to a sticky surface falls below the capture
-// distance, or that would have penetrated it, deposits and stays; on the plates
-// optionally only when the adhesive torque holds against the shear's
-// (AttachmentModel::torque_balance, HydroModel::plateAdhesionHolds).
+// Attachment is decided after the contacts of the step are resolved, so that a
+// particle never attaches overlapping a deposit: a particle whose gap to a sticky
+// surface falls below the capture distance, that would have penetrated it, or that
+// touched a deposit is an arrival. capture rule: it deposits and stays; on the
+// plates optionally only when the adhesive torque holds against the shear's
+// (AttachmentModel::torque_balance, HydroModel::plateAdhesionHolds). dlvo rule: the
+// DLVO profile of the surface type decides (AttachmentModel::Rule, SurfaceChemistry).
+// A particle that would attach still overlapping a deposit (a push undone at a
+// grain) stays mobile for this step.
 // Not modelled: the wall correction of the lag for the parabola's curvature (the
 // lag is that of the wall's linear shear), in-plane hindrance by grains,
 // hydrodynamic interactions between particles, re-entrainment.
@@ -35,6 +41,20 @@
 #include "mmval/particles/Scene.hpp"
 
 namespace mmval::particles {
+
+/// Attachment of one surface type under the dlvo rule, computed once per engine from
+/// the chemistry (Dlvo.hpp): the profile's features, the IFBL efficiency alpha of
+/// primary-minimum attachment, and the secondary minimum's capture probability
+/// (Maxwell fraction, 0 unless the well is deeper than 1 kT) and holding force.
+struct SurfaceChemistry {
+  DlvoParameters parameters;
+  DlvoProfileFeatures profile;
+  DlvoAttachment attachment;
+  double alpha = 0;                ///< primary-minimum attachment per arrival
+  double secondary_capture = 0;    ///< probability of capture in the secondary minimum, given no primary attachment
+  double secondary_force = 0;      ///< N, largest attraction beyond the secondary minimum (pull-off force of a held particle)
+  nlohmann::json describe() const;
+};
 
 class OverdampedEngine final : public ParticleEngine {
  public:
@@ -55,6 +75,9 @@ class OverdampedEngine final : public ParticleEngine {
   /// Deterministic velocity (flow + M F + Ito drift) of a particle at x, m/s. For tests.
   Vec3 driftVelocity(const Vec3& x) const;
   const HydroModel& model() const { return m_model; }
+  /// dlvo rule: the attachment of plates (and grains: the chip's material) or deposits
+  /// (Surface::bottom, top and grain share one); nullptr under the capture rule.
+  const SurfaceChemistry* chemistry(Surface s) const;
 
   /// After the flow field changed (deposits turned cells solid): mobile
   /// particles now inside solid are deposited there (they are part of the
@@ -69,8 +92,17 @@ class OverdampedEngine final : public ParticleEngine {
 
  private:
   void step(double dt);
+  /// Surfaces a particle touched in a step (bits of m_touch).
+  enum Touch : std::uint8_t { kGrain = 1, kBottom = 2, kTop = 4, kDeposit = 8 };
   void resolveContacts();
-  void applyWallsAndCapture(ParticleState& p, const Vec3& before);
+  /// Grains, side walls, outlet and plates: pushes the particle back into the fluid and
+  /// returns the Touch bits of the surfaces it hit (or marks it left).
+  std::uint8_t applyWalls(ParticleState& p, const Vec3& before);
+  /// After contacts: attaches a particle that arrived at a sticky surface (either rule).
+  void decideAttachment(ParticleState& p, std::uint8_t touched);
+  /// dlvo rule: one draw for an arrival on surface `s`; true when the particle attaches.
+  bool dlvoArrival(ParticleState& p, Surface s, const SurfaceChemistry& sc);
+  bool overlapsDeposit(const ParticleState& p, const std::vector<int>& fresh) const;
   /// Uniform [0, 1) draw of a particle's n-th plate arrival (plate attachment efficiency).
   double arrivalDraw(std::int64_t id, std::uint32_t arrival) const;
   double chooseStep(const std::vector<Vec3>& drift) const;  ///< drift indexed like m_mobile
@@ -85,6 +117,8 @@ class OverdampedEngine final : public ParticleEngine {
   std::vector<ParticleState> m_particles;
   std::vector<int> m_mobile;  ///< indices of mobile particles, ascending
   std::unordered_map<std::int64_t, std::vector<int>> m_dep_cells;  ///< deposited particles by contact cell
+  std::vector<std::uint8_t> m_touch;  ///< Touch bits of this step, by particle index
+  std::unique_ptr<SurfaceChemistry> m_plate_chem, m_deposit_chem;  ///< dlvo rule only
   std::vector<int> m_dep_order;  ///< deposited particles in the order they were indexed (restores m_dep_cells exactly)
   double m_t = 0.0;
   EngineStats m_stats;

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mmval/core/Error.hpp"
+#include "mmval/particles/Dlvo.hpp"
 #include "mmval/particles/FlowField.hpp"
 #include "mmval/particles/Physics.hpp"
 
@@ -26,6 +27,20 @@ namespace mmval::particles {
 /// Israelachvili, Intermolecular and Surface Forces, 3rd ed., Table 13.1) pulls
 /// them in from a distance; it is evaluated at gap >= capture_distance only.
 struct AttachmentModel {
+  /// What decides attachment of a particle that arrives within the capture distance of a
+  /// sticky surface. capture: it attaches (with plate_efficiency and torque_balance on the
+  /// plates). dlvo: the DLVO profile of that surface type (glass plates and grains: sphere-plate
+  /// against the collector potential; deposits: sphere-sphere against the particle's own
+  /// potential) decides, one draw per arrival: primary-minimum attachment with the
+  /// interaction-force-boundary-layer efficiency alpha, else secondary-minimum capture with the
+  /// Maxwell probability when that well is deeper than 1 kT (on a plate only if the
+  /// secondary-minimum adhesion holds against the shear's torque), else it stays mobile.
+  enum class Rule : std::uint8_t { capture, dlvo };
+  Rule rule = Rule::capture;
+  /// Chemistry of the dlvo rule: electrolyte, Hamaker constant, double-layer model, Born term;
+  /// particle_potential is the particle's zeta potential and collector_potential the chip's
+  /// (plates and grains). The radii are set by the engine.
+  DlvoParameters chemistry;
   double capture_distance = 0.1e-6;  ///< m; <= 0 switches attachment off
   bool bottom = true;                ///< the chip's bottom plate (z = 0) is sticky
   bool top = false;                  ///< the top plate (z = h)
@@ -60,6 +75,9 @@ struct SceneConfig {
   double gravity = 9.81;            ///< m/s2 along -z (the depth); 0: no settling
   bool brownian = true;             ///< overdamped engine: Brownian displacements (Stokes-Einstein)
   bool wall_hindrance = true;       ///< Faxen / Brenner corrections from the two plates
+  /// Overdamped engine: the Ito drift k_B T dM/dz of the position-dependent mobility. Off only for
+  /// checks that show what leaving it out does (sedimentation equilibrium is then wrong).
+  bool ito_drift = true;
   bool faxen_curvature = true;      ///< Faxen's a^2/6 lap(u) term of the depth profile
   /// Overdamped engine: a free sphere near a plate lags the wall shear of the depth profile
   /// (Goldman, Cox & Brenner 1967; HydroModel::shearLag). false: it moves with the fluid at its centre.
@@ -93,6 +111,19 @@ inline InputLocation keyLocation(std::string key) {
 }
 
 enum class ParticleStatus : std::uint8_t { mobile = 0, deposited = 1, left = 2 };
+/// The surface a deposited particle is held by (none while mobile or gone; solid: swallowed by a
+/// cell that deposits closed).
+enum class Surface : std::uint8_t { none = 0, bottom = 1, top = 2, grain = 3, deposit = 4, solid = 5 };
+inline const char* surfaceName(Surface s) {
+  switch (s) {
+    case Surface::bottom: return "bottom plate";
+    case Surface::top: return "top plate";
+    case Surface::grain: return "grains";
+    case Surface::deposit: return "deposits";
+    case Surface::solid: return "closed cells";
+    default: return "none";
+  }
+}
 const char* statusName(ParticleStatus s);
 
 struct ParticleState {
@@ -103,6 +134,12 @@ struct ParticleState {
   double t_event = std::numeric_limits<double>::quiet_NaN();  ///< s: time it deposited or left
   std::uint32_t plate_arrivals = 0;  ///< arrivals on a sticky plate drawn against plate_efficiency
   bool plate_rejected = false;       ///< its last plate arrival did not attach; cleared when it leaves the plate
+  /// dlvo rule: arrivals drawn (all surfaces) and a bit per Surface whose last arrival did not
+  /// attach (cleared when the particle leaves that surface's capture distance).
+  std::uint32_t arrivals = 0;
+  std::uint8_t rejected = 0;
+  Surface held_by = Surface::none;   ///< set when it deposits
+  bool secondary = false;            ///< dlvo rule: held in the secondary minimum (not the primary)
 };
 
 /// Particle bookkeeping; injected == inside + deposited + left always holds.
