@@ -17,6 +17,7 @@
 #include "mmval/core/Run.hpp"
 #include "mmval/tracking/Kinds.hpp"
 #include "mmval/tracking/Synth.hpp"
+#include "mmval/tracking/SynthRings.hpp"
 #include "mmval/tracking/SynthSlab.hpp"
 #include "SynthFlow.hpp"
 
@@ -112,6 +113,8 @@ struct SynthCli {
   CLI::Option *width = nullptr, *height = nullptr, *frames = nullptr, *fps = nullptr, *pixel = nullptr, *particles = nullptr, *noise = nullptr;
   CLI::Option *diffusion = nullptr, *temperature = nullptr, *viscosity = nullptr, *bright = nullptr;
   std::vector<CLI::Option*> flow_only, slab_only;
+  tracking::RingSceneOptions rings;  ///< --scene brightfield-rings; its defaults are the real video's class
+  std::vector<CLI::Option*> rings_only;
 };
 
 /// A real-valued option given on the command line must be finite and in its range; NaN and
@@ -187,6 +190,42 @@ void runBrownianSlab(SynthCli& sy) {
   staged.commit();
   std::printf("synth: %d frames (%s), Brownian slab with D %.4g um^2/s: %.0f particles per frame in view, %.0f in focus, %lld distinct -> %s, truth.csv, truth_in_focus.csv, truth.json\n",
               s.frames, sy.format.c_str(), r.diffusion_um2_s, r.mean_in_view, r.mean_in_focus, static_cast<long long>(r.distinct_in_view), sy.out.c_str());
+}
+
+/// The ring scene's own options (synth --scene brightfield-rings; SynthRings.hpp).
+void addRingOptions(CLI::App* synth, SynthCli& sy) {
+  auto& r = sy.rings;
+  auto ring = [&](CLI::Option* opt) { sy.rings_only.push_back(opt->capture_default_str()); };
+  ring(synth->add_option("--ring-radius-px", r.ring_radius_px, "brightfield-rings: radius of the dark ring"));
+  ring(synth->add_option("--diffusion-px2", r.diffusion_px2, "brightfield-rings: diffusion coefficient in px^2 per frame"));
+  ring(synth->add_option("--illumination-gradient", r.illumination_gradient, "brightfield-rings: brightness falls by this fraction from left to right"));
+  ring(synth->add_option("--specks", r.static_specks, "brightfield-rings: static dark specks (dust on the optics)")->check(CLI::Range(0, 1000)));
+}
+
+/// synth --scene brightfield-rings: shared options given on the command line replace the scene's defaults.
+void runRingScene(SynthCli& sy) {
+  tracking::RingSceneOptions r = sy.rings;
+  if (sy.width->count() > 0) r.width = sy.o.width;
+  if (sy.height->count() > 0) r.height = sy.o.height;
+  if (sy.frames->count() > 0) r.frames = sy.o.frames;
+  if (sy.fps->count() > 0) r.fps_hz = sy.o.fps;
+  if (sy.pixel->count() > 0) r.pixel_size_um = sy.pixel_um;
+  if (sy.particles->count() > 0) r.particles = sy.o.particles;
+  if (sy.noise->count() > 0) r.noise = sy.o.noise;
+  r.seed = sy.o.seed;
+  r.format = tracking::parseSynthFormat(sy.format);
+  requireOptionValue("--ring-radius-px", r.ring_radius_px, 2, false, 100, "a ring radius from 2 to 100 px");
+  requireOptionValue("--diffusion-px2", r.diffusion_px2, 0, false, 1e4, "a diffusion coefficient in px^2 per frame, finite and >= 0");
+  requireOptionValue("--illumination-gradient", r.illumination_gradient, -0.89, false, 0.89, "a fraction between -0.89 and 0.89");
+  try {
+    StagedDirectory staged(sy.out);
+    tracking::writeRingScene(r, staged.path());
+    staged.commit();
+  } catch (const std::invalid_argument& e) {
+    throw InputError({}, e.what(), {}, "fewer or smaller rings (--particles, --ring-radius-px) or a larger frame (--width, --height)");
+  }
+  std::printf("synth: %d frames (%s), %d brightfield ring colloids of ring radius %g px -> %s, truth.csv, truth.json\n", r.frames, sy.format.c_str(),
+              r.particles, r.ring_radius_px, sy.out.c_str());
 }
 
 }  // namespace
@@ -274,8 +313,10 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
   auto sy = std::make_shared<SynthCli>();
   CLI::App* synth = app.add_subcommand("synth", "Write a synthetic video with its ground truth (truth.csv): micromodel flow, or Brownian particles in a slab");
   synth->add_option("--out", sy->out, "Output folder")->required();
-  synth->add_option("--scene", sy->scene, "flow (micromodel flow past grains) or brownian-slab (3D diffusion in a slab, depth-dependent defocus, drift, flicker)")
-      ->check(CLI::IsMember({"flow", "brownian-slab"}))
+  synth->add_option("--scene", sy->scene,
+                    "flow (micromodel flow past grains), brownian-slab (3D diffusion in a slab, depth-dependent defocus, drift, flicker) or "
+                    "brightfield-rings (ring-shaped colloids: bright centre, dark ring, halo; Brownian, illumination gradient, static specks)")
+      ->check(CLI::IsMember({"flow", "brownian-slab", "brightfield-rings"}))
       ->capture_default_str();
   synth->add_option("--format", sy->format, "Frames as png (8-bit grey), rgba (RGBA PNG), tiff16 (16-bit grey TIFF) or mp4 (one lossy video.mp4)")
       ->check(CLI::IsMember({"png", "rgba", "tiff16", "mp4"}))
@@ -299,6 +340,7 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
   CLI::Option* snr_opt = synth->add_option("--snr", sy->snr, "Signal-to-noise ratio (spot amplitude / noise std); overrides --noise");
   sy->flow_only.push_back(snr_opt);
   addSlabOptions(synth, *sy);
+  addRingOptions(synth, *sy);
   synth->callback([sy, snr_opt] {
     // NaN passes CLI11's range checks and used to write NaN times: every real option is checked here (exit 2).
     requireOptionValue("--fps", sy->o.fps, 0, true, 1e9, "a frame rate in frames per second, finite and > 0 (e.g. --fps 10)");
@@ -306,11 +348,19 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
     requireOptionValue("--speed", sy->o.speed, 0, false, 1e6, "a flow speed in px per frame, finite and >= 0");
     requireOptionValue("--noise", sy->o.noise, 0, false, 0.5, "a camera noise between 0 and 0.5 of full scale");
     // Each scene's own options are refused in the other, rather than silently ignored.
-    const bool slab = sy->scene == "brownian-slab";
-    for (CLI::Option* opt : slab ? sy->flow_only : sy->slab_only)
-      if (opt->count() > 0)
-        throw InputError({}, fmt::format("option {} does not apply to --scene {}", opt->get_name(), sy->scene), opt->get_name(),
-                         fmt::format("--scene {} for it, or leave it out", slab ? "flow" : "brownian-slab"));
+    const bool slab = sy->scene == "brownian-slab", rings = sy->scene == "brightfield-rings";
+    const std::pair<const std::vector<CLI::Option*>*, const char*> groups[] = {
+        {&sy->flow_only, "flow"}, {&sy->slab_only, "brownian-slab"}, {&sy->rings_only, "brightfield-rings"}};
+    for (const auto& [options, scene] : groups)
+      if (sy->scene != scene)
+        for (CLI::Option* opt : *options)
+          if (opt->count() > 0)
+            throw InputError({}, fmt::format("option {} does not apply to --scene {}", opt->get_name(), sy->scene), opt->get_name(),
+                             fmt::format("--scene {} for it, or leave it out", scene));
+    if (rings) {
+      runRingScene(*sy);
+      return;
+    }
     if (slab) {
       runBrownianSlab(*sy);
       return;

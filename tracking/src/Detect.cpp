@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "mmval/tracking/Background.hpp"
+#include "mmval/tracking/SceneDecisions.hpp"
 
 namespace mmval::tracking {
 
@@ -450,10 +451,69 @@ std::vector<Detection> peakSeeds(const cv::Mat& smooth, double floor_level, cons
   return out;
 }
 
+/// Smallest normalised cross-correlation of a ring detection with the ring's profile.
+constexpr double kMinRingMatch = 0.5;
+
+/// Ring colloids: the matched filter's response (zero-mean kernel: the illumination
+/// level and linear gradients cancel) holds one bright peak per ring at its centre;
+/// peaks are found there, the centre refined by radial symmetry on the frame.
+std::vector<Detection> detectRings(const cv::Mat& frame, const cv::Mat& background, const DetectOptions& o) {
+  const double radius = o.ring_radius_px > 0 ? o.ring_radius_px : o.refine_radius;
+  const cv::Mat kernel = o.ring_kernel.empty() ? ringKernel({}, radius) : o.ring_kernel;
+  cv::Mat signal, response, smooth;
+  if (background.empty()) frame.convertTo(signal, CV_32F);
+  else cv::subtract(frame, background, signal, cv::noArray(), CV_32F);
+  cv::filter2D(signal, response, CV_32F, kernel, cv::Point(-1, -1), 0, cv::BORDER_REFLECT);
+  DetectOptions r = o;
+  r.blur_sigma = 0;          // the filter has smoothed at the ring's scale
+  r.local_background = 0;
+  r.deblend = false;         // the response's peaks are not Gaussian spots
+  r.max_size_ratio = 0;
+  // Two rings' centres are at least a ring diameter apart (they do not overlap); nearer
+  // maxima are the filter's side lobes.
+  r.separation = std::max(o.separation, static_cast<int>(std::lround(2 * radius)));
+  r.refine_radius = std::max(2, static_cast<int>(std::lround(0.5 * radius)));
+  r.refine_sigma = 0;
+  r.min_area = std::min(o.min_area, 1.0);
+  r.max_area = std::max(o.max_area, 4 * M_PI * radius * radius);
+  r.ring_kernel = cv::Mat();
+  std::vector<Detection> found = detect(response, {}, Polarity::bright, r);
+  // Shape test: the normalised cross-correlation of the window with the ring (Lewis 1995,
+  // "Fast normalized cross-correlation", Vision Interface): the response over the
+  // kernel's norm and the window's standard deviation about its own mean. Static specks,
+  // edges and noise correlate weakly with a ring; rings near 1.
+  const int k = kernel.rows / 2;
+  cv::Mat disc(kernel.size(), CV_32F, cv::Scalar(0));
+  cv::circle(disc, {k, k}, k, cv::Scalar(1), -1);
+  const double n_disc = cv::sum(disc)[0], kernel_norm = std::sqrt(kernel.dot(kernel));
+  std::erase_if(found, [&](const Detection& d) {
+    const int cx = std::clamp(static_cast<int>(std::lround(d.x)), 0, signal.cols - 1), cy = std::clamp(static_cast<int>(std::lround(d.y)), 0, signal.rows - 1);
+    double s1 = 0, s2 = 0;
+    for (int y = -k; y <= k; ++y)
+      for (int x = -k; x <= k; ++x) {
+        if (disc.at<float>(y + k, x + k) == 0) continue;
+        const double v = signal.at<float>(cv::borderInterpolate(cy + y, signal.rows, cv::BORDER_REFLECT), cv::borderInterpolate(cx + x, signal.cols, cv::BORDER_REFLECT));
+        s1 += v;
+        s2 += v * v;
+      }
+    const double spread = std::sqrt(std::max(0.0, s2 - s1 * s1 / n_disc));
+    const double ncc = spread > 0 ? response.at<float>(cy, cx) / (kernel_norm * spread) : 0.0;
+    return ncc < kMinRingMatch;
+  });
+  cv::GaussianBlur(signal, smooth, cv::Size(0, 0), 1.0);
+  for (Detection& d : found) {
+    radialSymmetryCentre(smooth, radius, d);
+    d.x = std::clamp(d.x, 0.0, signal.cols - 1.0);
+    d.y = std::clamp(d.y, 0.0, signal.rows - 1.0);
+  }
+  return found;
+}
+
 }  // namespace
 
 std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, Polarity polarity, const DetectOptions& o) {
   if (polarity == Polarity::automatic) polarity = guessPolarity(frame, background);
+  if (polarity == Polarity::ring) return detectRings(frame, background, o);
   // Signal: how much darker (or brighter) than the background, >= 0.
   // Frame-sized buffers are per thread and reused from frame to frame.
   thread_local cv::Mat signal, local, smooth_buf;
@@ -569,7 +629,7 @@ std::vector<Detection> detectStuck(const cv::Mat& background, Polarity polarity,
   if (background.empty()) return {};
   const cv::Mat k = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(o.stuck_kernel | 1, o.stuck_kernel | 1));
   cv::Mat hat;
-  cv::morphologyEx(background, hat, polarity == Polarity::bright ? cv::MORPH_TOPHAT : cv::MORPH_BLACKHAT, k);
+  cv::morphologyEx(background, hat, polarity != Polarity::dark ? cv::MORPH_TOPHAT : cv::MORPH_BLACKHAT, k);
   // `hat` is the small-scale signal of the background; detect on it against a flat zero.
   DetectOptions d = o;
   d.threshold = ThresholdMode::otsu;
@@ -592,7 +652,26 @@ Polarity parsePolarity(const std::string& s) {
   if (s == "dark") return Polarity::dark;
   if (s == "bright") return Polarity::bright;
   if (s == "auto") return Polarity::automatic;
+  if (s == "ring") return Polarity::ring;
   throw std::invalid_argument("polarity");
+}
+std::string polarityName(Polarity p) {
+  switch (p) {
+    case Polarity::dark: return "dark";
+    case Polarity::bright: return "bright";
+    case Polarity::ring: return "ring";
+    case Polarity::automatic: break;
+  }
+  return "auto";
+}
+BackgroundMode parseBackgroundMode(const std::string& s) {
+  if (s == "auto") return BackgroundMode::automatic;
+  if (s == "median") return BackgroundMode::median;
+  if (s == "none") return BackgroundMode::none;
+  throw std::invalid_argument("detect.background");
+}
+std::string backgroundModeName(BackgroundMode m) {
+  return m == BackgroundMode::median ? "median" : m == BackgroundMode::none ? "none" : "auto";
 }
 ThresholdMode parseThreshold(const std::string& s) {
   if (s == "manual") return ThresholdMode::manual;

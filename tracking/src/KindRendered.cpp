@@ -32,7 +32,7 @@ void registerRenderedKind(CaseKindRegistry& registry) {
     s.path("inputs.trajectories", "Trajectories CSV (shared tracks schema, with pixel columns in the geometry image)").optional();
     s.string("inputs.trajectories_run", "Instead: name of a case run earlier in the same validation; its trajectories.csv is used").optional();
     s.path("geometry.mask", "Geometry image the trajectories were simulated in (the same crop)");
-    s.choice("geometry.grains", {"dark", "light"}, "Which pixels of the image are grains").def("dark");
+    s.choice("geometry.grains", {"dark", "bright", "light"}, "Which pixels of the image are grains (\"light\" is an older spelling of \"bright\")").def("dark");
     s.integerList("geometry.crop", "Window of the image the simulation used: [x, y, width, height] in px").optional();
     s.quantity("geometry.pixel_size", "um", "Size of one geometry pixel").positive();
     s.real("render.scale", "Video pixels per geometry pixel").def(1.0).min(0.1).max(16);

@@ -63,9 +63,34 @@ void declareMotionKeys(Schema& s) {
 
 }  // namespace
 
+void addSceneDecisions(const TrackRun& run, nlohmann::json& summary) {
+  const BackgroundDecision& b = run.background_decision;
+  summary["background"] = {{"requested", b.requested}, {"subtracted", b.subtract}, {"reason", b.reason}};
+  if (b.frames_compared > 0)
+    summary["background"]["numbers"] = {{"frames_compared", b.frames_compared}, {"spots_per_frame", b.spots_per_frame},
+                                        {"spots_in_median", b.spots_in_median}, {"static_share", b.static_share}, {"persistent_spots", b.persistent_spots}, {"moving_energy_share", b.moving_energy_share},
+                                        {"static_share_limit", kStaticShareLimit}};
+  summary["detection"] = {{"polarity", polarityName(run.polarity)}, {"reason", run.polarity_reason}};
+  if (run.ring.candidates > 0 || run.ring.rings)
+    summary["detection"]["rings"] = {{"found", run.ring.rings}, {"bright_spots", run.ring.candidates}, {"ringed", run.ring.ringed},
+                                     {"dark_centred_rings", run.ring.dark_ringed}, {"share", run.ring.share}, {"ring_radius_px", run.ring.radius_px}};
+}
+
 void declareTrackerKeys(Schema& s) {
-  s.boolean("detect.subtract_background", "Remove the temporal median background (grains, stuck particles)").def(true);
-  s.choice("detect.polarity", {"auto", "dark", "bright"}, "Particles darker or brighter than the background").def("auto");
+  s.choice("detect.background", {"auto", "median", "none"},
+           "Static background: the temporal median of sampled frames subtracted (median: grains, stuck particles, uneven illumination "
+           "vanish), not (none), or auto: not when more than half of the round spots of sampled frames sit on spots of the median (the "
+           "particles barely move, so the median is the particles), nor for ring colloids when no spot of the median recurs in 3/4 of "
+           "the frames (nothing static; the median would hold ghosts of slow rings); otherwise subtracted. When auto decides against it a spatial "
+           "high-pass of refine_radius evens the illumination. summary.json \"background\" says which, with its numbers and why")
+      .def(backgroundModeName(DetectOptions{}.background_mode));
+  s.boolean("detect.subtract_background", "Older switch of the background: true is detect.background = \"median\", false \"none\" (wins over it)")
+      .optional();
+  s.choice("detect.polarity", {"auto", "dark", "bright", "ring"},
+           "Particles darker or brighter than the background, or ring-shaped brightfield colloids (bright centre inside a dark ring, "
+           "detected at the centre by a matched filter of their measured profile); auto recognises rings first, then takes the side of "
+           "the moving foreground. summary.json \"detection\" says which and why")
+      .def("auto");
   s.real("detect.blur_sigma", "Gaussian blur, px (0: none)").def(1.0).min(0).max(20);
   s.choice("detect.threshold", {"otsu", "manual", "adaptive"}, "Threshold method").def("otsu");
   s.real("detect.threshold_value", "Manual threshold, fraction of full scale of the background-removed signal").def(0.08).min(0).max(1);
@@ -147,7 +172,9 @@ void declareTrackerKeys(Schema& s) {
 
 TrackConfig trackerConfig(const Case& c) {
   TrackConfig t;
-  t.detect.subtract_background = c.flag("detect.subtract_background");
+  t.detect.background_mode = parseBackgroundMode(c.text("detect.background"));
+  if (c.has("detect.subtract_background"))
+    t.detect.background_mode = c.flag("detect.subtract_background") ? BackgroundMode::median : BackgroundMode::none;
   t.detect.polarity = parsePolarity(c.text("detect.polarity"));
   t.detect.blur_sigma = c.real("detect.blur_sigma");
   t.detect.threshold = parseThreshold(c.text("detect.threshold"));
@@ -248,6 +275,7 @@ RunOutput runTrackingVideo(const Case& c, const RunContext& ctx) {
     out.metrics["jaccard_tracks"] = sc.jaccard_tracks;
     out.metrics["rmse"] = sc.rmse_px;
   }
+  addSceneDecisions(run, extra);
   out.files = writeTrackOutputs(run, cfg, ctx.out_dir, extra);
   if (run.motion.model == MotionModel::brownian) {
     // Speeds, dispersion and retention describe a flow: for Brownian motion, D and its kin.
@@ -363,7 +391,7 @@ void registerTrackingKinds(CaseKindRegistry& registry) {
     // With background removal and no search of the background for stuck particles the
     // tracker is meant not to see particles stuck from the start: they leave the scored truth.
     Tracks scored = synth.truth;
-    if (cfg.detect.subtract_background && !cfg.detect.find_stuck)
+    if (run.background_decision.subtract && !cfg.detect.find_stuck)
       std::erase_if(scored.points, [&](const TrackPoint& p) {
         return std::find(synth.immobile_ids.begin(), synth.immobile_ids.end(), p.particle) != synth.immobile_ids.end();
       });
@@ -376,6 +404,7 @@ void registerTrackingKinds(CaseKindRegistry& registry) {
                                         {"jaccard_tracks", sc.jaccard_tracks}, {"rmse_px", sc.rmse_px}, {"tp", sc.tp}, {"fp", sc.fp},
                                         {"fn", sc.fn}, {"truth_tracks", sc.truth_tracks}, {"estimated_tracks", sc.estimated_tracks}}}};
     RunOutput out;
+    addSceneDecisions(run, extra);
     out.files = writeTrackOutputs(run, cfg, ctx.out_dir / "tracks", extra);
     for (auto& f : out.files) f = "tracks/" + f;
     out.metrics["alpha"] = sc.alpha;

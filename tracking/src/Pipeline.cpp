@@ -17,6 +17,7 @@
 #include "PipelineDetail.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/tracking/Background.hpp"
+#include "mmval/tracking/SceneDecisions.hpp"
 #include "mmval/tracking/TrackSmooth.hpp"
 
 namespace mmval::tracking {
@@ -50,6 +51,35 @@ MotionDecision chooseMotion(const TrackConfig& c, std::vector<LinkedPoint>& link
   return m;
 }
 
+/// Frames the polarity and ring guesses sample, spread over the video.
+constexpr int kPolaritySamples = 24;
+
+/// detect.background: as set, or decided from `frames`, those sampled for the median.
+BackgroundDecision chooseBackground(const std::vector<cv::Mat>& frames, const TrackConfig& c, Polarity polarity, const DetectOptions& options, const cv::Mat& median) {
+  BackgroundDecision d;
+  d.requested = c.detect.subtract_background ? backgroundModeName(c.detect.background_mode) : "none";
+  if (!c.detect.subtract_background || c.detect.background_mode == BackgroundMode::none) {
+    d.subtract = false;
+    d.reason = c.detect.subtract_background ? "detect.background = \"none\"" : "detect.subtract_background = false";
+    return d;
+  }
+  if (c.detect.background_mode == BackgroundMode::median) {
+    d.reason = "detect.background = \"median\"";
+    return d;
+  }
+  if (c.detect.polarity == Polarity::automatic && polarity != Polarity::ring) {
+    // The polarity guess leans on the median, which is what is in question: judged on the
+    // side that shows more spots against a spatial high-pass (the particles).
+    const BackgroundDecision dark = decideBackground(frames, median, Polarity::dark, options);
+    const BackgroundDecision bright = decideBackground(frames, median, Polarity::bright, options);
+    d = dark.spots_per_frame >= bright.spots_per_frame ? dark : bright;
+  } else {
+    d = decideBackground(frames, median, polarity, options);
+  }
+  d.requested = "auto";
+  return d;
+}
+
 }  // namespace
 
 TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
@@ -58,24 +88,29 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   RollingBackground rolling;
   // threads 0: every core (the decoding and detection of frames are independent).
   const int threads = c.threads > 0 ? c.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const bool background_wanted = c.detect.subtract_background && c.detect.background_mode != BackgroundMode::none;
+  const bool sample_polarity = c.detect.polarity == Polarity::automatic || c.detect.polarity == Polarity::ring;
   {
     // Every frame is decoded once: the samplers below read only the frames they keep,
     // in one forward pass (videos), into the source's cache, which the main pass reads.
     std::vector<int> sampled;
-    if (c.detect.subtract_background) {
+    if (background_wanted) {
       sampled = samplePositions(source.count(), c.detect.background_samples);
       if (c.background_window > 0)
         for (const auto& block : rollingSamplePositions(source.count(), c.background_window, std::min(c.background_window, c.detect.background_samples)))
           sampled.insert(sampled.end(), block.begin(), block.end());
     }
-    if (c.detect.polarity == Polarity::automatic) {
-      const std::vector<int> more = samplePositions(source.count(), 24);
+    if (sample_polarity) {
+      const std::vector<int> more = samplePositions(source.count(), kPolaritySamples);
       sampled.insert(sampled.end(), more.begin(), more.end());
     }
     source.prefetch(sampled, threads);
   }
-  if (c.detect.subtract_background) {
-    run.background = quantileOfFrames(sampleFrames(source, c.detect.background_samples), c.background_quantile);
+  // The frames of the median, kept for the background decision below (read once).
+  std::vector<cv::Mat> background_frames;
+  if (background_wanted) {
+    background_frames = sampleFrames(source, c.detect.background_samples);
+    run.background = quantileOfFrames(background_frames, c.background_quantile);
     if (c.background_window > 0)
       rolling = rollingBackground(source, c.background_window, std::min(c.background_window, c.detect.background_samples), c.background_quantile);
   }
@@ -85,10 +120,43 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   if (c.analysis.motion == MotionModel::brownian && link_options.predict == Prediction::automatic) link_options.predict = Prediction::none;
   TrackLinker linker(link_options);
   Progress progress("tracking", static_cast<std::size_t>(std::max(0, source.count())), quiet);
-  Polarity polarity = c.detect.polarity;
+  DetectOptions options = c.detect;  // with what the video decides: ring filter, spatial high-pass
+  const Polarity polarity_in = c.detect.polarity;
+  Polarity polarity = polarity_in;
+  const std::vector<cv::Mat> polarity_frames = sample_polarity ? sampleFrames(source, kPolaritySamples) : std::vector<cv::Mat>{};
+  if (sample_polarity) run.ring = guessRings(polarity_frames);
   // From frames spread over the video, not the first alone: the first frame of a scene can
   // hold no moving particle yet, only the absence of deposits that arrive later.
-  if (polarity == Polarity::automatic) polarity = guessPolarity(sampleFrames(source, 24), run.background);
+  if (polarity == Polarity::automatic) {
+    if (run.ring.rings) {
+      polarity = Polarity::ring;
+      run.polarity_reason = run.ring.reason;
+    } else {
+      polarity = guessPolarity(polarity_frames, run.background);
+      run.polarity_reason = fmt::format("{}; the side (darker or brighter than the background) with more moving foreground", run.ring.reason);
+    }
+  } else {
+    run.polarity_reason = fmt::format("detect.polarity = \"{}\"", polarityName(polarity));
+  }
+  if (polarity == Polarity::ring) {
+    options.ring_radius_px = run.ring.rings ? run.ring.radius_px : static_cast<double>(c.detect.refine_radius);
+    options.ring_kernel = ringKernel(run.ring.rings ? run.ring.profile : std::vector<float>{}, options.ring_radius_px);
+  }
+  run.background_decision = chooseBackground(background_frames, c, polarity, options, run.background);
+  background_frames.clear();
+  if (!run.background_decision.subtract) {
+    run.background.release();
+    rolling = RollingBackground{};
+    // Without a temporal background the polarity is judged within each frame (a temporal
+    // median of still particles is the particles, and the foreground against it noise).
+    if (polarity_in == Polarity::automatic && polarity != Polarity::ring) {
+      polarity = guessPolaritySpatial(polarity_frames);
+      run.polarity_reason += fmt::format("; with no background subtracted: {} (more band-passed excess on that side)", polarityName(polarity));
+    }
+    // Decided from the video: a spatial high-pass of the particle's radius (trackpy's band
+    // pass) evens the illumination instead.
+    if (background_wanted && options.local_background == 0 && polarity != Polarity::ring) options.local_background = std::max(2, options.refine_radius);
+  }
   // Stuck-particle candidates (spots of the median background) and, per candidate, the
   // frames in which the spot is missing from the frame: there the frame is brighter (dark
   // polarity) than the background by about the spot's amplitude.
@@ -104,7 +172,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   auto prepare = [&](const cv::Mat& first) {
     if (polarity == Polarity::automatic) polarity = guessPolarity(first, run.background);
     if (!stuck_ready) {
-      stuck = detectStuck(run.background, polarity, c.detect);
+      stuck = detectStuck(run.background, polarity, options);
       absent.assign(stuck.size(), {});
       stuck_ready = true;
     }
@@ -120,7 +188,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
       // Least-squares amplitude of a spot of sigma 1.5 px at the candidate in
       // (background - frame) for dark particles: ~0 while the particle is there, about
       // minus its amplitude once it has gone.
-      const double sign = polarity == Polarity::bright ? 1.0 : -1.0;
+      const double sign = polarity == Polarity::dark ? -1.0 : 1.0;
       for (std::size_t i = 0; i < stuck.size(); ++i) {
         const int cx = static_cast<int>(std::lround(stuck[i].x)), cy = static_cast<int>(std::lround(stuck[i].y));
         double sg = 0, sgg = 0;
@@ -135,7 +203,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
       const std::lock_guard<std::mutex> lock(absent_mutex);
       for (std::size_t i : missing) absent[i].push_back(frame_number);
     }
-    return detect(f, rolling.backgrounds.empty() ? run.background : rolling.at(frame_number), polarity, c.detect);
+    return detect(f, rolling.backgrounds.empty() ? run.background : rolling.at(frame_number), polarity, options);
   };
   auto link = [&](int index, std::vector<Detection>&& found) {
     linker.push(index, found);

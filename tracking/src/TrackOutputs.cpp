@@ -119,7 +119,7 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
     summary["tracks"] = summary["brownian"]["tracks"]["mobile"].get<int>() + summary["brownian"]["tracks"]["immobile"].get<int>() +
                         summary["brownian"]["tracks"]["short"].get<int>();
   }
-  summary["polarity"] = run.polarity == Polarity::dark ? "dark" : "bright";
+  summary["polarity"] = polarityName(run.polarity);
   summary["links"] = run.link.links;
   summary["gap_closures"] = run.link.gap_closures;
   summary["largest_component"] = run.link.largest_component;
@@ -130,7 +130,7 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
     summary["msd_D_linear_um2_per_s"] = s.msd.d_linear * 1e6 * 1e6;
   }
   summary["parameters"] = {{"pixel_size_um", c.pixel_size * 1e6}, {"fps", c.fps}, {"blur_sigma", c.detect.blur_sigma},
-                           {"subtract_background", c.detect.subtract_background}, {"search_radius_px", c.link.search_radius},
+                           {"background", run.background_decision.subtract ? "median" : "none"}, {"search_radius_px", c.link.search_radius},
                            {"memory", c.link.memory}, {"linker", c.link.method == Linker::global ? "global" : "paper"},
                            {"seeds", c.detect.method == SeedMethod::peaks ? "peaks" : "contours"}, {"threads", c.threads},
                            {"smooth_frames", c.smooth_frames}, {"background_quantile", c.background_quantile},

@@ -28,14 +28,21 @@
 
 namespace mmval::tracking {
 
-enum class Polarity { dark, bright, automatic };
+/// ring: brightfield colloids imaged as a bright centre inside a dark ring (on a grey
+/// field), detected at the centre by a matched filter of the ring (SceneDecisions.hpp).
+enum class Polarity { dark, bright, automatic, ring };
+/// Static background: decided from the video (auto), always the temporal median, or none.
+enum class BackgroundMode { automatic, median, none };
 enum class ThresholdMode { manual, otsu, adaptive };
 enum class Morphology { none, erode, dilate, open, close };
 enum class Refinement { moments, intensity, disc, gaussian };
 enum class SeedMethod { contours, peaks };
 
 struct DetectOptions {
-  bool subtract_background = true;  ///< temporal median of the video (grains and stuck particles vanish)
+  bool subtract_background = true;  ///< false: no temporal background whatever background_mode says
+  /// auto: the temporal median is subtracted unless the particles barely move (then the
+  /// median is the particles; decideBackground in SceneDecisions.hpp).
+  BackgroundMode background_mode = BackgroundMode::automatic;
   int background_samples = 60;      ///< frames sampled for the median
   Polarity polarity = Polarity::automatic;
   double blur_sigma = 1.0;          ///< px; 0 disables
@@ -83,6 +90,10 @@ struct DetectOptions {
   /// ones). Needs kFocusMinSpots spots in the frame; a blurred spot with a sharp one within
   /// 3 modal sigmas is kept (its sigma is their pair's). See docs/trackpy-mapping.md.
   double max_size_ratio = 1.5;
+  /// Polarity ring: the matched filter (ringKernel) and the ring radius, px; empty / 0:
+  /// a generic ring of refine_radius.
+  cv::Mat ring_kernel;
+  double ring_radius_px = 0;
 };
 
 /// Fewest spots in a frame for the focus filter to judge their modal sigma.
@@ -131,6 +142,9 @@ std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, P
 std::vector<Detection> detectStuck(const cv::Mat& background, Polarity polarity, const DetectOptions& options);
 
 Polarity parsePolarity(const std::string& s);
+std::string polarityName(Polarity p);
+BackgroundMode parseBackgroundMode(const std::string& s);
+std::string backgroundModeName(BackgroundMode m);
 ThresholdMode parseThreshold(const std::string& s);
 Morphology parseMorphology(const std::string& s);
 Refinement parseRefinement(const std::string& s);

@@ -21,4 +21,8 @@ RunOutput runTrackingVideo(const Case& c, const RunContext& ctx);
 void declareTrackerKeys(Schema& s);
 TrackConfig trackerConfig(const Case& c);
 
+/// The run's background and polarity decisions, with their numbers and reasons, as the
+/// "background" and "detection" entries of summary.json.
+void addSceneDecisions(const TrackRun& run, nlohmann::json& summary);
+
 }  // namespace mmval::tracking

@@ -11,6 +11,7 @@
 #include "mmval/core/Tracks.hpp"
 #include "mmval/tracking/Detect.hpp"
 #include "mmval/tracking/Link.hpp"
+#include "mmval/tracking/SceneDecisions.hpp"
 #include "mmval/tracking/TrackMetrics.hpp"
 
 namespace mmval::tracking {
@@ -38,6 +39,9 @@ struct TrackRun {
   std::vector<int> frame_index;
   LinkStats link;
   Polarity polarity = Polarity::dark;
+  std::string polarity_reason;   ///< why this polarity (as set, or the guesses' numbers)
+  RingGuess ring;                ///< the ring test on the sampled frames (polarity auto or ring)
+  BackgroundDecision background_decision;  ///< whether the temporal median was subtracted, and why
   cv::Mat background;
   double seconds = 0;
   int stuck_found = 0;  ///< particles found in the background (stuck all along)
