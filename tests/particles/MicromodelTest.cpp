@@ -2,7 +2,8 @@
 // independent reference: the distance transform against brute force, deposit
 // volume conservation (columns and plate layers), the flux through thinned
 // apertures (Reynolds equation), throat bottlenecks of masks with known widths, engine
-// checkpoints against uninterrupted runs, and bad insertions.
+// checkpoints against uninterrupted runs, and bad insertions; the run's stages
+// (insertion, deposition, re-solve, frame record) each alone.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,6 +14,8 @@
 #include "mmval/particles/HydroModel.hpp"
 #include "mmval/particles/MicromodelFlow.hpp"
 #include "mmval/particles/OverdampedEngine.hpp"
+// The micromodel run's stages are internal to the library (no public header).
+#include "MicromodelStages.hpp"
 
 namespace mmval::particles {
 namespace {
@@ -314,6 +317,239 @@ TEST(MicromodelBadInput, ThroatExactlyOneParticleWide) {
   f.advance(0.1);
   EXPECT_EQ(f.counts().deposited, 1);
   EXPECT_LT(f.particles()[0].x.x(), 5e-6 + 0.5 * d);
+}
+
+// --- The run's stages alone (MicromodelStages.hpp) ---
+
+SceneConfig stageScene(double diameter, std::uint64_t seed) {
+  SceneConfig c = colloidScene(seed);
+  c.particle.diameter = diameter;
+  return c;
+}
+
+TEST(MicromodelStages, InsertDuePlacesTheScheduleInTheStripAndNumbersInOrder) {
+  // Two classes taking 3/4 and 1/4 of 40 particles per second: by t = 1 s the
+  // schedule calls for floor(30) and floor(10), by 1.5 s for 45 and 15. Ids run
+  // over the classes in injection order; every centre lies in the strip
+  // [a, a + strip] (sampleInlet's contract), a = the radius.
+  auto flow = std::make_shared<HeleShawChannel>(2e-3, 200e-6, 20e-6, 0.7e-3);
+  std::vector<stages::SizeClass> classes(2);
+  classes[0].diameter = 5e-6;
+  classes[0].fraction = 0.75;
+  classes[1].diameter = 3e-6;
+  classes[1].fraction = 0.25;
+  stages::makeEngines(classes, flow, stageScene(5e-6, 4), 4);
+  stages::Schedule sch;
+  sch.rate_per_s = 40;
+  sch.injection_time = 10;
+  sch.strip = 100e-6;
+  sch.max_strip = 1e-3;
+  sch.seed = 4;
+  stages::ClassParticles ps(2);
+  std::int64_t next_id = 1;
+  stages::insertDue(classes, *flow, sch, 1, 1.0, ps, next_id);
+  EXPECT_EQ(classes[0].injected, 30);
+  EXPECT_EQ(classes[1].injected, 10);
+  EXPECT_EQ(next_id, 41);
+  stages::insertDue(classes, *flow, sch, 2, 1.5, ps, next_id);
+  ASSERT_EQ(ps[0].size(), 45u);
+  ASSERT_EQ(ps[1].size(), 15u);
+  EXPECT_EQ(next_id, 61);
+  // Frame 1: class 0 ids 1..30, class 1 ids 31..40; frame 2: class 0 41..55, class 1 56..60.
+  EXPECT_EQ(classes[0].global_id[0], 1);
+  EXPECT_EQ(classes[0].global_id[29], 30);
+  EXPECT_EQ(classes[1].global_id[0], 31);
+  EXPECT_EQ(classes[0].global_id[30], 41);
+  EXPECT_EQ(classes[1].global_id[14], 60);
+  for (std::size_t ci = 0; ci < 2; ++ci) {
+    EXPECT_EQ(classes[ci].deferred, 0);
+    EXPECT_EQ(classes[ci].accounted.size(), ps[ci].size());
+    const double a = 0.5 * classes[ci].diameter;
+    for (const auto& p : ps[ci]) {
+      EXPECT_GE(p.x.x(), a - 1e-15);
+      EXPECT_LE(p.x.x(), a + sch.strip + 1e-15);
+    }
+  }
+}
+
+TEST(MicromodelStages, InsertDueDefersWhatAFullStripCannotTake) {
+  // 300 particles of 5 um due at once into a strip one diameter long across a
+  // 50 x 20 um channel: centres in x in [a, a + d], so the spheres lie in a box
+  // 2d x 50 um x 20 um, which holds at most 0.7405 of its volume in spheres
+  // (Kepler's bound, Hales 2005): 113 particles. The rest waits for the next frame.
+  auto flow = std::make_shared<HeleShawChannel>(2e-3, 50e-6, 20e-6, 0.7e-3);
+  const double d = 5e-6;
+  std::vector<stages::SizeClass> classes(1);
+  classes[0].diameter = d;
+  stages::makeEngines(classes, flow, stageScene(d, 2), 2);
+  stages::Schedule sch;
+  sch.rate_per_s = 300;
+  sch.injection_time = 10;
+  sch.strip = 0;  // widened to one diameter by the stage
+  sch.max_strip = 1e-3;
+  sch.seed = 2;
+  stages::ClassParticles ps(1);
+  std::int64_t next_id = 1;
+  stages::insertDue(classes, *flow, sch, 1, 1.0, ps, next_id);
+  const double bound = 0.7405 * (2 * d * 50e-6 * 20e-6) / (kPi * d * d * d / 6);
+  EXPECT_GT(classes[0].injected, 0);
+  EXPECT_LE(static_cast<double>(classes[0].injected), bound);
+  EXPECT_EQ(classes[0].deferred, 300 - classes[0].injected);
+  EXPECT_EQ(next_id, classes[0].injected + 1);
+  EXPECT_EQ(static_cast<std::int64_t>(ps[0].size()), classes[0].injected);
+}
+
+TEST(MicromodelStages, DepositBooksEachNewDepositOnceAtItsParcelVolume) {
+  // A 20 x 20 px chip (10 um px, 20 um deep) with a 4 x 4 px grain at its centre
+  // (x, y in [80, 120] um). A deposit 2.5 um from the grain's face (below one
+  // diameter) fills columns; one 45 um from every wall lies on the plate and
+  // thins the aperture. Each books weight x pi d^3 / 6, once.
+  PixelMask grains = PixelMask::Constant(20, 20, false);
+  grains.block(8, 8, 4, 4).setConstant(true);
+  MicromodelFlowOptions o;
+  o.pixel = 10e-6;
+  o.depth = 20e-6;
+  o.darcy_velocity = 1e-4;
+  MicromodelFlow flow(grains, o);
+  flow.solve({});
+  const double d = 5e-6, weight = 20, vol = weight * kPi * d * d * d / 6;
+  stages::Coupling cp;
+  cp.weight = weight;
+  cp.layers = true;
+  DepositGrid deposits(grains, o.pixel, o.depth, 0.5, DepositLayerModel{0.365, d});
+  std::vector<stages::SizeClass> classes(1);
+  classes[0].diameter = d;
+  classes[0].accounted.assign(3, 0);
+  stages::ClassParticles ps(1, std::vector<ParticleState>(3));
+  ps[0][0].x = Vec3(122.5e-6, 100e-6, 2.5e-6);  // at the grain
+  ps[0][1].x = Vec3(50e-6, 55e-6, 2.5e-6);     // on the plate
+  ps[0][2].x = Vec3(150e-6, 150e-6, 8e-6);     // still moving
+  ps[0][0].status = ps[0][1].status = ParticleStatus::deposited;
+  std::int64_t at_walls = 0, on_plates = 0;
+  stages::deposit(classes, ps, *flow.field(), cp, deposits, at_walls, on_plates);
+  EXPECT_EQ(at_walls, 1);
+  EXPECT_EQ(on_plates, 1);
+  EXPECT_NEAR(deposits.depositedVolume(), 2 * vol, 1e-12 * vol);
+  // The plate deposit thinned its pixel (column 5, row 14 from the top) by
+  // vol / (packing x pixel^2), at most one diameter.
+  const auto ap = deposits.aperture();
+  const double layer = std::min(vol / (0.365 * o.pixel * o.pixel), d);
+  EXPECT_NEAR(ap[14 * 20 + 5], o.depth - layer, 1e-9 * o.depth);
+  EXPECT_EQ(classes[0].accounted[0] & stages::kVolumeBooked, stages::kVolumeBooked);
+  EXPECT_EQ(classes[0].accounted[2], 0);
+  // The same frame again: nothing new.
+  stages::deposit(classes, ps, *flow.field(), cp, deposits, at_walls, on_plates);
+  EXPECT_EQ(at_walls + on_plates, 2);
+  EXPECT_NEAR(deposits.depositedVolume(), 2 * vol, 1e-12 * vol);
+  // Column mode: a plate deposit fills columns too and leaves every aperture at the depth.
+  DepositGrid columns(grains, o.pixel, o.depth, 0.5, DepositLayerModel{0.365, d});
+  cp.layers = false;
+  classes[0].accounted.assign(3, 0);
+  stages::deposit(classes, ps, *flow.field(), cp, columns, at_walls, on_plates);
+  for (double a : columns.aperture()) EXPECT_TRUE(a == o.depth || a == 0.0);
+  EXPECT_NEAR(columns.depositedVolume(), 2 * vol, 1e-12 * vol);
+}
+
+TEST(MicromodelStages, ResolveWaitsForItsThresholdThenSeesTheDeposits) {
+  // An open 20 x 10 px slot (10 um px, 20 um deep, slip sides, as in
+  // FlowThroughThinnedAperturesFollowsTheReynoldsEquation). Layers 10 um thick on
+  // the downstream half halve its aperture: resistances in series, k / k0 =
+  // 1 / (0.5 + 0.5 x 2^3) exactly (Reynolds equation). Each such pixel loses half
+  // a column; the threshold is 40 columns, so 79 pixels (39.5) do not re-solve and
+  // 100 (50) do. Then a wall of closed pixels across the slot: half of it captures
+  // the particle standing there, all of it leaves no flow path and the pump stalls.
+  const PixelMask open = PixelMask::Constant(10, 20, false);
+  MicromodelFlowOptions o;
+  o.pixel = 10e-6;
+  o.depth = 20e-6;
+  o.darcy_velocity = 1e-4;
+  MicromodelFlow flow(open, o);
+  const FlowSolveResult r0 = flow.solve({});
+  const DepositLayerModel lm{0.365, 5e-6};
+  DepositGrid deposits(open, o.pixel, o.depth, 0.5, lm);
+  stages::Coupling cp;
+  cp.layers = true;
+  cp.resolve_pixels = 40;
+  std::vector<stages::SizeClass> classes(1);
+  classes[0].diameter = 5e-6;
+  stages::makeEngines(classes, flow.field(), stageScene(5e-6, 1), 1);
+  classes[0].engine->insert({Vec3(55e-6, 75e-6, 10e-6)});  // in pixel (column 5, row 2)
+  stages::ClassParticles ps{classes[0].engine->particles()};
+  std::int64_t resolves = 0;
+  double seconds = 0, lost = 0, k = r0.permeability, blocked_at = -1;
+  const auto record = [&] { return stages::FlowRecord{resolves, seconds, lost, k, blocked_at}; };
+  const double per_pixel = lm.packing * o.pixel * o.pixel * 10e-6;  // a 10 um layer on one pixel
+  int n = 0;
+  for (int c = 10; c < 20; ++c)
+    for (int r = 0; r < 10; ++r, ++n) {
+      if (n == 79) {
+        EXPECT_FALSE(stages::resolve(flow, deposits, cp, 0, 1.0, classes, ps, record()).has_value());
+        EXPECT_EQ(resolves, 0);
+        EXPECT_EQ(k, r0.permeability);
+      }
+      deposits.addLayer((c + 0.5) * o.pixel, (9 - r + 0.5) * o.pixel, per_pixel, 10e-6);
+    }
+  EXPECT_FALSE(stages::resolve(flow, deposits, cp, 0, 2.0, classes, ps, record()).has_value());
+  EXPECT_EQ(resolves, 1);
+  EXPECT_NEAR(lost, 50.0, 1e-9);
+  EXPECT_NEAR(k / r0.permeability, 1.0 / 4.5, 1e-9);
+  EXPECT_EQ(blocked_at, -1);
+  // Column 5, rows 0-4 closed (one column capacity each): the particle in row 2 is captured.
+  cp.resolve_pixels = 5;
+  for (int r = 0; r < 5; ++r) deposits.add(5.5 * o.pixel, (9 - r + 0.5) * o.pixel, deposits.capacity());
+  EXPECT_FALSE(stages::resolve(flow, deposits, cp, 0, 3.0, classes, ps, record()).has_value());
+  EXPECT_EQ(resolves, 2);
+  EXPECT_EQ(ps[0][0].status, ParticleStatus::deposited);
+  EXPECT_GT(k, 0.0);
+  // Rows 5-9 too: no path left; the pump stalls at t = 4 s with no pressure that could drive it.
+  for (int r = 5; r < 10; ++r) deposits.add(5.5 * o.pixel, (9 - r + 0.5) * o.pixel, deposits.capacity());
+  const auto stall = stages::resolve(flow, deposits, cp, 0, 4.0, classes, ps, record());
+  ASSERT_TRUE(stall.has_value());
+  EXPECT_EQ(stall->reason, PumpStall::Reason::no_flow_path);
+  EXPECT_EQ(stall->time_s, 4.0);
+  EXPECT_EQ(blocked_at, 4.0);
+  EXPECT_EQ(k, 0.0);
+  EXPECT_EQ(resolves, 3);
+}
+
+TEST(MicromodelStages, RecordFrameWritesADepositOnceAndMeasuresSpeedsBetweenFrames) {
+  // Three particles of one class (ids 7, 8, 9): mobile, deposited, left. The
+  // mobile one moved (3, 4) um since the last frame 0.1 s ago: 50 um/s. Rows are
+  // image pixels from the top-left pixel's centre: x_px = X/p - 1/2, y_px = (H - Y)/p - 1/2.
+  std::vector<stages::SizeClass> classes(1);
+  classes[0].global_id = {7, 8, 9};
+  classes[0].accounted.assign(3, 0);
+  stages::ClassParticles ps(1, std::vector<ParticleState>(3));
+  ps[0][0].x = Vec3(53e-6, 24e-6, 3e-6);
+  ps[0][1].x = Vec3(80e-6, 40e-6, 2.5e-6);
+  ps[0][1].status = ParticleStatus::deposited;
+  ps[0][2].x = Vec3(210e-6, 50e-6, 5e-6);
+  ps[0][2].status = ParticleStatus::left;
+  stages::RunnerState s;
+  s.k = s.k0 = 2e-12;
+  s.last = {{7, 50e-6, 20e-6}};
+  const stages::ImageFrame image{10e-6, 100e-6};
+  const Counts n = stages::recordFrame(classes, ps, 4, 0.4, image, 0.1, s);
+  EXPECT_EQ(n.injected, 3);
+  EXPECT_EQ(n.inside + n.deposited + n.left, 3);
+  ASSERT_EQ(s.rows.size(), 2u);
+  EXPECT_EQ(s.rows[0].particle, 7);
+  EXPECT_NEAR(s.rows[0].x_px, 4.8, 1e-12);
+  EXPECT_NEAR(s.rows[0].y_px, 7.1, 1e-12);
+  EXPECT_EQ(s.rows[1].particle, 8);
+  EXPECT_EQ(s.rows[1].deposited, 1);
+  EXPECT_NEAR(s.speed_sum, 50e-6, 1e-15);
+  EXPECT_EQ(s.speed_n, 1);
+  EXPECT_EQ(s.next_frame, 5);
+  EXPECT_EQ(s.retention, "0.4,3,1,1,1\n");
+  EXPECT_NE(s.permeability.find("0.4,2e-12,"), std::string::npos) << s.permeability;
+  // The next frame: the deposit is not written again; the mobile one moved 10 um in x.
+  ps[0][0].x = Vec3(63e-6, 24e-6, 3e-6);
+  stages::recordFrame(classes, ps, 5, 0.5, image, 0.1, s);
+  ASSERT_EQ(s.rows.size(), 3u);
+  EXPECT_EQ(s.rows[2].particle, 7);
+  EXPECT_NEAR(s.speed_sum, 50e-6 + 100e-6, 1e-15);
+  EXPECT_EQ(s.speed_n, 2);
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include "CaseScene.hpp"
 #include "MicromodelDetail.hpp"
+#include "MicromodelStages.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -33,42 +34,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using detail::declareMicromodel;
-using detail::loadGeometry;
-constexpr double kDarcy = 9.869233e-13;  // m2
-
-/// One trajectory row, POD so that checkpoints hold it as raw bytes.
-struct TrajRow {
-  std::int64_t frame, particle;
-  double t, x_px, y_px, z;
-  std::uint8_t deposited;
-};
-struct LastPos {
-  std::int64_t id;
-  double x, y;
-};
-
-/// One size class: its own engine (one radius per engine), injection and ids.
-struct SizeClass {
-  double diameter = 0, fraction = 1;
-  std::unique_ptr<OverdampedEngine> engine;
-  std::int64_t injected = 0;   ///< placed in the chip
-  std::int64_t deferred = 0;   ///< due but not yet placed (inlet strip full)
-  std::vector<std::int64_t> global_id;   ///< by engine index: id in the outputs (injection order over all classes)
-  std::vector<std::uint8_t> accounted;   ///< by engine index: bit 0 deposit volume added, bit 1 deposited row written
-};
-
-/// Everything of the runner that a checkpoint must carry besides the engines and the deposits.
-struct RunnerState {
-  std::int64_t next_frame = 0, next_id = 1, resolves = 0, steps_at_checkpoint = 0;
-  std::int64_t wall_deposits = 0, plate_deposits = 0;  ///< deposits booked as columns (at a grain) / as plate layers
-  double lost_at_solve = 0;  ///< DepositGrid::lostColumns() at the last solve
-  double blocked_at = -1;    ///< s: first re-solve that found no flow path (-1: never)
-  double k = 0, k0 = 0, speed_sum = 0, solve_seconds = 0, wall_before = 0;
-  std::int64_t speed_n = 0;
-  std::vector<TrajRow> rows;
-  std::vector<LastPos> last;  ///< sorted by id
-  std::string retention, permeability;
-};
+using namespace stages;
 
 void writeCheckpoint(const fs::path& file, const std::string& fp, const RunnerState& s, const std::vector<SizeClass>& classes,
                      const DepositGrid& deposits, const MicromodelFlow& flow) {
@@ -246,153 +212,11 @@ void reportWindow(const RunnerState& s, const std::vector<double>& window, doubl
   out.details["retention_window"] = wj;
 }
 
-RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
-  const auto t_start = std::chrono::steady_clock::now();
-  outputFrames(c);  // a run whose frames cannot fit in memory is refused before the mask is read
-  RunOutput out;
-  double porosity = 0;
-  const PixelMask grains = loadGeometry(c, out.details, porosity);
-  const double pixel = c.quantity("geometry.pixel_size"), h = c.quantity("geometry.depth");
-
-  // Size classes.
-  std::vector<SizeClass> classes;
-  if (c.has("particles.diameters")) {
-    const auto& ds = c.reals("particles.diameters");
-    if (!c.has("particles.size_fractions") || c.reals("particles.size_fractions").size() != ds.size())
-      throw InputError(c.where("particles.size_fractions"), "one number fraction per entry of particles.diameters is needed", {},
-                       fmt::format("a list of {} fractions summing to 1", ds.size()));
-    const auto& fs_ = c.reals("particles.size_fractions");
-    double sum = 0;
-    for (double f : fs_) {
-      if (!(f >= 0)) throw InputError(c.where("particles.size_fractions"), "fractions must be >= 0", fmt::format("{}", f), ">= 0");
-      sum += f;
-    }
-    if (std::abs(sum - 1.0) > 1e-6)
-      throw InputError(c.where("particles.size_fractions"), "fractions do not sum to 1", fmt::format("{:.6g}", sum), "a sum of 1");
-    for (std::size_t i = 0; i < ds.size(); ++i)
-      if (fs_[i] > 0) {
-        classes.emplace_back();
-        classes.back().diameter = ds[i];
-        classes.back().fraction = fs_[i];
-      }
-  } else {
-    classes.emplace_back();
-    classes.back().diameter = c.quantity("particles.diameter");
-  }
-  const std::string dkey = c.has("particles.diameters") ? "particles.diameters" : "particles.diameter";
-  double d_max = 0;
-  for (const auto& cl : classes) d_max = std::max(d_max, cl.diameter);
-  if (!(h > d_max))
-    throw InputError(c.where(dkey), "particles do not fit in the chip depth", fmt::format("{:.3g} um", d_max * 1e6),
-                     fmt::format("< geometry.depth ({:.3g} um)", h * 1e6));
-  const double H = grains.rows() * pixel, W = grains.cols() * pixel;
-
-  // Throats: can a particle enter, can it pass?
-  const double opening = inletOpening(grains, pixel), passable = passableDiameter(grains, pixel);
-  out.details["inlet_opening_um"] = opening * 1e6;
-  out.details["passable_diameter_um"] = passable * 1e6;
-  if (opening < d_max)
-    throw InputError(c.where(dkey), "no pore at the inlet (first image column) is wide enough to take a particle",
-                     fmt::format("{:.3g} um", d_max * 1e6),
-                     fmt::format("a diameter below the widest inlet opening, {:.3g} um, or a mask/crop with a wider inlet", opening * 1e6));
-  out.details["straining"] = passable < d_max ? fmt::format("every inlet-to-outlet pore path has a throat narrower than the (largest) "
-                                                            "particles ({:.3g} um < {:.3g} um): they are strained, none can leave",
-                                                            passable * 1e6, d_max * 1e6)
-                                              : std::string("none: some path admits the particles");
-
-  // Flow at the experiment's Darcy velocity.
-  const double Q = c.quantity("flow.rate"), rate_width = c.quantity("flow.rate_width");
-  const double u_darcy = c.has("flow.darcy_velocity") ? c.quantity("flow.darcy_velocity") : Q / ((rate_width > 0 ? rate_width : H) * h);
-  MicromodelFlowOptions fo;
-  fo.pixel = pixel;
-  fo.depth = h;
-  fo.viscosity = c.quantity("fluid.viscosity");
-  fo.darcy_velocity = u_darcy;
-  fo.cells_per_pixel = c.real("numerics.cells_per_pixel");
-  MicromodelFlow flow(grains, fo);
-  // The syringe pump's pressure limit (0: none); each solve says what pressure the set rate needs.
-  const double max_pressure = c.has("flow.max_pressure") ? c.quantity("flow.max_pressure") : 0.0;
-
-  // Engine choice from the scene's numbers (for the largest class: the most inertial).
-  SceneScales scales;
-  scales.fluid = {c.quantity("fluid.viscosity"), c.quantity("fluid.density"), c.quantity("fluid.temperature")};
-  scales.particle.diameter = d_max;
-  scales.particle.density = c.quantity("particles.density");
-  scales.velocity = porosity > 0 ? u_darcy / porosity : u_darcy;
-  scales.length = h;
-  scales.depth = h;
-  scales.cell_size = pixel / fo.cells_per_pixel;
-  scales.gravity = c.quantity("physics.gravity");
-  const double conc = c.quantity("particles.concentration");
-  const double t_inj0 = c.quantity("particles.injection_time") > 0 ? c.quantity("particles.injection_time") : c.quantity("run.duration");
-  const std::int64_t count0 = c.integer("particles.count");
-  // Volume fraction of the injected suspension (a count given: spread over the flow of the injection time).
-  double mean_volume = 0;
-  for (const auto& cl : classes) mean_volume += cl.fraction * kPi * std::pow(cl.diameter, 3) / 6.0;
-  const double q_vol = u_darcy * H * h;
-  scales.volume_fraction = count0 > 0 ? (q_vol > 0 ? count0 / t_inj0 * mean_volume / q_vol : 0.0) : conc * mean_volume;
-  if (!(scales.velocity > 0)) scales.velocity = 1e-12;  // zero flow: numbers of a still fluid (the choice needs U > 0)
-  EngineChoice choice = chooseEngine(scales);
-  if (choice.engine != EngineKind::overdamped) {
-    if (c.text("particles.engine") != "overdamped")
-      throw InputError(c.where("particles.engine"), "this scene's numbers ask for an inertial engine, which cannot run the micromodel's length",
-                       choice.reason, "a scene with St <= 1e-3 and a dilute suspension, or particles.engine = \"overdamped\" to force the cheaper model");
-    choice.reason = "forced by the case (particles.engine = \"overdamped\"); the automatic choice would be: " + choice.reason;
-    choice.engine = EngineKind::overdamped;
-  }
-
-  SceneConfig scene;
-  scene.fluid = scales.fluid;
-  scene.particle.density = scales.particle.density;
-  scene.gravity = scales.gravity;
-  physicsAndDepositionFromCase(c, choice, scene);
-  scene.outlet_x = W;
-  scene.max_step_fraction = c.real("numerics.max_step_fraction");
-  const auto seed = static_cast<std::uint64_t>(c.integer("run.seed"));
-  for (std::size_t i = 0; i < classes.size(); ++i) {
-    SceneConfig sc = scene;
-    sc.particle.diameter = classes[i].diameter;
-    sc.seed = seed + 7919ULL * i;  // independent streams per class; class 0 keeps the case's seed
-    classes[i].engine = std::make_unique<OverdampedEngine>(flow.field(), sc);
-  }
-
-  const double sample = c.real("particles.sample_fraction");
-  const bool four_way = c.text("coupling.mode") == "four-way";
-  const double weight = c.flag("coupling.parcel_weighting") ? 1.0 / sample : 1.0;
-  // Plate deposits (layer mode): a layer of the stated packing thins the aperture;
-  // a pixel closes below coupling.min_aperture (default: the largest diameter, the
-  // aperture no particle of the scene can pass).
-  const bool layers = c.text("coupling.plate_deposits") == "layer";
-  DepositLayerModel layer_model;
-  layer_model.packing = c.real("coupling.layer_packing");
-  layer_model.min_aperture = c.quantity("coupling.min_aperture") > 0 ? c.quantity("coupling.min_aperture") : d_max;
-  if (!(layer_model.min_aperture < h))
-    throw InputError(c.where("coupling.min_aperture"), "the closing aperture must be below the chip depth",
-                     fmt::format("{:.3g} um", layer_model.min_aperture * 1e6), fmt::format("< geometry.depth ({:.3g} um)", h * 1e6));
-  DepositGrid deposits(grains, pixel, h, c.real("coupling.fill_fraction"), layer_model);
-  const auto pore_pixels = static_cast<std::int64_t>((grains == false).count());
-  const auto resolve_pixels = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(c.real("coupling.resolve_threshold") * pore_pixels)));
-
-  const double duration = c.quantity("run.duration"), dt_out = c.quantity("run.output_interval");
-  if (dt_out > duration)
-    throw InputError(c.where("run.output_interval"), "longer than the run", fmt::format("{:g} s", dt_out), fmt::format("<= run.duration ({:g} s)", duration));
-  const double t_inj = c.quantity("particles.injection_time") > 0 ? c.quantity("particles.injection_time") : duration;
-  std::vector<double> window;
-  if (c.has("analysis.retention_window")) {
-    window = c.reals("analysis.retention_window");
-    if (window.size() != 2 || !(window[1] > window[0]))
-      throw InputError(c.where("analysis.retention_window"), "a window needs two times, the first before the second",
-                       window.size() == 2 ? fmt::format("[{:g} s, {:g} s]", window[0], window[1]) : fmt::format("{} entries", window.size()),
-                       "[from, to] with from < to, e.g. [\"0 s\", \"600 s\"]");
-  }
-  const std::int64_t count = c.integer("particles.count");
-  const double inject_rate = count > 0 ? count / t_inj : conc * u_darcy * H * h * sample;  // simulated particles per second
-  const std::int64_t frames = outputFrames(c);
-  const std::int64_t checkpoint_every = c.integer("run.checkpoint_every"), stop_after = c.integer("run.stop_after_frames");
-  const fs::path ckpt = ctx.out_dir / "checkpoint.bin";
-  const std::string fp = checkpointFingerprint(c);
-
-  RunnerState s;
+/// Start: from the checkpoint when resuming with one of this scene (returns true),
+/// else from a clean chip: its flow solved, the pump's limit checked (InputError),
+/// k0 set. Writes the CSV headers either way.
+bool startOrResume(const Case& c, const RunContext& ctx, const fs::path& ckpt, const std::string& fp, const MicromodelSetup& set,
+                   RunnerState& s, std::vector<SizeClass>& classes, DepositGrid& deposits, MicromodelFlow& flow) {
   bool resumed = false;
   if (ctx.resume && fs::exists(ckpt)) {
     try {
@@ -405,150 +229,47 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   if (!resumed) {
     const FlowSolveResult r0 = flow.solve({});
     if (r0.blocked) throw InputError(c.where("geometry.mask"), "the flow solver found no flow through the geometry", {}, "a mask with an open pore path");
-    if (max_pressure > 0 && r0.pressure_drop > max_pressure)
+    if (set.max_pressure > 0 && r0.pressure_drop > set.max_pressure)
       throw InputError(c.where("flow.max_pressure"), "the clean chip already needs more pressure than the pump's limit at the set flow rate",
-                       fmt::format("{:.4g} Pa", max_pressure),
+                       fmt::format("{:.4g} Pa", set.max_pressure),
                        fmt::format("a limit above the {:.4g} Pa the clean geometry needs, or a lower flow rate", r0.pressure_drop));
     s.k = s.k0 = r0.permeability;
     s.solve_seconds = r0.seconds;
   }
-  out.details["resumed_from_frame"] = resumed ? s.next_frame : 0;
-  if (!resumed && c.quantity("engines.compare_window") > 0) compareEnginesOnTheScene(c, flow.field(), scene, classes[0].diameter, out);
   if (s.retention.empty()) s.retention = "t_s,injected,retained,left,inside\n";
   if (s.permeability.empty()) s.permeability = "t_s,k_m2,k_D,k_over_k0,resolves\n";
+  return resumed;
+}
 
-  const double strip_u = 1.5 * (porosity > 0 ? u_darcy / porosity : 0.0) * dt_out;
-  const auto wall_now = [&] { return s.wall_before + std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count(); };
-  const double wall_at_start = s.wall_before;
-  const auto totalSteps = [&] {
-    std::int64_t n = 0;
-    for (const auto& cl : classes) n += cl.engine->stats().steps;
-    return n;
-  };
-  std::vector<std::vector<ParticleState>> ps(classes.size());
-  // Set when a fluid solve finds that the pump cannot deliver the set rate: injection
-  // stops, the frame is written and the run ends (Micromodel.hpp, "The pump").
-  std::optional<PumpStall> stall;
-  for (std::int64_t k = s.next_frame; k <= frames; ++k) {
-    const double t = k * dt_out;
-    for (std::size_t ci = 0; ci < classes.size(); ++ci) {
-      if (k > 0) classes[ci].engine->advance(t);
-      ps[ci] = classes[ci].engine->particles();
-    }
-    // Four-way: every new deposit adds its (parcel) volume to the deposit grid:
-    // at a grain (in-plane gap to the wall below one radius: touching it, within
-    // the pixel staircase's resolution) it fills columns, elsewhere it lies on a
-    // plate and thins the aperture by up to a monolayer per pixel (layer mode).
-    if (four_way) {
-      for (std::size_t ci = 0; ci < classes.size(); ++ci) {
-        auto& cl = classes[ci];
-        const double vol = weight * kPi * cl.diameter * cl.diameter * cl.diameter / 6.0;
-        for (std::size_t i = 0; i < ps[ci].size(); ++i)
-          if (ps[ci][i].status == ParticleStatus::deposited && !(cl.accounted[i] & 1)) {
-            const Vec3& x = ps[ci][i].x;
-            const bool at_wall = flow.field()->wallDistance(x.x(), x.y()) < cl.diameter;
-            ++(at_wall ? s.wall_deposits : s.plate_deposits);
-            if (!layers || at_wall) deposits.add(x.x(), x.y(), vol);
-            else deposits.addLayer(x.x(), x.y(), vol, cl.diameter);
-            cl.accounted[i] |= 1;
-          }
-      }
-      if (deposits.lostColumns() - s.lost_at_solve >= static_cast<double>(resolve_pixels)) {
-        const FlowSolveResult r = flow.solve(deposits.closed(), layers ? deposits.aperture() : std::vector<double>{});
-        ++s.resolves;
-        s.solve_seconds += r.seconds;
-        s.lost_at_solve = deposits.lostColumns();
-        s.k = r.permeability;
-        if (r.blocked && s.blocked_at < 0) s.blocked_at = t;
-        stall = pumpStall(r, max_pressure, t);
-        for (std::size_t ci = 0; ci < classes.size(); ++ci) {
-          classes[ci].engine->captureInSolid();
-          ps[ci] = classes[ci].engine->particles();
-        }
-      }
-    }
-    // Injection: each class's particles due by t, placed in the inlet strip the flow filled during the last interval.
-    for (std::size_t ci = 0; ci < classes.size() && !stall; ++ci) {
-      auto& cl = classes[ci];
-      const std::int64_t due = dueBy(inject_rate, cl.fraction, t, t_inj);
-      if (due <= cl.injected) continue;
-      const double strip = std::min(std::max(strip_u, cl.diameter), 0.5 * W);
-      const std::uint64_t sseed = seed * 1000003ULL + static_cast<std::uint64_t>(k) + 7919ULL * ci;
-      std::vector<Vec3> pos;
-      try {
-        pos = sampleInlet(*flow.field(), 0.5 * cl.diameter, 0.0, strip, static_cast<int>(due - cl.injected), sseed, ps[ci]);
-      } catch (const InputError&) {
-        // The inlet strip is full (deposits clog the inlet, or a burst of large
-        // fines): place what fits one by one and carry the rest to the next frame.
-        std::vector<ParticleState> taken = ps[ci];
-        for (std::int64_t m = 0; m < due - cl.injected; ++m) {
-          try {
-            const auto one = sampleInlet(*flow.field(), 0.5 * cl.diameter, 0.0, strip, 1, sseed + 104729ULL * (m + 1), taken);
-            pos.push_back(one[0]);
-            ParticleState q;
-            q.x = one[0];
-            taken.push_back(q);
-          } catch (const InputError&) {
-            break;
-          }
-        }
-      }
-      cl.engine->insert(pos);
-      cl.injected += static_cast<std::int64_t>(pos.size());
-      cl.deferred = due - cl.injected;
-      ps[ci] = cl.engine->particles();
-      while (cl.global_id.size() < ps[ci].size()) cl.global_id.push_back(s.next_id++);
-      cl.accounted.resize(ps[ci].size(), 0);
-    }
-    // Frame output.
-    std::vector<LastPos> now;
-    Counts n;
-    for (std::size_t ci = 0; ci < classes.size(); ++ci) {
-      auto& cl = classes[ci];
-      const Counts nc = countParticles(ps[ci]);
-      n.injected += nc.injected;
-      n.inside += nc.inside;
-      n.deposited += nc.deposited;
-      n.left += nc.left;
-      for (std::size_t i = 0; i < ps[ci].size(); ++i) {
-        const auto& p = ps[ci][i];
-        if (p.status == ParticleStatus::left) continue;
-        const bool dep = p.status == ParticleStatus::deposited;
-        if (dep && (cl.accounted[i] & 2)) continue;
-        if (dep) cl.accounted[i] |= 2;
-        const std::int64_t id = cl.global_id[i];
-        s.rows.push_back({k, id, t, p.x.x() / pixel - 0.5, (H - p.x.y()) / pixel - 0.5, p.x.z(), static_cast<std::uint8_t>(dep)});
-        if (!dep) {
-          now.push_back({id, p.x.x(), p.x.y()});
-          const auto it = std::lower_bound(s.last.begin(), s.last.end(), id, [](const LastPos& l, std::int64_t v) { return l.id < v; });
-          if (it != s.last.end() && it->id == id) {
-            s.speed_sum += std::hypot(p.x.x() - it->x, p.x.y() - it->y) / dt_out;
-            ++s.speed_n;
-          }
-        }
-      }
-    }
-    std::sort(now.begin(), now.end(), [](const LastPos& x, const LastPos& y) { return x.id < y.id; });
-    s.last = std::move(now);
-    if (!n.balanced()) throw std::logic_error(fmt::format("particle counts do not balance at t = {} s", t));
-    s.retention += fmt::format("{:.9g},{},{},{},{}\n", t, n.injected, n.deposited, n.left, n.inside);
-    s.permeability += fmt::format("{:.9g},{:.9g},{:.9g},{:.9g},{}\n", t, s.k, s.k / kDarcy, s.k / s.k0, s.resolves);
-    s.next_frame = k + 1;
-    if (stall) break;
-    const std::int64_t steps = totalSteps();
-    const bool stop = stop_after > 0 && s.next_frame >= stop_after && k < frames;
-    if (stop || (checkpoint_every > 0 && steps - s.steps_at_checkpoint >= checkpoint_every && k < frames)) {
-      s.steps_at_checkpoint = steps;
-      RunnerState snapshot = s;
-      snapshot.wall_before = wall_now();
-      writeCheckpoint(ckpt, fp, snapshot, classes, deposits, flow);
-      if (stop) throw RunStopped(fmt::format("stopped after {} output frames as asked (run.stop_after_frames); {} holds the checkpoint, "
-                                             "continue with `mmval run --resume`", s.next_frame, ckpt.string()));
-    }
-  }
-  const double wall = wall_now();
+std::int64_t totalSteps(const std::vector<SizeClass>& classes) {
+  std::int64_t n = 0;
+  for (const auto& cl : classes) n += cl.engine->stats().steps;
+  return n;
+}
 
-  // Outputs.
+/// Checkpoint: after frame `k`, once run.checkpoint_every engine steps have passed
+/// since the last one, or when run.stop_after_frames asks the run to stop (then
+/// RunStopped). Never after the last frame. `wall` is the run's wall time so far.
+void checkpointIfDue(const RunControl& run, std::int64_t k, double wall, const fs::path& ckpt, const std::string& fp, RunnerState& s,
+                     const std::vector<SizeClass>& classes, const DepositGrid& deposits, const MicromodelFlow& flow) {
+  const std::int64_t steps = totalSteps(classes);
+  const bool stop = run.stop_after > 0 && s.next_frame >= run.stop_after && k < run.frames;
+  if (!stop && !(run.checkpoint_every > 0 && steps - s.steps_at_checkpoint >= run.checkpoint_every && k < run.frames)) return;
+  s.steps_at_checkpoint = steps;
+  RunnerState snapshot = s;
+  snapshot.wall_before = wall;
+  writeCheckpoint(ckpt, fp, snapshot, classes, deposits, flow);
+  if (stop)
+    throw RunStopped(fmt::format("stopped after {} output frames as asked (run.stop_after_frames); {} holds the checkpoint, "
+                                 "continue with `mmval run --resume`",
+                                 s.next_frame, ckpt.string()));
+}
+
+/// Outputs: trajectories.csv (sorted by particle, then frame), the particles'
+/// .vtp series, retention.csv and permeability.csv; the checkpoint removed.
+/// Returns the files to list (particles.pvd stands for its snapshots).
+std::vector<std::string> writeOutputs(const fs::path& dir, const RunnerState& s, const SceneGeometry& geo, const fs::path& ckpt) {
+  const double pixel = geo.pixel, H = geo.height;
   Tracks traj;
   traj.points.reserve(s.rows.size());
   for (const auto& r : s.rows) {
@@ -567,47 +288,62 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   std::stable_sort(traj.points.begin(), traj.points.end(), [](const TrackPoint& x, const TrackPoint& y) {
     return x.particle != y.particle ? x.particle < y.particle : x.frame < y.frame;
   });
-  writeTracksCsv(ctx.out_dir / "trajectories.csv", traj, pixel);
+  writeTracksCsv(dir / "trajectories.csv", traj, pixel);
   // The particles as a .vtp series in the fields' frame (docs/outputs.md: metres, y up from
   // the image's bottom edge): the inverse of the pixel columns' x_px = X/p - 1/2, y_px = (H - Y)/p - 1/2.
-  const std::vector<std::string> particle_series = vtk::writeParticleSeries(ctx.out_dir, "particles", traj, [&](const TrackPoint& q) {
+  const std::vector<std::string> particle_series = vtk::writeParticleSeries(dir, "particles", traj, [&](const TrackPoint& q) {
     return std::array<double, 3>{(q.x_px + 0.5) * pixel, H - (q.y_px + 0.5) * pixel, std::isfinite(q.z) ? q.z : 0.0};
   });
-  writeFileAtomic(ctx.out_dir / "retention.csv", s.retention);
-  writeFileAtomic(ctx.out_dir / "permeability.csv", s.permeability);
+  writeFileAtomic(dir / "retention.csv", s.retention);
+  writeFileAtomic(dir / "permeability.csv", s.permeability);
   std::error_code ec;
   fs::remove(ckpt, ec);
+  std::vector<std::string> files = {"trajectories.csv", "retention.csv", "permeability.csv"};
+  if (!particle_series.empty()) files.push_back(particle_series.back());
+  return files;
+}
 
+/// The size classes summed at the end: counts, engine statistics and settings,
+/// and what the schedule called for by the run's planned end.
+struct ClassTally {
   Counts n;
   EngineStats st;
-  st.wall_seconds = 0;
-  st.min_dt = std::numeric_limits<double>::infinity();
   nlohmann::json settings = nlohmann::json::array(), per_class = nlohmann::json::array();
   std::int64_t deferred = 0, scheduled = 0;
+};
+
+ClassTally tallyClasses(const std::vector<SizeClass>& classes, const Schedule& sch, const RunControl& run) {
+  ClassTally a;
+  a.st.wall_seconds = 0;
+  a.st.min_dt = std::numeric_limits<double>::infinity();
   // What the schedule called for by the run's planned end (a stall does not shorten the schedule).
-  const double t_planned = static_cast<double>(frames) * dt_out;
+  const double t_planned = static_cast<double>(run.frames) * run.dt_out;
   for (const auto& cl : classes) {
     const Counts nc = cl.engine->counts();
     const EngineStats e = cl.engine->stats();
-    n.injected += nc.injected;
-    n.inside += nc.inside;
-    n.deposited += nc.deposited;
-    n.left += nc.left;
-    st.steps += e.steps;
-    st.particle_steps += e.particle_steps;
-    st.wall_seconds += e.wall_seconds;
-    st.min_dt = std::min(st.min_dt, e.min_dt);
-    st.max_dt = std::max(st.max_dt, e.max_dt);
-    settings.push_back(cl.engine->describe());
-    deferred += cl.deferred;
-    const std::int64_t sched = dueBy(inject_rate, cl.fraction, t_planned, t_inj);
-    scheduled += sched;
-    per_class.push_back({{"diameter_um", cl.diameter * 1e6}, {"fraction", cl.fraction}, {"scheduled", sched}, {"injected", nc.injected},
-                         {"never_injected", sched - nc.injected}, {"not_yet_placed", cl.deferred}, {"retained", nc.deposited},
-                         {"left", nc.left}, {"inside", nc.inside}});
+    a.n.injected += nc.injected;
+    a.n.inside += nc.inside;
+    a.n.deposited += nc.deposited;
+    a.n.left += nc.left;
+    a.st.steps += e.steps;
+    a.st.particle_steps += e.particle_steps;
+    a.st.wall_seconds += e.wall_seconds;
+    a.st.min_dt = std::min(a.st.min_dt, e.min_dt);
+    a.st.max_dt = std::max(a.st.max_dt, e.max_dt);
+    a.settings.push_back(cl.engine->describe());
+    a.deferred += cl.deferred;
+    const std::int64_t sched = dueBy(sch.rate_per_s, cl.fraction, t_planned, sch.injection_time);
+    a.scheduled += sched;
+    a.per_class.push_back({{"diameter_um", cl.diameter * 1e6}, {"fraction", cl.fraction}, {"scheduled", sched}, {"injected", nc.injected},
+                           {"never_injected", sched - nc.injected}, {"not_yet_placed", cl.deferred}, {"retained", nc.deposited},
+                           {"left", nc.left}, {"inside", nc.inside}});
   }
-  out.files = {"trajectories.csv", "retention.csv", "permeability.csv"};
-  if (!particle_series.empty()) out.files.push_back(particle_series.back());  // particles.pvd stands for its snapshots
+  return a;
+}
+
+/// Retention and the particle counts (retained / injected, the paper's definition).
+void reportCounts(const ClassTally& a, double sample, RunOutput& out) {
+  const Counts& n = a.n;
   const double inj = static_cast<double>(n.injected);
   out.metrics["retained_fraction"] = n.injected ? n.deposited / inj : 0.0;
   out.metrics["left_fraction"] = n.injected ? n.left / inj : 0.0;
@@ -618,38 +354,37 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   out.metrics["inside"] = static_cast<double>(n.inside);
   out.metrics["represented_particles"] = inj / sample;
   // Due by the end of injection but never placed because the inlet strip stayed full (inlet clogging); not part of "injected".
-  out.metrics["not_placed"] = static_cast<double>(deferred);
+  out.metrics["not_placed"] = static_cast<double>(a.deferred);
   // The schedule against what entered: never-injected particles are in neither retained nor injected.
-  out.metrics["scheduled"] = static_cast<double>(scheduled);
-  out.metrics["never_injected"] = static_cast<double>(scheduled - n.injected);
-  const double t_end = static_cast<double>(s.next_frame - 1) * dt_out;  // the last frame written
-  out.details["end_time_s"] = t_end;
-  reportPump(s, stall, max_pressure, fo.viscosity * u_darcy * W, scheduled, n.injected, out);
-  if (!window.empty()) reportWindow(s, window, t_end, out);
-  out.metrics["mean_speed"] = s.speed_n ? s.speed_sum / s.speed_n : 0.0;
-  out.units["mean_speed"] = "um/s";
+  out.metrics["scheduled"] = static_cast<double>(a.scheduled);
+  out.metrics["never_injected"] = static_cast<double>(a.scheduled - n.injected);
+  out.details["counts"] = {{"scheduled", a.scheduled}, {"injected", n.injected}, {"never_injected", a.scheduled - n.injected},
+                           {"inside", n.inside}, {"deposited", n.deposited}, {"left", n.left}};
+}
+
+/// Permeability over the run: k/k0, the time to the first 10 % loss, clogging,
+/// closed pixels and the mean aperture loss.
+void reportPermeability(const RunnerState& s, const DepositGrid& deposits, std::int64_t pore_pixels, RunOutput& out) {
   out.metrics["k_over_k0"] = s.k / s.k0;
   out.metrics["permeability_reduction"] = 1.0 - s.k / s.k0;
   out.units["permeability_reduction"] = "%";
   out.metrics["k0"] = s.k0;
   out.units["k0"] = "D";
   out.metrics["resolves"] = static_cast<double>(s.resolves);
-  {
-    // Time to the first 10 % permeability loss (the paper's "time to bridging"
-    // trend: shorter at higher velocity); absent when it never happened.
-    std::istringstream rows(s.permeability);
-    std::string line;
-    std::getline(rows, line);
-    while (std::getline(rows, line)) {
-      double t = 0, km2 = 0, kd = 0, ratio = 1;
-      char sep = 0;
-      std::istringstream l(line);
-      l >> t >> sep >> km2 >> sep >> kd >> sep >> ratio;
-      if (ratio < 0.9) {
-        out.metrics["time_to_10pct_reduction"] = t;
-        out.units["time_to_10pct_reduction"] = "s";
-        break;
-      }
+  // Time to the first 10 % permeability loss (the paper's "time to bridging"
+  // trend: shorter at higher velocity); absent when it never happened.
+  std::istringstream rows(s.permeability);
+  std::string line;
+  std::getline(rows, line);
+  while (std::getline(rows, line)) {
+    double t = 0, km2 = 0, kd = 0, ratio = 1;
+    char sep = 0;
+    std::istringstream l(line);
+    l >> t >> sep >> km2 >> sep >> kd >> sep >> ratio;
+    if (ratio < 0.9) {
+      out.metrics["time_to_10pct_reduction"] = t;
+      out.units["time_to_10pct_reduction"] = "s";
+      break;
     }
   }
   if (s.blocked_at >= 0) {
@@ -661,6 +396,11 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   out.metrics["closed_pixels"] = static_cast<double>(deposits.closedCount());
   // Mean loss of aperture over the pore pixels (closed pixels count as a whole column).
   out.metrics["aperture_loss"] = pore_pixels > 0 ? deposits.lostColumns() / static_cast<double>(pore_pixels) : 0.0;
+}
+
+/// Cost: wall time (over all processes of a resumed run and of this one), fluid
+/// solves, particle steps per second, time steps.
+void reportCost(const RunnerState& s, const EngineStats& st, double wall, double wall_at_start, RunOutput& out) {
   out.metrics["wall_time"] = wall;
   out.units["wall_time"] = "s";
   out.metrics["fluid_solve_time"] = s.solve_seconds;
@@ -669,39 +409,100 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   out.units["particle_steps_per_second"] = "Hz";
   out.metrics["engine_particle_steps_per_second"] = st.wall_seconds > 0 ? static_cast<double>(st.particle_steps) / st.wall_seconds : 0.0;
   out.units["engine_particle_steps_per_second"] = "Hz";
-  out.metrics["porosity"] = porosity;
-  out.details["engine"] = "overdamped";
-  out.details["engine_reason"] = choice.reason;
-  out.details["selection"] = choice.toJson();
-  out.details["engine_settings"] = settings.size() == 1 ? settings[0] : settings;
-  out.details["size_classes"] = per_class;
-  out.details["darcy_velocity_m_s"] = u_darcy;
-  out.details["interstitial_velocity_m_s"] = porosity > 0 ? u_darcy / porosity : u_darcy;
-  out.details["injection_rate_per_s"] = inject_rate;
-  out.details["parcel_weight"] = weight;
-  out.details["coupling"] = {{"mode", four_way ? "four-way" : "one-way"},
-                             {"resolve_threshold_pixels", resolve_pixels},
-                             {"plate_deposits", layers ? "layer" : "column"},
-                             {"layer_packing", layer_model.packing},
-                             {"min_aperture_um", layer_model.min_aperture * 1e6},
-                             {"deposits_at_walls", s.wall_deposits},
-                             {"deposits_on_plates", s.plate_deposits},
-                             {"pore_pixels", pore_pixels},
-                             {"pixel_capacity_um3", deposits.capacity() * 1e18},
-                             {"deposited_volume_um3", deposits.depositedVolume() * 1e18},
-                             {"fluid_grid_cells", {std::lround(grains.cols() * fo.cells_per_pixel), std::lround(grains.rows() * fo.cells_per_pixel)}}};
-  out.details["counts"] = {{"scheduled", scheduled}, {"injected", n.injected}, {"never_injected", scheduled - n.injected},
-                           {"inside", n.inside}, {"deposited", n.deposited}, {"left", n.left}};
   out.details["steps"] = st.steps;
   out.details["particle_steps"] = st.particle_steps;
   out.details["dt_min_s"] = std::isfinite(st.min_dt) ? st.min_dt : 0.0;
   out.details["dt_max_s"] = st.max_dt;
   out.details["wall_time_this_process_s"] = wall - wall_at_start;
+}
+
+/// The scene's settings as run: engine, flow, injection, coupling, outputs.
+void reportScene(const MicromodelSetup& set, const ClassTally& a, const RunnerState& s, const DepositGrid& deposits, RunOutput& out) {
+  const double u_darcy = set.flow.darcy_velocity, porosity = set.geo.porosity;
+  const Coupling& cp = set.coupling;
+  out.metrics["porosity"] = porosity;
+  out.details["engine"] = "overdamped";
+  out.details["engine_reason"] = set.choice.reason;
+  out.details["selection"] = set.choice.toJson();
+  out.details["engine_settings"] = a.settings.size() == 1 ? a.settings[0] : a.settings;
+  out.details["size_classes"] = a.per_class;
+  out.details["darcy_velocity_m_s"] = u_darcy;
+  out.details["interstitial_velocity_m_s"] = porosity > 0 ? u_darcy / porosity : u_darcy;
+  out.details["injection_rate_per_s"] = set.schedule.rate_per_s;
+  out.details["parcel_weight"] = cp.weight;
+  out.details["coupling"] = {{"mode", cp.four_way ? "four-way" : "one-way"},
+                             {"resolve_threshold_pixels", cp.resolve_pixels},
+                             {"plate_deposits", cp.layers ? "layer" : "column"},
+                             {"layer_packing", cp.layer_model.packing},
+                             {"min_aperture_um", cp.layer_model.min_aperture * 1e6},
+                             {"deposits_at_walls", s.wall_deposits},
+                             {"deposits_on_plates", s.plate_deposits},
+                             {"pore_pixels", set.geo.pore_pixels},
+                             {"pixel_capacity_um3", deposits.capacity() * 1e18},
+                             {"deposited_volume_um3", deposits.depositedVolume() * 1e18},
+                             {"fluid_grid_cells",
+                              {std::lround(set.geo.grains.cols() * set.flow.cells_per_pixel),
+                               std::lround(set.geo.grains.rows() * set.flow.cells_per_pixel)}}};
   out.details["outputs"] = {
       {"trajectories.csv", "frame,particle,x,y,x_um,y_um,t_s,z_um,state (tracks schema; x, y pixels of the geometry image from the "
                            "top-left pixel centre, y down; x_um = x * pixel size; deposited particles appear once, state deposited)"},
       {"retention.csv", "t_s,injected,retained,left,inside"},
       {"permeability.csv", "t_s,k_m2,k_D,k_over_k0,resolves"}};
+}
+
+/// The run: the scene read once, then per output frame transport -> deposit ->
+/// re-solve -> insertion -> frame record (MicromodelStages.hpp), a checkpoint when
+/// due; a pump stall ends the run at its frame. Then the outputs and the report.
+RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
+  const auto t_start = std::chrono::steady_clock::now();
+  RunOutput out;
+  MicromodelSetup set = readSetup(c, out);
+  std::vector<SizeClass>& classes = set.classes;
+  const RunControl& run = set.run;
+  MicromodelFlow flow(set.geo.grains, set.flow);
+  makeEngines(classes, flow.field(), set.scene, set.seed);
+  readCouplingAndSchedule(c, set);
+  DepositGrid deposits(set.geo.grains, set.geo.pixel, set.geo.depth, set.coupling.fill_fraction, set.coupling.layer_model);
+
+  const fs::path ckpt = ctx.out_dir / "checkpoint.bin";
+  const std::string fp = checkpointFingerprint(c);
+  RunnerState s;
+  const bool resumed = startOrResume(c, ctx, ckpt, fp, set, s, classes, deposits, flow);
+  out.details["resumed_from_frame"] = resumed ? s.next_frame : 0;
+  if (!resumed && c.quantity("engines.compare_window") > 0) compareEnginesOnTheScene(c, flow.field(), set.scene, classes[0].diameter, out);
+
+  const auto wall_now = [&] { return s.wall_before + std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count(); };
+  const double wall_at_start = s.wall_before;
+  // Set when a fluid solve finds that the pump cannot deliver the set rate: injection
+  // stops, the frame is written and the run ends (Micromodel.hpp, "The pump").
+  std::optional<PumpStall> stall;
+  for (std::int64_t k = s.next_frame; k <= run.frames; ++k) {
+    const double t = k * run.dt_out;
+    ClassParticles ps = transport(classes, k, t);
+    if (set.coupling.four_way) {
+      deposit(classes, ps, *flow.field(), set.coupling, deposits, s.wall_deposits, s.plate_deposits);
+      stall = resolve(flow, deposits, set.coupling, set.max_pressure, t, classes, ps,
+                      {s.resolves, s.solve_seconds, s.lost_at_solve, s.k, s.blocked_at});
+    }
+    if (!stall) insertDue(classes, *flow.field(), set.schedule, k, t, ps, s.next_id);
+    recordFrame(classes, ps, k, t, {set.geo.pixel, set.geo.height}, run.dt_out, s);
+    if (stall) break;
+    checkpointIfDue(run, k, wall_now(), ckpt, fp, s, classes, deposits, flow);
+  }
+  const double wall = wall_now();
+
+  out.files = writeOutputs(ctx.out_dir, s, set.geo, ckpt);
+  const ClassTally tally = tallyClasses(classes, set.schedule, run);
+  reportCounts(tally, set.sample, out);
+  const double t_end = static_cast<double>(s.next_frame - 1) * run.dt_out;  // the last frame written
+  out.details["end_time_s"] = t_end;
+  reportPump(s, stall, set.max_pressure, set.flow.viscosity * set.flow.darcy_velocity * set.geo.width, tally.scheduled, tally.n.injected, out);
+  if (!run.window.empty()) reportWindow(s, run.window, t_end, out);
+  out.metrics["mean_speed"] = s.speed_n ? s.speed_sum / s.speed_n : 0.0;
+  out.units["mean_speed"] = "um/s";
+  reportPermeability(s, deposits, set.geo.pore_pixels, out);
+  reportCost(s, tally.st, wall, wall_at_start, out);
+  reportScene(set, tally, s, deposits, out);
   return out;
 }
 
