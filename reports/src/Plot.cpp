@@ -49,17 +49,21 @@ std::string renderSvg(const Plot& plot) {
     const fs::path data = dir / fmt::format("s{}.dat", k++);
     std::ofstream out(data);
     int rows = 0;
+    const bool bars = !s.yerr.empty() && s.yerr.size() == s.y.size();
     for (std::size_t i = 0; i < std::min(s.x.size(), s.y.size()); ++i) {
       if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) {
         out << "\n";  // gap
         continue;
       }
       if ((plot.logx && s.x[i] <= 0) || (plot.logy && s.y[i] <= 0)) continue;
-      out << fmt::format("{:.10g} {:.10g}\n", s.x[i], s.y[i]);
+      if (bars)
+        out << fmt::format("{:.10g} {:.10g} {:.10g}\n", s.x[i], s.y[i], std::isfinite(s.yerr[i]) ? s.yerr[i] : 0.0);
+      else
+        out << fmt::format("{:.10g} {:.10g}\n", s.x[i], s.y[i]);
       ++rows;
     }
     if (rows == 0) continue;
-    parts.push_back(fmt::format("{} using 1:2 with {} lw 2 title {}", quote(data.string()), s.style, quote(s.name)));
+    parts.push_back(fmt::format("{} using {} with {} lw 2 title {}", quote(data.string()), bars ? "1:2:3" : "1:2", s.style, quote(s.name)));
   }
   if (parts.empty()) {
     fs::remove_all(dir);

@@ -23,6 +23,7 @@
 #include "mmval/reports/JsonShape.hpp"
 #include "mmval/reports/Plot.hpp"
 #include "mmval/reports/PaperFigures.hpp"
+#include "mmval/reports/PhysicsFigures.hpp"
 #include "mmval/reports/Tables.hpp"
 #include "mmval/reports/Site.hpp"
 #include "ReportParts.hpp"
@@ -405,6 +406,23 @@ int writeReport(const ReportInput& input, const fs::path& out) {
                                        100 * a.value("overlap_fraction", 0.0)));
     else
       alignments.push_back(c.name + ": " + a.dump());
+  }
+
+  // Physics checks: each run's measured values against its theory, on its case page, the
+  // figure linked to the run's own CSV it is drawn from.
+  for (const auto& r : input.summary.results) {
+    if (!plots) break;
+    for (const CheckFigure& cf : physicsCheckFigures(r, refdir)) {
+      Figure f;
+      f.id = detail::pageKey(r) + "-" + cf.id;
+      f.caption = cf.caption;
+      f.owner = detail::pageKey(r);
+      f.svg = renderSvg(cf.plot);
+      f.data = detail::relativeLink(cf.data, out);
+      f.data_label = cf.data.filename().string() + " (CSV)";
+      writeFileAtomic(out / "figures" / (fileId(f.id) + ".svg"), f.svg);
+      figures.push_back(std::move(f));
+    }
   }
 
   // Images produced by runs (PNG files listed in result.json); speed fields get a colour bar

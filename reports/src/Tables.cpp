@@ -302,8 +302,12 @@ std::map<std::string, std::vector<double>> readCsvColumns(const fs::path& file) 
     std::stringstream s(line);
     std::string cell;
     for (std::size_t c = 0; c < names.size(); ++c) {
-      if (!std::getline(s, cell, ','))
-        throw InputError({file.string(), row, static_cast<int>(c + 1), names[c]}, "row has too few columns", line, fmt::format("{} columns", names.size()));
+      if (!std::getline(s, cell, ',')) {
+        // A row ending in ',' has an empty last cell, which std::getline does not report.
+        if (c + 1 != names.size() || line.back() != ',')
+          throw InputError({file.string(), row, static_cast<int>(c + 1), names[c]}, "row has too few columns", line, fmt::format("{} columns", names.size()));
+        cell.clear();
+      }
       double v;
       try {
         std::size_t used = 0;

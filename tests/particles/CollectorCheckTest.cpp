@@ -21,6 +21,7 @@
 #include "mmval/particles/Kinds.hpp"
 
 #include "../TestScratch.hpp"
+#include "../../simulate/particles/src/checks/CollectorSetup.hpp"
 
 namespace mmval::particles {
 namespace {
@@ -149,6 +150,48 @@ interception = [0.5]
   } catch (const InputError& e) {
     EXPECT_EQ(e.where().key, "sweep.interception") << e.what();
   }
+}
+
+
+// ---------------------------------------------------------------- the theory alone (CollectorFlow.hpp, CollectorSetup.hpp)
+
+// Kuwabara's factor and the exact interception at phi = 0.1 against the values stored in the
+// reference data (evaluated outside mmval, 5 digits: 1e-4 relative).
+TEST(CollectorTheory, KuwabaraFactorAndInterception) {
+  EXPECT_NEAR(checks::kuwabaraFactor(0.1) / referenceValue("Ku", {{"phi", 0.1}}), 1.0, 1e-4);
+  for (const double r : {0.0202, 0.0502, 0.1002, 0.2002})
+    EXPECT_NEAR(checks::interceptionKuwabara(0.1, r) / referenceValue("eta_R", {{"phi", 0.1}, {"R", r}}), 1.0, 1e-4) << "R = " << r;
+  // The stream function vanishes with its slope on the post (no slip): f(1) = f'(1) = 0.
+  EXPECT_NEAR(checks::kuwabaraStream(0.1, 1.0), 0.0, 1e-14);
+  EXPECT_NEAR(checks::kuwabaraStreamSlope(0.1, 1.0), 0.0, 1e-14);
+}
+
+// Stechkina, Kirsch & Fuchs' sum eta_D + eta_DR + eta_R at the diffusion case's R and Pe against the
+// stored values (5 digits).
+TEST(CollectorTheory, StechkinaFuchsEfficiency) {
+  for (const double pe : {200.0, 600.0, 2000.0}) {
+    const double r = 0.0102;
+    const double eta = checks::diffusionStechkina(0.1, pe) + checks::interactionStechkina(0.1, pe, r) + checks::interceptionKuwabara(0.1, r);
+    EXPECT_NEAR(eta / referenceValue("eta", {{"phi", 0.1}, {"R", r}, {"Pe", pe}}), 1.0, 1e-4) << "Pe = " << pe;
+  }
+}
+
+// The weighted power-law fit: an exact power law gives its exponent (round-off class), and with equal
+// weights the slope's standard error is the textbook sqrt(n / (n Sxx - Sx^2)) in ln x.
+TEST(CollectorTheory, PowerLawFit) {
+  const std::vector<double> pe{200, 600, 2000, 6000};
+  std::vector<double> eta, rel(pe.size(), 1.0);
+  for (const double p : pe) eta.push_back(2.9 * std::pow(p, -2.0 / 3.0));
+  const auto [slope, se] = checks::fitPowerLaw(pe, eta, rel);
+  EXPECT_NEAR(slope, -2.0 / 3.0, 1e-12);
+  double sx = 0, sxx = 0;
+  for (const double p : pe) sx += std::log(p), sxx += std::log(p) * std::log(p);
+  const double n = static_cast<double>(pe.size());
+  EXPECT_NEAR(se, std::sqrt(n / (n * sxx - sx * sx)), 1e-12);
+  // Equal relative errors of 10 % leave the slope and scale its standard error by 0.1.
+  const auto [slope10, se10] = checks::fitPowerLaw(pe, eta, std::vector<double>(pe.size(), 0.1));
+  EXPECT_NEAR(slope10, slope, 1e-12);
+  EXPECT_NEAR(se10, 0.1 * se, 1e-12);
 }
 
 }  // namespace

@@ -2,9 +2,12 @@
 // cases/physics-settling-slit.toml and cases/physics-diffusion-slit.toml load, run and meet
 // their own acceptance entries (references: the closed-form trajectory integral, a quadrature of
 // the engine's drift, the Graetz series and reference-data/slit-deposition.toml), and bad input
-// is refused with an InputError naming the key.
+// is refused with an InputError naming the key. The theory functions themselves
+// (SlitTheory.hpp) are tested directly against reference-data/slit-deposition.toml
+// and closed forms.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -14,8 +17,11 @@
 
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/ReferenceData.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/particles/Kinds.hpp"
+
+#include "../../simulate/particles/src/checks/SlitTheory.hpp"
 
 namespace mmval::particles {
 namespace {
@@ -107,6 +113,88 @@ TEST_F(SlitChecks, BadLengthsAndStepsAreInputErrors) {
   EXPECT_EQ(inputErrorKey("physics-diffusion-slit", {"analysis.mu=[0.1, 0.05]"}), "analysis.mu");
   EXPECT_EQ(inputErrorKey("physics-diffusion-slit", {"numerics.max_step_fraction=0.8"}), "numerics.step_check_factor");
   EXPECT_EQ(inputErrorKey("physics-settling-slit", {"particles.density=\"0.9 g/cm3\""}), "particles.density");
+}
+
+
+// ---------------------------------------------------------------- the theory alone (SlitTheory.hpp)
+
+/// The point-particle series with 40 modes (as the diffusion check computes it), once.
+const checks::GraetzSeries& pointSeries() {
+  static const checks::GraetzSeries g = checks::graetzSeries(40, 1.0, 1.0);
+  return g;
+}
+
+double slitReference(const std::string& quantity, const AtMap& at = {}) {
+  const auto rows = loadReferenceFile(fs::path(MMVAL_SOURCE_DIR) / "reference-data" / "slit-deposition.toml").find(quantity, at);
+  EXPECT_EQ(rows.size(), 1u) << quantity << " " << toString(at);
+  return rows.empty() || !rows.front()->value ? std::nan("") : *rows.front()->value;
+}
+
+// The point-particle Graetz eigenproblem against Shah & London's eigenvalues (7 digits stored:
+// tolerance 1e-6 relative, the last digit), the penetration weights (4 digits: half a unit of the
+// last, 5e-5) and the fully developed Nusselt number (8/3) lambda_1^2 = 7.5407 (5 digits).
+TEST(SlitTheory, GraetzSeriesMatchesShahAndLondon) {
+  const checks::GraetzSeries& g = pointSeries();
+  ASSERT_EQ(g.lambda.size(), 40u);
+  for (int n = 1; n <= 3; ++n) {
+    const double lambda_ref = slitReference("graetz_eigenvalue", {{"n", static_cast<double>(n)}});
+    EXPECT_NEAR(g.lambda[n - 1] / lambda_ref, 1.0, 1e-6) << "n = " << n;
+    EXPECT_NEAR(g.weight[n - 1], slitReference("graetz_penetration_weight", {{"n", static_cast<double>(n)}}), 5e-5) << "n = " << n;
+  }
+  EXPECT_NEAR(8.0 / 3.0 * g.lambda[0] * g.lambda[0] / slitReference("nusselt_fully_developed"), 1.0, 1e-5);
+  EXPECT_DOUBLE_EQ(g.entry_fraction, 1.0);
+  // Nothing enters without penetrating: P(0) = sum G_n, which 40 modes bring to within 1 % of 1
+  // (the weights fall off as n^(-7/3) near the entrance singularity).
+  EXPECT_NEAR(g.penetration(0.0), 1.0, 0.01);
+}
+
+// Leveque's coefficient 3 (2/3)^(1/3) / Gamma(4/3) = 2.9348 (4 digits stored), and the series
+// tends to it at short lengths: at mu' = 1e-4 the deposited fractions agree to 1 %.
+TEST(SlitTheory, LevequeLimitOfTheSeries) {
+  const double mu = 1e-4;
+  EXPECT_NEAR((1 - checks::levequePenetration(mu)) / std::pow(mu, 2.0 / 3.0), slitReference("leveque_coefficient"), 5e-5);
+  EXPECT_NEAR((1 - pointSeries().penetration(mu)) / (1 - checks::levequePenetration(mu)), 1.0, 0.01);
+}
+
+// Settling of point particles: f = L v_s / (h U) (Fuchs 1964), the stored row at 0.5; the
+// closed form with the particle's size tends to it as a, c -> 0 (round-off class tolerance).
+TEST(SlitTheory, PointFractionTendsToFuchs) {
+  const double h = 20e-6, U = 1e-3, vs = 1e-5;
+  const double L = 0.5 * h * U / vs;
+  EXPECT_NEAR(checks::pointFraction(L, h, U, vs, 1e-15, 1e-15), slitReference("settling_deposited_fraction", {{"L_vs_over_hU", 0.5}}), 1e-9);
+  EXPECT_DOUBLE_EQ(checks::pointFraction(3 * L, h, U, vs, 1e-15, 1e-15), 1.0);
+  // A finite particle catches the flux entering below its capture height at once: f(0) > 0.
+  EXPECT_GT(checks::pointFraction(0.0, h, U, vs, 1e-6, 0.1e-6), 0.0);
+}
+
+// The trajectory quadrature and the entering flux for a drift given in closed form: plane
+// Poiseuille flow with free settling, where X(z0) = (h U / v_s) (F(s0) - F(s_c)) and the flux
+// below z is (F(z/h) - F(a/h)) / (F(1 - a/h) - F(a/h)). Tolerances: the quadrature's own
+// 1e-9 of the scale, the 20000-cell trapezoid's ~1e-8.
+TEST(SlitTheory, TrajectoryQuadratureAndFluxOfPoiseuilleSettling) {
+  const double h = 20e-6, U = 1e-3, vs = 1e-5, a = 1e-6, c = 0.1e-6, scale = h * U / vs;
+  const checks::DriftAt drift = [&](double z) { return Vec3(6 * U * z / h * (1 - z / h), 0.0, -vs); };
+  using checks::cubicF;
+  for (const double z0 : {2e-6, 8e-6, 15e-6}) {
+    const double exact = scale * (cubicF(z0 / h) - cubicF((a + c) / h));
+    EXPECT_NEAR(checks::trajectoryDistance(drift, z0, a, c, scale), exact, 1e-8 * scale) << "z0 = " << z0;
+  }
+  const checks::EntryFlux flux(drift, a, h);
+  for (const double z : {3e-6, 10e-6, 18e-6}) {
+    const double exact = (cubicF(z / h) - cubicF(a / h)) / (cubicF(1 - a / h) - cubicF(a / h));
+    EXPECT_NEAR(flux.fractionBelow(z), exact, 1e-8) << "z = " << z;
+    EXPECT_NEAR(flux.quantile(exact), z, 1e-8 * h) << "z = " << z;
+  }
+  // The quadrature reference and the closed form (3) agree for this drift at any length.
+  for (const double L : {0.2 * scale, 0.6 * scale})
+    EXPECT_NEAR(checks::trajectoryFraction(drift, flux, L, a, c, h, scale), checks::pointFraction(L, h, U, vs, a, c), 1e-7) << "L = " << L;
+}
+
+// The numerics: Simpson against int_0^pi sin = 2, bisection against cbrt(2).
+TEST(SlitTheory, QuadratureAndBisection) {
+  EXPECT_NEAR(checks::integrate([](double x) { return std::sin(x); }, 0.0, std::acos(-1.0), 1e-12), 2.0, 1e-10);
+  EXPECT_EQ(checks::integrate([](double) { return 1.0; }, 1.0, 1.0, 1e-12), 0.0);
+  EXPECT_NEAR(checks::bisect([](double x) { return x * x * x - 2; }, 0.0, 2.0, 1e-14), std::cbrt(2.0), 1e-13);
 }
 
 }  // namespace

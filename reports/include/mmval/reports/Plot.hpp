@@ -11,7 +11,10 @@ namespace mmval::reports {
 struct Series {
   std::string name;
   std::vector<double> x, y;
-  std::string style = "linespoints";  ///< gnuplot "with" style: lines, points, linespoints, boxes, steps
+  std::string style = "linespoints";  ///< gnuplot "with" style: lines, points, linespoints, boxes, steps, yerrorbars
+  /// Error bar half-widths, one per point; when given the series is drawn "using 1:2:3"
+  /// (the style should then be an error-bar style such as "yerrorbars").
+  std::vector<double> yerr = {};
 };
 
 /// A labelled point drawn on the plot (e.g. a paper's value).

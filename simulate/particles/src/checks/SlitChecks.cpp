@@ -19,9 +19,9 @@
 // deposition position of every particle is recorded along one long slit, and
 // the curve at several lengths is read off those positions.
 #include "PhysicsChecks.hpp"
+#include "SlitTheory.hpp"
 
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -46,34 +46,9 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-// ------------------------------------------------------------------ numerics
-
-/// Adaptive Simpson quadrature of f over [lo, hi] to absolute tolerance `eps`
-/// (Lyness 1969, with Richardson's correction); recursion depth capped at 50.
-double simpsonStep(const std::function<double(double)>& f, double lo, double hi, double f_lo, double f_mid, double f_hi, double whole,
-                   double eps, int depth) {
-  const double mid = 0.5 * (lo + hi), l_mid = 0.5 * (lo + mid), r_mid = 0.5 * (mid + hi);
-  const double f_l = f(l_mid), f_r = f(r_mid);
-  const double left = (mid - lo) / 6 * (f_lo + 4 * f_l + f_mid), right = (hi - mid) / 6 * (f_mid + 4 * f_r + f_hi);
-  const double diff = left + right - whole;
-  if (depth >= 50 || std::abs(diff) <= 15 * eps) return left + right + diff / 15;
-  return simpsonStep(f, lo, mid, f_lo, f_l, f_mid, left, 0.5 * eps, depth + 1) +
-         simpsonStep(f, mid, hi, f_mid, f_r, f_hi, right, 0.5 * eps, depth + 1);
-}
-
-double integrate(const std::function<double(double)>& f, double lo, double hi, double eps) {
-  if (!(hi > lo)) return 0.0;
-  const double f_lo = f(lo), f_hi = f(hi), f_mid = f(0.5 * (lo + hi));
-  return simpsonStep(f, lo, hi, f_lo, f_mid, f_hi, (hi - lo) / 6 * (f_lo + 4 * f_mid + f_hi), eps, 0);
-}
-
-/// Root of an increasing function g on [lo, hi] with g(lo) <= 0 <= g(hi), by bisection to `tol`.
-double bisect(const std::function<double(double)>& g, double lo, double hi, double tol) {
-  for (int it = 0; it < 200 && hi - lo > tol; ++it) {
-    const double mid = 0.5 * (lo + hi);
-    (g(mid) > 0 ? hi : lo) = mid;
-  }
-  return 0.5 * (lo + hi);
+/// The engine's deterministic velocity of a particle centred at height z (the references' input).
+DriftAt driftOf(const OverdampedEngine& e) {
+  return [&e](double z) { return e.driftVelocity(Vec3(0, 0, z)); };
 }
 
 // ------------------------------------------------------------------ the slit
@@ -127,42 +102,6 @@ void requireFits(const Case& c, double h, double d, double cd) {
                      "a diameter below half the depth minus the capture distance");
 }
 
-/// Cumulative entering particle flux W(z) = int_a^z v_x(z') dz' on a uniform grid over
-/// [a, h - a] (trapezoid; the profile is a smooth polynomial, 20000 intervals), and its
-/// quantiles: a uniform suspension enters with a flux proportional to the particles'
-/// own x-velocity (the fluid's, less Faxen's term when it is on).
-class EntryFlux {
- public:
-  EntryFlux(const OverdampedEngine& e, double a, double h) : m_a(a), m_dz((h - 2 * a) / kCells), m_w(kCells + 1, 0.0) {
-    double prev = e.driftVelocity(Vec3(0, 0, a)).x();
-    for (int j = 1; j <= kCells; ++j) {
-      const double v = e.driftVelocity(Vec3(0, 0, a + j * m_dz)).x();
-      m_w[j] = m_w[j - 1] + 0.5 * (prev + v) * m_dz;
-      prev = v;
-    }
-  }
-  double total() const { return m_w.back(); }
-  /// W(z) / W(h - a).
-  double fractionBelow(double z) const {
-    const double f = std::clamp((z - m_a) / m_dz, 0.0, static_cast<double>(kCells));
-    const int j = std::min(static_cast<int>(f), kCells - 1);
-    return (m_w[j] + (f - j) * (m_w[j + 1] - m_w[j])) / total();
-  }
-  /// Height below which the fraction q of the flux enters.
-  double quantile(double q) const {
-    const double target = q * total();
-    const auto it = std::upper_bound(m_w.begin(), m_w.end(), target);
-    const int j = std::clamp(static_cast<int>(it - m_w.begin()) - 1, 0, kCells - 1);
-    const double dw = m_w[j + 1] - m_w[j];
-    return m_a + (j + (dw > 0 ? (target - m_w[j]) / dw : 0.0)) * m_dz;
-  }
-
- private:
-  static constexpr int kCells = 20000;
-  double m_a, m_dz;
-  std::vector<double> m_w;
-};
-
 /// Stratified flux-weighted entry: particle i at the flux quantile (i + 1/2) / N,
 /// at x = 0, in lane y = (i - N/2) * lane.
 std::vector<Vec3> entryPositions(const EntryFlux& flux, int n, double lane) {
@@ -212,27 +151,8 @@ double depositedWithin(const Outcome& o, double L) {
 
 // ====================================================== check 3: settling
 
-// Settling of a non-Brownian particle in plane Poiseuille flow. Its centre moves
-// with dx/dt = v_x(z), dz/dt = v_z(z) < 0 (both independent of x), so along a
-// trajectory dx/dz = v_x / v_z and a particle entering at height z0 is caught
-// (gap to the bottom plate = capture distance, centre height z_c = a + c) after
-//   X(z0) = int_{z_c}^{z0} v_x(z) / |v_z(z)| dz.                              (1)
-// Point particles (a, c -> 0), u = 6 U s (1 - s) with s = z / h, v_z = -v_s:
-//   X(z0) = (U h / v_s) F(s0),  F(s) = int_0^s 6 t (1 - t) dt = 3 s^2 - 2 s^3,
-// and the entering flux below s0 is the same F(s0) (flux-weighted entry), so the
-// fraction caught within L is the flux fraction with F(s0) <= L v_s / (U h):
-//   f(L) = min(1, L v_s / (h U))                                              (2)
-// (Fuchs, The Mechanics of Aerosols, 1964, sedimentation in a flat channel). For
-// the engine's centres in [a, h - a] with hindrance and Faxen off, (1) gives
-// X = (U h / v_s) (F(s0) - F(s_c)), the flux is still u(z) but only over
-// [s_a, 1 - s_a] (s_a = a / h), so
-//   f(L) = [F(min(s*, 1 - s_a)) - F(s_a)] / [F(1 - s_a) - F(s_a)],
-//   F(s*) = F(s_c) + L v_s / (U h)                                             (3)
-// (the flux entering between a and z_c is caught at once: f(0) > 0),
-// which tends to (2) as a, c -> 0: the closed form the point run is checked
-// against. With the full model (Faxen's term, hindered settling) (1) is evaluated
-// by quadrature of the engine's own driftVelocity: that reference follows whatever
-// the model is, so it checks the time stepping and the capture, not the model.
+// Settling of a non-Brownian particle: the deposited fraction against the closed
+// form (3) of the trajectory integral (1) and its quadrature (SlitTheory.hpp).
 
 /// The closed form's assumptions: the centre follows the undisturbed flow and
 /// settles at the free Stokes speed everywhere (no wall hindrance, no Faxen term,
@@ -244,38 +164,6 @@ void pointParticleHydrodynamics(Config& c) {
   c.faxen_curvature = false;
   c.near_wall_shear = false;
   c.near_contact_drag = false;
-}
-
-double cubicF(double s) { return 3 * s * s - 2 * s * s * s; }
-
-/// Closed form (3): fraction deposited within L for hindrance and Faxen off.
-double pointFraction(double L, double h, double U, double vs, double a, double c) {
-  const double sa = a / h, st = 1 - sa, sc = (a + c) / h;
-  const double target = cubicF(sc) + L * vs / (U * h);
-  if (target >= cubicF(st)) return 1.0;
-  const double s_star = bisect([&](double s) { return cubicF(s) - target; }, sc, st, 1e-15);
-  return (cubicF(s_star) - cubicF(sa)) / (cubicF(st) - cubicF(sa));
-}
-
-/// (1) by quadrature of the engine's deterministic velocity, in w = ln(gap) so
-/// that the near-wall slowing of hindered settling (|v_z| ~ gap) is resolved.
-double trajectoryDistance(const OverdampedEngine& e, double z0, double a, double c, double scale) {
-  if (z0 - a <= c) return 0.0;
-  const auto integrand = [&](double w) {
-    const double gap = std::exp(w);
-    const Vec3 v = e.driftVelocity(Vec3(0, 0, a + gap));
-    return v.x() / std::abs(v.z()) * gap;
-  };
-  return integrate(integrand, std::log(c), std::log(z0 - a), 1e-9 * scale);
-}
-
-/// Reference fraction within L from (1): the entry height z* with X(z*) = L (X
-/// increases with z0) and the flux fraction below it.
-double trajectoryFraction(const OverdampedEngine& e, const EntryFlux& flux, double L, double a, double c, double h, double scale) {
-  const double z_top = h - a;
-  if (trajectoryDistance(e, z_top, a, c, scale) <= L) return 1.0;
-  const double z_star = bisect([&](double z) { return trajectoryDistance(e, z, a, c, scale) - L; }, a + c, z_top, 1e-9 * h);
-  return flux.fractionBelow(z_star);
 }
 
 void declareSettling(Schema& s) {
@@ -312,7 +200,7 @@ SettlingRun runSettlingModel(const SceneConfig& scene, const Slit& slit, int n, 
   auto engine = std::make_unique<OverdampedEngine>(slit.flow, scene);
   const double a = scene.particle.radius(), cd = scene.attachment.capture_distance;
   const double vs = settlingSpeed(scene.fluid, scene.particle, scene.gravity);
-  const EntryFlux flux(*engine, a, slit.h);
+  const EntryFlux flux(driftOf(*engine), a, slit.h);
   SettlingRun r;
   const auto pos = entryPositions(flux, n, 10 * scene.particle.diameter);
   engine->insert(pos);
@@ -320,7 +208,7 @@ SettlingRun runSettlingModel(const SceneConfig& scene, const Slit& slit, int n, 
   for (const auto& p : pos) {
     r.z0.push_back(p.z());
     r.x_ref.push_back(closed_form ? scale * std::max(0.0, cubicF(p.z() / slit.h) - cubicF((a + cd) / slit.h))
-                                  : trajectoryDistance(*engine, p.z(), a, cd, scale));
+                                  : trajectoryDistance(driftOf(*engine), p.z(), a, cd, scale));
   }
   // Slowest particle: from the top to the capture height, hindered near both plates;
   // 20 free-settling times across the depth is a generous cap.
@@ -360,7 +248,7 @@ SettlingCurves compareSettlingCurves(const SettlingRun& rp, const SettlingRun& r
   const double vs = settlingSpeed(point.fluid, point.particle, point.gravity), scale = h * U / vs;
   // The references need engines only for their drift.
   const OverdampedEngine point_drift(slit.flow, point), full_drift(slit.flow, full);
-  const EntryFlux point_flux(point_drift, a, h), full_flux(full_drift, a, h);
+  const EntryFlux point_flux(driftOf(point_drift), a, h), full_flux(driftOf(full_drift), a, h);
   SettlingCurves r;
   std::ostringstream csv;
   csv << "length_mm,fraction_point,fraction_point_reference,fraction_point_quadrature,fraction_point_limit,fraction_full,"
@@ -369,9 +257,9 @@ SettlingCurves compareSettlingCurves(const SettlingRun& rp, const SettlingRun& r
     const double L = slit.length * k / points;
     const double fp = depositedWithin(rp.outcome, L), ff = depositedWithin(rf.outcome, L);
     const double fp_ref = pointFraction(L, h, U, vs, a, cd);
-    const double fp_quad = trajectoryFraction(point_drift, point_flux, L, a, cd, h, scale);
+    const double fp_quad = trajectoryFraction(driftOf(point_drift), point_flux, L, a, cd, h, scale);
     const double f_limit = std::min(1.0, L / scale);  // (2), point particles
-    const double ff_ref = trajectoryFraction(full_drift, full_flux, L, a, cd, h, scale);
+    const double ff_ref = trajectoryFraction(driftOf(full_drift), full_flux, L, a, cd, h, scale);
     r.e_point = std::max(r.e_point, std::abs(fp - fp_ref));
     r.e_full = std::max(r.e_full, std::abs(ff - ff_ref));
     r.e_quad = std::max(r.e_quad, std::abs(fp_quad - fp_ref));
@@ -444,106 +332,8 @@ RunOutput runSettling(const Case& c, const RunContext& ctx) {
 
 // ====================================================== check 4: diffusion
 
-// Graetz problem for plane Poiseuille flow between two absorbing plates, axial
-// diffusion neglected (Pe = U h / D >> 1). With eta = 2 z / h - 1 in [-1, 1],
-// u = (3/2) U (1 - eta^2) and c = sum A_n phi_n(eta) exp(-lambda_n^2 mu),
-//   mu = 8 D L / (3 U h^2),
-// the eigenfunctions solve phi'' + lambda^2 (1 - eta^2) phi = 0, phi'(0) = 0,
-// phi(1) = 0 (symmetric modes; a uniform inlet excites no others). The
-// flux-weighted (bulk) concentration, i.e. the penetration, is
-//   P(mu) = sum G_n exp(-lambda_n^2 mu),
-//   G_n = (3/2) [int_0^1 (1 - eta^2) phi_n]^2 / int_0^1 (1 - eta^2) phi_n^2,
-// from the orthogonality of the phi_n with weight (1 - eta^2) (Sturm-Liouville).
-// Far downstream P ~ G_1 exp(-lambda_1^2 mu), i.e. the Sherwood number on the
-// hydraulic diameter 2 h tends to (8/3) lambda_1^2 = 7.541 (Shah & London 1978);
-// lambda_1 = 1.6816. Written with mu' = D L / (U h^2) = (3/8) mu below.
-//
-// The engine's particles are not points: a centre stays in [a, h - a] and is
-// caught at z_c = a + c (c the capture distance), where the flow is not zero.
-// The same eigenproblem on the centres' domain eta in [0, eta_c], eta_c =
-// 1 - 2 z_c / h, with phi(eta_c) = 0 and the parabola unchanged, is exact for
-// that: G_n = [int_0^eta_c w phi_n]^2 / (int_0^eta_c w phi_n^2 int_0^eta_c w),
-// w = 1 - eta^2, and the flux entering between z_c and a (caught at once) is
-// taken off: P = P_c (eta_c - eta_c^3/3) / (eta_a - eta_a^3/3), eta_a = 1 - 2a/h.
-// eta_c = eta_a = 1 gives the point-particle series above.
-struct GraetzSeries {
-  std::vector<double> lambda, weight;
-  double entry_fraction = 1.0;  ///< share of the entering flux not caught at once
-  /// Penetration at mu' = D L / (U h^2).
-  double penetration(double mu_prime) const {
-    double p = 0;
-    for (std::size_t n = 0; n < lambda.size(); ++n) p += weight[n] * std::exp(-lambda[n] * lambda[n] * 8.0 / 3.0 * mu_prime);
-    return entry_fraction * p;
-  }
-};
-
-/// phi(eta_c) and the two weighted integrals for a trial lambda (RK4, `steps` steps on [0, eta_c]).
-struct Shot {
-  double phi1 = 0, first = 0, second = 0;
-};
-
-Shot shoot(double lambda, int steps, double eta_c) {
-  // y = (phi, phi', int (1 - eta^2) phi, int (1 - eta^2) phi^2)
-  using State = std::array<double, 4>;
-  const double l2 = lambda * lambda;
-  const auto rhs = [&](double eta, const State& y) {
-    const double w = 1 - eta * eta;
-    return State{y[1], -l2 * w * y[0], w * y[0], w * y[0] * y[0]};
-  };
-  State y{1.0, 0.0, 0.0, 0.0};
-  const double dx = eta_c / steps;
-  for (int i = 0; i < steps; ++i) {
-    const double x = i * dx;
-    const State k1 = rhs(x, y);
-    State t;
-    for (int j = 0; j < 4; ++j) t[j] = y[j] + 0.5 * dx * k1[j];
-    const State k2 = rhs(x + 0.5 * dx, t);
-    for (int j = 0; j < 4; ++j) t[j] = y[j] + 0.5 * dx * k2[j];
-    const State k3 = rhs(x + 0.5 * dx, t);
-    for (int j = 0; j < 4; ++j) t[j] = y[j] + dx * k3[j];
-    const State k4 = rhs(x + dx, t);
-    for (int j = 0; j < 4; ++j) y[j] += dx / 6 * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j]);
-  }
-  return {y[0], y[2], y[3]};
-}
-
-/// The first `modes` eigenvalues and weights: sign changes of phi(1; lambda) scanned
-/// in steps of 0.05 (eigenvalues are ~4 apart), refined by bisection.
-GraetzSeries graetzSeries(int modes, double eta_c, double eta_a) {
-  constexpr int kSteps = 8000;  // >= 40 steps per wavelength up to lambda ~ 170 (40 modes)
-  GraetzSeries g;
-  double lo = 0.5, f_lo = shoot(lo, kSteps, eta_c).phi1;
-  while (static_cast<int>(g.lambda.size()) < modes) {
-    const double hi = lo + 0.05, f_hi = shoot(hi, kSteps, eta_c).phi1;
-    if ((f_lo > 0) != (f_hi > 0)) {
-      double a = lo, b = hi, fa = f_lo;
-      for (int it = 0; it < 60; ++it) {
-        const double m = 0.5 * (a + b), fm = shoot(m, kSteps, eta_c).phi1;
-        if ((fm > 0) == (fa > 0)) {
-          a = m;
-          fa = fm;
-        } else {
-          b = m;
-        }
-      }
-      const double lambda = 0.5 * (a + b);
-      const Shot s = shoot(lambda, kSteps, eta_c);
-      g.lambda.push_back(lambda);
-      g.weight.push_back(s.first * s.first / (s.second * (eta_c - eta_c * eta_c * eta_c / 3)));
-    }
-    lo = hi;
-    f_lo = f_hi;
-  }
-  g.entry_fraction = (eta_c - eta_c * eta_c * eta_c / 3) / (eta_a - eta_a * eta_a * eta_a / 3);
-  return g;
-}
-
-// Leveque limit: near each plate the profile is the linear shear u = gamma y,
-// gamma = 6 U / h, and the deposition flux per unit width over a length L is
-// (D c0 / Gamma(4/3)) (gamma / (9 D))^(1/3) (3/2) L^(2/3) (Leveque 1928; e.g.
-// Deen, Analysis of Transport Phenomena, 1998, Sec. 3.5). Two plates against
-// the entering U h c0:  1 - P = 3 (2/3)^(1/3) / Gamma(4/3) mu'^(2/3) = 2.9348 mu'^(2/3).
-double levequePenetration(double mu_prime) { return 1.0 - 3.0 * std::cbrt(2.0 / 3.0) / std::tgamma(4.0 / 3.0) * std::pow(mu_prime, 2.0 / 3.0); }
+// Brownian deposition on both plates: the penetration against the Graetz series and
+// its Leveque limit (SlitTheory.hpp).
 
 void declareDiffusion(Schema& s) {
   declareSlitAndParticles(s, "20 um", "0.0125 mm/s", "0.8 um", 3000, "0.02 um");
@@ -585,7 +375,7 @@ void diffusionMetrics(Schema& s) {
 
 Outcome runDiffusionOnce(const SceneConfig& scene, const Slit& slit, int n) {
   OverdampedEngine engine(slit.flow, scene);
-  const EntryFlux flux(engine, scene.particle.radius(), slit.h);
+  const EntryFlux flux(driftOf(engine), scene.particle.radius(), slit.h);
   engine.insert(entryPositions(flux, n, 10 * scene.particle.diameter));
   const double transit = slit.length / slit.U;
   return runToEnd(engine, transit, 20 * transit);
