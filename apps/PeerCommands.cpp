@@ -36,7 +36,7 @@ void checkPeerLimits(const Case& c, const std::vector<int>& cli_levels) {
   if (c.kind() == "image-permeability") {
     if (!cli_levels.empty())
       throw InputError({}, "option --levels does not apply to image-permeability", fmt::format("--levels {}", fmt::join(cli_levels, ",")),
-                       "numerics.cells_per_pixel in the case file to set the mesh resolution");
+                       "numerics.cells_per_pixel (one level) or numerics.cells_per_pixel_levels (a ladder) in the case file to set the mesh resolution");
     // The peer's mask reader (openfoam::loadMask: imread, threshold, connected components,
     // the connected-pore image) holds ~12 B per pixel, as mmval's own mask reader does (measured
     // 11.5 B/px, simulate/src/MemoryBudget.hpp); checked from the header, before decoding.

@@ -305,7 +305,7 @@ CaseKind imagePermeabilityKind() {
              "converges at about first order in cells per pixel, and on disc packings rendered to pixels it settled 17-41 % below the "
              "discs' own) or smooth (reconstructed below pixel resolution: the 1/2 level of the mask smoothed by geometry.smoothing, cubic "
              "interpolation, every pixel centre kept on its side: second order, 1-3 % above the discs'). pixels is the default because the "
-             "coarse 3D model and the OpenFOAM peer still mesh the pixels: comparisons between them stay on one geometry")
+             "coarse 3D model still meshes the pixels; the OpenFOAM peer meshes whichever boundary is chosen")
         .def("pixels");
     s.real("geometry.smoothing", "Smooth boundary: Gaussian width in pixels applied to the mask before its 1/2 level is taken (0.75 removes the "
                                  "staircase's pixel-period steps; wider rounds corners more and narrows gaps of 1-2 pixels)")

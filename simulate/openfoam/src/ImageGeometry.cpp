@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <unordered_map>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
@@ -10,6 +12,7 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ImageHeader.hpp"
 #include "mmval/core/Resources.hpp"
+#include "mmval/simulate/Geometry.hpp"
 
 namespace mmval::openfoam {
 
@@ -89,7 +92,13 @@ std::vector<std::array<int, 3>> triangulate(const std::vector<cv::Point2d>& poly
   return tris;
 }
 
-std::string grainStl(const MaskGeometry& g, double z0, double z1, double tolerance_px) {
+double polygonArea(const Polygon& p) {
+  double twice = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) twice += p[i].x * p[(i + 1) % p.size()].y - p[(i + 1) % p.size()].x * p[i].y;
+  return 0.5 * twice;
+}
+
+std::vector<Polygon> pixelGrainPolygons(const MaskGeometry& g, double tolerance_px) {
   constexpr int kPad = 4;
   cv::Mat grains;
   cv::bitwise_not(g.fluid, grains);
@@ -97,6 +106,169 @@ std::string grainStl(const MaskGeometry& g, double z0, double z1, double toleran
   cv::copyMakeBorder(grains, padded, kPad, kPad, kPad, kPad, cv::BORDER_REPLICATE);
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(padded, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  std::vector<Polygon> out;
+  for (const auto& contour : contours) {
+    std::vector<cv::Point> simple;
+    cv::approxPolyDP(contour, simple, tolerance_px, true);
+    if (simple.size() < 3 || cv::contourArea(simple) < 1.0) continue;
+    // Contour points are the centres of the boundary pixels (+0.5 to the pixel's centre in metres).
+    Polygon poly;
+    for (const auto& p : simple) poly.push_back({(p.x - kPad + 0.5) * g.pixel, (g.fluid.rows - (p.y - kPad) - 0.5) * g.pixel});
+    if (polygonArea(poly) < 0) std::reverse(poly.begin(), poly.end());  // counter-clockwise: side normals point out of the grain
+    out.push_back(std::move(poly));
+  }
+  return out;
+}
+
+namespace {
+
+/// The smooth field of the connected-pore mask, as mmval's solver builds it.
+simulate::SmoothMaskShape smoothField(const MaskGeometry& g, double sigma_px) {
+  Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic> solid(g.fluid.rows, g.fluid.cols);
+  for (int r = 0; r < g.fluid.rows; ++r)
+    for (int c = 0; c < g.fluid.cols; ++c) solid(r, c) = g.fluid.at<unsigned char>(r, c) == 0;
+  return simulate::SmoothMaskShape(solid, g.pixel, sigma_px);
+}
+
+/// Marching squares on a node lattice over the image plus a margin. Node (i, j) sits at pixel
+/// coordinates (u, v) = (j / n - margin, i / n - margin), u rightward, v downward, pixel edges at
+/// integers; the field is sampled at the nearest point of the image (so it continues straight out
+/// beyond the edges), and the outermost ring of nodes is fluid so every outline closes.
+class IsoLines {
+ public:
+  IsoLines(const MaskGeometry& g, const simulate::SmoothMaskShape& f, int n)
+      : m_g(g), m_f(f), m_n(n), m_nu(static_cast<long long>(g.fluid.cols + 2 * kMargin) * n + 1),
+        m_nv(static_cast<long long>(g.fluid.rows + 2 * kMargin) * n + 1), m_value(static_cast<std::size_t>(m_nu * m_nv)) {
+    for (long long i = 0; i < m_nv; ++i)
+      for (long long j = 0; j < m_nu; ++j) {
+        const bool ring = i == 0 || j == 0 || i == m_nv - 1 || j == m_nu - 1;
+        m_value[static_cast<std::size_t>(i * m_nu + j)] = ring ? -0.5 : levelAt(u(j), v(i));
+      }
+  }
+
+  std::vector<Polygon> outlines() {
+    // Segments oriented so the grain (value > 0) lies on their left in y-up coordinates; each
+    // crossing point (a lattice edge) starts exactly one segment and ends exactly one.
+    std::unordered_map<long long, long long> next;
+    for (long long i = 0; i + 1 < m_nv; ++i)
+      for (long long j = 0; j + 1 < m_nu; ++j) cellSegments(i, j, next);
+    std::vector<Polygon> out;
+    std::unordered_map<long long, char> used;
+    for (const auto& [first, unused] : next) {
+      if (used[first]) continue;
+      std::vector<cv::Point2f> chain;  // pixel units for Douglas-Peucker
+      for (long long e = first; !used[e]; e = next.at(e)) {
+        used[e] = 1;
+        const cv::Point2d p = crossing(e);
+        chain.push_back({static_cast<float>(p.x), static_cast<float>(p.y)});
+      }
+      std::vector<cv::Point2f> simple;
+      cv::approxPolyDP(chain, simple, kSimplifyPx, true);
+      if (simple.size() < 3) continue;
+      Polygon poly;
+      for (const auto& p : simple) poly.push_back({p.x * m_g.pixel, (m_g.fluid.rows - p.y) * m_g.pixel});
+      if (polygonArea(poly) > 0) out.push_back(std::move(poly));  // clockwise: a fluid hole inside a grain
+    }
+    return out;
+  }
+
+ private:
+  static constexpr int kMargin = 2;             ///< pixels beyond the image where outlines close
+  static constexpr double kSimplifyPx = 0.002;  ///< Douglas-Peucker tolerance, pixels
+
+  double u(long long j) const { return static_cast<double>(j) / m_n - kMargin; }
+  double v(long long i) const { return static_cast<double>(i) / m_n - kMargin; }
+  double levelAt(double uu, double vv) const {
+    uu = std::clamp(uu, 0.0, static_cast<double>(m_g.fluid.cols));
+    vv = std::clamp(vv, 0.0, static_cast<double>(m_g.fluid.rows));
+    return m_f.level(uu * m_g.pixel, (m_g.fluid.rows - vv) * m_g.pixel);
+  }
+  double node(long long i, long long j) const { return m_value[static_cast<std::size_t>(i * m_nu + j)]; }
+  /// Lattice edge ids: 2 (i m_nu + j) for the edge from node (i, j) to (i, j + 1), + 1 for the one to (i + 1, j).
+  long long edgeId(long long i, long long j, int vertical) const { return 2 * (i * m_nu + j) + vertical; }
+
+  /// The crossing on edge `e`, pixel coordinates: bisection of the field between the edge's nodes.
+  cv::Point2d crossing(long long e) const {
+    const long long k = e / 2, i = k / m_nu, j = k % m_nu;
+    const bool vertical = e % 2 == 1;
+    const long long i1 = vertical ? i + 1 : i, j1 = vertical ? j : j + 1;
+    double a = 0, b = 1;  // fraction along the edge; node (i, j) at 0
+    const double fa = node(i, j), fb = node(i1, j1);
+    const bool ring = i == 0 || j == 0 || i1 == m_nv - 1 || j1 == m_nu - 1;
+    auto at = [&](double t) { return levelAt(u(j) + t * (u(j1) - u(j)), v(i) + t * (v(i1) - v(i))); };
+    if (ring) {
+      a = b = fa / (fa - fb);  // the forced ring is no field: linear
+    } else {
+      for (int it = 0; it < 32; ++it) {
+        const double mid = 0.5 * (a + b);
+        ((at(mid) > 0) == (fa > 0) ? a : b) = mid;
+      }
+    }
+    const double t = 0.5 * (a + b);
+    return {u(j) + t * (u(j1) - u(j)), v(i) + t * (v(i1) - v(i))};
+  }
+
+  void cellSegments(long long i, long long j, std::unordered_map<long long, long long>& next) const {
+    // Corners in walk order top-left, top-right, bottom-right, bottom-left; edge k joins corner k to k + 1.
+    const double c[4] = {node(i, j), node(i, j + 1), node(i + 1, j + 1), node(i + 1, j)};
+    const long long edges[4] = {edgeId(i, j, 0), edgeId(i, j + 1, 1), edgeId(i + 1, j, 0), edgeId(i, j, 1)};
+    long long into[2], outof[2];  // crossings where the walk enters / leaves the grain
+    int n_in = 0, n_out = 0;
+    for (int k = 0; k < 4; ++k) {
+      const bool a = c[k] > 0, b = c[(k + 1) % 4] > 0;
+      if (a == b) continue;
+      (b ? into[n_in++] : outof[n_out++]) = edges[k];
+    }
+    if (n_in == 0) return;
+    // The walk runs clockwise in y-up coordinates, so an outline from where it enters the grain
+    // to where it next leaves has the grain on its left. For a saddle (two of each), the cell
+    // centre decides: grain there joins the two grain corners, so each leave pairs with the enter
+    // after it (the fluid corners are cut off); fluid there cuts off the grain corners, each
+    // enter followed by its own leave.
+    if (n_in == 1) {
+      next[into[0]] = outof[0];
+      return;
+    }
+    const bool centre_grain = levelAt(u(j) + 0.5 / m_n, v(i) + 0.5 / m_n) > 0;
+    int pos_out[2];
+    for (int k = 0, b = 0; k < 4; ++k)
+      if (edges[k] == outof[0] || edges[k] == outof[1]) pos_out[b++] = k;
+    for (int q = 0; q < 2; ++q) {
+      // The leave at walk edge pos_out[q]: its partner enter is the next edge after it, or the one before it.
+      const int partner = centre_grain ? (pos_out[q] + 1) % 4 : (pos_out[q] + 3) % 4;
+      next[edges[partner]] = edges[pos_out[q]];
+    }
+  }
+
+  const MaskGeometry& m_g;
+  const simulate::SmoothMaskShape& m_f;
+  int m_n;
+  long long m_nu, m_nv;
+  std::vector<double> m_value;
+};
+
+}  // namespace
+
+std::vector<Polygon> smoothGrainPolygons(const MaskGeometry& g, double sigma_px, int samples_per_pixel) {
+  if (samples_per_pixel < 2 || samples_per_pixel > 64)
+    throw std::invalid_argument(fmt::format("smoothGrainPolygons: {} lattice nodes per pixel, expected 2 to 64", samples_per_pixel));
+  const simulate::SmoothMaskShape f = smoothField(g, sigma_px);
+  IsoLines lines(g, f, samples_per_pixel);
+  return lines.outlines();
+}
+
+double smoothPoreFraction(const MaskGeometry& g, double sigma_px, int samples_per_pixel) {
+  const simulate::SmoothMaskShape f = smoothField(g, sigma_px);
+  const int n = std::max(1, samples_per_pixel);
+  long long pore = 0;
+  const long long nu = static_cast<long long>(g.fluid.cols) * n, nv = static_cast<long long>(g.fluid.rows) * n;
+  for (long long i = 0; i < nv; ++i)
+    for (long long j = 0; j < nu; ++j)
+      if (f.level((j + 0.5) / n * g.pixel, (i + 0.5) / n * g.pixel) <= 0) ++pore;
+  return static_cast<double>(pore) / static_cast<double>(nu * nv);
+}
+
+std::string extrudedStl(const std::vector<Polygon>& polygons, double z0, double z1) {
   std::string out = "solid grains\n";
   auto facet = [&](cv::Point3d a, cv::Point3d b, cv::Point3d c) {
     const cv::Point3d n = (b - a).cross(c - a);
@@ -106,18 +278,8 @@ std::string grainStl(const MaskGeometry& g, double z0, double z1, double toleran
     for (const auto& p : {a, b, c}) out += fmt::format("  vertex {:.9g} {:.9g} {:.9g}\n", p.x, p.y, p.z);
     out += " endloop\nendfacet\n";
   };
-  for (const auto& contour : contours) {
-    std::vector<cv::Point> simple;
-    cv::approxPolyDP(contour, simple, tolerance_px, true);
-    if (simple.size() < 3 || cv::contourArea(simple) < 1.0) continue;
-    // Pixel corners -> metres, y up; contour points are pixel centres of boundary pixels,
-    // so push them half a pixel outward by using the centre coordinates (+0.5).
-    std::vector<cv::Point2d> poly;
-    for (const auto& p : simple)
-      poly.push_back({(p.x - kPad + 0.5) * g.pixel, (g.fluid.rows - (p.y - kPad) - 0.5) * g.pixel});
-    double area = 0;
-    for (std::size_t i = 0; i < poly.size(); ++i) area += poly[i].x * poly[(i + 1) % poly.size()].y - poly[(i + 1) % poly.size()].x * poly[i].y;
-    if (area < 0) std::reverse(poly.begin(), poly.end());  // counter-clockwise: side normals point out of the grain
+  for (Polygon poly : polygons) {
+    if (polygonArea(poly) < 0) std::reverse(poly.begin(), poly.end());  // counter-clockwise: side normals point out of the grain
     const std::size_t n = poly.size();
     for (std::size_t i = 0; i < n; ++i) {
       const auto& p = poly[i];
@@ -132,6 +294,10 @@ std::string grainStl(const MaskGeometry& g, double z0, double z1, double toleran
   }
   out += "endsolid grains\n";
   return out;
+}
+
+std::string grainStl(const MaskGeometry& g, double z0, double z1, double tolerance_px) {
+  return extrudedStl(pixelGrainPolygons(g, tolerance_px), z0, z1);
 }
 
 }  // namespace mmval::openfoam

@@ -54,7 +54,15 @@ struct Scene {
   std::filesystem::path mask;
   double pixel = 1e-6;              ///< m per pixel
   bool grain_dark = true;
-  double cells_per_pixel = 0.5;     ///< background mesh resolution
+  double cells_per_pixel = 0.5;     ///< mesh resolution at the grain surface (the background is coarser by 2^surface_level)
+  /// geometry.boundary = "smooth": the STL is the 1/2 level of the mask smoothed by a Gaussian of
+  /// smoothing_px pixels (smoothGrainPolygons), mmval's smooth boundary; else the pixel outlines.
+  bool smooth_boundary = false;
+  double smoothing_px = 0.75;
+  /// snappyHexMesh refinement level on the grain surface (level (n n)): cells there are 2^n times
+  /// finer than the background; nCellsBetweenLevels sets the width of each refinement band.
+  int surface_level = 0;
+  int cells_between_levels = 3;
   // numerics
   int cells_around = 64;            ///< resolution (cylinder: cells around it; channel: cells across)
   bool unsteady = false;
@@ -85,9 +93,22 @@ struct Result {
   std::map<std::string, double> residuals;  ///< steady: initial residual of each field (Ux, Uy, p) in the last iteration
   // outputs (SI, kinematic pressures multiplied by rho)
   double porosity_total = 0, porosity_connected = 0, porosity_mesh = 0;
+  /// Image: the pore fraction of the boundary the STL describes (the smooth field's fluid side, or
+  /// the connected-pore mask for the pixel outlines), against which porosity_mesh (total cell
+  /// volume / (image area x mesh thickness), checkMesh's "Total volume") is judged.
+  double porosity_boundary = 0;
+  double snappy_seconds = 0;  ///< image: snappyHexMesh's own wall time (within mesh_seconds)
   std::optional<double> c_d_mean;  ///< unsteady: mean over the second half
   std::optional<double> c_d, c_l, c_d_max, c_l_max, strouhal, dp, flow_rate, permeability, drag_per_length, f_star;
 };
+
+/// The background (blockMesh) grid of an image scene: cells along x and y, and its cell size,
+/// which is also the thickness of the one-cell-deep 2D mesh (m).
+struct ImageBackground {
+  int nx = 4, ny = 4;
+  double cell = 0;
+};
+ImageBackground imageBackground(const Scene& s, int image_cols, int image_rows, double image_width);
 
 /// Writes the case into `dir` (which is created); returns the cell count.
 long long writeCase(const Scene& scene, const std::filesystem::path& dir, int ranks = 1);
