@@ -4,6 +4,7 @@
 
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Schema.hpp"
+#include "mmval/particles/Dlvo.hpp"
 #include "mmval/particles/Scene.hpp"
 #include "mmval/particles/SceneSelection.hpp"
 
@@ -17,6 +18,14 @@ void declarePhysicsAndDeposition(Schema& s, double hamaker_default);
 /// hindrance, Faxen curvature) and [deposition] (capture distance, sticky
 /// surfaces, Hamaker constant, attraction range) into `s`.
 void physicsAndDepositionFromCase(const Case& c, const EngineChoice& choice, SceneConfig& s);
+
+/// Declares the chemistry.* keys of a DLVO interaction (surface potentials, electrolyte,
+/// Hamaker constant, double-layer model, Born term), with defaults from DlvoParameters;
+/// chemistry.temperature only when `with_temperature` (particle scenes use fluid.temperature).
+void declareChemistry(Schema& s, bool with_temperature);
+/// Those keys into DlvoParameters (radii left at their defaults for the caller to set);
+/// temperature from `temperature_key`. InputError (key "chemistry") when they define no interaction.
+DlvoParameters chemistryFromCase(const Case& c, const char* temperature_key);
 
 /// Output frames of the run, run.duration / run.output_interval (rounded), after checking
 /// that what every frame keeps in memory until the end fits in run.max_memory: a

@@ -233,7 +233,8 @@ void declareChemistry(Schema& s, bool with_temperature) {
          "an assumption (reference-data/dlvo-materials.toml)")
       .def(d.particle_potential / kMillivolt).min(-300).max(300);
   s.real("chemistry.collector_zeta_mv",
-         "Collector surface (zeta) potential in mV: the chip's glass (plates and grains); an assumption, reference-data/dlvo-materials.toml")
+         "Collector surface (zeta) potential in mV: the chip's glass for plates and grains in particle scenes; an assumption, "
+         "reference-data/dlvo-materials.toml")
       .def(d.collector_potential / kMillivolt).min(-300).max(300);
   s.quantity("chemistry.ionic_strength", "mol/m3", "Ionic strength I of the symmetric z:z electrolyte (mol/m3 = mM)")
       .def(d.electrolyte.ionic_strength).min(1e-4).max(5000);

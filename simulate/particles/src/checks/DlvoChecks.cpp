@@ -13,6 +13,8 @@
 // attachment-vs-ionic-strength.csv (alpha(I) with the barrier and secondary minimum).
 #include "PhysicsChecks.hpp"
 
+#include "../CaseScene.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -37,32 +39,10 @@ constexpr double kNm = 1e-9;
 constexpr double kBarrierForSlope_kT = 10.0;
 
 void declareDlvo(Schema& s) {
-  const DlvoParameters d;
   s.quantity("particles.diameter", "um", "Particle diameter (the paper's fines: 5 um carboxylate polystyrene latex)").def("5 um").positive();
   s.choice("collector.geometry", {"plate", "sphere"}, "Collector: a plate (grain wall, chip plate) or a sphere (a deposited particle)").def("plate");
   s.quantity("collector.diameter", "um", "Collector sphere diameter (collector.geometry = \"sphere\")").def("5 um").positive();
-  s.real("chemistry.particle_zeta_mv",
-         "Particle surface (zeta) potential in mV, taken as the double layer's surface potential. The paper gives none: "
-         "an assumption (reference-data/dlvo-materials.toml)")
-      .def(d.particle_potential / kMillivolt).min(-300).max(300);
-  s.real("chemistry.collector_zeta_mv", "Collector surface (zeta) potential in mV (glass; an assumption, reference-data/dlvo-materials.toml)")
-      .def(d.collector_potential / kMillivolt).min(-300).max(300);
-  s.quantity("chemistry.ionic_strength", "mol/m3", "Ionic strength I of the symmetric z:z electrolyte (mol/m3 = mM)")
-      .def(d.electrolyte.ionic_strength).min(1e-4).max(5000);
-  s.integer("chemistry.valence", "Valence z of both ions of the symmetric electrolyte (1: KCl, NaCl)").def(1).min(1).max(4);
-  s.quantity("chemistry.temperature", "K", "Temperature").def(d.electrolyte.temperature).min(200).max(450);
-  s.real("chemistry.relative_permittivity", "Relative permittivity of the solvent (water at 25 C: 78.5)").def(d.electrolyte.relative_permittivity).min(1).max(200);
-  s.quantity("chemistry.hamaker", "J", "Hamaker constant particle-water-collector (an assumption, reference-data/dlvo-materials.toml)")
-      .def(d.hamaker).nonNegative().max(1e-18);
-  s.quantity("chemistry.retardation_wavelength", "nm", "Characteristic wavelength lambda of Gregory's (1981) retarded van der Waals form")
-      .def(d.retardation_wavelength).positive();
-  s.choice("chemistry.double_layer", {"hhf", "lsa"},
-           "Double-layer model: hhf (Hogg-Healy-Fuerstenau, constant potential; low potentials, |psi| <~ 25 mV) or lsa (linear "
-           "superposition; any potential, weak overlap kappa h >~ 1)")
-      .def("lsa");
-  s.boolean("chemistry.born", "Born repulsion (Ruckenstein & Prieve 1976), which bounds the primary minimum").def(d.born);
-  s.quantity("chemistry.born_collision_diameter", "nm", "Collision diameter sigma of the Born term (0.5 nm: a common choice, an assumption)")
-      .def(d.born_collision_diameter).positive();
+  declareChemistry(s, true);
   s.quantityList("check.ionic_strengths", "mol/m3", "Ionic strengths of the alpha(I) scan (at least 2, increasing)")
       .def(std::vector<double>{1, 2, 5, 10, 20, 50});
   s.real("check.low_potential_mv", "Potential of both surfaces (mV) for the HHF-LSA low-potential far-field check").def(5.0).min(0.01).max(15);
@@ -97,20 +77,9 @@ void dlvoMetrics(Schema& s) {
 }
 
 DlvoParameters parametersFromCase(const Case& c) {
-  DlvoParameters p;
+  DlvoParameters p = chemistryFromCase(c, "chemistry.temperature");
   p.particle_radius = 0.5 * c.quantity("particles.diameter");
   p.collector_radius = c.text("collector.geometry") == "plate" ? std::numeric_limits<double>::infinity() : 0.5 * c.quantity("collector.diameter");
-  p.particle_potential = c.real("chemistry.particle_zeta_mv") * kMillivolt;
-  p.collector_potential = c.real("chemistry.collector_zeta_mv") * kMillivolt;
-  p.electrolyte.ionic_strength = c.quantity("chemistry.ionic_strength");
-  p.electrolyte.valence = static_cast<int>(c.integer("chemistry.valence"));
-  p.electrolyte.temperature = c.quantity("chemistry.temperature");
-  p.electrolyte.relative_permittivity = c.real("chemistry.relative_permittivity");
-  p.hamaker = c.quantity("chemistry.hamaker");
-  p.retardation_wavelength = c.quantity("chemistry.retardation_wavelength");
-  p.double_layer = c.text("chemistry.double_layer") == "hhf" ? DoubleLayerModel::hhf : DoubleLayerModel::lsa;
-  p.born = c.flag("chemistry.born");
-  p.born_collision_diameter = c.quantity("chemistry.born_collision_diameter");
   return p;
 }
 
