@@ -163,6 +163,10 @@ TEST(MetricContract, ToleranceOfAnotherDimensionIsRefused) {
 struct Region {
   std::string file;
   std::string begin, end;
+  /// Metric names built at run time in this region (per-height or per-band families,
+  /// declared with a '*'): counted, so a new one is noticed; EveryMetricARunnerEmitsIsDeclared
+  /// cannot read them, the physics-check tests run those kinds and their acceptance entries.
+  std::size_t computed = 0;
 };
 
 /// Where each kind's runner fills its metrics. A file shared by kinds is cut at markers.
@@ -184,6 +188,16 @@ const std::map<std::string, KindSources>& sources() {
       {"particles-micromodel", {{{"simulate/particles/src/Micromodel.cpp", "", ""}}}},
       {"particles-resolved", {{{"simulate/particles/src/Resolved.cpp", "", ""}}}},
       {"compare-tracks", {{{"compare/src/Compare.cpp", "", ""}, {"compare/src/Scene.cpp", "", ""}}}},
+      {"physics-sedimentation", {{{"simulate/particles/src/checks/WallChecks.cpp", "RunOutput runSedimentation(", "void sedimentationMetrics("}}}},
+      {"physics-hindered-diffusion",
+       {{{"simulate/particles/src/checks/WallChecks.cpp", "RunOutput runHinderedDiffusion(", "void hinderedDiffusionMetrics(", 4}}}},
+      {"physics-blocking", {{{"simulate/particles/src/checks/WallChecks.cpp", "RunOutput runBlocking(", "void blockingMetrics(", 1}}}},
+      {"physics-settling-slit", {{{"simulate/particles/src/checks/SlitChecks.cpp", "RunOutput runSettling(", "void declareDiffusion("}}}},
+      {"physics-diffusion-slit", {{{"simulate/particles/src/checks/SlitChecks.cpp", "RunOutput runDiffusion(", "", 2}}}},
+      {"physics-collector-interception", {{{"simulate/particles/src/checks/CollectorCheck.cpp", "RunOutput runInterception(", "void interceptionMetrics("}}}},
+      {"physics-collector-diffusion", {{{"simulate/particles/src/checks/CollectorDiffusion.cpp", "RunOutput runDiffusion(", "void diffusionMetrics("}}}},
+      {"physics-dlvo", {{{"simulate/particles/src/checks/DlvoChecks.cpp", "void profileStage(", "void registerDlvoChecks("}}}},
+      {"physics-near-wall-shear", {{{"simulate/particles/src/checks/ShearCheck.cpp", "RunOutput runShear(", "void registerShearChecks(", 1}}}},
   };
   return s;
 }
@@ -243,7 +257,7 @@ TEST(MetricContract, EveryMetricARunnerEmitsIsDeclared) {
     std::size_t found = 0;
     for (const auto& r : src.regions) {
       const std::string text = regionText(r);
-      EXPECT_EQ(computedNames(text), 0u) << r.file << " fills a metrics map with a computed name: the scan cannot check it";
+      EXPECT_EQ(computedNames(text), r.computed) << r.file << " fills a metrics map with a computed name: the scan cannot check it";
       for (const auto& name : emittedNames(text)) {
         ++found;
         EXPECT_NE(s.findMetric(name), nullptr) << r.file << " emits '" << name << "', which kind '" << kind << "' does not declare";

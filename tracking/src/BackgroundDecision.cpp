@@ -26,6 +26,10 @@ BackgroundDecision decideBackground(const std::vector<cv::Mat>& frames, const cv
     out.reason = "no frames to compare with a median: median subtracted";
     return out;
   }
+  if (options.find_stuck) {
+    out.reason = "detect.find_stuck looks for particles stuck all along in the median background: median subtracted";
+    return out;
+  }
   // A spatial high-pass (boxcar of the particle's radius, as trackpy's band pass)
   // stands in for the temporal background on both sides of the comparison.
   DetectOptions o = options;
