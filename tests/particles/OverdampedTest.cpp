@@ -92,7 +92,7 @@ TEST(Overdamped, WallFactorsMatchFaxenAndBrenner) {
 
 // Free Brownian particles: MSD in the plane = 4 D t. With N particles the MSD
 // estimate has standard error 4 D t / sqrt(N) (r^2 = 2 D t chi^2_2); the test
-// allows 2 standard errors (house style rule 11), seed fixed.
+// allows 2 standard errors, seed fixed.
 TEST(Overdamped, MeanSquareDisplacementIsFourDt) {
   SceneConfig c = still();
   c.brownian = true;

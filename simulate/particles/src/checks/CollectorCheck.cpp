@@ -102,6 +102,12 @@ std::int64_t runUntilDone(OverdampedEngine& engine, double chunk, double t_max) 
   return engine.counts().inside;
 }
 
+void declareCollectorCommonMetrics(Schema& s) {
+  s.metric("cell_flux_error", "1", "Flux of the implemented velocity across x = 0 from the post to the cell boundary over U b, minus 1 (stream-function check)");
+  s.metric("unfinished", "1", "Particles still moving when their run's time limit came (counted as not captured)");
+  s.metric("wall_time", "s", "Wall-clock time of the sweep");
+}
+
 void checkCaptureRadius(const Case& c, const char* key, const CollectorSetup& s, double capture_radius) {
   if (capture_radius >= 0.5 * s.cellRadius() - s.post_radius)
     throw InputError(c.where(key), "the capture radius reaches half-way to the Kuwabara cell boundary, where the cell model no longer describes the flow",
@@ -352,9 +358,7 @@ void interceptionMetrics(Schema& s) {
   s.metric("interception_worst_relative_error_lee_liu", "1", "Largest |eta / eta_Lee-Liu - 1| (small-R form (1 - phi)/Ku R^2/(1 + R)); information");
   s.metric("square_array_over_kuwabara_min", "1", "Smallest eta in the solved square array over the Kuwabara interception (collector.square_array)");
   s.metric("square_array_over_kuwabara_max", "1", "Largest eta in the solved square array over the Kuwabara interception (collector.square_array)");
-  s.metric("cell_flux_error", "1", "Flux of the implemented velocity across x = 0 from the post to the cell boundary over U b, minus 1 (stream-function check)");
-  s.metric("unfinished", "1", "Particles still moving when their run's time limit came (counted as not captured)");
-  s.metric("wall_time", "s", "Wall-clock time of the sweep");
+  declareCollectorCommonMetrics(s);
 }
 
 }  // namespace

@@ -229,9 +229,7 @@ void diffusionMetrics(Schema& s) {
   s.metric("diffusion_exponent", "1", "Fitted exponent of eta against Pe (theory -2/3)");
   s.metric("diffusion_exponent_std_error", "1", "Standard error of the fitted exponent (binomial errors)");
   s.metric("diffusion_exponent_theory", "1", "The same fit through the theory's values at the swept Pe (the 1/Pe and R terms bend it from -2/3)");
-  s.metric("cell_flux_error", "1", "Flux of the implemented velocity across x = 0 from the post to the cell boundary over U b, minus 1 (stream-function check)");
-  s.metric("unfinished", "1", "Particles still moving when their run's time limit came (counted as not captured)");
-  s.metric("wall_time", "s", "Wall-clock time of the sweep");
+  declareCollectorCommonMetrics(s);
 }
 
 }  // namespace

@@ -24,6 +24,8 @@ struct CollectorSetup {
 
 /// Keys of the post, its fluid, the capture distance and the seed, shared by both kinds.
 void declareCollectorKeys(Schema& s);
+/// The metrics both collector kinds report: the flow's flux check, unfinished particles, wall time.
+void declareCollectorCommonMetrics(Schema& s);
 /// Those keys (and numerics.max_step_fraction) read from the case.
 CollectorSetup setupFromCase(const Case& c);
 
