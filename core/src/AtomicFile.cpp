@@ -38,7 +38,21 @@ void commitTemporary(const fs::path& temporary, const fs::path& final_path) {
   if (ec) throw std::runtime_error("cannot rename " + temporary.string() + " to " + final_path.string() + ": " + ec.message());
 }
 
+namespace {
+
+bool primaryRank() {
+  // Under mpirun only rank 0 manages the folder (Open MPI and MPICH/PMI name the rank).
+  const char* rank = std::getenv("OMPI_COMM_WORLD_RANK");
+  if (rank == nullptr) rank = std::getenv("PMI_RANK");
+  return rank == nullptr || std::string(rank) == "0";
+}
+
+}  // namespace
+
 void writeFileAtomic(const fs::path& path, std::string_view content) {
+  // Under mpirun every rank computes the same outputs and only rank 0 writes them: a
+  // second writer would race rank 0's rename of the finished staging folder.
+  if (!primaryRank()) return;
   if (path.has_parent_path()) fs::create_directories(path.parent_path());
   fs::path tmp = temporaryPathFor(path);
   {
@@ -89,13 +103,6 @@ bool holdsCheckpoint(const fs::path& dir) {
   for (const auto& e : fs::directory_iterator(dir, ec))
     if (e.path().filename().string().rfind("checkpoint", 0) == 0) return true;
   return false;
-}
-
-bool primaryRank() {
-  // Under mpirun only rank 0 manages the folder (Open MPI and MPICH/PMI name the rank).
-  const char* rank = std::getenv("OMPI_COMM_WORLD_RANK");
-  if (rank == nullptr) rank = std::getenv("PMI_RANK");
-  return rank == nullptr || std::string(rank) == "0";
 }
 
 /// Empties a staging folder of ours (its contents only, so a lock on it holds).

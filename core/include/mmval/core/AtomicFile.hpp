@@ -17,6 +17,7 @@ namespace mmval {
 
 /// Writes `content` to `path` atomically (same-directory temporary + rename).
 /// Creates parent directories. Throws std::runtime_error naming the path on failure.
+/// Under mpirun only rank 0 writes; on the other ranks this does nothing.
 void writeFileAtomic(const std::filesystem::path& path, std::string_view content);
 
 /// A temporary path beside `final_path` for writers that need a file name
