@@ -21,6 +21,7 @@
 #include "mmval/openfoam/Peer.hpp"
 #include "mmval/reports/Report.hpp"
 #include "mmval/reports/Summary.hpp"
+#include "CaseFolders.hpp"
 #include "StarterCase.hpp"
 
 namespace fs = std::filesystem;
@@ -94,28 +95,6 @@ std::vector<fs::path> casesTagged(const fs::path& dir, const std::vector<std::st
   }
   out.insert(out.end(), last.begin(), last.end());
   return out;
-}
-
-/// A complete earlier run of the same case file (same hash) in `dir`, if any.
-std::optional<nlohmann::json> earlierRun(const Case& c, const fs::path& dir) {
-  std::ifstream in(dir / "result.json");
-  if (!in) return std::nullopt;
-  try {
-    nlohmann::json r = nlohmann::json::parse(in);
-    if (r.at("case").at("hash") == c.hash()) return r;
-  } catch (const std::exception&) {
-  }
-  return std::nullopt;
-}
-
-/// validate writes into its --out folder (it keeps earlier runs with --resume)
-/// rather than replacing it, so the folder must be new, empty or mmval's own.
-void requireOwnedFolder(const fs::path& out) {
-  std::error_code ec;
-  const auto st = fs::symlink_status(out, ec);
-  if (ec || !fs::exists(st)) return;
-  if (fs::is_directory(st) && (fs::is_empty(out, ec) || fs::exists(out / kOutputMarker))) return;
-  checkReplaceable(out);  // throws the message that says what is in the way
 }
 
 /// The cases folder validate reads: --cases when given, else the installed or

@@ -15,6 +15,7 @@
 #include "PeerCommands.hpp"
 #include "Registry.hpp"
 #include "ReportCommands.hpp"
+#include "SweepCommand.hpp"
 #include "TrackCommands.hpp"
 #include "mmval/core/BuildInfo.hpp"
 #include "mmval/core/Error.hpp"
@@ -72,6 +73,7 @@ int main(int argc, char** argv) {
   mmval::app::registerReportCommands(app);
   mmval::app::registerPeerCommands(app, registry);
   mmval::app::registerTrackCommands(app, registry);
+  mmval::app::registerSweepCommand(app, registry);
   addExamples(app);
   if (argc > 1 && argv[1][0] != '-') {
     std::vector<std::string> names;
