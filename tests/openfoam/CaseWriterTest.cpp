@@ -4,10 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
+
+#include <unistd.h>
 
 #include "mmval/openfoam/BlockMesh.hpp"
 #include "mmval/openfoam/Peer.hpp"
@@ -192,6 +195,24 @@ TEST(Results, SimpleSolveMeetingItsTargetOnTheLastIterationIsConverged) {
   // A diverged solve (nan residuals) is not converged, and an empty log has nothing to show.
   EXPECT_FALSE(simpleConvergence("Time = 1\n\nsmoothSolver:  Solving for Ux, Initial residual = nan, Final residual = nan, No Iterations 1000\n", 1e-7).converged);
   EXPECT_FALSE(simpleConvergence("", 1e-7).converged);
+}
+
+TEST(Installation, VersionIsReadFromTheInstallationNotAssumed) {
+  // A stand-in installation folder whose etc/bashrc says v2312, as OpenFOAM's own files set it.
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("mmval-foam-version-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir / "etc");
+  std::ofstream(dir / "etc" / "bashrc") << "# export WM_PROJECT_VERSION=commented\n"
+                                           "export WM_PROJECT=OpenFOAM\n"
+                                           "export WM_PROJECT_VERSION=v2312   # the release\n";
+  const char* saved = std::getenv("WM_PROJECT_VERSION");
+  const std::string kept = saved != nullptr ? saved : "";
+  ::unsetenv("WM_PROJECT_VERSION");
+  EXPECT_EQ(installedVersion(dir), "v2312");
+  EXPECT_EQ(installedVersion(dir / "nowhere"), "unknown");
+  ::setenv("WM_PROJECT_VERSION", "v2406", 1);  // a sourced environment wins
+  EXPECT_EQ(installedVersion(dir), "v2406");
+  if (saved != nullptr) ::setenv("WM_PROJECT_VERSION", kept.c_str(), 1); else ::unsetenv("WM_PROJECT_VERSION");
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

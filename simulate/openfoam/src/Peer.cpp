@@ -34,6 +34,24 @@ std::string foamHeader(const std::string& cls, const std::string& object, const 
   return out;
 }
 
+/// The installation's own version: WM_PROJECT_VERSION when the environment is
+/// sourced, else the line `export WM_PROJECT_VERSION=...` of its etc/bashrc
+/// (how OpenFOAM's packages set it); "unknown" when neither says.
+std::string installedVersion(const fs::path& project_dir) {
+  if (const char* env = std::getenv("WM_PROJECT_VERSION"); env != nullptr && *env != '\0') return env;
+  std::ifstream in(project_dir / "etc" / "bashrc");
+  const std::string key = "export WM_PROJECT_VERSION=";
+  std::string line;
+  while (std::getline(in, line)) {
+    const std::size_t at = line.find(key);
+    if (at == std::string::npos || line.find_first_not_of(" \t") != at) continue;
+    std::string v = line.substr(at + key.size());
+    v = v.substr(0, v.find_first_of(" \t#;"));
+    if (!v.empty()) return v;
+  }
+  return "unknown";
+}
+
 Installation detect() {
   Installation inst;
   const char* env = std::getenv("WM_PROJECT_DIR");
@@ -50,9 +68,7 @@ Installation detect() {
     }
   }
   inst.available = true;
-  inst.version = "v1912";
-  std::ifstream ver("/usr/share/doc/openfoam/changelog.Debian.gz");
-  (void)ver;
+  inst.version = installedVersion(inst.project_dir);
   return inst;
 }
 

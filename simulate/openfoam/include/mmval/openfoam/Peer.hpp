@@ -34,6 +34,10 @@ struct Installation {
 /// Looks for the OpenFOAM binaries and etc/ folder.
 Installation detect();
 
+/// The version of the OpenFOAM in `project_dir`: $WM_PROJECT_VERSION, else its
+/// etc/bashrc's `export WM_PROJECT_VERSION=...`, else "unknown".
+std::string installedVersion(const std::filesystem::path& project_dir);
+
 /// One scene, in SI units, as the peer needs it.
 struct Scene {
   enum class Kind { channel, cylinder_channel, periodic_array, image } kind = Kind::cylinder_channel;
