@@ -9,6 +9,12 @@
 //   decode-N     the same with N threads taking frames from a shared counter (files only)
 //   track-1/-N   runTracker + writeTrackOutputs with detect.threads 1 / N
 //   grab        (mp4) cv::VideoCapture::grab() of every frame: what skipping costs
+//   stages       track-N's own account (TrackRun::stage_seconds): sampling, background,
+//                rings, polarity, decisions, frames (decode + detect + link of the rest),
+//                joins, analysis, outputs; and the CPU time its threads spent decoding
+//                (FrameSource::decodeSeconds), summed over threads, next to the run's CPU time;
+//                detect + link alone: the same frames decoded into memory first, detected
+//                with N threads against the run's background and polarity, then linked
 //   old-1        emulated old path, one thread: the old samplers read the video twice
 //                more in order (background: every frame up to its 60th sample; polarity:
 //                up to its 24th) before the main pass decoded every frame: track-1 plus
@@ -26,11 +32,13 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <functional>
 #include <sstream>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -99,14 +107,61 @@ TrackConfig defaults(int threads) {
   return c;
 }
 
-double track(const fs::path& input, int threads, const fs::path& out, long& decoded, long& grabbed) {
+/// Detection and linking alone of every frame of `input`, decoded into memory first (not
+/// timed), as the tracking run does them: against the run's background and polarity, frames
+/// detected by `threads` threads taking them from a shared counter, linked in order after.
+/// Linked without prediction (what a Brownian run ends with). Returns the wall time (s).
+double detectAndLink(const fs::path& input, int threads, const TrackRun& run) {
+  FrameSource src(input.string());
+  std::vector<cv::Mat> frames;
+  cv::Mat f;
+  for (int index = 0; src.next(f, index);) frames.push_back(f.clone());
+  const TrackConfig c = defaults(threads);
+  LinkOptions link = c.link;
+  link.predict = Prediction::none;
   return seconds([&] {
+    std::vector<std::vector<Detection>> found(frames.size());
+    std::atomic<std::size_t> next{0};
+    auto work = [&] {
+      for (std::size_t k; (k = next++) < frames.size();) found[k] = detect(frames[k], run.background, run.polarity, c.detect);
+    };
+    std::vector<std::thread> pool;
+    for (int t = 1; t < threads; ++t) pool.emplace_back(work);
+    work();
+    for (auto& t : pool) t.join();
+    TrackLinker linker(link);
+    for (std::size_t k = 0; k < frames.size(); ++k) linker.push(static_cast<int>(k), found[k]);
+  });
+}
+
+/// A tracking run's own account: its stages' wall times and the time its threads spent decoding.
+struct RunStages {
+  std::vector<std::pair<std::string, double>> stages;
+  double decode_s = 0, outputs_s = 0, cpu_s = 0;
+  double detect_link_s = 0;  ///< detection + linking alone on frames in memory (wall, same threads)
+};
+
+double track(const fs::path& input, int threads, const fs::path& out, long& decoded, long& grabbed, RunStages* stages = nullptr) {
+  const std::clock_t cpu0 = std::clock();  // process CPU time, every thread
+  TrackRun run;
+  const double wall = seconds([&] {
     FrameSource src(input.string());
-    const TrackRun run = runTracker(src, defaults(threads), true);
-    writeTrackOutputs(run, defaults(threads), out, nlohmann::json::object());
+    run = runTracker(src, defaults(threads), true);
+    const double outputs = seconds([&] { writeTrackOutputs(run, defaults(threads), out, nlohmann::json::object()); });
     decoded = src.decoded();
     grabbed = src.grabbed();
+    if (stages) *stages = {run.stage_seconds, src.decodeSeconds(), outputs, static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC};
   });
+  if (stages) stages->detect_link_s = detectAndLink(input, threads, run);
+  return wall;
+}
+
+/// One line: the run's stages (s), its outputs, and the decoding time summed over threads.
+void printStages(const std::string& format, int threads, const RunStages& r) {
+  std::printf("%-7s track-%d stages (s):", format.c_str(), threads);
+  for (const auto& [name, s] : r.stages) std::printf(" %s %.3f", name.c_str(), s);
+  std::printf(" outputs %.3f; CPU: decoding %.3f s of %.3f s (%.0f %%); detect + link alone (frames in memory): %.3f s\n", r.outputs_s, r.decode_s,
+              r.cpu_s, r.cpu_s > 0 ? 100 * r.decode_s / r.cpu_s : 0.0, r.detect_link_s);
 }
 
 }  // namespace
@@ -136,7 +191,8 @@ int main(int argc, char** argv) {
     const double decn = fs::is_directory(input) ? seconds([&] { decodeAll(input, threads); }) : dec1;
     long decoded1 = 0, decodedn = 0, decoded_old = 0, grabbed1 = 0, grabbedn = 0;
     const double t1 = track(input, 1, out, decoded1, grabbed1);
-    const double tn = track(input, threads, out, decodedn, grabbedn);
+    RunStages stages_n;
+    const double tn = track(input, threads, out, decodedn, grabbedn, &stages_n);
     // Old path: the old samplers read in order up to their last sample (background: 60
     // samples, polarity: 24) and cloned the ones they kept; everything else the runs share.
     long old_reads = 0;
@@ -154,6 +210,7 @@ int main(int argc, char** argv) {
     decoded_old = decoded1 + old_reads;
     std::printf("%-7s %6d %10.1f %10.1f %10.1f %10.1f %10.1f %8.2f %8.0f%% %4.2f/%4.2f\n", format.c_str(), n, n / dec1, n / decn, n / t1, n / tn,
                 n / t_old, t_old / t1, 100.0 * dec1 / t1, static_cast<double>(decoded1) / n, static_cast<double>(decoded_old) / n);
+    printStages(format, threads, stages_n);
     if (!fs::is_directory(input)) {
       // What a sampler's grab() saves over read(): the pixel conversion only.
       const double grab = seconds([&] {

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "mmval/tracking/SceneDecisions.hpp"
@@ -41,7 +42,15 @@ BackgroundDecision decideBackground(const std::vector<cv::Mat>& frames, const cv
     std::erase_if(v, [](const Detection& d) { return d.quality.eccentricity > kMaxEccentricity; });
     return v;
   };
-  const std::vector<Detection> in_median = particleLike(detect(median, {}, polarity, o));
+  // The median's spots and the sampled frames' (the expensive part: the full detector on
+  // images that still hold the static structure), detected in parallel.
+  const std::size_t n = std::min(frames.size(), kDecisionFrames);
+  std::vector<std::vector<Detection>> spots(n + 1);
+  cv::parallel_for_(cv::Range(0, static_cast<int>(n) + 1), [&](const cv::Range& range) {
+    for (int k = range.start; k < range.end; ++k)
+      spots[static_cast<std::size_t>(k)] = particleLike(detect(k == 0 ? median : frames[(k - 1) * frames.size() / n], {}, polarity, o));
+  });
+  const std::vector<Detection>& in_median = spots[0];
   const double same_place = std::max(kSamePlacePx, 0.25 * o.refine_radius), cell = same_place;
   // Median spots bucketed by cell of kSamePlacePx: a frame spot's match is in its 3 x 3 cells.
   const int gw = median.cols / static_cast<int>(std::ceil(cell)) + 2;
@@ -52,10 +61,9 @@ BackgroundDecision decideBackground(const std::vector<cv::Mat>& frames, const cv
     if (d.x >= 0 && d.y >= 0 && d.x < median.cols && d.y < median.rows) grid[cellOf(d.x, d.y)].push_back({{d.x, d.y}, i});
   }
   std::vector<int> frames_matched(in_median.size(), 0);  // per median spot
-  const std::size_t n = std::min(frames.size(), kDecisionFrames);
   long total = 0, matched = 0;
   for (std::size_t k = 0; k < n; ++k) {
-    const std::vector<Detection> found = particleLike(detect(frames[k * frames.size() / n], {}, polarity, o));
+    const std::vector<Detection>& found = spots[k + 1];
     total += static_cast<long>(found.size());
     std::vector<char> seen(in_median.size(), 0);
     for (const auto& d : found) {
@@ -66,7 +74,10 @@ BackgroundDecision decideBackground(const std::vector<cv::Mat>& frames, const cv
           const long idx = static_cast<long>(c) + dy * gw + dx;
           if (idx < 0 || idx >= static_cast<long>(grid.size())) continue;
           for (const auto& [p, i] : grid[static_cast<std::size_t>(idx)])
-            if (std::hypot(p.x - d.x, p.y - d.y) <= same_place) hit = seen[i] = 1;
+            if (std::hypot(p.x - d.x, p.y - d.y) <= same_place) {
+              seen[i] = 1;
+              hit = true;
+            }
         }
       matched += hit;
     }

@@ -10,6 +10,7 @@
 
 #include <Eigen/Dense>
 #include <opencv2/core/hal/intrin.hpp>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "mmval/tracking/Background.hpp"
@@ -49,14 +50,19 @@ Polarity guessPolarity(const std::vector<cv::Mat>& frames, const cv::Mat& backgr
   std::vector<cv::Mat> fg(frames.size());
   std::vector<double> noise(frames.size());
   cv::Mat above(bg.size(), CV_32S, cv::Scalar(0)), below(bg.size(), CV_32S, cv::Scalar(0));
+  // Each frame's foreground and noise in parallel (independent), the counts in order.
+  cv::parallel_for_(cv::Range(0, static_cast<int>(frames.size())), [&](const cv::Range& range) {
+    for (int k = range.start; k < range.end; ++k) {
+      cv::Mat f;
+      frames[k].convertTo(f, CV_32F);
+      cv::GaussianBlur(f - bg, fg[k], cv::Size(0, 0), 1.0);
+      std::vector<float> a(fg[k].begin<float>(), fg[k].end<float>());
+      for (auto& v : a) v = std::abs(v);
+      std::nth_element(a.begin(), a.begin() + a.size() / 2, a.end());
+      noise[k] = std::max(1e-6, 1.4826 * a[a.size() / 2]);
+    }
+  });
   for (std::size_t k = 0; k < frames.size(); ++k) {
-    cv::Mat f;
-    frames[k].convertTo(f, CV_32F);
-    cv::GaussianBlur(f - bg, fg[k], cv::Size(0, 0), 1.0);
-    std::vector<float> a(fg[k].begin<float>(), fg[k].end<float>());
-    for (auto& v : a) v = std::abs(v);
-    std::nth_element(a.begin(), a.begin() + a.size() / 2, a.end());
-    noise[k] = std::max(1e-6, 1.4826 * a[a.size() / 2]);
     const float t = static_cast<float>(4 * noise[k]);
     for (int r = 0; r < bg.rows; ++r)
       for (int c = 0; c < bg.cols; ++c) {

@@ -1,6 +1,7 @@
-// Uniform grid over one frame's detections for radius queries (the linker's
-// candidates, the joint spot fit's neighbours): O(N) to build, no per-cell
-// allocations.
+// Uniform grids for radius queries over one frame's detections: DetectionGrid
+// over a fixed set (the linker's candidates, the joint spot fit's neighbours), O(N)
+// to build, no per-cell allocations; GrowingGrid for a set that grows point by point
+// (spots found one after another), O(1) per point added, never rebuilt.
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -59,6 +60,50 @@ class DetectionGrid {
   double m_cell, m_x0 = 0, m_y0 = 0;
   long m_w = 0, m_h = 0;
   std::vector<int> m_start, m_items;
+};
+
+/// Uniform grid over the rectangle [0, width) x [0, height) that grows point by point:
+/// add() is O(1) (a cell's points are chained, newest first), near() visits the points
+/// within r. Points outside the rectangle go to its border cells, so every point is found.
+/// Built once per image: a search that adds spots as it finds them queries it without
+/// rebuilding (a rebuild per spot made it quadratic in the spots).
+class GrowingGrid {
+ public:
+  GrowingGrid(double width, double height, double cell)
+      : m_cell(std::max(cell, 1e-9)),
+        m_w(std::max(1L, static_cast<long>(std::ceil(std::max(width, 0.0) / m_cell)))),
+        m_h(std::max(1L, static_cast<long>(std::ceil(std::max(height, 0.0) / m_cell)))),
+        m_head(static_cast<std::size_t>(m_w * m_h), -1) {}
+  void add(int item, double x, double y) {
+    const long c = cy(y) * m_w + cx(x);
+    m_points.push_back({x, y, item, m_head[static_cast<std::size_t>(c)]});
+    m_head[static_cast<std::size_t>(c)] = static_cast<int>(m_points.size()) - 1;
+  }
+  /// f(item, distance) for every point within r of (x, y).
+  template <class F>
+  void near(double x, double y, double r, F&& f) const {
+    const long gx0 = cx(x - r), gx1 = cx(x + r), gy0 = cy(y - r), gy1 = cy(y + r);
+    for (long gy = gy0; gy <= gy1; ++gy)
+      for (long gx = gx0; gx <= gx1; ++gx)
+        for (int k = m_head[static_cast<std::size_t>(gy * m_w + gx)]; k >= 0; k = m_points[static_cast<std::size_t>(k)].next) {
+          const Point& p = m_points[static_cast<std::size_t>(k)];
+          const double dx = p.x - x, dy = p.y - y;
+          if (dx * dx + dy * dy <= r * r) f(p.item, std::sqrt(dx * dx + dy * dy));
+        }
+  }
+
+ private:
+  struct Point {
+    double x, y;
+    int item, next;
+  };
+  // NaN goes to cell 0 (the comparisons it fails then leave it unmatched).
+  long cx(double v) const { return v >= 0 ? std::min(m_w - 1, static_cast<long>(std::min(v / m_cell, 1e15))) : 0L; }
+  long cy(double v) const { return v >= 0 ? std::min(m_h - 1, static_cast<long>(std::min(v / m_cell, 1e15))) : 0L; }
+  double m_cell;
+  long m_w, m_h;
+  std::vector<int> m_head;
+  std::vector<Point> m_points;
 };
 
 }  // namespace mmval::tracking::detail

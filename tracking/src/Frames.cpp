@@ -1,6 +1,7 @@
 #include "mmval/tracking/Frames.hpp"
 
 #include <algorithm>
+#include <ctime>
 #include <exception>
 #include <regex>
 #include <thread>
@@ -47,6 +48,25 @@ std::regex globToRegex(const std::string& glob) {
   }
   return std::regex(re);
 }
+
+/// Adds the calling thread's CPU time from construction to destruction to `total` (ns):
+/// CPU time, not wall time, so that a loaded machine's preemptions do not count.
+class DecodeTimer {
+ public:
+  explicit DecodeTimer(std::atomic<long long>& total) : m_total(total), m_start(threadNanoseconds()) {}
+  ~DecodeTimer() { m_total += threadNanoseconds() - m_start; }
+  DecodeTimer(const DecodeTimer&) = delete;
+  DecodeTimer& operator=(const DecodeTimer&) = delete;
+
+ private:
+  static long long threadNanoseconds() {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return static_cast<long long>(t.tv_sec) * 1000000000LL + t.tv_nsec;
+  }
+  std::atomic<long long>& m_total;
+  long long m_start;
+};
 
 }  // namespace
 
@@ -199,6 +219,7 @@ void FrameSource::putCached(int pos, const cv::Mat& frame) {
 
 bool FrameSource::primeFirst(cv::Mat& frame) {
   if (m_first_fixed) return false;
+  const DecodeTimer timer(m_stats->decode_ns);
   cv::Mat raw;
   const int index = m_range.first;
   if (!readRaw(index, raw)) throw InputError({m_input, 0, 0, {}}, "cannot read the first selected frame " + std::to_string(index));
@@ -224,9 +245,12 @@ void FrameSource::sample(int pos, cv::Mat& frame, int& index) {
       return;
     }
   }
-  cv::Mat raw;
-  if (!readRaw(index, raw)) throw InputError({m_input, 0, 0, {}}, "cannot read frame " + std::to_string(index));
-  finish(raw, index, frame);
+  {
+    const DecodeTimer timer(m_stats->decode_ns);
+    cv::Mat raw;
+    if (!readRaw(index, raw)) throw InputError({m_input, 0, 0, {}}, "cannot read frame " + std::to_string(index));
+    finish(raw, index, frame);
+  }
   putCached(pos, frame);
 }
 
@@ -279,6 +303,7 @@ bool FrameSource::next(cv::Mat& frame, int& index) {
     ++m_pos;
     return true;
   }
+  const DecodeTimer timer(m_stats->decode_ns);
   cv::Mat raw;
   if (!readRaw(index, raw)) return false;
   ++m_pos;
@@ -296,6 +321,7 @@ void FrameSource::readAt(int pos, cv::Mat& frame, int& index) const {
 }
 
 void FrameSource::decodeAt(int pos, cv::Mat& frame, int& index) const {
+  const DecodeTimer timer(m_stats->decode_ns);
   index = m_range.first + pos * m_range.step;
   cv::Mat raw;
   if (m_kind == Kind::images) {

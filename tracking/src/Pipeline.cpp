@@ -85,6 +85,12 @@ BackgroundDecision chooseBackground(const std::vector<cv::Mat>& frames, const Tr
 TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   const auto t0 = std::chrono::steady_clock::now();
   TrackRun run;
+  auto lap_start = t0;
+  auto lap = [&](const char* stage) {
+    const auto now = std::chrono::steady_clock::now();
+    run.stage_seconds.emplace_back(stage, std::chrono::duration<double>(now - lap_start).count());
+    lap_start = now;
+  };
   RollingBackground rolling;
   // threads 0: every core (the decoding and detection of frames are independent).
   const int threads = c.threads > 0 ? c.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -106,6 +112,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
     }
     source.prefetch(sampled, threads);
   }
+  lap("sampling");
   // The frames of the median, kept for the background decision below (read once).
   std::vector<cv::Mat> background_frames;
   if (background_wanted) {
@@ -114,6 +121,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
     if (c.background_window > 0)
       rolling = rollingBackground(source, c.background_window, std::min(c.background_window, c.detect.background_samples), c.background_quantile);
   }
+  lap("background");
   // Brownian steps are uncorrelated: linked without prediction when the motion is known
   // to be Brownian; with "auto" the tracks decide after linking (below).
   LinkOptions link_options = c.link;
@@ -125,6 +133,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   Polarity polarity = polarity_in;
   const std::vector<cv::Mat> polarity_frames = sample_polarity ? sampleFrames(source, kPolaritySamples) : std::vector<cv::Mat>{};
   if (sample_polarity) run.ring = guessRings(polarity_frames);
+  lap("rings");
   // From frames spread over the video, not the first alone: the first frame of a scene can
   // hold no moving particle yet, only the absence of deposits that arrive later.
   if (polarity == Polarity::automatic) {
@@ -142,6 +151,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
     options.ring_radius_px = run.ring.rings ? run.ring.radius_px : static_cast<double>(c.detect.refine_radius);
     options.ring_kernel = ringKernel(run.ring.rings ? run.ring.profile : std::vector<float>{}, options.ring_radius_px);
   }
+  lap("polarity");
   run.background_decision = chooseBackground(background_frames, c, polarity, options, run.background);
   background_frames.clear();
   if (!run.background_decision.subtract) {
@@ -157,6 +167,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
     // pass) evens the illumination instead.
     if (background_wanted && options.local_background == 0 && polarity != Polarity::ring) options.local_background = std::max(2, options.refine_radius);
   }
+  lap("decisions");
   // Stuck-particle candidates (spots of the median background) and, per candidate, the
   // frames in which the spot is missing from the frame: there the frame is brighter (dark
   // polarity) than the background by about the spot's amplitude.
@@ -295,6 +306,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
     }
   }
   progress.finish();
+  lap("frames");
   run.polarity = polarity;
   run.link = linker.stats();
   auto point = [&](std::int64_t frame, std::int64_t particle, double x, double y) { return trackPoint(c, frame, particle, x, y); };
@@ -464,8 +476,10 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
     }
     joinClusterArrivals(run, c);
   }
+  lap("joins");
   run.smoothed_points = smoothTracks(run.tracks, c.smooth_frames, c.pixel_size).points;
   if (!flow) run.brownian = analyseBrownian(run.tracks, c.analysis.brownian);
+  lap("analysis");
   run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return run;
 }

@@ -302,6 +302,10 @@ void deblend(const cv::Mat& zero_mean, double sm, double blur, double level, int
   };
   const double gain = sm * sm / (sm * sm + blur * blur);  // smoothed peak / spot amplitude
   const std::size_t before = dets.size();
+  // The spots found so far, one grid for the whole search: a new one is taken when it lies
+  // within kTakenPx of one of them.
+  constexpr double kTakenPx = 2;
+  GrowingGrid found(W, H, kTakenPx);
   for (std::size_t i = 0; i < before; ++i) {
     const int cx = spots[i].cx, cy = spots[i].cy;
     // Above the seeds' level and above what a slightly wrong spot model leaves behind
@@ -344,11 +348,12 @@ void deblend(const cv::Mat& zero_mean, double sm, double blur, double level, int
     }
     if (bx < 0) continue;
     bool taken = false;
-    for (std::size_t j = before; j < dets.size() && !taken; ++j) taken = std::hypot(dets[j].x - bx, dets[j].y - by) < 2;
+    found.near(bx, by, kTakenPx + 0.5, [&](int j, double) { taken = taken || std::hypot(dets[j].x - bx, dets[j].y - by) < kTakenPx; });
     if (taken) continue;
     Detection d = dets[i];
     d.x = bx;
     d.y = by;
+    found.add(static_cast<int>(dets.size()), bx, by);
     dets.push_back(d);
     Spot s;
     tables(d, s);

@@ -35,13 +35,28 @@ namespace {
 double ringMedian(const cv::Mat& img, int cx, int cy, int r_in, int r_out) {
   thread_local std::vector<float> v;
   v.clear();
+  // Per row, only the ring's one or two runs of columns (the box around the ring holds
+  // ~12 times as many pixels for the large windows of blurred spots): |dx| < wo outside,
+  // |dx| >= wi inside, the same pixels as the test r_in^2 <= r2 < r_out^2.
+  auto halfWidth = [](int r2_limit, int dy2) {  // smallest w >= 0 with w^2 + dy2 >= r2_limit
+    int w = 0;
+    if (r2_limit > dy2) w = static_cast<int>(std::sqrt(static_cast<double>(r2_limit - dy2)));
+    while (w > 0 && (w - 1) * (w - 1) + dy2 >= r2_limit) --w;
+    while (w * w + dy2 < r2_limit) ++w;
+    return w;
+  };
   for (int y = std::max(0, cy - r_out + 1); y <= std::min(img.rows - 1, cy + r_out - 1); ++y) {
     const float* row = img.ptr<float>(y);
     const int dy2 = (y - cy) * (y - cy);
-    for (int x = std::max(0, cx - r_out + 1); x <= std::min(img.cols - 1, cx + r_out - 1); ++x) {
-      const int r2 = (x - cx) * (x - cx) + dy2;
-      if (r2 >= r_in * r_in && r2 < r_out * r_out) v.push_back(row[x]);
+    const int wo = halfWidth(r_out * r_out, dy2), wi = halfWidth(r_in * r_in, dy2);
+    // Columns cx - wo < x <= cx - wi and cx + wi <= x < cx + wo (one run when wi = 0).
+    const int xa = std::max(0, cx - wo + 1), xd = std::min(img.cols - 1, cx + wo - 1);
+    if (wi == 0) {
+      for (int x = xa; x <= xd; ++x) v.push_back(row[x]);
+      continue;
     }
+    for (int x = xa; x <= std::min(xd, cx - wi); ++x) v.push_back(row[x]);
+    for (int x = std::max(xa, cx + wi); x <= xd; ++x) v.push_back(row[x]);
   }
   if (v.empty()) return std::nan("");
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());

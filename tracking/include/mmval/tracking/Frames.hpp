@@ -70,6 +70,9 @@ class FrameSource {
   /// frames skipped with grab() (codec only): for tests and benchmarks.
   long decoded() const { return m_stats->decoded.load(); }
   long grabbed() const { return m_stats->grabbed.load(); }
+  /// CPU time spent decoding and converting frames so far, summed over threads (s): the
+  /// decoding share of a run's CPU time.
+  double decodeSeconds() const { return 1e-9 * static_cast<double>(m_stats->decode_ns.load()); }
   /// Largest number of frames the cache may hold (the byte bound may lower it); 0
   /// turns the cache off (every sampled frame is decoded again by the main pass).
   void setCacheLimit(int frames) { m_cache_limit = frames; }
@@ -91,6 +94,7 @@ class FrameSource {
     std::mutex mutex;
     std::map<int, cv::Mat> cache;  // position in the range -> float frame
     std::atomic<long> decoded{0}, grabbed{0};
+    std::atomic<long long> decode_ns{0};
   };
   /// Raw image -> float grey [0, 1], size check, region of interest (const: safe in threads
   /// once m_size and m_range16 are set by the first frame).

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -44,6 +45,12 @@ struct TrackRun {
   BackgroundDecision background_decision;  ///< whether the temporal median was subtracted, and why
   cv::Mat background;
   double seconds = 0;
+  /// Wall time of runTracker's stages in order (name, s): sampling (decoding the frames the
+  /// background and polarity samplers keep), background (the median), rings, polarity and
+  /// decisions (the guesses and the background decision), frames (decoding the rest,
+  /// detecting and linking every frame), joins (motion model, deposits), analysis. For
+  /// benchmarks and profiling.
+  std::vector<std::pair<std::string, double>> stage_seconds;
   int stuck_found = 0;  ///< particles found in the background (stuck all along)
   /// Particles that arrived, deposited and stayed long enough to be part of the median
   /// background: joined to the track that brought them (it continues, at rest, to the end
@@ -78,8 +85,8 @@ struct TrackRun {
 TrackRun runTracker(FrameSource& source, const TrackConfig& config, bool quiet);
 
 /// Writes detections.csv, tracks.csv, track_summary.csv, velocities.csv,
-/// dispersion.csv, msd.csv, speed_time.csv, retention.csv, retention_time.csv
-/// (deposited count per frame), streamlines.png and summary.json into `dir`;
+/// dispersion.csv, msd.csv, speed_time.csv, retention.csv (counts per frame, the
+/// schema of mmval/core/OutputTables.hpp), streamlines.png and summary.json into `dir`;
 /// returns the file names. For Brownian motion (run.motion) the flow files (velocities,
 /// speed, retention, speed map) are not written; instead track_diffusion.csv,
 /// van_hove.csv, diffusion_histogram.csv/.png and a "brownian" block in summary.json
