@@ -8,6 +8,7 @@
 #include "mmval/compare/Scene.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Run.hpp"
+#include "mmval/core/SchemaBlocks.hpp"
 
 namespace mmval::compare {
 
@@ -29,9 +30,7 @@ void registerCompareKinds(CaseKindRegistry& registry) {
     s.quantity("inputs.fps", "Hz", "Frame rate, for files that store frame numbers rather than times (trackpy; TrackMate without time units); 0: none")
         .def(0.0)
         .nonNegative();
-    s.path("geometry.mask", "Geometry mask image the simulation was built from (enables registration and per-region speeds)").optional();
-    s.quantity("geometry.pixel_size", "um", "Size of one mask pixel").optional().positive();
-    s.choice("geometry.grains", {"dark", "bright", "light"}, "Which pixels of the mask are grains (\"light\" is an older spelling of \"bright\")").def("dark");
+    declareMask(s, {.mask_doc = "Geometry mask image the simulation was built from (enables registration and per-region speeds)", .optional = true});
     s.integerList("geometry.crop", "Window of the mask the simulation used, [x, y, width, height] in px (the simulation's coordinates start at its corner)").optional();
     s.boolean("geometry.y_up", "Simulation y runs up the image, origin at its lower-left corner (as mmval's solver reads masks); false: y down from the upper-left corner").def(true);
     s.path("registration.frame", "First video frame or the tracker's background image, registered to the mask with OpenCV ECC (rigid motion)").optional();

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "mmval/core/Strings.hpp"
+#include "mmval/core/SchemaBlocks.hpp"
 
 namespace mmval {
 
@@ -255,6 +256,29 @@ void declareCommonKeys(Schema& schema, const std::vector<std::string>& kinds) {
                   "before it starts, naming the key to change. Default: half of this machine's physical memory")
       .optional()
       .positive();
+}
+
+void declareFluid(Schema& schema, const FluidBlock& block) {
+  schema.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def(block.viscosity).positive();
+  if (block.with_density) schema.quantity("fluid.density", "kg/m3", "Fluid density").def(block.density).positive();
+  if (block.with_temperature) schema.quantity("fluid.temperature", "K", "Temperature (Brownian motion)").def(block.temperature).positive();
+}
+
+const std::vector<std::string>& grainChoices() {
+  static const std::vector<std::string> choices = {"dark", "bright", "light"};
+  return choices;
+}
+
+void declareMask(Schema& schema, const MaskBlock& block) {
+  auto mask = schema.path("geometry.mask", block.mask_doc + " (PNG, TIFF; a path relative to the case file)");
+  auto pixel = schema.quantity("geometry.pixel_size", "um", "Size of one image pixel (the image carries no scale)");
+  if (block.optional) mask.optional();
+  if (!block.pixel_default.empty())
+    pixel.def(std::string_view(block.pixel_default));
+  else if (block.optional)
+    pixel.optional();
+  pixel.positive();
+  schema.choice("geometry.grains", grainChoices(), "Which pixels are grains: dark or bright (\"light\" is an older spelling of \"bright\")").def("dark");
 }
 
 }  // namespace mmval

@@ -27,13 +27,13 @@ PermeabilityFigure permeabilityFigure(const ReportInput& input, const fs::path& 
       if (!fs::exists(file)) continue;
       const auto cols = readCsvColumns(file);
       const std::string name = r["case"]["name"].get<std::string>();
-      if (!cols.count("t_s") || (!cols.count("k_over_k0") && !cols.count("k_m2"))) {
-        std::fprintf(stderr, "report: %s: no t_s and k_over_k0 (or k_m2) columns, left out of the permeability figure\n", file.string().c_str());
+      // The one schema of permeability.csv (mmval/core/OutputTables.hpp, docs/outputs.md "Tables").
+      if (!cols.count("t_s") || !cols.count("k_over_k0")) {
+        std::fprintf(stderr, "report: %s: no t_s and k_over_k0 columns (docs/outputs.md, Tables), left out of the permeability figure\n",
+                     file.string().c_str());
         continue;
       }
-      std::vector<double> ratio = cols.count("k_over_k0") ? cols.at("k_over_k0") : cols.at("k_m2");
-      if (!cols.count("k_over_k0") && !ratio.empty() && ratio.front() > 0)
-        for (auto& v : ratio) v /= cols.at("k_m2").front();
+      const std::vector<double>& ratio = cols.at("k_over_k0");
       const auto& t = cols.at("t_s");
       if (t.empty()) continue;
       p.series.push_back({name, t, ratio, "lines"});
@@ -74,18 +74,13 @@ std::optional<Plot> retentionFigure(const ReportInput& input, const fs::path& re
       const fs::path file = fs::path(r["run_dir"].get<std::string>()) / "retention.csv";
       if (!fs::exists(file)) continue;
       const auto cols = readCsvColumns(file);
-      // particles-micromodel: t_s,injected,retained,left,inside; particles-channel: t_s,injected,inside,deposited,left,retained_fraction.
-      const char* held = cols.count("retained") ? "retained" : (cols.count("deposited") ? "deposited" : nullptr);
-      if (!cols.count("t_s") || (!cols.count("retained_fraction") && !(held && cols.count("injected")))) {
-        std::fprintf(stderr, "report: %s: no t_s with retained_fraction or injected and retained (or deposited) columns, left out of the retention figure\n",
+      // The one schema of retention.csv (mmval/core/OutputTables.hpp, docs/outputs.md "Tables"), every kind.
+      if (!cols.count("t_s") || !cols.count("retained_fraction")) {
+        std::fprintf(stderr, "report: %s: no t_s and retained_fraction columns (docs/outputs.md, Tables), left out of the retention figure\n",
                      file.string().c_str());
         continue;
       }
-      Series s{r["case"]["name"].get<std::string>() + " (retained / injected)", cols.at("t_s"), {}, "lines"};
-      for (std::size_t i = 0; i < s.x.size(); ++i)
-        s.y.push_back(cols.count("retained_fraction") ? cols.at("retained_fraction")[i]
-                      : cols.at("injected")[i] > 0    ? cols.at(held)[i] / cols.at("injected")[i]
-                                                      : std::nan(""));
+      Series s{r["case"]["name"].get<std::string>() + " (retained / injected)", cols.at("t_s"), cols.at("retained_fraction"), "lines"};
       if (!s.x.empty()) t_max = std::max(t_max, s.x.back());
       p.series.push_back(s);
     }

@@ -360,7 +360,7 @@ int writeReport(const ReportInput& input, const fs::path& out) {
   for (const auto& m : permeability.metrics) extra_metrics.push_back(m);
   const auto& reduction_rows = permeability.rows;
   if (const auto p = retentionFigure(input, refdir))
-    addPlot("retention-time", "Retained fraction against time: simulations (retained / injected) and track comparisons (retained / mobile seen so far; the tracked side of a pipeline check is a rendered simulation, not an experiment).", *p);
+    addPlot("retention-time", "Retained fraction against time: every run's retention.csv (retained / injected; for a tracked video, injected counts the tracks that entered the field of view) and track comparisons (retained / mobile seen so far; the tracked side of a pipeline check is a rendered simulation, not an experiment).", *p);
 
   // The paper's tables from the runs present.
   std::vector<Table> tables;

@@ -10,6 +10,7 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Run.hpp"
+#include "mmval/core/SchemaBlocks.hpp"
 #include "mmval/simulate/FieldOutput.hpp"
 #include "mmval/simulate/KindMetrics.hpp"
 #include "mmval/simulate/Petsc.hpp"
@@ -109,8 +110,7 @@ CaseKind channelKind() {
     s.quantity("geometry.width", "um", "Distance between the side walls").positive();
     s.quantity("geometry.depth", "um", "Chip depth h for the depth-averaged model (friction 12 mu u / h^2); 0: plane 2D flow").def("0 um").nonNegative();
     s.quantity("geometry.length", "um", "Channel length for the inlet/outlet drives; 0: 8 widths").def("0 um").nonNegative();
-    s.quantity("fluid.density", "kg/m3", "Fluid density (inertia of the velocity-driven drive)").def("1000 kg/m3").positive();
-    s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def("1e-3 Pa s").positive();
+    declareFluid(s, {.viscosity = 1e-3, .density = 1000.0});  // the density matters to the velocity-driven drive only
     s.choice("flow.drive", {"periodic", "pressure", "velocity"},
              "periodic: periodic along x with the body force G; pressure: fixed inlet/outlet pressures G x length apart; "
              "velocity: parabolic inflow of mean flow.mean_velocity with a pressure outlet (steady Navier-Stokes)")

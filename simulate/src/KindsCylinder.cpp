@@ -14,6 +14,7 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Run.hpp"
+#include "mmval/core/SchemaBlocks.hpp"
 #include "mmval/simulate/ThroatCheck.hpp"
 #include "mmval/simulate/Kinds.hpp"
 
@@ -32,8 +33,7 @@ CaseKind cylinderChannelKind() {
     s.quantity("geometry.cylinder_y", "m", "Cylinder centre y").def("0.2 m").positive();
     s.quantity("geometry.diameter", "m", "Cylinder diameter").def("0.1 m").positive();
     s.quantity("geometry.depth", "m", "Extrusion depth (OpenFOAM; mmval's 2D coefficients are per unit depth)").def("0.1 m").positive();
-    s.quantity("fluid.density", "kg/m3", "Fluid density").def("1 kg/m3").positive();
-    s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def("1e-3 Pa s").positive();
+    declareFluid(s, {.viscosity = 1e-3, .density = 1.0});  // Schaefer-Turek's fluid
     s.choice("geometry.walls", {"no-slip", "slip"}, "Channel side walls: no-slip (Schaefer-Turek) or slip (free stream)").def("no-slip");
     s.choice("inflow.profile", {"parabolic", "uniform"}, "Inflow profile").def("parabolic");
     s.quantity("inflow.max_velocity", "m/s", "Peak of the parabolic inflow 4 U y (H - y) / H^2, or the uniform inflow velocity").positive();

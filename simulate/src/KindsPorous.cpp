@@ -11,6 +11,7 @@
 #include "mmval/core/ImageHeader.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Run.hpp"
+#include "mmval/core/SchemaBlocks.hpp"
 #include "mmval/simulate/ThroatCheck.hpp"
 #include "mmval/simulate/FieldOutput.hpp"
 #include "mmval/simulate/GridConvergence.hpp"
@@ -229,8 +230,7 @@ CaseKind periodicArrayKind() {
   k.declare = [](Schema& s) {
     s.quantity("geometry.cell", "um", "Side L of the square unit cell").def("100 um").positive();
     s.quantity("geometry.solid_fraction", "1", "Solid area fraction phi = pi a^2 / L^2").min(0.0, true).max(0.75);
-    s.quantity("fluid.density", "kg/m3", "Fluid density").def("1000 kg/m3").positive();
-    s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def("1e-3 Pa s").positive();
+    declareFluid(s, {.viscosity = 1e-3, .density = 1000.0});
     s.quantity("flow.mean_velocity", "m/s", "Mean velocity scale (keep Re << 1; mmval solves Stokes, so F* does not depend on it)").def("1e-4 m/s").positive();
     s.integer("numerics.cells_around", "Resolution (mmval: cells along the unit-cell side; OpenFOAM: cells around the cylinder)").def(64).min(8).max(4096);
     s.integerList("numerics.levels", "Resolution ladder (cells_around per level); absent: one run at cells_around").optional();
@@ -293,12 +293,9 @@ CaseKind imagePermeabilityKind() {
   k.name = "image-permeability";
   k.summary = "Permeability and porosity of a pore geometry given as a binary image, pressure-driven left to right";
   k.declare = [](Schema& s) {
-    s.path("geometry.mask", "Binary image of the geometry (PNG, TIFF), relative to the case file");
-    s.quantity("geometry.pixel_size", "um", "Size of one pixel (the image carries no scale)").positive();
-    s.choice("geometry.grains", {"dark", "bright"}, "Which pixels are grains").def("dark");
+    declareMask(s, {.mask_doc = "Binary image of the geometry"});
     s.quantity("geometry.depth", "um", "Chip depth h (depth-averaged model: friction 12 mu u / h^2)").def("20 um").positive();
-    s.quantity("fluid.density", "kg/m3", "Fluid density").def("1000 kg/m3").positive();
-    s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def("1e-3 Pa s").positive();
+    declareFluid(s, {.viscosity = 1e-3, .density = 1000.0});
     s.quantity("flow.pressure_drop", "Pa", "Inlet minus outlet pressure (keep Re << 1)").def("1 Pa").positive();
     s.choice("geometry.boundary", {"pixels", "smooth"},
              "Grain boundary the 2D and depth-averaged models cut their cells against: pixels (the mask's staircase: the permeability "

@@ -19,6 +19,7 @@
 
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/OutputTables.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/particles/Kinds.hpp"
 #include "mmval/particles/MicromodelBookkeeping.hpp"
@@ -129,6 +130,17 @@ std::vector<std::vector<std::string>> csvRows(const fs::path& f) {
   return rows;
 }
 
+/// Index of the column `name` in the schema `cols` (mmval/core/OutputTables.hpp).
+std::size_t col(const std::vector<tables::Column>& cols, const std::string& name) {
+  for (std::size_t i = 0; i < cols.size(); ++i)
+    if (cols[i].name == name) return i;
+  throw std::logic_error("no column " + name);
+}
+const std::size_t kRetT = col(tables::retentionColumns(), "t_s"), kRetInjected = col(tables::retentionColumns(), "injected"),
+                  kRetRetained = col(tables::retentionColumns(), "retained");
+const std::size_t kPermT = col(tables::permeabilityColumns(), "t_s"), kPermK = col(tables::permeabilityColumns(), "k_m2"),
+                  kPermResolves = col(tables::permeabilityColumns(), "resolves");
+
 struct Fixture {
   CaseKindRegistry reg;
   Fixture() { registerParticleKinds(reg); }
@@ -181,9 +193,9 @@ std::vector<Solve> solves(const fs::path& permeability_csv) {
   std::vector<Solve> out;
   std::string last = "-";
   for (const auto& r : csvRows(permeability_csv)) {
-    if (r.at(4) == last) continue;
-    last = r.at(4);
-    out.push_back({std::stod(r.at(0)), std::stod(r.at(1)), r.at(4)});
+    if (r.at(kPermResolves) == last) continue;
+    last = r.at(kPermResolves);
+    out.push_back({std::stod(r.at(kPermT)), std::stod(r.at(kPermK)), r.at(kPermResolves)});
   }
   return out;
 }
@@ -230,12 +242,13 @@ TEST(MicromodelPump, ClogStopsInjectionWhenThePressureExceedsTheLimit) {
   const auto rf = csvRows(testDir() / "free" / "retention.csv"), rc = csvRows(testDir() / "capped" / "retention.csv");
   ASSERT_GE(rc.size(), 2u);
   ASSERT_LT(rc.size(), rf.size());
-  EXPECT_NEAR(std::stod(rc.back().at(0)), sv[j].t, 1e-9);
+  EXPECT_NEAR(std::stod(rc.back().at(kRetT)), sv[j].t, 1e-9);
   for (std::size_t i = 0; i + 1 < rc.size(); ++i) EXPECT_EQ(rc[i], rf[i]) << "row " << i;
   const std::size_t last = rc.size() - 1;
-  EXPECT_EQ(rc[last].at(1), rc[last - 1].at(1)) << "particles were injected in the stall frame";
-  EXPECT_GT(std::stoll(rf[last].at(1)), std::stoll(rc[last].at(1))) << "the free run injected in that frame: the check above must be able to fail";
-  EXPECT_EQ(metric(capped, "injected"), std::stod(rc[last].at(1)));
+  EXPECT_EQ(rc[last].at(kRetInjected), rc[last - 1].at(kRetInjected)) << "particles were injected in the stall frame";
+  EXPECT_GT(std::stoll(rf[last].at(kRetInjected)), std::stoll(rc[last].at(kRetInjected)))
+      << "the free run injected in that frame: the check above must be able to fail";
+  EXPECT_EQ(metric(capped, "injected"), std::stod(rc[last].at(kRetInjected)));
   EXPECT_EQ(metric(capped, "never_injected"), kScheduled - metric(capped, "injected"));
 }
 
@@ -283,10 +296,10 @@ TEST(MicromodelPump, NeverInjectedAreNotRetainedAndRetentionIsACount) {
   EXPECT_NEAR(metric(s, "window_retained_fraction"), static_cast<double>(w_ret) / w_inj, 1e-12);
   bool seen = false;
   for (const auto& r : csvRows(testDir() / "count" / "retention.csv"))
-    if (std::abs(std::stod(r.at(0)) - 1.5) < 1e-9) {
+    if (std::abs(std::stod(r.at(kRetT)) - 1.5) < 1e-9) {
       seen = true;
-      EXPECT_EQ(std::stoll(r.at(1)), w_inj);
-      EXPECT_EQ(std::stoll(r.at(2)), w_ret);
+      EXPECT_EQ(std::stoll(r.at(kRetInjected)), w_inj);
+      EXPECT_EQ(std::stoll(r.at(kRetRetained)), w_ret);
     }
   EXPECT_TRUE(seen);
 }

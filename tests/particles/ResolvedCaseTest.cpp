@@ -12,6 +12,7 @@
 
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/OutputTables.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/core/Tracks.hpp"
 #include "ParticleRegistry.hpp"
@@ -173,13 +174,11 @@ TEST(ResolvedKind, ResumeAfterAStopEqualsTheUninterruptedRun) {
   const Case again = Case::parse(text, dir / "cut.toml", registry());
   const RunSummary r = runCase(again, registry(), dir / "cut", {.quiet = true, .resume = true});
   EXPECT_EQ(r.result["details"]["resumed_from_frame"].get<long long>(), 2);
-  for (const char* f : {"trajectories.csv", "permeability.csv"}) EXPECT_EQ(readBinaryFile(dir / "whole" / f), readBinaryFile(dir / "cut" / f)) << f;
+  for (const char* f : {"trajectories.csv", "retention.csv", "permeability.csv"})
+    EXPECT_EQ(readBinaryFile(dir / "whole" / f), readBinaryFile(dir / "cut" / f)) << f;
   // Deposits on both sides of the stop: fewer than 3 at frame 2, all 3 at the end.
-  std::istringstream perm(readBinaryFile(dir / "whole" / "permeability.csv"));
-  std::string line;
-  std::vector<int> deposited;
-  std::getline(perm, line);
-  while (std::getline(perm, line)) deposited.push_back(std::stoi(line.substr(line.rfind(',') + 1)));
+  const std::vector<double> deposited =
+      tables::parseTable(readBinaryFile(dir / "whole" / "permeability.csv"), "permeability.csv").at("deposited");
   ASSERT_EQ(deposited.size(), 5u);
   EXPECT_LT(deposited[2], 3);
   EXPECT_EQ(deposited.back(), 3);

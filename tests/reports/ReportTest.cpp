@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "mmval/compare/Compare.hpp"
+#include "mmval/core/OutputTables.hpp"
 #include "mmval/reports/Plot.hpp"
 #include "mmval/reports/Report.hpp"
 #include "mmval/reports/Site.hpp"
@@ -143,8 +144,8 @@ TEST(Report, PaperTablesPermeabilityAndRetentionFromTheRunsPresent) {
   fakeRun(dir / "runs" / "fines-case-III", "fines-case-III", "particles-micromodel", nlohmann::json::array());
   {
     std::ofstream f(dir / "runs" / "fines-case-III" / "permeability.csv");
-    f << "t_s,k_m2,k_D,k_over_k0,resolves\n";
-    for (int i = 0; i <= 10; ++i) f << fmt::format("{},{},{},{},true\n", 10 * i, 4e-12 * (1 - 0.02 * i), 4.0 * (1 - 0.02 * i), 1 - 0.02 * i);
+    f << tables::permeabilityHeader();
+    for (int i = 0; i <= 10; ++i) f << tables::formatRow(tables::PermeabilityRow{i, 10.0 * i, 4e-12 * (1 - 0.02 * i), 1 - 0.02 * i, 1e3, 3 * i, i});
   }
   // A coupled run retaining 40 % of what it injects.
   // ... with its shared-window comparison of the particle engines.
@@ -156,8 +157,8 @@ TEST(Report, PaperTablesPermeabilityAndRetentionFromTheRunsPresent) {
   fakeRun(dir / "runs" / "coupled", "coupled", "particles-micromodel", nlohmann::json::array(), {{"engine_comparison", nlohmann::json::array({window})}});
   {
     std::ofstream f(dir / "runs" / "coupled" / "retention.csv");
-    f << "t_s,injected,retained,left,inside\n";
-    for (int i = 1; i <= 10; ++i) f << fmt::format("{},{},{},{},{}\n", 10 * i, 100 * i, 40 * i, 50 * i, 10 * i);
+    f << tables::retentionHeader();
+    for (int i = 1; i <= 10; ++i) f << tables::formatRow(tables::RetentionRow{i, 10.0 * i, 100 * i, 10 * i, 40 * i, 50 * i});
   }
   // Cylinder at Re 20: ours and OpenFOAM's; a chip-permeability run.
   fakeRun(dir / "runs" / "cyl20", "cyl20", "cylinder-channel", nlohmann::json::array({info("c_D (Dennis & Chang)", 2.10, "1")}),

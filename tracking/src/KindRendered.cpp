@@ -16,6 +16,7 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ImageHeader.hpp"
 #include "mmval/core/Run.hpp"
+#include "mmval/core/SchemaBlocks.hpp"
 #include "mmval/tracking/Kinds.hpp"
 #include "mmval/tracking/RenderTracks.hpp"
 #include "mmval/tracking/Score.hpp"
@@ -31,10 +32,8 @@ void registerRenderedKind(CaseKindRegistry& registry) {
   k.declare = [](Schema& s) {
     s.path("inputs.trajectories", "Trajectories CSV (shared tracks schema, with pixel columns in the geometry image)").optional();
     s.string("inputs.trajectories_run", "Instead: name of a case run earlier in the same validation; its trajectories.csv is used").optional();
-    s.path("geometry.mask", "Geometry image the trajectories were simulated in (the same crop)");
-    s.choice("geometry.grains", {"dark", "bright", "light"}, "Which pixels of the image are grains (\"light\" is an older spelling of \"bright\")").def("dark");
+    declareMask(s, {.mask_doc = "Geometry image the trajectories were simulated in (the same crop)"});
     s.integerList("geometry.crop", "Window of the image the simulation used: [x, y, width, height] in px").optional();
-    s.quantity("geometry.pixel_size", "um", "Size of one geometry pixel").positive();
     s.real("render.scale", "Video pixels per geometry pixel").def(1.0).min(0.1).max(16);
     s.real("render.spot_sigma", "Particle spot sigma, video px").def(1.3).min(0.3);
     s.real("render.snr", "Spot depth over the camera noise std").def(8).min(0.5);

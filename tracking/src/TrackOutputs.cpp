@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <map>
 
 #include <fmt/format.h>
@@ -11,6 +12,7 @@
 
 #include "BrownianOutputs.hpp"
 #include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/OutputTables.hpp"
 #include "mmval/core/VtkWriter.hpp"
 #include "mmval/tracking/TrackImages.hpp"
 
@@ -18,11 +20,16 @@ namespace mmval::tracking {
 
 namespace {
 
-/// The flow-mode files (tracks.csv to retention_time.csv); returns their statistics.
+/// The flow-mode files (tracks.csv to retention.csv); returns their statistics.
 TrackStats writeFlowOutputs(const TrackRun& run, const TrackConfig& c, const std::filesystem::path& dir,
                             const std::function<void(const std::string&, const std::string&)>& put, std::vector<std::string>& files);
 cv::Mat baseImage(const TrackRun& run);
 cv::Mat streamlines(const TrackRun& run);
+/// retention.csv (mmval/core/OutputTables.hpp) from the tracks, one row per frame of
+/// `frame_index` (t = frame / fps): injected = moving tracks begun by t (particles that
+/// entered the field of view), retained = those stopped for good by t, left = those
+/// that ended by t without stopping, inside = the rest.
+std::string retentionTable(const Tracks& tracks, const TrackStats& s, const std::vector<int>& frame_index, double fps);
 
 /// tracks.vtp: one polyline per particle in the frame of docs/outputs.md (metres, x right,
 /// y up, origin at the image's bottom-left corner), so that the tracks overlay the fields
@@ -110,6 +117,7 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
   if (!brownian) {
     summary["tracks"] = s.particles;
     summary["immobile"] = s.immobile;
+    summary["mobile"] = s.mobile;
     summary["retained"] = s.retained;
     summary["entered"] = s.entered;
     summary["retained_fraction"] = s.retained_fraction;
@@ -199,27 +207,43 @@ TrackStats writeFlowOutputs(const TrackRun& run, const TrackConfig& c, const std
     speed += fmt::format("{:.6g},{:.5g},{:.5g},{:.5g},{:.5g},{}\n", s.series.t[i], s.series.mean_speed[i] * 1e6, s.series.median_speed[i] * 1e6,
                          s.series.sigma_x[i] * 1e6, s.series.sigma_y[i] * 1e6, s.series.count[i]);
   put("speed_time.csv", speed);
-  // Deposited over time: mobile particles whose track has ended in a stop by time t.
-  std::string ret = "quantity,value\n";
-  ret += fmt::format("particles,{}\nimmobile,{}\nmobile,{}\nentered,{}\nretained,{}\nretained_fraction,{:.5g}\n", s.particles, s.immobile, s.mobile,
-                     s.entered, s.retained, s.retained_fraction);
-  put("retention.csv", ret);
-  {
-    // Deposited over time: a deposited particle counts from the time it stopped for good.
-    std::vector<double> stop_times;
-    for (const auto& t : s.tracks)
-      if (t.state == "deposited" && std::isfinite(t.stop_time)) stop_times.push_back(t.stop_time);
-    std::sort(stop_times.begin(), stop_times.end());
-    std::string rt = "frame,t_s,deposited\n";
-    std::size_t n = 0;
-    for (int f : run.frame_index) {
-      const double t = f / c.fps;
-      while (n < stop_times.size() && stop_times[n] <= t + 1e-12) ++n;
-      rt += fmt::format("{},{:.6g},{}\n", f, t, n);
-    }
-    put("retention_time.csv", rt);
-  }
+  put("retention.csv", retentionTable(labelled, s, run.frame_index, c.fps));
   return s;
+}
+
+std::string retentionTable(const Tracks& tracks, const TrackStats& s, const std::vector<int>& frame_index, double fps) {
+  // Per moving track (state mobile or deposited; immobile and short tracks are no
+  // particles the flow brought): when it was first and last seen, and when it stopped.
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  struct Life {
+    double first = kInf, last = -kInf;
+    bool deposited = false;
+    double stop = kInf;  ///< s; deposited tracks only
+  };
+  std::map<std::int64_t, Life> lives;
+  for (const auto& t : s.tracks)
+    if (t.state == "mobile" || t.state == "deposited") lives[t.particle] = {kInf, -kInf, t.state == "deposited", t.stop_time};
+  for (const auto& p : tracks.points)
+    if (const auto it = lives.find(p.particle); it != lives.end()) {
+      it->second.first = std::min(it->second.first, p.t);
+      it->second.last = std::max(it->second.last, p.t);
+    }
+  const double half_frame = 0.5 / fps;  // s: "at or before t" within the frames' resolution
+  std::string out = tables::retentionHeader();
+  for (int f : frame_index) {
+    const double t = f / fps;
+    tables::RetentionRow r{f, t, 0, 0, 0, 0};
+    for (const auto& [id, l] : lives) {
+      if (l.first > t + half_frame) continue;
+      ++r.injected;
+      // A deposited track without a stop time counts from its last point.
+      if (l.deposited && (std::isfinite(l.stop) ? l.stop : l.last) <= t + half_frame) ++r.retained;
+      else if (!l.deposited && l.last < t - half_frame) ++r.left;
+    }
+    r.inside = r.injected - r.retained - r.left;
+    out += tables::formatRow(r);
+  }
+  return out;
 }
 
 /// 8-bit grey picture under the drawings: the background, or white the size of the tracks.

@@ -15,9 +15,11 @@
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/OutputTables.hpp"
 #include "mmval/core/Resources.hpp"
 #include "mmval/core/Tracks.hpp"
 #include "mmval/core/VtkWriter.hpp"
+#include "mmval/core/SchemaBlocks.hpp"
 #include "mmval/particles/EngineFactory.hpp"
 #include "mmval/particles/Micromodel.hpp"
 #include "mmval/particles/SceneSelection.hpp"
@@ -31,9 +33,7 @@ void declareChannel(Schema& s) {
   s.quantity("channel.width", "um", "Channel width (side walls at y = 0 and y = width)").def("200 um").positive();
   s.quantity("channel.depth", "um", "Chip depth between the plates").def("20 um").positive();
   s.quantity("channel.mean_velocity", "mm/s", "Depth-averaged fluid speed (5 uL/min through the paper's chip: 0.72 mm/s)").def("0.72 mm/s").nonNegative();
-  s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def("1e-3 Pa s").positive();
-  s.quantity("fluid.density", "kg/m3", "Fluid density").def("998.2 kg/m3").positive();
-  s.quantity("fluid.temperature", "K", "Temperature (Brownian motion)").def("293.15 K").positive();
+  declareFluid(s, {.with_temperature = true});
   s.quantity("particles.diameter", "um", "Particle diameter").def("5 um").positive();
   s.quantity("particles.density", "g/cm3", "Particle density (polystyrene 1.05)").def("1.05 g/cm3").positive();
   s.integer("particles.count", "Particles injected at the inlet").def(100).min(0).max(10000000);
@@ -112,8 +112,7 @@ RunOutput runChannel(const Case& c, const RunContext& ctx) {
 
   const double pixel = c.quantity("output.pixel_size");
   Tracks traj;
-  std::ostringstream retention;
-  retention << "t_s,injected,inside,deposited,left,retained_fraction\n";
+  std::string retention = tables::retentionHeader();
   std::int64_t injected = 0, frame = 0;
   double speed_sum = 0;
   std::int64_t speed_n = 0;
@@ -155,8 +154,7 @@ RunOutput runChannel(const Case& c, const RunContext& ctx) {
     }
     last = std::move(now);
     const Counts n = countParticles(ps);
-    retention << fmt::format("{:.9g},{},{},{},{},{:.6g}\n", t, n.injected, n.inside, n.deposited, n.left,
-                             n.injected ? static_cast<double>(n.deposited) / n.injected : 0.0);
+    retention += tables::formatRow(tables::RetentionRow{frame, t, n.injected, n.inside, n.deposited, n.left});
     ++frame;
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -167,7 +165,7 @@ RunOutput runChannel(const Case& c, const RunContext& ctx) {
   // The particles as a .vtp series (docs/outputs.md): the channel's own frame, metres.
   const std::vector<std::string> particle_series = vtk::writeParticleSeries(
       ctx.out_dir, "particles", traj, [](const TrackPoint& q) { return std::array<double, 3>{q.x, q.y, std::isfinite(q.z) ? q.z : 0.0}; });
-  writeFileAtomic(ctx.out_dir / "retention.csv", retention.str());
+  writeFileAtomic(ctx.out_dir / "retention.csv", retention);
 
   const Counts n = engine->counts();
   if (!n.balanced()) throw std::logic_error(fmt::format("particle counts do not balance: {} != {} + {} + {}", n.injected, n.inside, n.deposited, n.left));

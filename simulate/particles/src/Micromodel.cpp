@@ -19,6 +19,7 @@
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/OutputTables.hpp"
 #include "mmval/core/Tracks.hpp"
 #include "mmval/core/VtkWriter.hpp"
 #include "mmval/particles/DepositGrid.hpp"
@@ -39,11 +40,11 @@ using namespace stages;
 void writeCheckpoint(const fs::path& file, const std::string& fp, const RunnerState& s, const std::vector<SizeClass>& classes,
                      const DepositGrid& deposits, const MicromodelFlow& flow) {
   CheckpointWriter w;
-  w.putString("mmval-micromodel-checkpoint-5");
+  w.putString("mmval-micromodel-checkpoint-6");
   w.putString(fp);
   w.put(s.next_frame); w.put(s.next_id); w.put(s.resolves); w.put(s.steps_at_checkpoint);
   w.put(s.wall_deposits); w.put(s.plate_deposits); w.put(s.lost_at_solve); w.put(s.blocked_at);
-  w.put(s.k); w.put(s.k0); w.put(s.speed_sum); w.put(s.solve_seconds); w.put(s.wall_before); w.put(s.speed_n);
+  w.put(s.k); w.put(s.k0); w.put(s.pressure_drop); w.put(s.speed_sum); w.put(s.solve_seconds); w.put(s.wall_before); w.put(s.speed_n);
   w.putVector(s.rows);
   w.putVector(s.last);
   w.putString(s.retention);
@@ -67,13 +68,13 @@ void writeCheckpoint(const fs::path& file, const std::string& fp, const RunnerSt
 bool readCheckpoint(const fs::path& file, const std::string& fp, RunnerState& s, std::vector<SizeClass>& classes, DepositGrid& deposits,
                     MicromodelFlow& flow) {
   CheckpointReader r(readBinaryFile(file), file.string());
-  if (r.getString() != "mmval-micromodel-checkpoint-5") throw std::runtime_error("checkpoint " + file.string() + ": unknown format");
+  if (r.getString() != "mmval-micromodel-checkpoint-6") throw std::runtime_error("checkpoint " + file.string() + ": unknown format");
   if (r.getString() != fp) return false;  // another scene: start afresh
   s.next_frame = r.get<std::int64_t>(); s.next_id = r.get<std::int64_t>(); s.resolves = r.get<std::int64_t>();
   s.steps_at_checkpoint = r.get<std::int64_t>();
   s.wall_deposits = r.get<std::int64_t>(); s.plate_deposits = r.get<std::int64_t>(); s.lost_at_solve = r.get<double>();
   s.blocked_at = r.get<double>();
-  s.k = r.get<double>(); s.k0 = r.get<double>(); s.speed_sum = r.get<double>(); s.solve_seconds = r.get<double>();
+  s.k = r.get<double>(); s.k0 = r.get<double>(); s.pressure_drop = r.get<double>(); s.speed_sum = r.get<double>(); s.solve_seconds = r.get<double>();
   s.wall_before = r.get<double>(); s.speed_n = r.get<std::int64_t>();
   s.rows = r.getVector<TrajRow>();
   s.last = r.getVector<LastPos>();
@@ -146,16 +147,8 @@ void reportPump(const RunnerState& s, const std::optional<PumpStall>& stall, dou
                 std::int64_t injected, RunOutput& out) {
   const auto pressureFor = [&](double k) { return k > 0 ? mu_u_L / k : 0.0; };
   double k_open = s.k0;
-  std::istringstream rows(s.permeability);
-  std::string line;
-  std::getline(rows, line);
-  while (std::getline(rows, line)) {
-    double t = 0, km2 = 0;
-    char sep = 0;
-    std::istringstream l(line);
-    l >> t >> sep >> km2;
+  for (double km2 : tables::parseTable(s.permeability, "permeability.csv").at("k_m2"))
     if (km2 > 0) k_open = km2;
-  }
   const nlohmann::json limit = max_pressure > 0 ? nlohmann::json(max_pressure) : nlohmann::json(nullptr);
   out.metrics["pressure_drop_initial"] = pressureFor(s.k0);
   out.units["pressure_drop_initial"] = "Pa";
@@ -234,10 +227,11 @@ bool startOrResume(const Case& c, const RunContext& ctx, const fs::path& ckpt, c
                        fmt::format("{:.4g} Pa", set.max_pressure),
                        fmt::format("a limit above the {:.4g} Pa the clean geometry needs, or a lower flow rate", r0.pressure_drop));
     s.k = s.k0 = r0.permeability;
+    s.pressure_drop = r0.pressure_drop;
     s.solve_seconds = r0.seconds;
   }
-  if (s.retention.empty()) s.retention = "t_s,injected,retained,left,inside\n";
-  if (s.permeability.empty()) s.permeability = "t_s,k_m2,k_D,k_over_k0,resolves\n";
+  if (s.retention.empty()) s.retention = tables::retentionHeader();
+  if (s.permeability.empty()) s.permeability = tables::permeabilityHeader();
   return resumed;
 }
 
@@ -373,20 +367,15 @@ void reportPermeability(const RunnerState& s, const DepositGrid& deposits, std::
   out.metrics["resolves"] = static_cast<double>(s.resolves);
   // Time to the first 10 % permeability loss (the paper's "time to bridging"
   // trend: shorter at higher velocity); absent when it never happened.
-  std::istringstream rows(s.permeability);
-  std::string line;
-  std::getline(rows, line);
-  while (std::getline(rows, line)) {
-    double t = 0, km2 = 0, kd = 0, ratio = 1;
-    char sep = 0;
-    std::istringstream l(line);
-    l >> t >> sep >> km2 >> sep >> kd >> sep >> ratio;
-    if (ratio < 0.9) {
-      out.metrics["time_to_10pct_reduction"] = t;
+  const tables::TableColumns rows = tables::parseTable(s.permeability, "permeability.csv");
+  const std::vector<double>& t = rows.at("t_s");
+  const std::vector<double>& ratio = rows.at("k_over_k0");
+  for (std::size_t i = 0; i < t.size(); ++i)
+    if (ratio[i] < 0.9) {
+      out.metrics["time_to_10pct_reduction"] = t[i];
       out.units["time_to_10pct_reduction"] = "s";
       break;
     }
-  }
   if (s.blocked_at >= 0) {
     // Clogging: the first re-solve that found no open path from inlet to outlet (k = 0).
     out.metrics["time_to_clogging"] = s.blocked_at;
@@ -446,8 +435,8 @@ void reportScene(const MicromodelSetup& set, const ClassTally& a, const RunnerSt
   out.details["outputs"] = {
       {"trajectories.csv", "frame,particle,x,y,x_um,y_um,t_s,z_um,state (tracks schema; x, y pixels of the geometry image from the "
                            "top-left pixel centre, y down; x_um = x * pixel size; deposited particles appear once, state deposited)"},
-      {"retention.csv", "t_s,injected,retained,left,inside"},
-      {"permeability.csv", "t_s,k_m2,k_D,k_over_k0,resolves"}};
+      {"retention.csv", tables::retentionHeader().substr(0, tables::retentionHeader().size() - 1) + " (docs/outputs.md, Tables)"},
+      {"permeability.csv", tables::permeabilityHeader().substr(0, tables::permeabilityHeader().size() - 1) + " (docs/outputs.md, Tables)"}};
 }
 
 /// The run: the scene read once, then per output frame transport -> deposit ->
@@ -482,7 +471,7 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
     if (set.coupling.four_way) {
       deposit(classes, ps, *flow.field(), set.coupling, deposits, s.wall_deposits, s.plate_deposits);
       stall = resolve(flow, deposits, set.coupling, set.max_pressure, t, classes, ps,
-                      {s.resolves, s.solve_seconds, s.lost_at_solve, s.k, s.blocked_at});
+                      {s.resolves, s.solve_seconds, s.lost_at_solve, s.k, s.pressure_drop, s.blocked_at});
     }
     if (!stall) insertDue(classes, *flow.field(), set.schedule, k, t, ps, s.next_id);
     recordFrame(classes, ps, k, t, {set.geo.pixel, set.geo.height}, run.dt_out, s);

@@ -10,6 +10,7 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ImageHeader.hpp"
 #include "mmval/core/Resources.hpp"
+#include "mmval/core/SchemaBlocks.hpp"
 #include "mmval/particles/FlowField.hpp"
 #include "mmval/simulate/Geometry.hpp"
 #include "mmval/simulate/PoreSpace.hpp"
@@ -19,9 +20,7 @@ namespace mmval::particles::detail {
 namespace fs = std::filesystem;
 
 void declareMicromodel(Schema& s) {
-  s.path("geometry.mask", "Binary image of the pore geometry (PNG, TIFF), relative to the case file (or to the folder above it)");
-  s.quantity("geometry.pixel_size", "um", "Size of one image pixel (the image carries no scale)").positive();
-  s.choice("geometry.grains", {"dark", "bright"}, "Which pixels are grains").def("dark");
+  declareMask(s, {.mask_doc = "Binary image of the pore geometry; also looked for from the folder above the case file's"});
   s.quantity("geometry.depth", "um", "Chip depth h (the experiment's chip: 20 um)").def("20 um").positive();
   s.integer("geometry.dilate", "Grow the grains by this many pixels (disc; to lower the porosity of a design mask); 0: as drawn").def(0).min(0).max(1000);
   s.integerList("geometry.crop", "Window of the image [first column, first row, columns, rows]; absent: the whole image").optional();
@@ -37,9 +36,7 @@ void declareMicromodel(Schema& s) {
              "(details.pump_stall). Absent: no limit, and the pump stalls only when deposits leave no flow path")
       .optional()
       .positive();
-  s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def("1e-3 Pa s").positive();
-  s.quantity("fluid.density", "kg/m3", "Fluid density").def("998.2 kg/m3").positive();
-  s.quantity("fluid.temperature", "K", "Temperature (Brownian motion)").def("293.15 K").positive();
+  declareFluid(s, {.with_temperature = true});
   s.quantity("particles.diameter", "um", "Fine particle diameter (the experiment: ~5 um)").def("5 um").positive();
   s.quantityList("particles.diameters", "um",
                  "Several size classes (polydisperse fines, paper Table 3); given, they replace particles.diameter. Classes do not "

@@ -10,12 +10,12 @@
 #include "CaseScene.hpp"
 #include "MicromodelDetail.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/OutputTables.hpp"
 
 namespace mmval::particles::stages {
 
 namespace {
 
-constexpr double kDarcy = 9.869233e-13;  // m2
 /// The inlet strip new particles are placed in: what the flow fills in one
 /// output interval at this many times the mean interstitial velocity (the pore
 /// velocity's spread: faster paths fill further), capped at this fraction of the
@@ -266,6 +266,7 @@ std::optional<PumpStall> resolve(MicromodelFlow& flow, const DepositGrid& deposi
   record.solve_seconds += r.seconds;
   record.lost_at_solve = deposits.lostColumns();
   record.k = r.permeability;
+  record.pressure_drop = r.pressure_drop;
   if (r.blocked && record.blocked_at < 0) record.blocked_at = t;
   std::optional<PumpStall> stall = pumpStall(r, max_pressure, t);
   for (std::size_t ci = 0; ci < classes.size(); ++ci) {
@@ -354,8 +355,8 @@ Counts recordFrame(std::vector<SizeClass>& classes, const ClassParticles& ps, st
   std::sort(now.begin(), now.end(), [](const LastPos& x, const LastPos& y) { return x.id < y.id; });
   s.last = std::move(now);
   if (!n.balanced()) throw std::logic_error(fmt::format("particle counts do not balance at t = {} s", t));
-  s.retention += fmt::format("{:.9g},{},{},{},{}\n", t, n.injected, n.deposited, n.left, n.inside);
-  s.permeability += fmt::format("{:.9g},{:.9g},{:.9g},{:.9g},{}\n", t, s.k, s.k / kDarcy, s.k / s.k0, s.resolves);
+  s.retention += tables::formatRow(tables::RetentionRow{k, t, n.injected, n.inside, n.deposited, n.left});
+  s.permeability += tables::formatRow(tables::PermeabilityRow{k, t, s.k, s.k / s.k0, s.pressure_drop, n.deposited, s.resolves});
   s.next_frame = k + 1;
   return n;
 }

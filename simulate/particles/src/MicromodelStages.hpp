@@ -62,6 +62,7 @@ struct RunnerState {
   double lost_at_solve = 0;  ///< DepositGrid::lostColumns() at the last solve
   double blocked_at = -1;    ///< s: first re-solve that found no flow path (-1: never)
   double k = 0, k0 = 0, speed_sum = 0, solve_seconds = 0, wall_before = 0;
+  double pressure_drop = 0;  ///< Pa at the last solve (FlowSolveResult::pressure_drop; +inf when blocked)
   std::int64_t speed_n = 0;
   std::vector<TrajRow> rows;
   std::vector<LastPos> last;  ///< sorted by id
@@ -155,6 +156,7 @@ struct FlowRecord {
   double& solve_seconds;
   double& lost_at_solve;
   double& k;
+  double& pressure_drop;
   double& blocked_at;
 };
 
@@ -185,8 +187,8 @@ struct ImageFrame {
 /// Frame record: for frame `k` at `t`, one row per particle still in the chip
 /// (a deposited particle only in the first frame after it deposited), mobile
 /// particles' in-plane speeds since the last frame (`dt_out` apart) summed, and
-/// one line each of retention.csv and permeability.csv. std::logic_error when
-/// the counts do not balance. Returns the frame's counts.
+/// one line each of retention.csv and permeability.csv (mmval/core/OutputTables.hpp).
+/// std::logic_error when the counts do not balance. Returns the frame's counts.
 Counts recordFrame(std::vector<SizeClass>& classes, const ClassParticles& ps, std::int64_t k, double t, const ImageFrame& image,
                    double dt_out, RunnerState& s);
 

@@ -16,6 +16,11 @@
 // deposition.capture_distance of a wall, an obstacle or a deposited particle
 // sticks there and becomes a fixed body: the flow and the pressure drop then
 // feel it (four-way coupling; permeability.csv).
+// Outputs retention.csv and permeability.csv follow the one schema of
+// mmval/core/OutputTables.hpp: every particle is injected at t = 0, and k is
+// the channel's Darcy permeability mu U L / dp (U the mean inflow speed, L the
+// distance between the first and last cell centres along x, where pressureDrop
+// measures dp), so k/k0 = dp0/dp.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -26,12 +31,14 @@
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/OutputTables.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Tracks.hpp"
 #include "CaseScene.hpp"
 #include "MicromodelDetail.hpp"
 #include "ResolvedScene.hpp"
 #include "mmval/core/Checkpoint.hpp"
+#include "mmval/core/SchemaBlocks.hpp"
 #include "mmval/particles/Kinds.hpp"
 #include "mmval/particles/Micromodel.hpp"
 #include "mmval/simulate/FieldOutput.hpp"
@@ -46,11 +53,10 @@ using namespace resolved;
 constexpr double kPi = 3.14159265358979323846;
 
 void declareResolved(Schema& s) {
-  s.path("geometry.mask", "Grains from a binary image (PNG, TIFF) of the pore geometry, relative to the case file (or the folder above it); "
-                          "it then sets the channel's length and width (absent: a plain channel with channel.length x channel.width)")
-      .optional();
-  s.quantity("geometry.pixel_size", "um", "Size of one image pixel").def("1 um").positive();
-  s.choice("geometry.grains", {"dark", "bright"}, "Which pixels are grains").def("dark");
+  declareMask(s, {.mask_doc = "Grains from a binary image of the pore geometry, also looked for from the folder above the case file's; it then sets "
+                             "the channel's length and width (absent: a plain channel with channel.length x channel.width)",
+                 .pixel_default = "1 um",
+                 .optional = true});
   s.integer("geometry.dilate", "Grow the grains by this many pixels; 0: as drawn").def(0).min(0).max(1000);
   s.integerList("geometry.crop", "Window of the image [first column, first row, columns, rows]; absent: the whole image").optional();
   s.quantity("channel.length", "um", "Channel length along x (inlet x = 0, outlet x = length)").def("160 um").positive();
@@ -60,8 +66,7 @@ void declareResolved(Schema& s) {
       .def(0.0)
       .nonNegative();
   s.quantity("channel.depth", "um", "Hele-Shaw depth (friction -12 mu u / h^2; the disks then span the depth); 0: plane 2D").def(0.0).nonNegative();
-  s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def("1e-3 Pa s").positive();
-  s.quantity("fluid.density", "kg/m3", "Fluid density").def("998.2 kg/m3").positive();
+  declareFluid(s, {});
   s.quantity("particles.diameter", "um", "Particle (disk) diameter").def("10 um").positive();
   s.quantity("particles.density", "g/cm3", "Particle density").def("1.05 g/cm3").positive();
   s.quantityList("particles.x", "um", "Start x of each particle's centre").def(std::vector<double>{80e-6});
@@ -178,8 +183,9 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
 
   std::int64_t out_resumed_from = 0;
   Tracks traj;
-  std::ostringstream perm;
-  perm << "t_s,pressure_drop_pa,k_over_k0,deposited\n";
+  std::string perm = tables::permeabilityHeader(), retention = tables::retentionHeader();
+  // Darcy: k = mu U L / dp over the span pressureDrop measures (first to last cell centre).
+  const double mu_U_L = mu * sc.U * (prob.x.centre(prob.x.cells() - 1) - prob.x.centre(0));
   const double pixel = c.quantity("output.pixel_size");
   int solves = 0, steps = 0, contacts = 0, attached = 0;
   double t = 0;
@@ -204,7 +210,10 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
     }
     const double dp = pressureDrop(fluid);
     const auto dep = std::count_if(sc.disks.begin(), sc.disks.end(), [](const Disk& D) { return D.state == State::deposited; });
-    perm << fmt::format("{:.9g},{:.9g},{:.9g},{}\n", t, dp, (sc.U > 0 && dp != 0) ? dp0 / dp : 1.0, dep);
+    const auto gone = std::count_if(sc.disks.begin(), sc.disks.end(), [](const Disk& D) { return D.state == State::left; });
+    const auto all = static_cast<std::int64_t>(sc.disks.size());
+    retention += tables::formatRow(tables::RetentionRow{frame, t, all, all - dep - gone, dep, gone});
+    perm += tables::formatRow(tables::PermeabilityRow{frame, t, dp > 0 ? mu_U_L / dp : 0.0, (sc.U > 0 && dp > 0 && dp0 > 0) ? dp0 / dp : 1.0, dp, dep, solves});
     ++frame;
   };
   // Checkpoint: positions, states, counters and the outputs so far, as JSON (doubles round-trip exactly).
@@ -212,7 +221,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   const std::int64_t checkpoint_every = c.integer("run.checkpoint_every"), stop_after = c.integer("run.stop_after_frames");
   auto saveCheckpoint = [&](std::int64_t f) {
     nlohmann::json j;
-    j["format"] = "mmval-resolved-checkpoint-1";
+    j["format"] = "mmval-resolved-checkpoint-2";
     j["scenario"] = checkpointFingerprint(c);
     j["frame"] = f;
     j["t"] = t;
@@ -220,7 +229,8 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
     for (const auto& D : sc.disks) j["disks"].push_back({D.x.x(), D.x.y(), static_cast<int>(D.state), D.attached_at});
     for (const auto& tp : traj.points)
       j["trajectory"].push_back({tp.frame, tp.particle, tp.t, tp.x, tp.y, tp.state == "mobile" ? 0 : 1});
-    j["permeability_csv"] = perm.str();
+    j["permeability_csv"] = perm;
+    j["retention_csv"] = retention;
     writeFileAtomic(ckpt, j.dump());
   };
   std::int64_t first = 1;
@@ -228,7 +238,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   if (ctx.resume && std::filesystem::exists(ckpt)) {
     try {
       const nlohmann::json j = nlohmann::json::parse(readBinaryFile(ckpt));
-      if (j.at("format") != "mmval-resolved-checkpoint-1") throw std::runtime_error("unknown format");
+      if (j.at("format") != "mmval-resolved-checkpoint-2") throw std::runtime_error("unknown format");
       if (j.at("scenario").get<std::string>() != checkpointFingerprint(c)) throw std::runtime_error("it belongs to another version of this case");
       if (j.at("disks").size() != sc.disks.size()) throw std::runtime_error("other number of particles");
       first = j.at("frame").get<std::int64_t>() + 1;
@@ -256,8 +266,8 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
         tp.state = p[5].get<int>() == 0 ? "mobile" : "deposited";
         traj.points.push_back(tp);
       }
-      perm.str(j.at("permeability_csv").get<std::string>());
-      perm.seekp(0, std::ios::end);
+      perm = j.at("permeability_csv").get<std::string>();
+      retention = j.at("retention_csv").get<std::string>();
     } catch (const std::exception& e) {
       throw InputError(c.where("run.checkpoint_every"), fmt::format("cannot resume from {}: {}", ckpt.string(), e.what()), {},
                        "delete the checkpoint (or the .partial folder) to start afresh");
@@ -313,7 +323,8 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
     return p.particle != q.particle ? p.particle < q.particle : p.frame < q.frame;
   });
   writeTracksCsv(ctx.out_dir / "trajectories.csv", traj, pixel);
-  if (sc.U > 0) writeFileAtomic(ctx.out_dir / "permeability.csv", perm.str());  // a closed box has no flow through it
+  writeFileAtomic(ctx.out_dir / "retention.csv", retention);
+  if (sc.U > 0) writeFileAtomic(ctx.out_dir / "permeability.csv", perm);  // a closed box has no flow through it
   std::vector<std::vector<Eigen::Vector2d>> paths(sc.disks.size());
   for (const auto& tp : traj.points) paths[static_cast<std::size_t>(tp.particle)].emplace_back(tp.x, tp.y);
   sim::writeSpeedPng(fluid, ctx.out_dir / "speed.png", 1200, paths);
@@ -321,7 +332,7 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   std::filesystem::remove(ckpt);  // complete: nothing to resume
 
   RunOutput out;
-  out.files = {"trajectories.csv", "speed.png", "fields.vtr"};
+  out.files = {"trajectories.csv", "retention.csv", "speed.png", "fields.vtr"};
   if (sc.U > 0) out.files.push_back("permeability.csv");
   out.details["resumed_from_frame"] = out_resumed_from;
   // First particle's velocity at the end: the terminal velocity of a settling scene.

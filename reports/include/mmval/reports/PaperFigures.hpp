@@ -25,13 +25,13 @@ struct PermeabilityFigure {
   nlohmann::json metrics = nlohmann::json::array();
 };
 
-/// Reads <run_dir>/permeability.csv (t_s, k_m2, k_D, k_over_k0, resolves; k/k0
-/// from k_m2 when k_over_k0 is absent). Files without those columns are
-/// skipped with a note on stderr.
+/// Reads <run_dir>/permeability.csv in the schema of mmval/core/OutputTables.hpp
+/// (docs/outputs.md, "Tables"). Files without those columns are skipped with a
+/// note on stderr.
 PermeabilityFigure permeabilityFigure(const ReportInput& input, const std::filesystem::path& reference_dir);
 
-/// Reads <run_dir>/retention.csv (t_s, injected, retained, left, inside) and
-/// each comparison's retention_time.csv.
+/// Reads <run_dir>/retention.csv in the schema of mmval/core/OutputTables.hpp
+/// and each comparison's retention_time.csv.
 std::optional<Plot> retentionFigure(const ReportInput& input, const std::filesystem::path& reference_dir);
 
 }  // namespace mmval::reports

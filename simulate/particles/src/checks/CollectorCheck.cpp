@@ -30,6 +30,7 @@
 
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/SchemaBlocks.hpp"
 #include "mmval/simulate/FlowSolver.hpp"
 
 namespace mmval::particles::checks {
@@ -37,8 +38,7 @@ namespace mmval::particles::checks {
 void declareCollectorKeys(Schema& s) {
   s.quantity("collector.radius", "um", "Post radius a_f").def("50 um").positive();
   s.real("collector.solid_fraction", "Solid fraction phi of the post array; the Kuwabara cell radius is a_f / sqrt(phi)").def(0.1).min(0.01).max(0.5);
-  s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def("1e-3 Pa s").positive();
-  s.quantity("fluid.temperature", "K", "Temperature (Brownian motion)").def("293.15 K").positive();
+  declareFluid(s, {.with_density = false, .with_temperature = true});
   s.quantity("deposition.capture_distance", "um",
              "Gap to the post at which a particle sticks; the capture radius is the particle radius plus this gap (R = capture radius / a_f)")
       .def("0.01 um")

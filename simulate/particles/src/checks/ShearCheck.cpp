@@ -22,6 +22,7 @@
 #include "mmval/core/DataPaths.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ReferenceData.hpp"
+#include "mmval/core/SchemaBlocks.hpp"
 #include "mmval/particles/OverdampedEngine.hpp"
 
 namespace mmval::particles::checks {
@@ -41,7 +42,7 @@ constexpr Height kHeights[] = {{10.0677, "10p0677"}, {3.7622, "3p7622"},     {2.
 
 void declareShear(Schema& s) {
   s.quantity("particles.diameter", "um", "Sphere diameter").def("5 um").positive();
-  s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def("1e-3 Pa s").positive();
+  declareFluid(s, {.with_density = false});
   s.quantity("shear.wall_shear_rate", "1/s", "Shear rate gamma at the bottom plate (6 u_mean / h of the depth profile)").def("100 1/s").positive();
   s.real("shear.depth_over_radius", "Chip depth in sphere radii: deep, so that the profile near the bottom plate is simple shear")
       .def(1.0e4)

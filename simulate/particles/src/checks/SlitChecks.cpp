@@ -35,6 +35,7 @@
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/SchemaBlocks.hpp"
 #include "mmval/particles/OverdampedEngine.hpp"
 
 namespace mmval::particles::checks {
@@ -72,9 +73,7 @@ void declareSlitAndParticles(Schema& s, const char* depth, const char* speed, co
   const Fluid fluid;
   s.quantity("slit.depth", "um", "Gap h between the plates (bottom z = 0, top z = h)").def(depth).positive();
   s.quantity("slit.mean_velocity", "mm/s", "Depth-averaged flow speed U (plane Poiseuille profile 6 U z (h - z) / h^2)").def(speed).positive();
-  s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def(fluid.viscosity).positive();
-  s.quantity("fluid.density", "kg/m3", "Fluid density").def(fluid.density).positive();
-  s.quantity("fluid.temperature", "K", "Temperature (Brownian motion)").def(fluid.temperature).positive();
+  declareFluid(s, {.viscosity = fluid.viscosity, .density = fluid.density, .temperature = fluid.temperature, .with_temperature = true});
   s.quantity("particles.diameter", "um", "Particle diameter").def(diameter).positive();
   s.integer("particles.count", "Particles entering the slit, one per flux quantile").def(count).min(10).max(100000);
   s.quantity("deposition.capture_distance", "um", "Surface gap at which a particle attaches to a sticky plate").def(capture).positive();

@@ -32,6 +32,7 @@
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/SchemaBlocks.hpp"
 #include "mmval/particles/OverdampedEngine.hpp"
 
 namespace mmval::particles::checks {
@@ -46,9 +47,7 @@ double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>
 
 void declareFluidAndParticle(Schema& s, const char* diameter, const char* density) {
   const Fluid fluid;
-  s.quantity("fluid.viscosity", "Pa s", "Dynamic viscosity").def(fluid.viscosity).positive();
-  s.quantity("fluid.density", "kg/m3", "Fluid density").def(fluid.density).positive();
-  s.quantity("fluid.temperature", "K", "Temperature (Brownian motion)").def(fluid.temperature).positive();
+  declareFluid(s, {.viscosity = fluid.viscosity, .density = fluid.density, .temperature = fluid.temperature, .with_temperature = true});
   s.quantity("particles.diameter", "um", "Particle diameter").def(diameter).positive();
   s.quantity("particles.density", "g/cm3", "Particle density").def(density).positive();
   s.integer("run.seed", "Random seed (start positions, Brownian motion)").def(1).min(0);

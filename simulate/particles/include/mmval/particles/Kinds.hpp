@@ -10,7 +10,10 @@ namespace mmval::particles {
 /// "particles-micromodel": the coupled validation scene on a pore image
 /// (Micromodel.hpp): trajectories.csv, retention.csv, permeability.csv.
 /// "particles-resolved": particles spanning many cells, moved by the resolved
-/// immersed boundary (Resolved.cpp): trajectories.csv, permeability.csv.
+/// immersed boundary (Resolved.cpp): trajectories.csv, retention.csv,
+/// permeability.csv (with flow through the channel).
+/// retention.csv and permeability.csv have one schema for every kind, written
+/// by mmval/core/OutputTables.hpp and listed in docs/outputs.md ("Tables").
 void registerParticleKinds(CaseKindRegistry& registry);
 CaseKind resolvedKind();
 

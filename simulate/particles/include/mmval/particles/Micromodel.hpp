@@ -19,8 +19,10 @@
 //                     axes), t_s, z_um (height above the bottom plate), state
 //                     (mobile; a deposited particle appears once, in the first
 //                     frame after it deposited, with state "deposited")
-//   retention.csv     t_s, injected, retained, left, inside  (injected = retained + left + inside)
-//   permeability.csv  t_s, k_m2, k_D, k_over_k0, resolves
+//   retention.csv     frame, t_s, injected, inside, retained, left, retained_fraction
+//   permeability.csv  frame, t_s, k_m2, k_D, k_over_k0, pressure_drop_pa, deposited, resolves
+//                     (both one row per output frame, written by mmval/core/OutputTables.hpp;
+//                     columns, units and invariants in docs/outputs.md, "Tables")
 // The pump (MicromodelBookkeeping.hpp). Each fluid solve gives the
 // pressure drop the set flow rate needs across the simulated geometry. When a
 // re-solve finds no flow path left, or that pressure above flow.max_pressure
