@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "CaseCommands.hpp"
+#include "ChipCommand.hpp"
 #include "PeerCommands.hpp"
 #include "Registry.hpp"
 #include "ReportCommands.hpp"
@@ -74,6 +75,7 @@ int main(int argc, char** argv) {
   mmval::app::registerPeerCommands(app, registry);
   mmval::app::registerTrackCommands(app, registry);
   mmval::app::registerSweepCommand(app, registry);
+  mmval::app::registerChipCommand(app);
   addExamples(app);
   if (argc > 1 && argv[1][0] != '-') {
     std::vector<std::string> names;

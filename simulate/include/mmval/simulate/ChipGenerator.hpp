@@ -1,0 +1,93 @@
+// A micromodel generator from statistics (issue 26, item 1; docs/chip-generator.md): a
+// sand-pack-like chip mask for a target porosity, depth-averaged permeability at a given depth,
+// grain-size distribution (and optionally mean throat size), over a given size and pixel size.
+//
+// Stages: validate -> tune the grain scale on a tile (secant on ln k against ln d, mmval's own
+// depth-averaged solve at cells_per_pixel) -> generate the full chip and confirm k there (up to
+// kMaxChipCorrections corrections of d) -> statistics and a grid-convergence ladder on the full
+// chip. Porosity is met by construction (ChipPacking.hpp). Same spec and seed: the same mask,
+// byte for byte.
+#pragma once
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "mmval/simulate/ChipFlow.hpp"
+#include "mmval/simulate/ChipPacking.hpp"
+
+namespace mmval::simulate {
+
+/// User-facing targets, in the units of the command's options (names carry them).
+struct ChipSpec {
+  double length_mm = 4, width_mm = 2;  ///< along the flow (x) and across (y)
+  double pixel_um = 5;
+  double depth_um = 20;
+  double porosity = 0.58;
+  double porosity_tolerance = 0.005;
+  double permeability_D = 0;           ///< depth-averaged target; 0: none
+  double permeability_tolerance = 0.05;  ///< relative
+  double mean_throat_um = 0;           ///< mean throat width target (used when no permeability target); 0: none
+  double mean_grain_um = 0;            ///< mean grain diameter: fixed without k / throat targets, else the start; 0: estimated
+  double grain_cv = 0.3;               ///< coefficient of variation of the grain diameter
+  double min_throat_px = 3;            ///< smallest gap between grains (and grain to wall)
+  int wall_px = 2;                     ///< solid rows at top and bottom
+  double port_um = 0;                  ///< open inlet / outlet columns; 0: one mean grain diameter
+  double tile_mm = 1.5;                ///< side of the tuning tile (capped at the chip)
+  double cells_per_pixel = 1;          ///< resolution at which the k target is met
+  std::vector<double> ladder{0.5, 1, 2};  ///< full-chip ladder, coarse to fine; must contain cells_per_pixel
+  bool smooth_boundary = true;
+  /// Where the k target is confirmed and the ladder solved: the full chip, or (when the full chip
+  /// is too large to solve) the tuning tile at the final grain scale.
+  bool solve_on_tile = false;
+  std::uint64_t seed = 1;
+};
+
+/// Throws InputError naming the option (--porosity, --permeability-D, ...) and its limit:
+/// porosity outside (kMinPorosity, kMaxPorosity), k not below the open Hele-Shaw limit
+/// porosity x h^2 / 12, sizes that are not positive or too large, a ladder without
+/// cells_per_pixel, a ladder whose finest level would not fit in memory (direct solver, 8.8 kB per
+/// cell measured: simulate/src/MemoryBudget.hpp) on the chip (or tile) it is solved on.
+void validateChipSpec(const ChipSpec& s);
+inline constexpr double kMinPorosity = 0.2, kMaxPorosity = 0.95;
+/// Relative tolerance of a mean-throat target (a statistic of the geometry: no solver error to allow for).
+inline constexpr double kChipThroatTolerance = 0.02;
+/// At most this many corrections of the grain scale on the full chip after tuning on the tile.
+inline constexpr int kMaxChipCorrections = 2;
+
+/// One evaluation of the tuning loop.
+struct ChipTuneStep {
+  std::string where;   ///< "tile" or "chip"
+  double mean_grain_um = 0;
+  double value = 0;    ///< k in darcy (or mean throat in um)
+  double seconds = 0;
+};
+
+struct ChipResult {
+  ChipSpec spec;
+  ChipPacking packing;             ///< the full chip
+  double mean_grain_um = 0;        ///< scale used
+  std::vector<ChipTuneStep> tuning;
+  ChipLadder ladder_2d, ladder_da; ///< ladders on the chip (or the tile: spec.solve_on_tile)
+  int solved_cols = 0, solved_rows = 0;  ///< size of what the ladder solved, px
+  double k_target_level_D = 0;     ///< depth-averaged k at spec.cells_per_pixel (what the target is met at)
+  nlohmann::json stats;            ///< chip.json (see docs/chip-generator.md)
+  double seconds = 0;
+  nlohmann::json stage_seconds = nlohmann::json::object();  ///< wall time per stage (tune, pack, confirm, ladder, statistics)
+};
+
+/// Runs every stage; `log` receives progress lines (may be empty). Throws InputError for targets
+/// the generator cannot reach (naming the option), NumericalFailure when the solver fails.
+ChipResult generateChip(const ChipSpec& s, const std::function<void(const std::string&)>& log = {});
+
+/// The chip.json document of a result (also in result.stats).
+nlohmann::json chipStatistics(const ChipResult& r);
+
+/// Writes chip.png (grains 0, pores 255), chip.json, chip-picture.png, grain-sizes.csv and
+/// throat-sizes.csv into `dir` (which exists).
+void writeChipOutputs(const ChipResult& r, const std::filesystem::path& dir);
+
+}  // namespace mmval::simulate

@@ -1,0 +1,301 @@
+// Micromodel generator: validation, grain-scale tuning and the full chip (see ChipGenerator.hpp).
+#include "mmval/simulate/ChipGenerator.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "mmval/core/Error.hpp"
+#include "mmval/core/Resources.hpp"
+
+#include "MemoryBudget.hpp"
+
+namespace mmval::simulate {
+
+namespace {
+
+/// Evaluations of the tile in the secant search.
+constexpr int kMaxTuneSteps = 10;
+/// A secant step changes the grain scale by at most this factor (k ~ d^2 at most: 4x in k).
+constexpr double kMaxStepFactor = 2.0;
+/// d ln k / d ln d before two evaluations exist (between the Hele-Shaw-limited 0 and the plane 2D 2).
+constexpr double kStartSlope = 1.5;
+/// Grains smaller than this (px) are too coarsely rendered to be sand-like.
+constexpr double kMinGrainPx = 6;
+/// Kept below the packer's kMaxInflatedFraction: polydisperse discs inflate more than their mean.
+constexpr double kInflationMargin = 0.05;
+/// Pixel budget of a chip mask (the mask, its pore analysis and picture: ~10 B/px; the solve is
+/// the larger cost and is bounded by the ladder the user asks for).
+constexpr double kMaxChipPixels = 2.0e8;
+
+InputLocation opt(const char* name) { return InputLocation{"", 0, 0, name}; }
+
+double seconds(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
+
+/// Open Hele-Shaw limit of the depth-averaged permeability: porosity x h^2 / 12, darcy.
+double hsLimitDarcy(const ChipSpec& s) { return s.porosity * std::pow(s.depth_um * 1e-6, 2) / 12 / kDarcyM2; }
+
+ChipPackingSpec packingSpec(const ChipSpec& s, int cols, int rows, double d_um, std::uint64_t seed) {
+  ChipPackingSpec p;
+  p.cols = cols;
+  p.rows = rows;
+  p.wall_px = s.wall_px;
+  p.mean_diameter_px = d_um / s.pixel_um;
+  p.port_px = (s.port_um > 0 ? s.port_um : d_um) / s.pixel_um;
+  p.diameter_cv = s.grain_cv;
+  p.min_gap_px = s.min_throat_px;
+  p.porosity = s.porosity;
+  p.porosity_tolerance = s.porosity_tolerance;
+  p.seed = seed;
+  return p;
+}
+
+/// Packs, turning the packer's refusals into InputErrors that say which option to change.
+ChipPacking pack(const ChipSpec& s, int cols, int rows, double d_um) {
+  try {
+    return packChip(packingSpec(s, cols, rows, d_um, s.seed));
+  } catch (const std::invalid_argument& e) {
+    throw InputError(opt("--porosity"), fmt::format("no pattern of mean grain {:.4g} um on {} x {} px: {}", d_um, cols, rows, e.what()),
+                     fmt::format("{:g}", s.porosity), "a higher porosity, a smaller --min-throat-px, a larger chip or smaller grains");
+  }
+}
+
+/// Mean throat width (um) of a packing.
+double meanThroatUm(const ChipPacking& p, const ChipSpec& s, double d_um) {
+  const auto t = chipThroats(p.discs, static_cast<int>(p.solid.rows()), s.wall_px, d_um / s.pixel_um);
+  if (t.empty()) return 0;
+  double sum = 0;
+  for (const auto& x : t) sum += x.width_px;
+  return sum / static_cast<double>(t.size()) * s.pixel_um;
+}
+
+ChipFlowSettings flowSettings(const ChipSpec& s) {
+  ChipFlowSettings f;
+  f.pixel_m = s.pixel_um * 1e-6;
+  f.depth_m = s.depth_um * 1e-6;
+  f.smooth_boundary = s.smooth_boundary;
+  return f;
+}
+
+/// Depth-averaged k (darcy) of a packing at the target resolution.
+double kDarcyOf(const ChipPacking& p, const ChipSpec& s) {
+  const PoreSpaceReport pores = analysePoreSpace(p.solid);
+  return chipPermeability(pores.solid_connected, flowSettings(s), s.cells_per_pixel).permeability_m2 / kDarcyM2;
+}
+
+/// Starting grain diameter (um) for a k target: the plane 2D part from Kozeny-Carman
+/// (k = d^2 phi^3 / (180 (1 - phi)^2), Carman 1937) in series with the Hele-Shaw limit. Only a
+/// start: the secant search corrects it.
+double startDiameterUm(const ChipSpec& s) {
+  if (s.mean_grain_um > 0) return s.mean_grain_um;
+  const double phi = s.porosity;
+  if (s.permeability_D > 0) {
+    const double k2d = 1.0 / (1.0 / s.permeability_D - 1.0 / hsLimitDarcy(s)) * kDarcyM2;
+    return std::sqrt(k2d * 180 * (1 - phi) * (1 - phi) / (phi * phi * phi)) * 1e6;
+  }
+  if (s.mean_throat_um > 0) return 3 * s.mean_throat_um;
+  return 12 * s.pixel_um;
+}
+
+/// The smallest mean grain diameter (um) whose discs, inflated by half the minimum gap, stay
+/// below kMaxInflatedFraction - kInflationMargin of the pattern (solid fraction ~ 1 - porosity):
+/// (1 + g / d)^2 (1 - phi) <= that.
+double minDiameterUm(const ChipSpec& s) {
+  const double room = std::sqrt((kMaxInflatedFraction - kInflationMargin) / (1 - s.porosity)) - 1;
+  if (room <= 0)
+    throw InputError(opt("--porosity"), "grains separated by a throat cannot be packed this densely", fmt::format("{:g}", s.porosity),
+                     fmt::format("a porosity above {:.3f}", 1 - (kMaxInflatedFraction - kInflationMargin)));
+  return std::max(kMinGrainPx, s.min_throat_px / room) * s.pixel_um;
+}
+
+struct Secant {
+  double x0 = std::nan(""), f0 = std::nan("");
+  /// Next ln d from (x1, f1) = (ln d, ln(value / target)); value grows with d.
+  double next(double x1, double f1) {
+    double slope = kStartSlope;
+    if (std::isfinite(x0) && std::abs(x1 - x0) > 1e-9) slope = (f1 - f0) / (x1 - x0);
+    if (!(slope > 0.2) || !std::isfinite(slope)) slope = kStartSlope;
+    x0 = x1;
+    f0 = f1;
+    return x1 - std::clamp(f1 / slope, -std::log(kMaxStepFactor), std::log(kMaxStepFactor));
+  }
+};
+
+/// The tile's grain scale for the k (or mean throat) target; returns the mean diameter in um.
+double tuneOnTile(const ChipSpec& s, int cols, int rows, ChipResult& r, const std::function<void(const std::string&)>& log) {
+  const bool by_k = s.permeability_D > 0;
+  const double target = by_k ? s.permeability_D : s.mean_throat_um;
+  const double d_min = minDiameterUm(s);
+  const double d_max = (rows - 2 * s.wall_px - 2 * s.min_throat_px) / kMaxDiameterFactor * s.pixel_um;
+  double x = std::log(std::clamp(startDiameterUm(s), d_min, d_max));
+  Secant sec;
+  double best_x = x, best_err = INFINITY;
+  for (int step = 1; step <= kMaxTuneSteps; ++step) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const double d = std::exp(x);
+    const ChipPacking p = pack(s, cols, rows, d);
+    const double v = by_k ? kDarcyOf(p, s) : meanThroatUm(p, s, d);
+    r.tuning.push_back({"tile", d, v, seconds(t0)});
+    if (log) log(fmt::format("chip: tile {} x {} px, step {}: mean grain {:.4g} um -> {} {:.4g} {} (target {:.4g})", cols, rows, step, d,
+                             by_k ? "k" : "mean throat", v, by_k ? "D" : "um", target));
+    const double f = std::log(v / target);
+    if (std::abs(f) < best_err) best_err = std::abs(f), best_x = x;
+    // Half the tolerance on the tile, so the full chip has room for its own scatter.
+    if (std::abs(v / target - 1) <= 0.5 * (by_k ? s.permeability_tolerance : kChipThroatTolerance)) return d;
+    const double xn = sec.next(x, f);
+    if (xn < std::log(d_min) - 1e-9 && x <= std::log(d_min) + 1e-9)
+      throw InputError(opt(by_k ? "--permeability-D" : "--mean-throat-um"),
+                       fmt::format("the target needs grains smaller than {:.3g} um ({:.3g} px), the smallest that keep --min-throat-px between "
+                                   "grains at this porosity; the smallest gives {:.4g}", d_min, d_min / s.pixel_um, v),
+                       fmt::format("{:g}", target), "a larger target, a smaller --pixel-um or a smaller --min-throat-px");
+    if (xn > std::log(d_max) + 1e-9 && x >= std::log(d_max) - 1e-9)
+      throw InputError(opt(by_k ? "--permeability-D" : "--mean-throat-um"),
+                       fmt::format("the target needs grains larger than {:.4g} um, the largest that fit the tile (the largest gives {:.4g})", d_max, v),
+                       fmt::format("{:g}", target),
+                       by_k ? fmt::format("a smaller k (the open Hele-Shaw limit at this depth is {:.4g} D) or a larger --tile-mm", hsLimitDarcy(s))
+                            : std::string("a smaller mean throat or a larger --tile-mm"));
+    x = std::clamp(xn, std::log(d_min), std::log(d_max));
+  }
+  if (log) log(fmt::format("chip: the tile did not settle within {} steps; keeping the closest ({:.2f} % off)", kMaxTuneSteps, 100 * (std::exp(best_err) - 1)));
+  return std::exp(best_x);
+}
+
+}  // namespace
+
+void validateChipSpec(const ChipSpec& s) {
+  auto need = [](bool ok, const char* name, double v, const std::string& expected) {
+    if (!ok || !std::isfinite(v)) throw InputError(opt(name), "value out of range", fmt::format("{:g}", v), expected);
+  };
+  need(s.porosity > kMinPorosity && s.porosity < kMaxPorosity, "--porosity", s.porosity,
+       fmt::format("a porosity in ({:g}, {:g}) (below, grains separated by a throat cannot be packed; above, there is no pattern)", kMinPorosity, kMaxPorosity));
+  need(s.porosity_tolerance >= 1e-4 && s.porosity_tolerance <= 0.05, "--porosity-tolerance", s.porosity_tolerance, "an absolute tolerance in [1e-4, 0.05]");
+  need(s.length_mm > 0 && s.length_mm <= 1000, "--length-mm", s.length_mm, "a chip length in mm, > 0");
+  need(s.width_mm > 0 && s.width_mm <= 1000, "--width-mm", s.width_mm, "a chip width in mm, > 0");
+  need(s.pixel_um > 0 && s.pixel_um <= 1000, "--pixel-um", s.pixel_um, "a pixel size in um, > 0");
+  need(s.depth_um > 0 && s.depth_um <= 1e4, "--depth-um", s.depth_um, "a channel depth in um, > 0");
+  need(s.grain_cv >= 0 && s.grain_cv <= 1, "--grain-cv", s.grain_cv, "a coefficient of variation in [0, 1]");
+  need(s.min_throat_px >= 2 && s.min_throat_px <= 100, "--min-throat-px", s.min_throat_px,
+       "at least 2 px (a throat of 1 px is under one cell at 1 cell per pixel and off by ~200 % at that)");
+  need(s.wall_px >= 1 && s.wall_px <= 100, "--wall-px", s.wall_px, "a wall thickness in px, 1 to 100");
+  need(s.permeability_D >= 0, "--permeability-D", s.permeability_D, "a permeability in darcy, > 0 (0 or absent: no target)");
+  need(s.permeability_tolerance >= 0.005 && s.permeability_tolerance <= 0.5, "--permeability-tolerance", s.permeability_tolerance,
+       "a relative tolerance in [0.005, 0.5] (below the tile's scatter of ~1 % the search cannot settle)");
+  need(s.mean_throat_um >= 0, "--mean-throat-um", s.mean_throat_um, "a mean throat width in um, > 0 (0 or absent: no target)");
+  need(s.mean_grain_um >= 0, "--mean-grain-um", s.mean_grain_um, "a mean grain diameter in um, > 0 (0 or absent: estimated)");
+  need(s.tile_mm > 0, "--tile-mm", s.tile_mm, "a tile side in mm, > 0");
+  need(s.port_um >= 0 && s.port_um * 4e-3 < s.length_mm, "--port-um", s.port_um, "inlet / outlet columns >= 0 um (0: one mean grain), under a quarter of the length");
+  need(s.cells_per_pixel >= 0.25 && s.cells_per_pixel <= 8, "--cells-per-pixel", s.cells_per_pixel, "cells per pixel in [0.25, 8]");
+  const double pixels = s.length_mm * 1e3 / s.pixel_um * s.width_mm * 1e3 / s.pixel_um;
+  need(pixels <= kMaxChipPixels, "--pixel-um", s.pixel_um, fmt::format("a pixel size that keeps the mask under {:g} pixels (got {:.3g})", kMaxChipPixels, pixels));
+  if (s.permeability_D > 0) {
+    const double lim = hsLimitDarcy(s);
+    need(s.permeability_D < lim, "--permeability-D", s.permeability_D,
+         fmt::format("a depth-averaged k below the open Hele-Shaw limit porosity x h^2 / 12 = {:.4g} D for --depth-um {:g} and --porosity {:g} (grains only "
+                     "lower it)", lim, s.depth_um, s.porosity));
+  }
+  const double side_cols = (s.solve_on_tile ? std::min(s.tile_mm, s.length_mm) : s.length_mm) * 1e3 / s.pixel_um;
+  const double side_rows = (s.solve_on_tile ? std::min(s.tile_mm, s.width_mm) : s.width_mm) * 1e3 / s.pixel_um;
+  if (!s.ladder.empty()) {
+    const double finest = std::max(s.ladder.back(), s.cells_per_pixel);
+    const double bytes = detail::kStartupBytes + detail::kDirectBytesPerCell * side_cols * side_rows * finest * finest;
+    need(bytes <= defaultMaxMemoryBytes(), "--ladder", finest,
+         fmt::format("a finest level whose direct solve fits in memory: {:.3g} cells need ~{:.1f} GB, {:.1f} GB available (coarser levels, a larger "
+                     "--pixel-um, or --solve-on tile)", side_cols * side_rows * finest * finest, bytes / 1e9, defaultMaxMemoryBytes() / 1e9));
+  }
+  bool has_level = false;
+  for (std::size_t i = 0; i < s.ladder.size(); ++i) {
+    need(s.ladder[i] >= 0.1 && s.ladder[i] <= 8, "--ladder", s.ladder[i], "cells per pixel in [0.1, 8]");
+    if (i > 0) need(s.ladder[i] > 1.05 * s.ladder[i - 1], "--ladder", s.ladder[i], "levels growing coarse to fine by more than 5 % each");
+    has_level = has_level || std::abs(s.ladder[i] - s.cells_per_pixel) < 1e-12;
+  }
+  need(has_level, "--ladder", s.cells_per_pixel, "a ladder that contains --cells-per-pixel (the level the k target is met at)");
+}
+
+namespace {
+
+/// Stage 3: the full chip packed at scale d, its target checked there and d corrected with a secant
+/// (up to kMaxChipCorrections times). Returns the final d; `known` gets the last solve at
+/// cells_per_pixel for the ladder to reuse.
+double confirmOnChip(const ChipSpec& s, double d, ChipResult& r, std::vector<std::pair<double, ChipFlowResult>>& known,
+                     const std::function<void(const std::string&)>& log) {
+  Secant sec;
+  const bool by_k = s.permeability_D > 0;
+  const double target = by_k ? s.permeability_D : s.mean_throat_um;
+  const double tol = by_k ? s.permeability_tolerance : kChipThroatTolerance;
+  const int cols = static_cast<int>(r.packing.solid.cols()), rows = static_cast<int>(r.packing.solid.rows());
+  for (int round = 0; round <= kMaxChipCorrections; ++round) {
+    const auto t1 = std::chrono::steady_clock::now();
+    double v = 0;
+    if (by_k) {
+      const ChipFlowResult f = chipPermeability(analysePoreSpace(r.packing.solid).solid_connected, flowSettings(s), s.cells_per_pixel);
+      known = {{s.cells_per_pixel, f}};
+      v = f.permeability_m2 / kDarcyM2;
+    } else {
+      v = meanThroatUm(r.packing, s, d);
+    }
+    r.tuning.push_back({"chip", d, v, seconds(t1)});
+    if (log) log(fmt::format("chip: full chip {} x {} px: mean grain {:.4g} um -> {:.4g} (target {:.4g}, {:.1f} s)", cols, rows, d, v, target, seconds(t1)));
+    if (std::abs(v / target - 1) <= tol || round == kMaxChipCorrections) break;
+    d = std::exp(sec.next(std::log(d), std::log(v / target)));
+    r.packing = pack(s, cols, rows, d);
+    known.clear();
+  }
+  return d;
+}
+
+/// Stage 4: both depth models on the ladder, on `solved` (the chip or a tile).
+void solveLadders(const ChipSpec& s, const BoolArray& solved, const std::vector<std::pair<double, ChipFlowResult>>& known, ChipResult& r,
+                  const std::function<void(const std::string&)>& log) {
+  r.solved_cols = static_cast<int>(solved.cols());
+  r.solved_rows = static_cast<int>(solved.rows());
+  const PoreSpaceReport pores = analysePoreSpace(solved);
+  if (log) log(fmt::format("chip: ladder of {} levels on {} x {} px, depth-averaged, then plane 2D", s.ladder.size(), solved.cols(), solved.rows()));
+  r.ladder_da = chipLadder(pores.solid_connected, flowSettings(s), s.ladder, "depth-averaged", known);
+  r.ladder_2d = chipLadder(pores.solid_connected, flowSettings(s), s.ladder, "2d");
+  for (std::size_t i = 0; i < s.ladder.size(); ++i)
+    if (std::abs(s.ladder[i] - s.cells_per_pixel) < 1e-12) r.k_target_level_D = r.ladder_da.runs[i].permeability_m2 / kDarcyM2;
+}
+
+}  // namespace
+
+ChipResult generateChip(const ChipSpec& s, const std::function<void(const std::string&)>& log) {
+  validateChipSpec(s);
+  const auto t0 = std::chrono::steady_clock::now();
+  ChipResult r;
+  r.spec = s;
+  const int cols = static_cast<int>(std::lround(s.length_mm * 1e3 / s.pixel_um));
+  const int rows = static_cast<int>(std::lround(s.width_mm * 1e3 / s.pixel_um));
+  const int tile_cols = std::min(cols, static_cast<int>(std::lround(s.tile_mm * 1e3 / s.pixel_um)));
+  const int tile_rows = std::min(rows, static_cast<int>(std::lround(s.tile_mm * 1e3 / s.pixel_um)));
+  const bool tuned = s.permeability_D > 0 || s.mean_throat_um > 0;
+  const bool tile_is_chip = tile_cols == cols && tile_rows == rows;
+  auto stage = std::chrono::steady_clock::now();
+  auto lap = [&](const char* name) {
+    r.stage_seconds[name] = seconds(stage);
+    stage = std::chrono::steady_clock::now();
+  };
+  double d = tuned ? tuneOnTile(s, tile_cols, tile_rows, r, log) : startDiameterUm(s);
+  lap("tune");
+  if (log) log(fmt::format("chip: packing the chip, {} x {} px, mean grain {:.4g} um", cols, rows, d));
+  r.packing = pack(s, cols, rows, d);
+  lap("pack");
+  std::vector<std::pair<double, ChipFlowResult>> known;  // the last full-chip solve at cells_per_pixel
+  if (tuned && !tile_is_chip && !s.solve_on_tile) d = confirmOnChip(s, d, r, known, log);
+  r.mean_grain_um = d;
+  lap("confirm");
+  if (s.solve_on_tile && !tile_is_chip) solveLadders(s, pack(s, tile_cols, tile_rows, d).solid, {}, r, log);
+  else solveLadders(s, r.packing.solid, known, r, log);
+  lap("ladder");
+  if (log) log("chip: statistics (pore space, throats, narrowest spanning throat)");
+  r.stats = chipStatistics(r);
+  lap("statistics");
+  r.seconds = seconds(t0);
+  r.stats["generation"]["wall_seconds"] = r.seconds;
+  r.stats["generation"]["stage_seconds"] = r.stage_seconds;
+  return r;
+}
+
+}  // namespace mmval::simulate

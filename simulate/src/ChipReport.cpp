@@ -1,0 +1,190 @@
+// Statistics and output files of a generated chip (see ChipGenerator.hpp, docs/chip-generator.md).
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+
+#include <fmt/format.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "mmval/simulate/ChipGenerator.hpp"
+
+namespace mmval::simulate {
+
+namespace {
+
+constexpr int kHistogramBins = 20;
+/// The picture is downscaled to at most this many columns (a viewer's scale; chip.png keeps every pixel).
+constexpr int kPictureMaxCols = 4000;
+/// Throats narrower than this multiple of the minimum gap are marked on the picture.
+constexpr double kMarkedThroatFactor = 1.5;
+
+nlohmann::json histogram(const std::vector<double>& v) {
+  const double hi = v.empty() ? 1.0 : *std::max_element(v.begin(), v.end()) * (1 + 1e-9);
+  std::vector<double> edges(kHistogramBins + 1);
+  std::vector<int> counts(kHistogramBins, 0);
+  for (int i = 0; i <= kHistogramBins; ++i) edges[i] = hi * i / kHistogramBins;
+  for (const double x : v) counts[std::min(kHistogramBins - 1, static_cast<int>(x / hi * kHistogramBins))]++;
+  return {{"edges_um", edges}, {"counts", counts}};
+}
+
+struct Moments {
+  double mean = 0, cv = 0, min = 0, median = 0;
+};
+Moments moments(std::vector<double> v) {
+  Moments m;
+  if (v.empty()) return m;
+  double s = 0, s2 = 0;
+  for (const double x : v) s += x, s2 += x * x;
+  const double n = static_cast<double>(v.size());
+  m.mean = s / n;
+  m.cv = m.mean > 0 ? std::sqrt(std::max(0.0, s2 / n - m.mean * m.mean)) / m.mean : 0;
+  std::sort(v.begin(), v.end());
+  m.min = v.front();
+  m.median = v[v.size() / 2];
+  return m;
+}
+
+nlohmann::json finiteOrNull(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+
+nlohmann::json ladderJson(const ChipLadder& l) {
+  nlohmann::json runs = nlohmann::json::array();
+  for (std::size_t i = 0; i < l.runs.size(); ++i)
+    runs.push_back({{"cells_per_pixel", l.cells_per_pixel[i]},
+                    {"cells_xy", {l.runs[i].nx, l.runs[i].ny}},
+                    {"permeability_D", l.runs[i].permeability_m2 / kDarcyM2},
+                    {"wall_seconds", l.runs[i].seconds}});
+  const GridConvergence& g = l.convergence;
+  return {{"runs", runs},
+          {"status", g.status},
+          {"note", g.note},
+          {"observed_order", finiteOrNull(g.observed_order)},
+          {"extrapolated_D", finiteOrNull(g.extrapolated)},
+          {"gci", finiteOrNull(g.gci)},
+          {"band_D", {finiteOrNull(g.band_lo), finiteOrNull(g.band_hi)}},
+          {"method", "Celik et al. 2008 (J. Fluids Eng. 130, 078001): observed order from the three finest levels, Richardson extrapolation, GCI"}};
+}
+
+std::vector<double> grainDiametersUm(const ChipResult& r) {
+  std::vector<double> d;
+  for (const auto& c : r.packing.discs) d.push_back(2 * c.r * r.spec.pixel_um);
+  return d;
+}
+
+std::vector<ChipThroat> throatsOf(const ChipResult& r) {
+  return chipThroats(r.packing.discs, static_cast<int>(r.packing.solid.rows()), r.spec.wall_px, r.mean_grain_um / r.spec.pixel_um);
+}
+
+nlohmann::json target(double want, double tol, double got, bool relative) {
+  nlohmann::json j = {{"achieved", got}};
+  if (want > 0) {
+    j["target"] = want;
+    j["tolerance"] = tol;
+    j["tolerance_kind"] = relative ? "relative" : "absolute";
+    j["met"] = relative ? std::abs(got / want - 1) <= tol : std::abs(got - want) <= tol;
+  } else {
+    j["target"] = nullptr;
+  }
+  return j;
+}
+
+void writeHistogramCsv(const nlohmann::json& h, const std::string& quantity, const std::filesystem::path& file) {
+  std::ofstream f(file);
+  f << quantity << "_lo_um," << quantity << "_hi_um,count\n";
+  for (std::size_t i = 0; i < h["counts"].size(); ++i)
+    f << fmt::format("{:.6g},{:.6g},{}\n", h["edges_um"][i].get<double>(), h["edges_um"][i + 1].get<double>(), h["counts"][i].get<int>());
+  if (!f) throw std::runtime_error("cannot write " + file.string());
+}
+
+}  // namespace
+
+nlohmann::json chipStatistics(const ChipResult& r) {
+  const ChipSpec& s = r.spec;
+  const PoreSpaceReport pores = analysePoreSpace(r.packing.solid);
+  const Moments g = moments(grainDiametersUm(r));
+  std::vector<double> tw;
+  for (const auto& t : throatsOf(r)) tw.push_back(t.width_px * s.pixel_um);
+  const Moments t = moments(tw);
+  nlohmann::json j;
+  j["schema"] = "mmval chip statistics 1";
+  j["seed"] = s.seed;
+  j["image"] = {{"file", "chip.png"}, {"cols", r.packing.solid.cols()}, {"rows", r.packing.solid.rows()}, {"pixel_um", s.pixel_um},
+                {"grains", "dark"}, {"wall_px", s.wall_px}, {"port_um", s.port_um > 0 ? s.port_um : r.mean_grain_um}};
+  j["targets"] = {{"length_mm", s.length_mm},
+                  {"width_mm", s.width_mm},
+                  {"depth_um", s.depth_um},
+                  {"porosity", target(s.porosity, s.porosity_tolerance, pores.porosity_connected, false)},
+                  {"permeability_depth_averaged_D", target(s.permeability_D, s.permeability_tolerance, r.k_target_level_D, true)},
+                  {"permeability_at_cells_per_pixel", s.cells_per_pixel},
+                  {"mean_throat_um", target(s.mean_throat_um, s.permeability_D > 0 ? 0.0 : kChipThroatTolerance, t.mean, true)},
+                  {"mean_grain_um", target(s.permeability_D > 0 || s.mean_throat_um > 0 ? 0.0 : s.mean_grain_um, 0.05, g.mean, true)},
+                  {"grain_cv", target(s.grain_cv, 0.05, g.cv, false)}};
+  if (s.permeability_D > 0 && s.mean_throat_um > 0)
+    j["targets"]["mean_throat_um"]["note"] = "not tuned: at fixed porosity and grain-size distribution the grain scale that sets k also sets the throats";
+  j["porosity"] = {{"total", pores.porosity_total}, {"connected", pores.porosity_connected}, {"components", pores.components},
+                   {"spanning_components", pores.spanning_components},
+                   {"definition", "pore pixels / all pixels, walls included; connected: isolated pores closed (image-permeability's rule)"}};
+  const double gci = r.ladder_da.convergence.gci;
+  j["permeability"] = {{"2d", ladderJson(r.ladder_2d)},
+                       {"depth_averaged", ladderJson(r.ladder_da)},
+                       {"depth_um", s.depth_um},
+                       {"solved_on", {{"what", r.spec.solve_on_tile && (r.solved_cols != r.packing.solid.cols() || r.solved_rows != r.packing.solid.rows())
+                                                  ? "tile (same generator and scale, its own packing)" : "chip"},
+                                        {"cols", r.solved_cols}, {"rows", r.solved_rows}}},
+                       {"converged", r.ladder_da.convergence.has_order && std::isfinite(gci) && gci <= s.permeability_tolerance},
+                       {"converged_rule", "depth-averaged ladder monotone with an observed order and GCI of the finest level within the k tolerance"},
+                       {"boundary", s.smooth_boundary ? "smooth (image-permeability geometry.boundary = smooth, smoothing 0.75 px)" : "pixels"}};
+  j["grains"] = {{"count", r.packing.discs.size()}, {"mean_diameter_um", g.mean}, {"cv", g.cv}, {"min_diameter_um", g.min},
+                 {"median_diameter_um", g.median}, {"histogram", histogram(grainDiametersUm(r))},
+                 {"distribution", fmt::format("lognormal, clipped to [{:g}, {:g}] x the mean", kMinDiameterFactor, kMaxDiameterFactor)}};
+  j["throats"] = {{"count", tw.size()}, {"mean_width_um", t.mean}, {"mean_radius_um", 0.5 * t.mean}, {"min_width_um", t.min},
+                  {"median_width_um", t.median}, {"histogram", histogram(tw)},
+                  {"definition", "gap between two neighbouring grains (or a grain and a wall) along their line of centres, counted when its midpoint "
+                                 "is nearer to those two than to any other solid (a saddle of the distance map on the medial axis); widths up to "
+                                 "one mean grain diameter; from the disc geometry, not the pixels"}};
+  if (const Throat n = narrowestThroat(pores.solid_connected, s.pixel_um * 1e-6); n.path && std::isfinite(n.width_m))
+    j["narrowest_spanning_throat"] = {{"width_um", n.width_m * 1e6}, {"x_px", std::floor(n.x_m / (s.pixel_um * 1e-6))},
+                                      {"y_px", std::floor(r.packing.solid.rows() - n.y_m / (s.pixel_um * 1e-6))},
+                                      {"definition", "narrowest cross-section of the widest inlet-to-outlet path of the mask (ThroatCheck.hpp)"}};
+  nlohmann::json tuning = nlohmann::json::array();
+  for (const auto& st : r.tuning) tuning.push_back({{"where", st.where}, {"mean_grain_um", st.mean_grain_um}, {"value", st.value}, {"seconds", st.seconds}});
+  j["tuning"] = tuning;
+  j["tuning_quantity"] = s.permeability_D > 0 ? "depth-averaged k (D)" : s.mean_throat_um > 0 ? "mean throat width (um)" : "none";
+  j["generation"] = {{"mean_grain_um", r.mean_grain_um}, {"min_throat_px", s.min_throat_px}, {"relax_sweeps", r.packing.relax_sweeps},
+                     {"porosity_rounds", r.packing.porosity_rounds}, {"tile_mm", s.tile_mm}, {"wall_seconds", r.seconds}};
+  return j;
+}
+
+void writeChipOutputs(const ChipResult& r, const std::filesystem::path& dir) {
+  const BoolArray& solid = r.packing.solid;
+  cv::Mat mask(static_cast<int>(solid.rows()), static_cast<int>(solid.cols()), CV_8UC1);
+  for (int j = 0; j < mask.rows; ++j)
+    for (int i = 0; i < mask.cols; ++i) mask.at<std::uint8_t>(j, i) = solid(j, i) ? 0 : 255;
+  if (!cv::imwrite((dir / "chip.png").string(), mask)) throw std::runtime_error("cannot write " + (dir / "chip.png").string());
+  // Picture: grains grey, pores white, narrow throats red, the spanning path's narrowest circled blue.
+  cv::Mat pic;
+  cv::cvtColor(mask, pic, cv::COLOR_GRAY2BGR);
+  pic.setTo(cv::Scalar(110, 110, 110), mask == 0);
+  // Throats wider than the minimum gap by kMarkedThroatFactor or less are most of them (the
+  // relaxation leaves neighbours at the gap, as grains of a sand pack touch): one red pixel each.
+  const double mark = kMarkedThroatFactor * r.spec.min_throat_px;
+  const int radius = std::max(2, static_cast<int>(std::lround(r.spec.min_throat_px)));
+  for (const auto& t : throatsOf(r))
+    if (t.width_px <= mark) pic.at<cv::Vec3b>(static_cast<int>(t.y), static_cast<int>(t.x)) = cv::Vec3b(0, 0, 230);
+  if (r.stats.contains("narrowest_spanning_throat")) {
+    const auto& n = r.stats["narrowest_spanning_throat"];
+    cv::circle(pic, cv::Point(n["x_px"].get<int>(), n["y_px"].get<int>()), 4 * radius, cv::Scalar(230, 80, 0), std::max(1, radius / 2));
+  }
+  if (pic.cols > kPictureMaxCols) {
+    const double f = static_cast<double>(kPictureMaxCols) / pic.cols;
+    cv::resize(pic, pic, cv::Size(), f, f, cv::INTER_AREA);
+  }
+  if (!cv::imwrite((dir / "chip-picture.png").string(), pic)) throw std::runtime_error("cannot write chip-picture.png");
+  writeHistogramCsv(r.stats["grains"]["histogram"], "diameter", dir / "grain-sizes.csv");
+  writeHistogramCsv(r.stats["throats"]["histogram"], "width", dir / "throat-sizes.csv");
+  std::ofstream f(dir / "chip.json");
+  f << r.stats.dump(2) << "\n";
+  if (!f) throw std::runtime_error("cannot write chip.json");
+}
+
+}  // namespace mmval::simulate
