@@ -23,8 +23,8 @@ void declareFluid(Schema& schema, const FluidBlock& block);
 /// A binary image of the pore geometry: geometry.mask, geometry.pixel_size and
 /// geometry.grains (dark | bright; "light" read as the older spelling of "bright").
 struct MaskBlock {
-  std::string mask_doc;             ///< what the image is to this kind
-  std::string pixel_default;        ///< e.g. "1 um"; empty: required
+  std::string mask_doc = {};        ///< what the image is to this kind
+  std::string pixel_default = {};   ///< e.g. "1 um"; empty: required
   bool optional = false;            ///< the kind runs without an image
 };
 void declareMask(Schema& schema, const MaskBlock& block);
