@@ -30,6 +30,11 @@ struct CoupledSystem::Impl {
   int lag_max_its = 0;     ///< > 0: lagged factorisation (see setLaggedFactorisation)
   bool refactor = true;
   int factorisations = 0;
+  bool warm = false;        ///< warm-started steady re-solves (see setWarmStart)
+  int warm_max_its = 0;     ///< GMRES budget of a warm solve (0: factorise every solve)
+  double warm_rtol = 0;
+  int warm_its = 0;         ///< GMRES iterations of the last warm-start solve
+  bool warm_factorised = false;
   bool mass_schur = false;  ///< iterative Stokes: Schur complement preconditioned by the scaled pressure mass matrix
   Mat Sp = nullptr;
 
@@ -209,6 +214,61 @@ struct CoupledSystem::Impl {
     gather(op, state);
   }
 
+  void setGuess(const std::vector<double>& state, PetscInt lo, PetscInt hi) {
+    for (PetscInt r = lo; r < hi; ++r) check(VecSetValue(x, r, state[static_cast<std::size_t>(r)], INSERT_VALUES), "VecSetValue");
+    check(VecAssemblyBegin(x), "vec assembly");
+    check(VecAssemblyEnd(x), "vec assembly");
+  }
+
+  /// Warm start (setWarmStart): GMRES preconditioned by the kept factors from `state`; the plain
+  /// LU solve (preonly, as the direct path) on the first solve and when GMRES runs out of iterations.
+  void solveWarm(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats) {
+    auto t0 = std::chrono::steady_clock::now();
+    assemble(op, mode, state);
+    PetscInt lo = 0, hi = 0;
+    check(MatGetOwnershipRange(A, &lo, &hi), "ownership");
+    stats.assemble_seconds += secondsSince(t0);
+    t0 = std::chrono::steady_clock::now();
+    const detail::ScopedDefaultOption ordering("-fluid_mat_umfpack_ordering", "METIS", wantsMetis(op));
+    setOperators(op);
+    warm_its = 0;
+    warm_factorised = refactor || warm_max_its == 0;
+    if (!warm_factorised) {
+      check(KSPSetType(ksp, KSPGMRES), "KSPSetType");
+      check(KSPGMRESSetRestart(ksp, warm_max_its), "restart");  // no restart within the budget
+      check(KSPGMRESSetCGSRefinementType(ksp, KSP_GMRES_CGS_REFINE_IFNEEDED), "CGS refinement");
+      // No divergence test: the last field's residual in the rows of newly closed faces (penalty
+      // ~1e8 times the diagonal) exceeds PETSc's default 1e5 times the preconditioned right-hand
+      // side, which stopped GMRES before its first iteration on the Pore2Chip scene.
+      check(KSPSetTolerances(ksp, warm_rtol, 1e-300, 1e300, warm_max_its), "tol");
+      check(KSPSetInitialGuessNonzero(ksp, PETSC_TRUE), "initial guess");
+      check(KSPSetReusePreconditioner(ksp, PETSC_TRUE), "reuse pc");
+      setGuess(state, lo, hi);
+      check(KSPSolve(ksp, b, x), "KSPSolve");
+      KSPConvergedReason reason;
+      KSPGetConvergedReason(ksp, &reason);
+      PetscInt its = 0;
+      KSPGetIterationNumber(ksp, &its);
+      warm_its = static_cast<int>(its);
+      stats.linear_iterations += warm_its;
+      warm_factorised = reason <= 0;  // not converged within the budget (or broke down): factorise
+    }
+    if (warm_factorised) {
+      check(KSPSetType(ksp, KSPPREONLY), "KSPSetType");
+      check(KSPSetInitialGuessNonzero(ksp, PETSC_FALSE), "initial guess");
+      check(KSPSetReusePreconditioner(ksp, PETSC_FALSE), "reuse pc");
+      ++factorisations;
+      check(KSPSolve(ksp, b, x), "KSPSolve");
+      KSPConvergedReason reason;
+      KSPGetConvergedReason(ksp, &reason);
+      if (reason < 0) throw FlowFailure(fmt::format("the fluid linear solve failed ({})", KSPConvergedReasons[reason]), "refine the grid");
+      stats.linear_iterations += 1;
+      refactor = false;
+    }
+    stats.solve_seconds += secondsSince(t0);
+    gather(op, state);
+  }
+
   /// Diagonal Schur preconditioner -vol / mu per cell (pinned cells: their own diagonal).
   void buildMassSchur(const FlowOperator& op, PetscInt lo, PetscInt hi) {
     Vec d;
@@ -273,7 +333,21 @@ void CoupledSystem::factorise(const FlowOperator& op, Linearisation mode, const 
 int CoupledSystem::factorisations() const { return m->factorisations; }
 
 void CoupledSystem::solve(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats) {
-  m->solve(op, mode, state, stats);
+  if (m->warm) m->solveWarm(op, mode, state, stats);
+  else m->solve(op, mode, state, stats);
 }
+
+void CoupledSystem::setWarmStart(int max_iterations, double rtol) {
+  if (m->opt.linear != "direct") return;
+  m->warm = true;
+  m->warm_max_its = std::max(0, max_iterations);
+  m->warm_rtol = rtol;
+  m->lag_max_its = 0;
+  m->refactor = true;
+}
+
+int CoupledSystem::lastWarmIterations() const { return m->warm_its; }
+
+bool CoupledSystem::lastFactorised() const { return m->warm_factorised; }
 
 }  // namespace mmval::simulate

@@ -50,6 +50,20 @@ class CoupledSystem {
   /// Factorisations so far (direct solver).
   int factorisations() const;
 
+  /// Direct solver only (else nothing): solves of a steady system whose matrix changes between
+  /// solves but keeps its pattern (SteadyFlowSolver::update). Every factorisation after the first
+  /// is numeric only: the ordering and symbolic analysis of the first matrix are kept (they
+  /// depend on the pattern), and the plain LU solve (preonly) gives the direct path's answer.
+  /// max_iterations > 0: a solve first runs GMRES on the current matrix from the incoming
+  /// `state`, preconditioned by the kept LU factors, and factorises only when GMRES has not
+  /// reached `rtol` (relative to the preconditioned right-hand side) within that budget.
+  /// The first solve factorises.
+  void setWarmStart(int max_iterations, double rtol);
+  /// Warm start: GMRES iterations of the last solve (0 when it went straight to the LU) and
+  /// whether it factorised.
+  int lastWarmIterations() const;
+  bool lastFactorised() const;
+
  private:
   struct Impl;
   std::unique_ptr<Impl> m;

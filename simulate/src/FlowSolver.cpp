@@ -25,6 +25,8 @@ struct SteadyFlowSolver::Impl {
 
   Impl(FlowProblem prob, SolverOptions o, MPI_Comm c) : op(std::move(prob)), opt(std::move(o)), comm(c) {}
 
+  bool warm() const { return opt.keep_factorisation && opt.linear == "direct" && !op.problem().inertia; }
+
   void linearSolve(Linearisation mode) {
     try {
       sys->solve(op, mode, state, stats);
@@ -55,8 +57,13 @@ struct SteadyFlowSolver::Impl {
     stats = {};
     stats.unknowns = op.unknowns();
     stats.cells = static_cast<long long>(op.nx()) * op.ny();
-    if (!sys) sys = std::make_unique<CoupledSystem>(op, opt, comm);
-    state.assign(static_cast<std::size_t>(op.unknowns()), 0.0);
+    if (!sys) {
+      sys = std::make_unique<CoupledSystem>(op, opt, comm);
+      if (warm()) sys->setWarmStart(opt.warm_max_iterations, opt.warm_rtol);
+    }
+    const int factorised_before = sys->factorisations();
+    // Warm start: the last solution is the GMRES initial guess; otherwise start from rest.
+    if (!warm() || opt.warm_max_iterations <= 0 || state.size() != static_cast<std::size_t>(op.unknowns())) state.assign(static_cast<std::size_t>(op.unknowns()), 0.0);
     linearSolve(Linearisation::stokes);
     if (op.problem().inertia) {
       for (int k = 0; k < opt.max_newton; ++k) {
@@ -71,7 +78,23 @@ struct SteadyFlowSolver::Impl {
       }
       stats.converged = stats.update_norm < std::max(opt.newton_tolerance, 1e-6);
     }
+    stats.factorisations = sys->factorisations() - factorised_before;
     op.unpack(state, u, v, p);
+  }
+
+  void update(FlowProblem problem) {
+    const FlowProblem& old = op.problem();
+    const auto same = [](const Axis& a, const Axis& b) {  // the same grid: identical faces, not close ones
+      if (a.cells() != b.cells()) return false;
+      for (int k = 0; k <= a.cells(); ++k)
+        if (a.face(k) != b.face(k)) return false;
+      return true;
+    };
+    bool ok = same(old.x, problem.x) && same(old.y, problem.y) && old.inertia == problem.inertia;
+    for (std::size_t s = 0; s < old.boundary.size(); ++s) ok = ok && old.boundary[s].type == problem.boundary[s].type;
+    if (!ok) throw std::invalid_argument("SteadyFlowSolver::update: the new problem must keep the grid, the boundary types and the inertia setting");
+    op = FlowOperator(std::move(problem));
+    if (!warm()) sys.reset();  // nothing of the old matrix is reused: the next solve is a new solver's
   }
 };
 
@@ -81,6 +104,8 @@ SteadyFlowSolver::SteadyFlowSolver(FlowProblem problem, SolverOptions options, M
 }
 
 SteadyFlowSolver::~SteadyFlowSolver() = default;
+
+void SteadyFlowSolver::update(FlowProblem problem) { m->update(std::move(problem)); }
 
 const FlowStats& SteadyFlowSolver::solve() {
   m->solve();

@@ -476,8 +476,8 @@ TEST(MicromodelStages, ResolveWaitsForItsThresholdThenSeesTheDeposits) {
   classes[0].engine->insert({Vec3(55e-6, 75e-6, 10e-6)});  // in pixel (column 5, row 2)
   stages::ClassParticles ps{classes[0].engine->particles()};
   std::int64_t resolves = 0;
-  double seconds = 0, lost = 0, k = r0.permeability, blocked_at = -1;
-  const auto record = [&] { return stages::FlowRecord{resolves, seconds, lost, k, blocked_at}; };
+  double seconds = 0, lost = 0, k = r0.permeability, pressure_drop = 0, blocked_at = -1;
+  const auto record = [&] { return stages::FlowRecord{resolves, seconds, lost, k, pressure_drop, blocked_at}; };
   const double per_pixel = lm.packing * o.pixel * o.pixel * 10e-6;  // a 10 um layer on one pixel
   int n = 0;
   for (int c = 10; c < 20; ++c)
@@ -541,7 +541,8 @@ TEST(MicromodelStages, RecordFrameWritesADepositOnceAndMeasuresSpeedsBetweenFram
   EXPECT_NEAR(s.speed_sum, 50e-6, 1e-15);
   EXPECT_EQ(s.speed_n, 1);
   EXPECT_EQ(s.next_frame, 5);
-  EXPECT_EQ(s.retention, "0.4,3,1,1,1\n");
+  // frame, t_s, injected, inside, retained, left, retained_fraction (docs/outputs.md, "Tables")
+  EXPECT_EQ(s.retention, "4,0.4,3,1,1,1,0.333333333\n");
   EXPECT_NE(s.permeability.find("0.4,2e-12,"), std::string::npos) << s.permeability;
   // The next frame: the deposit is not written again; the mobile one moved 10 um in x.
   ps[0][0].x = Vec3(63e-6, 24e-6, 3e-6);

@@ -39,10 +39,15 @@ std::vector<double> pixelWallDistance(const PixelMask& solid, double pixel) {
 
 MicromodelFlow::MicromodelFlow(PixelMask grains, MicromodelFlowOptions options) : m_grains(std::move(grains)), m_opt(options) {
   if (m_grains.rows() < 2 || m_grains.cols() < 2) throw std::invalid_argument("MicromodelFlow: the mask needs at least 2 x 2 pixels");
-  if (!(m_opt.pixel > 0) || !(m_opt.depth > 0) || !(m_opt.viscosity > 0) || !(m_opt.darcy_velocity >= 0) || !(m_opt.cells_per_pixel > 0))
-    throw std::invalid_argument("MicromodelFlow: pixel, depth, viscosity, cells_per_pixel must be > 0 and the Darcy velocity >= 0");
+  if (!(m_opt.pixel > 0) || !(m_opt.depth > 0) || !(m_opt.viscosity > 0) || !(m_opt.darcy_velocity >= 0) || !(m_opt.cells_per_pixel > 0) ||
+      m_opt.warm_max_iterations < 0)
+    throw std::invalid_argument("MicromodelFlow: pixel, depth, viscosity, cells_per_pixel must be > 0, the Darcy velocity and the warm-start iterations >= 0");
   m_field = std::make_shared<GriddedFlow>(cols() + 2, rows() + 2, -0.5 * m_opt.pixel, -0.5 * m_opt.pixel, m_opt.pixel, m_opt.pixel);
 }
+
+MicromodelFlow::~MicromodelFlow() = default;
+MicromodelFlow::MicromodelFlow(MicromodelFlow&&) noexcept = default;
+MicromodelFlow& MicromodelFlow::operator=(MicromodelFlow&&) noexcept = default;
 
 void MicromodelFlow::pixelOf(double x, double y, int& col, int& row) const {
   col = static_cast<int>(std::floor(x / m_opt.pixel));
@@ -164,9 +169,22 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
         if (n_open > 0 && sum > 0) prob.depth_field(j, i) = sum / n_open;
       }
   }
-  simulate::SteadyFlowSolver solver(prob);
-  solver.solve();
+  // Warm start: the kept solver takes the changed geometry (same grid); direct: a fresh solver
+  // per solve, dropped after it (as its LU factors).
+  std::unique_ptr<simulate::SteadyFlowSolver> fresh;
+  if (m_opt.warm_start && m_solver) {
+    m_solver->update(std::move(prob));
+  } else {
+    simulate::SolverOptions so;
+    so.keep_factorisation = m_opt.warm_start;
+    so.warm_max_iterations = m_opt.warm_start ? m_opt.warm_max_iterations : 0;
+    (m_opt.warm_start ? m_solver : fresh) = std::make_unique<simulate::SteadyFlowSolver>(std::move(prob), so);
+  }
+  simulate::SteadyFlowSolver& solver = m_opt.warm_start ? *m_solver : *fresh;
+  const simulate::FlowStats& stats = solver.solve();
   FlowSolveResult r;
+  r.factorised = stats.factorisations > 0;
+  r.iterations = stats.linear_iterations - stats.factorisations;  // a factorising solve counts its LU solve as one
   const double q = solver.flowRate(simulate::Side::east);
   r.blocked = !(q > 0) || !std::isfinite(q);
   r.permeability = r.blocked ? 0.0 : m_opt.viscosity * q * W / (H * kPressureDrop);

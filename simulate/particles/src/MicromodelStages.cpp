@@ -85,6 +85,7 @@ MicromodelFlowOptions readFlow(const Case& c, const SceneGeometry& geo) {
   fo.darcy_velocity =
       c.has("flow.darcy_velocity") ? c.quantity("flow.darcy_velocity") : Q / ((rate_width > 0 ? rate_width : geo.height) * geo.depth);
   fo.cells_per_pixel = c.real("numerics.cells_per_pixel");
+  fo.warm_start = c.text("numerics.resolve") == "warm";
   return fo;
 }
 

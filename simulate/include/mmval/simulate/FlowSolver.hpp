@@ -146,6 +146,17 @@ struct SolverOptions {
   int max_newton = 30;
   double newton_tolerance = 1e-8;  ///< max |du| / max |u|
   double linear_rtol = 1e-10;      ///< iterative only
+  /// Direct solver, Stokes: re-solves after SteadyFlowSolver::update keep the linear solver.
+  /// Each factorisation after the first is numeric only (the ordering and symbolic analysis of
+  /// the first matrix are kept: the pattern does not change), with the same answer as a new
+  /// solver. warm_max_iterations > 0: the LU factors of an earlier geometry first precondition
+  /// GMRES on the changed one, from the last solution; when GMRES has not converged within that
+  /// many iterations the solve factorises the current matrix and keeps those factors.
+  bool keep_factorisation = false;
+  int warm_max_iterations = 0;
+  /// Warm start: GMRES tolerance, relative to the preconditioned right-hand side (the LU-
+  /// preconditioned residual estimates the error against the direct answer).
+  double warm_rtol = 1e-12;
 };
 
 struct BodyLoad {
@@ -161,6 +172,7 @@ struct FlowStats {
   double assemble_seconds = 0, solve_seconds = 0;
   double update_norm = 0;        ///< last Newton update, relative
   bool converged = true;
+  int factorisations = 0;        ///< LU factorisations in this solve (direct solver)
 };
 
 /// Creeping flow through a periodic square array of cylinders (Sangani & Acrivos):
@@ -176,6 +188,13 @@ class SteadyFlowSolver {
   ~SteadyFlowSolver();
   SteadyFlowSolver(const SteadyFlowSolver&) = delete;
   SteadyFlowSolver& operator=(const SteadyFlowSolver&) = delete;
+
+  /// Replaces the problem by one on the same grid (axes, boundary types and inertia setting;
+  /// e.g. other solids or depths). With SolverOptions::keep_factorisation the linear solver is
+  /// kept (its ordering and symbolic analysis; with warm_max_iterations > 0 also its factors and
+  /// the last solution as GMRES's start); otherwise the next solve() is a new solver's.
+  /// Throws std::invalid_argument when the grid differs.
+  void update(FlowProblem problem);
 
   /// Solves; throws FlowFailure (a NumericalFailure, exit 5) if a linear solve fails or the
   /// solution is not finite, naming the narrowest throat when the grid does not resolve it

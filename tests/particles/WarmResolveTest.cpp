@@ -1,0 +1,214 @@
+// Warm re-solves of the micromodel scene (MicromodelFlowOptions::warm_start, SolverOptions::
+// keep_factorisation): after deposits close pixels and plate layers thin the aperture, the
+// kept solver must give what a fresh direct solve of the same geometry gives. Reference: the
+// direct solve (a new solver, LU of the current matrix), the path every re-solve took before.
+// Default warm start (numeric refactorisation with the first solve's ordering and symbolic
+// analysis): the same bytes, which is what keeps checkpoint/resume exact. GMRES preconditioned
+// by the kept factors (warm_max_iterations > 0) stops at a preconditioned residual of 1e-12 of
+// the right-hand side, so k and the velocities agree to ~1e-10; the tests allow 1e-8 (k/k0 is
+// written with 6 digits). Unit tier: masks of 120 x 60 pixels, under a second each. The
+// DISABLED_ benchmark replays a deposit sequence on the full Pore2Chip mask (minutes; run with
+// --gtest_also_run_disabled_tests; MMVAL_BENCH_STEPS re-solves, MMVAL_BENCH_ITS GMRES budget).
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <random>
+
+#include "mmval/particles/DepositGrid.hpp"
+#include "mmval/particles/MicromodelFlow.hpp"
+#include "mmval/simulate/FlowSolver.hpp"
+#include "mmval/simulate/Geometry.hpp"
+#include "mmval/simulate/Grid.hpp"
+#include "mmval/simulate/PoreSpace.hpp"
+
+namespace mmval::particles {
+namespace {
+
+constexpr double kPixel = 5e-6, kDepth = 20e-6;
+constexpr double kAgree = 1e-8;  ///< warm against fresh direct: k and velocities, relative (see the header)
+
+/// 120 x 60 pixels with a few round grains (none touches the inlet or outlet column).
+PixelMask grains() {
+  PixelMask m = PixelMask::Constant(60, 120, false);
+  const double c[][3] = {{25, 15, 8}, {50, 40, 10}, {80, 18, 9}, {100, 45, 7}, {60, 10, 5}};
+  for (int r = 0; r < m.rows(); ++r)
+    for (int col = 0; col < m.cols(); ++col)
+      for (const auto& g : c) m(r, col) = m(r, col) || std::hypot(col - g[0], r - g[1]) < g[2];
+  return m;
+}
+
+MicromodelFlowOptions options(bool warm) {
+  MicromodelFlowOptions o;
+  o.pixel = kPixel;
+  o.depth = kDepth;
+  o.darcy_velocity = 1e-4;
+  o.cells_per_pixel = 0.5;
+  o.warm_start = warm;
+  return o;
+}
+
+/// Deposits as the scene makes them: column deposits at grain walls and plate layers
+/// (monolayer patches of 3 um particles) at random pore pixels, `n` of each.
+void depositSome(DepositGrid& d, const PixelMask& solid, std::mt19937& rng, int n) {
+  std::uniform_int_distribution<int> col(2, static_cast<int>(solid.cols()) - 3), row(0, static_cast<int>(solid.rows()) - 1);
+  const double column = kPixel * kPixel * kDepth;
+  for (int placed = 0; placed < 2 * n;) {
+    const int c = col(rng), r = row(rng);
+    if (solid(r, c) || d.closed()(r, c)) continue;
+    const double x = (c + 0.5) * kPixel, y = (solid.rows() - 1 - r + 0.5) * kPixel;
+    if (placed % 2 == 0) d.add(x, y, 1.5 * column);
+    else d.addLayer(x, y, 3.0 * column, 3e-6);
+    ++placed;
+  }
+}
+
+/// The node arrays the engines see and k, byte for byte (the same code path, not a tolerance).
+bool sameBits(const MicromodelFlow& a, const FlowSolveResult& ra, const MicromodelFlow& b, const FlowSolveResult& rb) {
+  const auto same = [](const std::vector<double>& x, const std::vector<double>& y) {
+    return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0;
+  };
+  return same(a.nodeUx(), b.nodeUx()) && same(a.nodeUy(), b.nodeUy()) && std::memcmp(&ra.permeability, &rb.permeability, sizeof(double)) == 0;
+}
+
+/// Largest velocity difference over the largest velocity, on the node arrays the engines see.
+double velocityDeviation(const MicromodelFlow& a, const MicromodelFlow& b) {
+  double dmax = 0, umax = 0;
+  for (std::size_t k = 0; k < a.nodeUx().size(); ++k) {
+    dmax = std::max({dmax, std::abs(a.nodeUx()[k] - b.nodeUx()[k]), std::abs(a.nodeUy()[k] - b.nodeUy()[k])});
+    umax = std::max({umax, std::abs(b.nodeUx()[k]), std::abs(b.nodeUy()[k])});
+  }
+  return dmax / umax;
+}
+
+TEST(WarmResolve, FirstSolveIsTheDirectSolveBitForBit) {
+  MicromodelFlow warm(grains(), options(true)), direct(grains(), options(false));
+  const FlowSolveResult a = warm.solve({}), b = direct.solve({});
+  EXPECT_TRUE(a.factorised);
+  EXPECT_EQ(a.iterations, 0);
+  // Identity of the code path, not a tolerance: the same LU solve of the same matrix.
+  ASSERT_EQ(warm.nodeUx().size(), direct.nodeUx().size());
+  EXPECT_EQ(std::memcmp(warm.nodeUx().data(), direct.nodeUx().data(), warm.nodeUx().size() * sizeof(double)), 0);
+  EXPECT_EQ(std::memcmp(&a.permeability, &b.permeability, sizeof(double)), 0) << a.permeability << " vs " << b.permeability;
+}
+
+TEST(WarmResolve, ReSolvesWithTheKeptAnalysisAreTheDirectSolvesBitForBit) {
+  // The default warm start: every re-solve factorises numerically with the first solve's
+  // ordering and symbolic analysis. Byte equality with a new solver per re-solve is what keeps
+  // a resumed run identical to an uninterrupted one (the checkpoint carries no factors).
+  const PixelMask solid = grains();
+  MicromodelFlow warm(solid, options(true));
+  warm.solve({});
+  DepositGrid d(solid, kPixel, kDepth, 0.5);
+  std::mt19937 rng(17);
+  for (int step = 0; step < 3; ++step) {
+    depositSome(d, solid, rng, 6);
+    const FlowSolveResult w = warm.solve(d.closed(), d.aperture());
+    MicromodelFlow fresh(solid, options(false));
+    const FlowSolveResult f = fresh.solve(d.closed(), d.aperture());
+    EXPECT_TRUE(w.factorised);
+    EXPECT_EQ(w.iterations, 0);
+    EXPECT_TRUE(sameBits(warm, w, fresh, f)) << "re-solve " << step << ": k " << w.permeability << " vs " << f.permeability;
+  }
+}
+
+TEST(WarmResolve, GmresReSolvesEqualFreshDirectSolvesAsDepositsGrow) {
+  const PixelMask solid = grains();
+  MicromodelFlowOptions o = options(true);
+  o.warm_max_iterations = 40;
+  MicromodelFlow warm(solid, o);
+  warm.solve({});
+  DepositGrid d(solid, kPixel, kDepth, 0.5);
+  std::mt19937 rng(11);
+  int warm_solves = 0;
+  for (int step = 0; step < 4; ++step) {
+    depositSome(d, solid, rng, 6);
+    const FlowSolveResult w = warm.solve(d.closed(), d.aperture());
+    MicromodelFlow fresh(solid, options(false));
+    const FlowSolveResult f = fresh.solve(d.closed(), d.aperture());
+    ASSERT_FALSE(f.blocked);
+    warm_solves += w.factorised ? 0 : 1;
+    EXPECT_NEAR(w.permeability, f.permeability, kAgree * f.permeability) << "re-solve " << step;
+    EXPECT_NEAR(w.pressure_drop, f.pressure_drop, kAgree * f.pressure_drop) << "re-solve " << step;
+    const double dev = velocityDeviation(warm, fresh);
+    EXPECT_LT(dev, kAgree) << "re-solve " << step;
+    std::printf("re-solve %d: k %.12g (fresh %.12g), %d GMRES iterations, %s, velocity deviation %.2g\n", step, w.permeability,
+                f.permeability, w.iterations, w.factorised ? "factorised" : "kept factors", dev);
+  }
+  // The point of the feature: the small changes are solved with the kept factors.
+  EXPECT_GE(warm_solves, 3);
+}
+
+TEST(WarmResolve, FactorisesWhenGmresRunsOutOfIterations) {
+  const PixelMask solid = grains();
+  MicromodelFlowOptions o = options(true);
+  o.warm_max_iterations = 1;  // no change converges in one iteration: every re-solve factorises
+  MicromodelFlow warm(solid, o), fresh(solid, options(false));
+  warm.solve({});
+  DepositGrid d(solid, kPixel, kDepth, 0.5);
+  std::mt19937 rng(5);
+  depositSome(d, solid, rng, 6);
+  const FlowSolveResult w = warm.solve(d.closed(), d.aperture()), f = fresh.solve(d.closed(), d.aperture());
+  EXPECT_TRUE(w.factorised);
+  EXPECT_EQ(w.iterations, 1);
+  // Then the plain LU solve of the current matrix, as a new solver's.
+  EXPECT_TRUE(sameBits(warm, w, fresh, f)) << "k " << w.permeability << " vs " << f.permeability;
+}
+
+TEST(WarmResolve, UpdateRejectsAnotherGrid) {
+  simulate::FlowProblem p;
+  p.x = simulate::uniformAxis(0, 1e-3, 8);
+  p.y = simulate::uniformAxis(0, 1e-3, 8);
+  simulate::SteadyFlowSolver s(p);
+  simulate::FlowProblem q = p;
+  q.x = simulate::uniformAxis(0, 1e-3, 9);
+  EXPECT_THROW(s.update(q), std::invalid_argument);
+  q = p;
+  q.boundary[0].type = simulate::BoundaryType::slip;
+  EXPECT_THROW(s.update(q), std::invalid_argument);
+}
+
+/// Benchmark (opt-in): the full Pore2Chip mask at the full scene's settings (10 um/px, 20 um deep,
+/// 0.5 cells per pixel), deposits of 5 um parcels added until 0.5 % of the pore columns are lost
+/// (coupling.resolve_threshold of cases/particles-micromodel-full.toml), then a warm and a direct re-solve.
+TEST(WarmResolve, DISABLED_BenchmarkPore2Chip) {
+  const PixelMask solid = simulate::analysePoreSpace(simulate::readMask(std::string(MMVAL_SHARED_DATA_DIR) + "/pore2chip/grain_network.png", true)).solid_connected;
+  MicromodelFlowOptions o = options(true);
+  o.warm_max_iterations = std::getenv("MMVAL_BENCH_ITS") ? std::atoi(std::getenv("MMVAL_BENCH_ITS")) : 0;
+  o.pixel = 10e-6;
+  o.darcy_velocity = 4.17e-4;
+  MicromodelFlowOptions od = o;
+  od.warm_start = false;
+  MicromodelFlow warm(solid, o), direct(solid, od);
+  std::printf("first solve %.2f s\n", warm.solve({}).seconds);
+  DepositGrid d(solid, o.pixel, kDepth, 0.5);
+  std::mt19937 rng(3);
+  const double pore = static_cast<double>((solid == false).count()), parcel = 241 * M_PI / 6 * 125e-18;
+  std::uniform_int_distribution<int> col(2, static_cast<int>(solid.cols()) - 3), row(0, static_cast<int>(solid.rows()) - 1);
+  double warm_s = 0, direct_s = 0;
+  for (int step = 0; step < (std::getenv("MMVAL_BENCH_STEPS") ? std::atoi(std::getenv("MMVAL_BENCH_STEPS")) : 12); ++step) {
+    const double target = d.lostColumns() + 5e-3 * pore;
+    for (int n = 0; d.lostColumns() < target; ++n) {
+      const int c = col(rng), r = row(rng);
+      if (solid(r, c) || d.closed()(r, c)) continue;
+      const double x = (c + 0.5) * o.pixel, y = (solid.rows() - 1 - r + 0.5) * o.pixel;
+      if (n % 3 == 0) d.add(x, y, parcel);
+      else d.addLayer(x, y, parcel, 5e-6);
+    }
+    const FlowSolveResult w = warm.solve(d.closed(), d.aperture());
+    const FlowSolveResult f = direct.solve(d.closed(), d.aperture());
+    warm_s += w.seconds;
+    direct_s += f.seconds;
+    std::printf("re-solve %2d: warm %.2f s (%d its, %s), direct %.2f s, k/k_direct - 1 = %.2g, velocity deviation %.2g\n", step, w.seconds,
+                w.iterations, w.factorised ? "factorised" : "kept", f.seconds, w.permeability / f.permeability - 1, velocityDeviation(warm, direct));
+    EXPECT_NEAR(w.permeability, f.permeability, kAgree * f.permeability);
+    if (o.warm_max_iterations == 0) EXPECT_TRUE(sameBits(warm, w, direct, f));
+  }
+  std::printf("total: warm %.1f s, direct %.1f s\n", warm_s, direct_s);
+}
+
+}  // namespace
+}  // namespace mmval::particles
