@@ -16,7 +16,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "../../apps/Registry.hpp"
+#include "AllKinds.hpp"
 #include "RunMmval.hpp"
 #include "mmval/core/CaseKind.hpp"
 #include "mmval/core/Units.hpp"
@@ -28,14 +28,7 @@ using mmval::test::runMmval;
 
 namespace {
 
-const mmval::CaseKindRegistry& registry() {
-  static const mmval::CaseKindRegistry r = [] {
-    mmval::CaseKindRegistry reg;
-    mmval::app::registerAllKinds(reg);
-    return reg;
-  }();
-  return r;
-}
+const mmval::CaseKindRegistry& registry() { return mmval::test::allKinds(); }
 
 std::string readFile(const fs::path& p) {
   std::ifstream in(p);

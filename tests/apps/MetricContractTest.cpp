@@ -24,7 +24,7 @@
 #include <string>
 #include <vector>
 
-#include "../../apps/Registry.hpp"
+#include "AllKinds.hpp"
 #include "mmval/core/Case.hpp"
 #include "mmval/core/CaseKind.hpp"
 #include "mmval/core/Error.hpp"
@@ -35,14 +35,7 @@ using namespace mmval;
 
 namespace {
 
-const CaseKindRegistry& registry() {
-  static const CaseKindRegistry r = [] {
-    CaseKindRegistry reg;
-    app::registerAllKinds(reg);
-    return reg;
-  }();
-  return r;
-}
+const mmval::CaseKindRegistry& registry() { return mmval::test::allKinds(); }
 
 std::vector<std::string> kindNames() { return registry().names(); }
 

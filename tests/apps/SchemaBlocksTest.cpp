@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "../../apps/Registry.hpp"
+#include "AllKinds.hpp"
 #include "mmval/core/CaseKind.hpp"
 #include "mmval/core/Schema.hpp"
 #include "mmval/core/SchemaBlocks.hpp"
@@ -16,14 +16,7 @@ using namespace mmval;
 
 namespace {
 
-const CaseKindRegistry& registry() {
-  static const CaseKindRegistry r = [] {
-    CaseKindRegistry reg;
-    app::registerAllKinds(reg);
-    return reg;
-  }();
-  return r;
-}
+const mmval::CaseKindRegistry& registry() { return mmval::test::allKinds(); }
 
 /// The blocks' own declarations, to compare every kind's against.
 const Schema& reference() {
