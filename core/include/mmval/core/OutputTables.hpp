@@ -3,7 +3,7 @@
 // writer: it owns the column names, their units, the number formats and the
 // derived columns (retained_fraction, k_D), so that every kind's file has the
 // same header and the same invariants. docs/outputs.md ("Tables") documents
-// the columns; tests/core/OutputTablesTest.cpp checks that the two agree and
+// the columns; tests/apps/OutputTablesTest.cpp checks that the two agree and
 // that every kind's files follow the schema.
 //
 // retention.csv, one row per output frame:
