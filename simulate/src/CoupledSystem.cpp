@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include <fmt/format.h>
 #include <petscksp.h>
@@ -174,20 +175,31 @@ struct CoupledSystem::Impl {
     ++factorisations;
   }
 
-  void solve(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats) {
-    auto t0 = std::chrono::steady_clock::now();
+  /// The initial guess of an iterative solve: this rank's rows of `state`.
+  void setGuess(const std::vector<double>& state, PetscInt lo, PetscInt hi) {
+    for (PetscInt r = lo; r < hi; ++r) check(VecSetValue(x, r, state[static_cast<std::size_t>(r)], INSERT_VALUES), "VecSetValue");
+    check(VecAssemblyBegin(x), "vec assembly");
+    check(VecAssemblyEnd(x), "vec assembly");
+  }
+
+  /// Assembles the system at `state` (its time counted as assembly); returns this rank's rows.
+  std::pair<PetscInt, PetscInt> assembleTimed(const FlowOperator& op, Linearisation mode, const std::vector<double>& state, FlowStats& stats) {
+    const auto t0 = std::chrono::steady_clock::now();
     assemble(op, mode, state);
     PetscInt lo = 0, hi = 0;
     check(MatGetOwnershipRange(A, &lo, &hi), "ownership");
     stats.assemble_seconds += secondsSince(t0);
-    t0 = std::chrono::steady_clock::now();
+    return {lo, hi};
+  }
+
+  void solve(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats) {
+    const auto [lo, hi] = assembleTimed(op, mode, state, stats);
+    const auto t0 = std::chrono::steady_clock::now();
     const detail::ScopedDefaultOption ordering("-fluid_mat_umfpack_ordering", "METIS", wantsMetis(op));
     setOperators(op);
     if (lag_max_its > 0) {
       // Initial guess: the incoming state (an extrapolation of the solution).
-      for (PetscInt r = lo; r < hi; ++r) check(VecSetValue(x, r, state[static_cast<std::size_t>(r)], INSERT_VALUES), "VecSetValue");
-      check(VecAssemblyBegin(x), "vec assembly");
-      check(VecAssemblyEnd(x), "vec assembly");
+      setGuess(state, lo, hi);
       check(KSPSetReusePreconditioner(ksp, refactor ? PETSC_FALSE : PETSC_TRUE), "reuse pc");
     }
     if (opt.linear == "direct" && (lag_max_its == 0 || refactor)) ++factorisations;
@@ -198,9 +210,7 @@ struct CoupledSystem::Impl {
       // The lagged factorisation is too far from the current matrix: refactorise and retry.
       refactor = true;
       ++factorisations;
-      for (PetscInt r = lo; r < hi; ++r) check(VecSetValue(x, r, state[static_cast<std::size_t>(r)], INSERT_VALUES), "VecSetValue");
-      check(VecAssemblyBegin(x), "vec assembly");
-      check(VecAssemblyEnd(x), "vec assembly");
+      setGuess(state, lo, hi);
       check(KSPSetReusePreconditioner(ksp, PETSC_FALSE), "reuse pc");
       check(KSPSolve(ksp, b, x), "KSPSolve");
       KSPGetConvergedReason(ksp, &reason);
@@ -214,21 +224,11 @@ struct CoupledSystem::Impl {
     gather(op, state);
   }
 
-  void setGuess(const std::vector<double>& state, PetscInt lo, PetscInt hi) {
-    for (PetscInt r = lo; r < hi; ++r) check(VecSetValue(x, r, state[static_cast<std::size_t>(r)], INSERT_VALUES), "VecSetValue");
-    check(VecAssemblyBegin(x), "vec assembly");
-    check(VecAssemblyEnd(x), "vec assembly");
-  }
-
   /// Warm start (setWarmStart): GMRES preconditioned by the kept factors from `state`; the plain
   /// LU solve (preonly, as the direct path) on the first solve and when GMRES runs out of iterations.
   void solveWarm(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats) {
-    auto t0 = std::chrono::steady_clock::now();
-    assemble(op, mode, state);
-    PetscInt lo = 0, hi = 0;
-    check(MatGetOwnershipRange(A, &lo, &hi), "ownership");
-    stats.assemble_seconds += secondsSince(t0);
-    t0 = std::chrono::steady_clock::now();
+    const auto [lo, hi] = assembleTimed(op, mode, state, stats);
+    const auto t0 = std::chrono::steady_clock::now();
     const detail::ScopedDefaultOption ordering("-fluid_mat_umfpack_ordering", "METIS", wantsMetis(op));
     setOperators(op);
     warm_its = 0;
