@@ -5,6 +5,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <vector>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
@@ -228,18 +229,29 @@ std::string retentionTable(const Tracks& tracks, const TrackStats& s, const std:
       it->second.first = std::min(it->second.first, p.t);
       it->second.last = std::max(it->second.last, p.t);
     }
+  // Each count as sorted event times, so that a row is three binary searches (long videos
+  // have tens of thousands of frames and tracks). A track enters at its first point; a
+  // deposited one is retained once it has entered and stopped (without a stop time: from its
+  // last point); any other leaves after its last point (which is never before its first).
+  std::vector<double> entered, retained, left;
+  for (const auto& [id, l] : lives) {
+    entered.push_back(l.first);
+    if (l.deposited)
+      retained.push_back(std::max(l.first, std::isfinite(l.stop) ? l.stop : l.last));
+    else
+      left.push_back(l.last);
+  }
+  for (auto* v : {&entered, &retained, &left}) std::sort(v->begin(), v->end());
+  const auto atMost = [](const std::vector<double>& v, double t) { return std::upper_bound(v.begin(), v.end(), t) - v.begin(); };
+  const auto before = [](const std::vector<double>& v, double t) { return std::lower_bound(v.begin(), v.end(), t) - v.begin(); };
   const double half_frame = 0.5 / fps;  // s: "at or before t" within the frames' resolution
   std::string out = tables::retentionHeader();
   for (int f : frame_index) {
     const double t = f / fps;
     tables::RetentionRow r{f, t, 0, 0, 0, 0};
-    for (const auto& [id, l] : lives) {
-      if (l.first > t + half_frame) continue;
-      ++r.injected;
-      // A deposited track without a stop time counts from its last point.
-      if (l.deposited && (std::isfinite(l.stop) ? l.stop : l.last) <= t + half_frame) ++r.retained;
-      else if (!l.deposited && l.last < t - half_frame) ++r.left;
-    }
+    r.injected = atMost(entered, t + half_frame);
+    r.retained = atMost(retained, t + half_frame);
+    r.left = before(left, t - half_frame);
     r.inside = r.injected - r.retained - r.left;
     out += tables::formatRow(r);
   }
