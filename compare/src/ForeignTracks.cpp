@@ -148,7 +148,10 @@ void sortTracks(Tracks& t) {
 ImportedTracks readTrackpy(const fs::path& file, const TrackImport& o) {
   std::ifstream in(file);
   if (!in) throw InputError({file.string(), 0, 0, {}}, "cannot open tracks file", {}, "a readable CSV file");
-  auto [header, header_line] = readHeader(in, file);
+  // Named, not a structured binding: clang 14 (the fuzz build) cannot capture bindings in a lambda.
+  const auto head = readHeader(in, file);
+  const std::vector<std::string>& header = head.first;
+  const int header_line = head.second;
   const Columns cols(header, file, header_line, "trackpy's linked columns x, y (pixels), frame, particle");
   const int c_x = cols.at("x"), c_y = cols.at("y"), c_frame = cols.at("frame");
   if (!cols.has("particle"))
@@ -311,7 +314,9 @@ const char* trackFormatName(TrackFormat f) {
 TrackFormat sniffTrackFormat(const fs::path& file) {
   std::ifstream in(file);
   if (!in) throw InputError({file.string(), 0, 0, {}}, "cannot open tracks file", {}, "a readable CSV file");
-  const auto [header, line_no] = readHeader(in, file);
+  const auto head = readHeader(in, file);
+  const std::vector<std::string>& header = head.first;
+  const int line_no = head.second;
   const auto has = [&](const char* name) { return std::find(header.begin(), header.end(), name) != header.end(); };
   if (has("POSITION_X")) return TrackFormat::trackmate;
   if (has("t_s") || has("x_um")) return TrackFormat::mmval;
