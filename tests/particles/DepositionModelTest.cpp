@@ -174,5 +174,68 @@ TEST(DepositionModel, LikeChargedDepositsBlock) {
   EXPECT_GT(countHeld(dl, Surface::bottom), 150);
 }
 
+// The torque balance beside a grain wall (HydroModel::surfaceAdhesionHolds) against Goldman, Cox &
+// Brenner (1967) written out here: a sphere of radius a touching a wall in linear shear G feels
+// drag 1.7009 x 6 pi mu a^2 G and torque 0.944 x 4 pi mu a^3 G; with G = u_centre / a the moment
+// about the contact point is (1.7009 x 6 + 0.944 x 4) pi mu a^2 u_centre. Adhesion F acts over the
+// contact radius (F a / K)^(1/3). The hold flips at the critical centre speed within 1 %.
+TEST(DepositionModel, GrainWallHoldFlipsAtTheGcbCriticalSpeed) {
+  SceneConfig c = dlvoScene(3.0, -0.077);
+  const double a = c.particle.radius(), mu = c.fluid.viscosity, K = c.attachment.contact_modulus, h = 20e-6;
+  const double F = 1e-9;  // a strong hold (N), so that the critical speed is well above round-off
+  const double u_crit = F * std::cbrt(F * a / K) / ((1.7009 * 6 + 0.944 * 4) * kPi * mu * a * a);
+  const Vec3 x(0, 0, h / 2);
+  // Centre speed per unit depth-averaged speed (the plane-Poiseuille profile at mid-depth, with
+  // Faxen's curvature term when on), so that the centre sees ratio x u_crit.
+  const double per_mean = HydroModel(std::make_shared<UniformFlow>(Vec2(1, 0), h), c).fluidVelocity(x).norm();
+  ASSERT_GT(per_mean, 1.4);
+  for (const double ratio : {0.99, 1.01}) {
+    auto flow = std::make_shared<UniformFlow>(Vec2(ratio * u_crit / per_mean, 0), h);
+    const HydroModel m(flow, c);
+    ASSERT_NEAR(m.fluidVelocity(x).norm(), ratio * u_crit, 1e-9 * u_crit);
+    double margin = 0;
+    EXPECT_EQ(m.surfaceAdhesionHolds(x, F, &margin), ratio < 1) << "speed " << ratio << " x critical";
+    EXPECT_NEAR(margin, 1 / ratio, 1e-9);
+  }
+  std::printf("grain wall hold of 1 nN: critical centre speed %.3g m/s\n", u_crit);
+}
+
+// Secondary-minimum holds at grain walls follow the same rule as at plates: in still fluid the
+// Maxwell fraction of arrivals is held (binomial, 2.5 standard errors), and in any real flow
+// (1 um/s here, ~1e3 x the well's critical speed) none is: the well's pull-off force of
+// ~1e-13 N cannot hold a 5 um sphere against the shear, so the flow carries it on along the wall.
+TEST(DepositionModel, SecondaryMinimumHoldsAtGrainsOnlyWhereTheShearAllows) {
+  const auto run = [](double u_mean) {
+    SceneConfig c = dlvoScene(3.0, -0.077);
+    c.attachment.grains = true;
+    c.attachment.bottom = false;
+    c.attachment.top = false;
+    c.gravity = 0;
+    const double a = c.particle.radius(), h = 20e-6, w = 400e-6;
+    auto flow = std::make_shared<HeleShawChannel>(4e-3, w, h, u_mean);
+    auto e = std::make_unique<OverdampedEngine>(flow, c);
+    std::vector<Vec3> xs;
+    for (int i = 0; i < 200; ++i) {
+      const double y = (i % 2 == 0) ? a + 0.05e-6 : w - a - 0.05e-6;  // within the 0.1 um capture distance
+      xs.emplace_back(10e-6 + (i / 2) * 12e-6, y, h / 2);
+    }
+    e->insert(xs);
+    e->advance(0.01);
+    return e;
+  };
+  const auto still = run(0.0);
+  const SurfaceChemistry* sc = still->chemistry(Surface::grain);
+  ASSERT_LT(sc->attachment.ln_alpha, -100.0);
+  const double depth = -sc->profile.secondary_minimum_kT;
+  ASSERT_GT(depth, 1.0);
+  const double ref = gsl_sf_gamma_inc_P(1.5, depth), se = std::sqrt(ref * (1 - ref) / 200.0);
+  const int held_still = countHeld(still->particles(), Surface::grain);
+  const auto moving = run(1e-6);
+  const int held_moving = countHeld(moving->particles(), Surface::grain);
+  std::printf("grain walls, %.2f kT well: still %d of 200 held (Maxwell %.3f), at 1 um/s %d\n", depth, held_still, ref, held_moving);
+  EXPECT_NEAR(held_still / 200.0, ref, 2.5 * se);
+  EXPECT_EQ(held_moving, 0);
+}
+
 }  // namespace
 }  // namespace mmval::particles

@@ -100,24 +100,41 @@ Vec3 HydroModel::force(const Vec3& x) const {
   return f;
 }
 
+namespace {
+
+/// Goldman, Cox & Brenner (1967) for a sphere touching a wall in linear shear of rate `shear`:
+/// drag 1.7009 x 6 pi mu a^2 shear and torque 0.944 x 4 pi mu a^3 shear; the moment about the
+/// contact point is drag x a + torque. Held when the adhesive moment load x contact radius (JKR/DMT
+/// radius (load a / K)^(1/3)) is at least that.
+bool torqueBalanceHolds(double shear, double load, double a, double mu, double modulus, double* margin) {
+  const double drag = 1.7009 * 6.0 * kPi * mu * a * a * shear;
+  const double torque = 0.944 * 4.0 * kPi * mu * a * a * a * shear;
+  const double applied = drag * a + torque;
+  const double contact = modulus > 0 ? std::cbrt(std::max(load, 0.0) * a / modulus) : 0.0;
+  const double resisting = std::max(load, 0.0) * contact;
+  if (margin != nullptr) *margin = applied > 0 ? resisting / applied : std::numeric_limits<double>::infinity();
+  return resisting >= applied;
+}
+
+}  // namespace
+
 bool HydroModel::plateAdhesionHolds(const Vec3& x, bool bottom, double* margin, double adhesion_force) const {
   const auto& c = m_cfg;
   const auto& at = c.attachment;
-  const double a = m_radius, mu = c.fluid.viscosity;
+  const double a = m_radius;
   const double h = m_flow->depth(x.x(), x.y());
   // Wall shear rate of the plane-Poiseuille depth profile: du/dz = 6 u_mean / h at both plates.
   const double shear = m_flow->isSolid(x.x(), x.y()) ? 0.0 : 6.0 * m_flow->meanVelocity(x.x(), x.y()).norm() / h;
-  const double drag = 1.7009 * 6.0 * kPi * mu * a * a * shear;
-  const double torque = 0.944 * 4.0 * kPi * mu * a * a * a * shear;
-  const double applied = drag * a + torque;  // moment about the contact point
   const double z0 = at.adhesion_separation;
   const double adhesion = adhesion_force >= 0 ? adhesion_force : at.hamaker > 0 && z0 > 0 ? at.hamaker * a / (6.0 * z0 * z0) : 0.0;
   const double weight = (c.particle.density - c.fluid.density) * c.particle.volume() * c.gravity;
-  const double load = std::max(adhesion + (bottom ? weight : -weight), 0.0);
-  const double contact = at.contact_modulus > 0 ? std::cbrt(load * a / at.contact_modulus) : 0.0;
-  const double resisting = load * contact;
-  if (margin != nullptr) *margin = applied > 0 ? resisting / applied : std::numeric_limits<double>::infinity();
-  return resisting >= applied;
+  return torqueBalanceHolds(shear, adhesion + (bottom ? weight : -weight), a, c.fluid.viscosity, at.contact_modulus, margin);
+}
+
+bool HydroModel::surfaceAdhesionHolds(const Vec3& x, double adhesion_force, double* margin) const {
+  const double a = m_radius;
+  const double shear = fluidVelocity(x).norm() / a;
+  return torqueBalanceHolds(shear, adhesion_force, a, m_cfg.fluid.viscosity, m_cfg.attachment.contact_modulus, margin);
 }
 
 bool HydroModel::captured(const Vec3& x) const {

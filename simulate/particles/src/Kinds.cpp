@@ -294,7 +294,8 @@ void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {
            "type from the [chemistry] keys (plates and grains: sphere-plate against chemistry.collector_zeta_mv; deposits: "
            "sphere-sphere against the particle's own potential), one draw per arrival: primary-minimum attachment with the "
            "interaction-force-boundary-layer efficiency, else secondary-minimum capture (Maxwell fraction, wells deeper than 1 kT; "
-           "on a plate only if the well's pull-off force holds against the shear's torque), else the particle stays mobile")
+           "held only where the well's pull-off force holds against the local shear's torque, at plates, grain walls and deposits "
+           "alike), else the particle stays mobile")
       .def("capture");
   s.quantity("deposition.capture_distance", "um", "Surface gap at which a particle attaches to a sticky surface (0: never)").def("0.1 um").nonNegative();
   s.boolean("deposition.bottom", "The bottom plate is sticky").def(true);

@@ -356,9 +356,13 @@ bool OverdampedEngine::dlvoArrival(ParticleState& p, Surface s, const SurfaceChe
   // Not over the barrier: captured in the secondary minimum with the Maxwell probability
   // (the same draw, rescaled to [0, 1) on the rest of the interval).
   if (sc.alpha >= 1 || (u - sc.alpha) / (1 - sc.alpha) >= sc.secondary_capture) return false;
-  // Held at a distance by the well's attraction alone: on a plate, only while that
-  // pull-off force holds against the shear's torque (released otherwise).
-  if ((s == Surface::bottom || s == Surface::top) && !m_model.plateAdhesionHolds(p.x, s == Surface::bottom, nullptr, sc.secondary_force)) return false;
+  // Held at a distance by the well's attraction alone: only while that pull-off force holds
+  // against the local shear's torque, on plates, grain walls and deposits alike (otherwise the
+  // flow carries it on along the surface and a later arrival draws again).
+  const bool plate = s == Surface::bottom || s == Surface::top;
+  if (plate ? !m_model.plateAdhesionHolds(p.x, s == Surface::bottom, nullptr, sc.secondary_force)
+            : !m_model.surfaceAdhesionHolds(p.x, sc.secondary_force))
+    return false;
   p.secondary = true;
   return true;
 }

@@ -73,6 +73,12 @@ class HydroModel {
   /// `adhesion_force` (N, >= 0) replaces the DMT contact adhesion A a / (6 z0^2): the
   /// dlvo rule passes the largest attraction of the secondary minimum (a particle held there).
   bool plateAdhesionHolds(const Vec3& x, bool bottom, double* margin = nullptr, double adhesion_force = -1.0) const;
+  /// The same torque balance for a particle held beside a grain wall or a deposit by a pull-off
+  /// force `adhesion_force` (N): the local shear is the fluid speed at the centre over the
+  /// centre's distance from the surface (the radius; GCB's wall drag and torque for a sphere
+  /// touching a wall in linear shear), no weight in the load (grain walls are vertical; the
+  /// direction of a deposit contact is not tracked, so gravity is left out for it too).
+  bool surfaceAdhesionHolds(const Vec3& x, double adhesion_force, double* margin = nullptr) const;
   bool nearWallShear() const { return m_near_wall_shear; }    ///< shear lag on (SceneConfig::near_wall_shear and wall_hindrance)
   bool nearContactDrag() const { return m_near_contact_drag; }  ///< GCB parallel drag on (SceneConfig::near_contact_drag)
   /// Single-wall Brenner factor at surface gap `gap` (tabulated, log-interpolated; exact series in Physics.hpp).

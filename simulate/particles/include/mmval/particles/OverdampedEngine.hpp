@@ -26,7 +26,11 @@
 // touched a deposit is an arrival. capture rule: it deposits and stays; on the
 // plates optionally only when the adhesive torque holds against the shear's
 // (AttachmentModel::torque_balance, HydroModel::plateAdhesionHolds). dlvo rule: the
-// DLVO profile of the surface type decides (AttachmentModel::Rule, SurfaceChemistry).
+// DLVO profile of the surface type decides (AttachmentModel::Rule, SurfaceChemistry);
+// a particle caught in a secondary minimum stays only while the well's pull-off force
+// holds against the local shear's torque, at plates, grain walls and deposits alike
+// (HydroModel::plateAdhesionHolds, surfaceAdhesionHolds): in flowing fluid it is carried
+// on along the surface, as Torkzaban et al. (2007) describe for secondary-minimum colloids.
 // A particle that would attach still overlapping a deposit (a push undone at a
 // grain) stays mobile for this step.
 // Not modelled: the wall correction of the lag for the parabola's curvature (the
