@@ -254,7 +254,7 @@ class CaseReader {
       } catch (const UnitError& e) {
         fail(line, key, e.what(), ref.unit, "a known unit");
       }
-      ref.source = "value given in the case file";
+      ref.source = ref.citation = "value given in the case file";
     } else if (n.is_string()) {
       const std::string text = *n.value<std::string>();
       try {
@@ -266,7 +266,7 @@ class CaseReader {
       } catch (const UnitError& e) {
         fail(line, key, e.what(), "\"" + text + "\"", "a number or a quantity such as \"2.5 D\"");
       }
-      ref.source = "value given in the case file";
+      ref.source = ref.citation = "value given in the case file";
     } else if (const toml::table* t = n.as_table()) {
       for (auto&& [k, v] : *t) {
         const std::string sub(k.str());
@@ -780,12 +780,18 @@ ReferenceValue lookupReference(const std::filesystem::path& file, std::string_vi
   if (row.uncertainty) v.uncertainty = *row.uncertainty * f;
   const ReferenceSource& s = ref.source(row.source);
   v.source = s.citation + (s.locator.empty() ? "" : ", " + s.locator) + (s.doi.empty() ? "" : ", doi:" + s.doi);
+  v.citation = s.citation;
+  v.locator = s.locator;
+  v.doi = s.doi;
+  v.setup = ref.setup;
   return v;
 }
 
 MetricResult evaluateMetric(const Acceptance& a, double value_si) {
   MetricResult m;
   m.name = a.label.empty() ? a.metric : a.metric + " (" + a.label + ")";
+  m.metric = a.metric;
+  m.label = a.label;
   m.unit = a.reference.unit;
   const double f = parseUnit(m.unit).to_si;
   m.value = value_si / f;
@@ -826,7 +832,12 @@ MetricResult evaluateMetric(const Acceptance& a, double value_si) {
 }
 
 nlohmann::json MetricResult::toJson() const {
-  nlohmann::json j = {{"name", name}, {"unit", unit}};
+  nlohmann::json j = {{"name", name}, {"metric", metricName()}, {"label", label}, {"unit", unit}};
+  try {
+    j["dimension"] = parseUnit(unit).dim.siString();
+  } catch (const UnitError&) {
+    j["dimension"] = nullptr;  // a runner's free-text unit; the report shows it as written
+  }
   j["value"] = std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
   if (reference) {
     if (reference->isInterval())
@@ -835,6 +846,10 @@ nlohmann::json MetricResult::toJson() const {
       j["reference"] = reference->value;
     if (reference->uncertainty) j["reference_uncertainty"] = *reference->uncertainty;
     j["source"] = reference->source;
+    j["source_ref"] = {{"citation", reference->citation.empty() ? reference->source : reference->citation},
+                       {"locator", reference->locator},
+                       {"doi", reference->doi}};
+    j["reference_setup"] = reference->setup;
   } else {
     j["reference"] = nullptr;
   }

@@ -107,11 +107,16 @@ ReferenceFile parseReferenceFile(const std::filesystem::path& path) {
   }
   ReferenceFile file;
   file.path = path;
-  checkKeys(path, doc, "", {"format", "title", "description", "sources", "rows"});
+  checkKeys(path, doc, "", {"format", "title", "description", "setup", "sources", "rows"});
   const std::string format = requireString(path, doc, "format", "", 1);
   if (format != "mmval-reference/1") fail(path, lineOf(*doc.get("format")), "format", "unsupported format", format, "\"mmval-reference/1\"");
   file.title = requireString(path, doc, "title", "", 1);
   file.description = requireString(path, doc, "description", "", 1);
+  if (doc.contains("setup")) {
+    file.setup = requireString(path, doc, "setup", "", 1);
+    if (!std::regex_match(file.setup, std::regex("[a-z0-9]+(-[a-z0-9]+)*")))
+      fail(path, lineOf(*doc.get("setup")), "setup", "bad setup name", file.setup, "lower-case words joined by '-', e.g. \"unbounded-cylinder\"");
+  }
 
   const toml::array* sources = doc["sources"].as_array();
   if (sources == nullptr || sources->empty()) fail(path, 0, "sources", "missing or empty", {}, "at least one [[sources]] table");

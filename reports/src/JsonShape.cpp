@@ -108,6 +108,14 @@ void checkMetric(const Shape& s, const json& m, const std::string& at, MetricUse
   s.need(m, at, "error", kNumber | kNull);
   s.maybe(m, at, "error_kind", kString);
   s.maybe(m, at, "source", kString);
+  // The typed fields (docs/outputs.md); optional, as result.json files written
+  // before them have only "name" and "source".
+  s.maybe(m, at, "metric", kString);
+  s.maybe(m, at, "label", kString);
+  s.maybe(m, at, "dimension", kString | kNull);
+  s.maybe(m, at, "reference_setup", kString);
+  if (const json* ref = s.maybe(m, at, "source_ref", kObject))
+    for (const char* key : {"citation", "locator", "doi"}) s.need(*ref, pathOf(at, "source_ref"), key, kString);
   s.maybe(m, at, "reference_uncertainty", kNumber);
   const json& reference = s.need(m, at, "reference", kNumber | kNull | kArray);
   if (reference.is_array()) {

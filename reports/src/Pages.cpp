@@ -44,7 +44,7 @@ std::string unitText(const nlohmann::json& m) {
 
 /// What a metric needs said beside it.
 std::string metricNote(const nlohmann::json& m, const nlohmann::json& details) {
-  const std::string name = m["name"].get<std::string>();
+  const std::string name = metricOf(m);
   if (name == "speed_ks_statistic")
     return "D: the largest gap between the two cumulative distributions of per-step speeds, an effect size (0: identical, 1: disjoint). See the p-value's note.";
   if (name == "speed_ks_p_value") {

@@ -47,13 +47,21 @@ std::optional<double> reference(const fs::path& dir, const std::string& file, co
 
 }  // namespace
 
-/// First metric named `name` or `name (label)` with a numeric value.
+std::string metricOf(const nlohmann::json& m) {
+  if (m.contains("metric") && m["metric"].is_string()) return m["metric"].get<std::string>();
+  return m.value("name", "");
+}
+
 std::optional<double> metricValue(const nlohmann::json& r, const std::string& name) {
-  for (const auto& m : r.value("metrics", nlohmann::json::array())) {
-    const std::string n = m.value("name", "");
-    if ((n == name || n.rfind(name + " (", 0) == 0) && m["value"].is_number()) return m["value"].get<double>();
-  }
+  for (const auto& m : r.value("metrics", nlohmann::json::array()))
+    if (metricOf(m) == name && m["value"].is_number()) return m["value"].get<double>();
   return std::nullopt;
+}
+
+bool paperCylinderSetup(const nlohmann::json& r) {
+  for (const auto& m : r.value("metrics", nlohmann::json::array()))
+    if (metricOf(m) == "c_D" && m.value("reference_setup", "") == kTable1Setup) return true;
+  return false;
 }
 
 std::string Table::markdown() const {
@@ -118,15 +126,9 @@ std::optional<Table> cylinderDragTable(const ReportInput& input, const fs::path&
   for (const auto& r : input.summary.results) {
     const auto& d = r["details"];
     if (!d.is_object() || !d.contains("Re") || !d["Re"].is_number()) continue;
-    // Only the paper's set-up: runs judged against Table 1 or Dennis & Chang
-    // (Schaefer-Turek runs also carry Re and c_D, at other geometries).
-    bool paper_setup = false;
-    for (const auto& m : r.value("metrics", nlohmann::json::array())) {
-      const std::string n = m.value("name", "");
-      if (n.rfind("c_D (", 0) == 0 && (n.find("paper") != std::string::npos || n.find("Dennis") != std::string::npos)) paper_setup = true;
-    }
+    // Only the paper's set-up (Schaefer-Turek runs also carry Re and c_D, in a channel).
     const auto cd = metricValue(r, "c_D");
-    if (!cd || !paper_setup) continue;
+    if (!cd || !paperCylinderSetup(r)) continue;
     double re = d["Re"].get<double>();
     for (double row : {10.0, 20.0, 40.0, 100.0})
       if (std::abs(re - row) <= 0.01 * row) re = row;

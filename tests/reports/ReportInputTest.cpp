@@ -42,8 +42,9 @@ std::string inputErrorOf(F&& f) {
 }
 
 nlohmann::json metric(const std::string& name, double value, const std::string& tolerance, bool pass) {
-  return {{"name", name}, {"value", value}, {"unit", "um/s"}, {"reference", 10.0}, {"error", value / 10.0 - 1}, {"error_kind", "relative"},
-          {"tolerance", tolerance}, {"pass", pass}, {"source", "experiment tracks"}};
+  return {{"name", name}, {"metric", name}, {"label", ""}, {"dimension", "m s^-1"}, {"value", value}, {"unit", "um/s"}, {"reference", 10.0},
+          {"error", value / 10.0 - 1}, {"error_kind", "relative"}, {"tolerance", tolerance}, {"pass", pass}, {"source", "experiment tracks"},
+          {"source_ref", {{"citation", "experiment tracks"}, {"locator", ""}, {"doi", ""}}}, {"reference_setup", ""}};
 }
 
 /// What `mmval run` writes, reduced to what the report reads.
@@ -85,6 +86,12 @@ TEST(InputFiles, NumberBeyondDoubleIsAnInputError) {
 
 TEST(JsonShape, ValidResultPasses) { EXPECT_NO_THROW(checkResultShape(validResult(), "result.json")); }
 
+TEST(JsonShape, ResultWrittenBeforeTheTypedFieldsStillPasses) {
+  nlohmann::json r = validResult();
+  for (const char* key : {"metric", "label", "dimension", "source_ref", "reference_setup"}) r["metrics"][0].erase(key);
+  EXPECT_NO_THROW(checkResultShape(r, "result.json"));
+}
+
 /// One field of a valid result.json spoiled, and the field path the error must name.
 struct Spoiled {
   std::string name;
@@ -111,6 +118,11 @@ INSTANTIATE_TEST_SUITE_P(
                       Spoiled{"PassString", [](nlohmann::json& r) { r["metrics"][0]["pass"] = "yes"; }, "metrics[0].pass"},
                       Spoiled{"ValueString", [](nlohmann::json& r) { r["metrics"][0]["value"] = "11"; }, "metrics[0].value"},
                       Spoiled{"ReferenceOneEnd", [](nlohmann::json& r) { r["metrics"][0]["reference"] = {1.0}; }, "metrics[0].reference"},
+                      Spoiled{"MetricNumber", [](nlohmann::json& r) { r["metrics"][0]["metric"] = 1; }, "metrics[0].metric"},
+                      Spoiled{"LabelNull", [](nlohmann::json& r) { r["metrics"][0]["label"] = nullptr; }, "metrics[0].label"},
+                      Spoiled{"SetupList", [](nlohmann::json& r) { r["metrics"][0]["reference_setup"] = {"unbounded"}; }, "metrics[0].reference_setup"},
+                      Spoiled{"SourceRefString", [](nlohmann::json& r) { r["metrics"][0]["source_ref"] = "Dennis"; }, "metrics[0].source_ref"},
+                      Spoiled{"SourceRefNoDoi", [](nlohmann::json& r) { r["metrics"][0]["source_ref"].erase("doi"); }, "metrics[0].source_ref.doi"},
                       Spoiled{"AllPassString", [](nlohmann::json& r) { r["all_pass"] = "true"; }, "all_pass"},
                       Spoiled{"WallSecondsMissing", [](nlohmann::json& r) { r["cost"].erase("wall_seconds"); }, "cost.wall_seconds"},
                       Spoiled{"HostNumber", [](nlohmann::json& r) { r["provenance"]["host"] = 1; }, "provenance.host"},

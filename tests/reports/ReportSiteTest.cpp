@@ -41,6 +41,14 @@ nlohmann::json metric(const std::string& name, double value, const std::string& 
   return m;
 }
 
+/// `m` with the typed fields of a metric judged against a reference of a declared setting.
+nlohmann::json typed(nlohmann::json m, const std::string& metric, const std::string& label, const std::string& setup) {
+  m["metric"] = metric;
+  m["label"] = label;
+  m["reference_setup"] = setup;
+  return m;
+}
+
 /// A result.json as `mmval run` writes it (reduced), with a case file beside the runs.
 void fakeRun(const fs::path& root, const std::string& name, const std::string& kind, nlohmann::json metrics, nlohmann::json details = nlohmann::json::object(),
              nlohmann::json files = nlohmann::json::array(), nlohmann::json resolved = nullptr) {
@@ -88,12 +96,12 @@ fs::path buildFixture(const std::string& name) {
   const fs::path root = mmval::test::scratch(name);  // per process: ctest runs each test of this suite as its own process, in parallel
   fs::remove_all(root);
   const std::string dc = "S. C. R. Dennis, G.-Z. Chang (1970). J. Fluid Mech. 42(3), 471-489., doi:10.1017/S0022112070001428";
-  fakeRun(root, "cyl-re20", "cylinder-channel", nlohmann::json::array({metric("c_D (Dennis & Chang)", 2.12, "1", 2.045, true, dc)}), {{"Re", 20.0}},
+  fakeRun(root, "cyl-re20", "cylinder-channel", nlohmann::json::array({typed(metric("c_D (Dennis & Chang)", 2.12, "1", 2.045, true, dc), "c_D", "Dennis & Chang", "unbounded-cylinder")}), {{"Re", 20.0}},
           nlohmann::json::array({"fields.vtr", "fields-speed.png"}));
   fakeVtr(root / "runs" / "cyl-re20" / "fields.vtr");
   fakePng(root / "runs" / "cyl-re20" / "fields-speed.png");
-  fakeRun(root, "cyl-re40", "cylinder-channel", nlohmann::json::array({metric("c_D (Dennis & Chang)", 1.9, "1", 1.522, false, dc)}), {{"Re", 40.0}});
-  fakeRun(root, "st-2d1", "cylinder-channel", nlohmann::json::array({metric("c_D", 5.58, "1", 5.58, true)}), {{"Re", 20.0}});
+  fakeRun(root, "cyl-re40", "cylinder-channel", nlohmann::json::array({typed(metric("c_D (Dennis & Chang)", 1.9, "1", 1.522, false, dc), "c_D", "Dennis & Chang", "unbounded-cylinder")}), {{"Re", 40.0}});
+  fakeRun(root, "st-2d1", "cylinder-channel", nlohmann::json::array({typed(metric("c_D", 5.58, "1", 5.58, true), "c_D", "", "confined-channel-cylinder")}), {{"Re", 20.0}});
   fakeRun(root, "zz-info-only", "channel", nlohmann::json::array({metric("flow_rate", 1.0, "m^2/s")}));
   fakeRun(root, "rendered", "tracking-rendered", nlohmann::json::array(), nlohmann::json::object(), nlohmann::json::array(),
           {{"inputs", {{"trajectories_run", "scene"}}}});

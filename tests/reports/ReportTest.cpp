@@ -130,6 +130,15 @@ nlohmann::json info(const std::string& name, double value, const std::string& un
   return {{"name", name}, {"value", value}, {"unit", unit}, {"reference", nullptr}, {"error", nullptr}, {"tolerance", nullptr}, {"pass", nullptr}};
 }
 
+/// An unjudged metric with the typed fields result.json carries (docs/outputs.md).
+nlohmann::json typedInfo(const std::string& name, const std::string& metric, const std::string& label, const std::string& setup, double value) {
+  nlohmann::json m = info(name, value, "1");
+  m["metric"] = metric;
+  m["label"] = label;
+  if (!setup.empty()) m["reference_setup"] = setup;
+  return m;
+}
+
 std::string slurp(const fs::path& p) {
   std::ifstream in(p);
   std::stringstream b;
@@ -161,12 +170,12 @@ TEST(Report, PaperTablesPermeabilityAndRetentionFromTheRunsPresent) {
     for (int i = 1; i <= 10; ++i) f << tables::formatRow(tables::RetentionRow{i, 10.0 * i, 100 * i, 10 * i, 40 * i, 50 * i});
   }
   // Cylinder at Re 20: ours and OpenFOAM's; a chip-permeability run.
-  fakeRun(dir / "runs" / "cyl20", "cyl20", "cylinder-channel", nlohmann::json::array({info("c_D (Dennis & Chang)", 2.10, "1")}),
+  fakeRun(dir / "runs" / "cyl20", "cyl20", "cylinder-channel", nlohmann::json::array({typedInfo("c_D (Dennis & Chang)", "c_D", "Dennis & Chang", "unbounded-cylinder", 2.10)}),
           {{"Re", 20.0}, {"solver", "mmval simulate"}});
-  fakeRun(dir / "runs" / "cyl20-openfoam", "cyl20-openfoam", "cylinder-channel", nlohmann::json::array({info("c_D (paper model)", 2.2366, "1")}),
+  fakeRun(dir / "runs" / "cyl20-openfoam", "cyl20-openfoam", "cylinder-channel", nlohmann::json::array({typedInfo("c_D (paper model)", "c_D", "paper model", "unbounded-cylinder", 2.2366)}),
           {{"Re", 20.0}, {"solver", "openfoam v1912"}});
   // A Schaefer-Turek run also has Re and c_D but is not the paper's set-up: not in Table 1.
-  fakeRun(dir / "runs" / "st", "st", "cylinder-channel", nlohmann::json::array({info("c_D", 5.58, "1")}), {{"Re", 20.0}});
+  fakeRun(dir / "runs" / "st", "st", "cylinder-channel", nlohmann::json::array({typedInfo("c_D", "c_D", "", "confined-channel-cylinder", 5.58)}), {{"Re", 20.0}});
   fakeRun(dir / "runs" / "chip", "chip", "image-permeability",
           nlohmann::json::array({info("permeability", 2.7, "D"), info("porosity_total", 0.61, "1"), info("porosity_connected", 0.6, "1")}));
   const ReportInput input = collect({dir});
@@ -198,6 +207,42 @@ TEST(Report, PaperTablesPermeabilityAndRetentionFromTheRunsPresent) {
     EXPECT_TRUE(fs::exists(dir / "report" / "figures" / "retention-time.svg"));
     EXPECT_THAT(slurp(dir / "report" / "figures" / "permeability-time.svg"), ::testing::HasSubstr("case III: -23.2 %"));
   }
+}
+
+TEST(PaperSetup, DecidedByTheReferenceSetupFieldNotByTheMetricName) {
+  // Two cylinder runs whose names say the opposite of their fields: the one named oddly
+  // but judged against an unbounded-cylinder reference is Table 1's; the one whose
+  // label says "paper model" and "Dennis" but declares no setting is not.
+  const fs::path dir = fs::path(MMVAL_BINARY_DIR) / "test-output" / "report-setup-field";
+  fs::remove_all(dir);
+  fakeRun(dir / "runs" / "drag-twenty", "drag-twenty", "cylinder-channel",
+          nlohmann::json::array({typedInfo("drag at twenty (my label)", "c_D", "my label", "unbounded-cylinder", 2.1)}), {{"Re", 20.0}});
+  fakeRun(dir / "runs" / "drag-forty", "drag-forty", "cylinder-channel",
+          nlohmann::json::array({typedInfo("c_D (paper model, Dennis & Chang)", "c_D", "paper model, Dennis & Chang", "", 1.6)}), {{"Re", 40.0}});
+  const ReportInput input = collect({dir});
+  ASSERT_EQ(input.summary.results.size(), 2u);
+  for (const auto& r : input.summary.results)
+    EXPECT_EQ(paperCylinderSetup(r), r["case"]["name"] == "drag-twenty") << r["case"]["name"];
+  const auto t = cylinderDragTable(input, fs::path(MMVAL_SOURCE_DIR) / "reference-data");
+  ASSERT_TRUE(t.has_value());
+  // Rows Re 10, 20, 40, 100; column 7 is "ours": 2.1 at Re 20 (-1.4 % from the paper model's
+  // 2.13), nothing at Re 40 although a run with Re 40 and c_D is present.
+  ASSERT_EQ(t->rows.size(), 4u);
+  ASSERT_EQ(t->header[7], "ours");
+  EXPECT_EQ(t->rows[1][7], "2.1");
+  EXPECT_EQ(t->rows[1][8], "-1.4 %");
+  EXPECT_EQ(t->rows[2][7], "not run");
+}
+
+TEST(MetricValue, MatchesTheDeclaredMetricNotTheDisplayName) {
+  const nlohmann::json run = {{"metrics", nlohmann::json::array({typedInfo("drag (Dennis & Chang)", "c_D", "Dennis & Chang", "", 2.1),
+                                                                 info("St", 0.3, "1"), info("c_L (old file)", 0.9, "1")})}};
+  ASSERT_TRUE(metricValue(run, "c_D").has_value());
+  EXPECT_NEAR(*metricValue(run, "c_D"), 2.1, 1e-12);
+  EXPECT_FALSE(metricValue(run, "drag").has_value());
+  // A file without "metric": its name is the metric as it stands (no parsing of labels).
+  EXPECT_NEAR(metricValue(run, "St").value_or(-1), 0.3, 1e-12);
+  EXPECT_FALSE(metricValue(run, "c_L").has_value());
 }
 
 TEST(Report, Table3CaseFromTheRunName) {

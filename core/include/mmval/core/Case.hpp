@@ -50,7 +50,13 @@ struct ReferenceValue {
   std::optional<double> uncertainty;   ///< absolute, SI
   std::string unit;                    ///< display unit ("1", "D", "m/s")
   Dimension dim;
-  std::string source;                  ///< citation (and locator) of the value
+  std::string source;                  ///< citation, locator and doi as one display string
+  /// The same source as separate fields (reference-data's [[sources]] entry);
+  /// a value given in the case file has only `citation`.
+  std::string citation, locator, doi;
+  /// The physical setting the value describes, as the reference file declares
+  /// it (`setup = "unbounded-cylinder"`); empty when the file declares none.
+  std::string setup;
   bool isInterval() const { return low.has_value(); }
 };
 
@@ -66,7 +72,9 @@ struct Acceptance {
 
 /// A metric evaluated against its acceptance entry (or reported without one).
 struct MetricResult {
-  std::string name;
+  std::string name;         ///< display name: `metric`, or "metric (label)"
+  std::string metric;       ///< the declared metric name; empty means `name`
+  std::string label;        ///< the acceptance entry's label, may be empty
   double value = 0.0;       ///< in `unit`
   std::string unit;         ///< display unit
   std::optional<ReferenceValue> reference;  ///< display-unit values
@@ -74,6 +82,11 @@ struct MetricResult {
   std::string tolerance;    ///< as written, empty when informational
   std::optional<bool> pass; ///< empty when informational
   std::string reason;
+  /// The declared metric name (`metric`, or `name` when a runner set only that).
+  const std::string& metricName() const { return metric.empty() ? name : metric; }
+  /// result.json's metric object (docs/outputs.md): "name", "metric", "label",
+  /// "unit", "dimension", and for a reference "source" (display string),
+  /// "source_ref" {citation, locator, doi} and "reference_setup".
   nlohmann::json toJson() const;
 };
 

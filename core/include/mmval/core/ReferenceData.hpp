@@ -41,6 +41,10 @@ struct ReferenceRow {
 struct ReferenceFile {
   std::filesystem::path path;
   std::string title, description;
+  /// Optional: the physical setting every row describes ("unbounded-cylinder",
+  /// "confined-channel-cylinder"); a reader decides what a value is comparable
+  /// with from this field, never from names or titles.
+  std::string setup;
   std::vector<ReferenceSource> sources;
   std::vector<ReferenceRow> rows;
   const ReferenceSource& source(const std::string& id) const;

@@ -35,10 +35,24 @@ std::string table3CaseOf(const std::string& run_name, const nlohmann::json& deta
 /// The paper's permeability reduction (percent) of a Table 3 case, if known.
 std::optional<double> table3Reduction(const std::filesystem::path& reference_dir, const std::string& roman);
 
+/// The reference setting of the paper's Table 1: the `setup` that
+/// reference-data/cylinder-drag-paper-table1.toml and
+/// cylinder-drag-dennis-chang.toml declare (a metric's "reference_setup").
+inline constexpr const char* kTable1Setup = "unbounded-cylinder";
+
+/// A result.json metric's declared metric name: its "metric" field, or for a
+/// file written before that field existed, its "name" as it stands.
+std::string metricOf(const nlohmann::json& metric);
+
+/// True when the run is set up as the paper's Table 1 cylinder: one of its
+/// c_D metrics is judged against a reference whose declared setting
+/// ("reference_setup") is kTable1Setup. Decided by that field alone, never by
+/// metric names or labels; a run without the field is not counted.
+bool paperCylinderSetup(const nlohmann::json& run);
+
 /// Table 1: C_d against Re, paper columns ([66]-[69], the paper's model),
 /// Dennis & Chang, ours and OpenFOAM where they ran. Runs count when they have
-/// details.Re and a metric "c_D (...)" judged against the paper's model or
-/// Dennis & Chang (as the cylinder-paper-re* cases are); none: no table.
+/// details.Re and paperCylinderSetup(run); none: no table.
 std::optional<Table> cylinderDragTable(const ReportInput& input, const std::filesystem::path& reference_dir);
 
 /// Table 2: chip permeability and porosity, measured and the paper's model,
@@ -61,7 +75,8 @@ std::vector<std::string> table3TimeColumns(const nlohmann::json& run);
 /// "candidate" label); none: no table.
 std::optional<Table> engineComparisonTable(const ReportInput& input);
 
-/// A run's first metric named `name` or `name (label)` with a numeric value (result.json's metrics).
+/// The value of a run's first metric whose declared metric (metricOf) is
+/// `name` and whose value is a number (result.json's metrics).
 std::optional<double> metricValue(const nlohmann::json& run, const std::string& name);
 
 /// A run's time series read from a CSV with a header: column name -> values.

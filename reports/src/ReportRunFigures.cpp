@@ -1,0 +1,137 @@
+// writeReport's figure stages of single runs and comparisons: comparison
+// plots and images, the paper's permeability and retention figures, physics
+// checks, and the images runs wrote.
+#include <fmt/format.h>
+
+#include "mmval/reports/PaperFigures.hpp"
+#include "mmval/reports/PhysicsFigures.hpp"
+#include "mmval/reports/Site.hpp"
+#include "ReportStages.hpp"
+
+namespace fs = std::filesystem;
+
+namespace mmval::reports::detail {
+
+namespace {
+
+/// One comparison's figures; `names` says what its two sides are.
+void comparisonFigure(const ComparisonInput& c, const ComparisonNames& names, const std::string& owner, FigureSink& sink) {
+  auto timePlot = [&](const std::string& file, const std::string& title, const std::string& ylabel, const std::string& id) {
+    if (!fs::exists(c.dir / file)) return;
+    const auto cols = readColumns(c.dir / file);
+    if (cols.size() < 3) return;
+    Plot p{title, "t (s)", ylabel, false, false, {{names.reference_short, cols[0], cols[1], "linespoints"}, {names.candidate_short, cols[0], cols[2], "linespoints"}}};
+    sink.addPlot(c.name + "-" + id, title + " (" + names.kind + ": " + names.reference + " against " + names.candidate + ")", p, owner);
+  };
+  timePlot("mean_speed_time_um_per_s.csv", "Mean particle speed against time", "speed (um/s)", "speed");
+  timePlot("sigma_x_time_um.csv", "Dispersion sigma_x against time", "sigma_x (um)", "sigma-x");
+  timePlot("sigma_y_time_um.csv", "Dispersion sigma_y against time", "sigma_y (um)", "sigma-y");
+  if (fs::exists(c.dir / "speed_histogram.csv")) {
+    const auto cols = readColumns(c.dir / "speed_histogram.csv");
+    if (cols.size() >= 3)
+      sink.addPlot(c.name + "-histogram", "Speed distributions per step (" + names.kind + ": " + names.reference + " against " + names.candidate + ")",
+                   Plot{"Speed distribution", "speed (um/s)", "fraction of steps", false, false,
+                        {{names.reference_short, cols[0], cols[1], "steps"}, {names.candidate_short, cols[0], cols[2], "steps"}}},
+                   owner);
+  }
+  if (fs::exists(c.dir / "streamlines.png"))
+    sink.addImage(c.name + "-streamlines",
+                  "Streamline occupancy: " + names.reference + " | " + names.candidate + " | overlay (magenta: the first, green: the second, white: both)",
+                  c.dir / "streamlines.png", owner);
+  if (fs::exists(c.dir / "regions.png"))
+    sink.addImage(c.name + "-regions", "Pore bodies (blue) and throats (orange) of the geometry mask", c.dir / "regions.png", owner,
+                  fs::exists(c.dir / "region_speeds.csv") ? relativeLink(c.dir / "region_speeds.csv", sink.out()) : std::string(),
+                  "region_speeds.csv (CSV)");
+  if (fs::exists(c.dir / "registration.png"))
+    sink.addImage(c.name + "-registration",
+                  "Registration check: the frame of " + names.reference + " with the mask's grain outlines (green) carried by the fitted motion",
+                  c.dir / "registration.png", owner);
+}
+
+/// The file behind a run's image, its label and (speed fields) a colour bar.
+struct ImageData {
+  std::string data, label, bar;
+};
+
+ImageData imageData(const fs::path& run_dir, const std::string& name, const fs::path& out) {
+  ImageData d;
+  const fs::path p = run_dir / name;
+  const fs::path vtr = run_dir / "fields.vtr";
+  const std::string file_name = fs::path(name).filename().string();
+  // Speed fields: a colour bar from 0 to the largest cell speed of the run's fields.vtr
+  // (simulate scales them so).
+  if (file_name == "speed.png" || (file_name.rfind("fields", 0) == 0 && file_name.find("speed") != std::string::npos)) {
+    const bool plane = name.find("middepth") != std::string::npos;
+    const double vmax = plane ? std::nan("") : maxSpeedOfVtr(vtr);
+    d.bar = colourBarHtml(0.0, vmax, "m/s", plane ? "speed |u| on the mid-depth plane (range of the plane)" : "speed |u|");
+    if (fs::exists(vtr)) {
+      d.data = relativeLink(vtr, out);
+      d.label = "fields (.vtr)";
+    }
+  }
+  // Tracking images: the CSV they are drawn from sits beside them.
+  const char* csv = file_name == "speed_map.png" ? "velocities.csv" : "tracks.csv";
+  if (d.data.empty() && fs::exists(p.parent_path() / csv)) {
+    d.data = relativeLink(p.parent_path() / csv, out);
+    d.label = std::string(csv) + " (CSV)";
+  }
+  return d;
+}
+
+}  // namespace
+
+void comparisonFigures(const ReportInput& input, FigureSink& sink) {
+  for (const auto& c : input.comparisons) comparisonFigure(c, comparisonNames(runOf(input, c), input), ownerOf(input, c), sink);
+}
+
+PaperFigureResults paperFigures(const ReportInput& input, const fs::path& reference_dir, FigureSink& sink) {
+  PaperFigureResults results;
+  const PermeabilityFigure permeability = permeabilityFigure(input, reference_dir);
+  if (permeability.plot)
+    sink.addPlot("permeability-time",
+                 "Normalised permeability k/k0 against time of every run that wrote permeability.csv; filled diamonds with labels: the paper's Table 3 reductions.",
+                 *permeability.plot);
+  for (const auto& m : permeability.metrics) results.metrics.push_back(m);
+  results.reduction_rows = permeability.rows;
+  if (const auto p = retentionFigure(input, reference_dir))
+    sink.addPlot("retention-time",
+                 "Retained fraction against time: every run's retention.csv (retained / injected; for a tracked video, injected counts the tracks that entered "
+                 "the field of view) and track comparisons (retained / mobile seen so far; the tracked side of a pipeline check is a rendered simulation, not an "
+                 "experiment).",
+                 *p);
+  return results;
+}
+
+void physicsFigures(const ReportInput& input, const fs::path& reference_dir, FigureSink& sink) {
+  if (!sink.plots()) return;
+  for (const auto& r : input.summary.results)
+    for (const CheckFigure& cf : physicsCheckFigures(r, reference_dir)) {
+      Figure f;
+      f.id = pageKey(r) + "-" + cf.id;
+      f.caption = cf.caption;
+      f.owner = pageKey(r);
+      f.svg = renderSvg(cf.plot);
+      f.data = relativeLink(cf.data, sink.out());
+      f.data_label = cf.data.filename().string() + " (CSV)";
+      sink.addRendered(std::move(f));
+    }
+}
+
+void runImages(const ReportInput& input, FigureSink& sink) {
+  for (const auto& r : input.summary.results) {
+    if (!r.contains("run_dir")) continue;
+    const fs::path run_dir = r["run_dir"].get<std::string>();
+    const std::string case_name = pageKey(r);
+    for (const auto& f : r.value("files", nlohmann::json::array())) {
+      const std::string name = f.get<std::string>();
+      if (name.size() <= 4 || name.substr(name.size() - 4) != ".png") continue;
+      const fs::path p = run_dir / name;
+      if (!fs::exists(p)) continue;
+      ImageData d = imageData(run_dir, name, sink.out());
+      const std::string caption = name + (d.bar.empty() ? std::string() : " (speed field, viridis from 0 to the largest cell speed)");
+      sink.addImage(case_name + "-" + fs::path(name).stem().string(), caption, p, case_name, std::move(d.data), std::move(d.label), std::move(d.bar));
+    }
+  }
+}
+
+}  // namespace mmval::reports::detail
