@@ -9,6 +9,7 @@
 
 #include "mmval/core/Case.hpp"
 #include "mmval/core/CaseKind.hpp"
+#include "mmval/simulate/CylinderScene.hpp"
 #include "mmval/simulate/FlowSolver.hpp"
 
 #include "SolverUtil.hpp"
@@ -34,10 +35,10 @@ void writeFields(const SteadyFlowSolver& s, const RunContext& ctx, const std::st
 
 /// Unsteady cylinder keys (Courant limit, perturbation, statistics window, refined box).
 void declareUnsteadyCylinderKeys(Schema& s);
-/// Runs the unsteady cylinder-channel case: make_problem(cells_around) builds each level's problem;
-/// coef = 2 / (rho U_ref^2 L_ref) turns forces into coefficients.
-RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::function<FlowProblem(int level)>& make_problem, double coef, double Uref,
-                              double D, double cx, double cy);
+/// Runs the unsteady cylinder-channel case of `scene`: make_problem(cells_around) builds each
+/// level's problem; forces become coefficients by scene.forceCoefficient().
+RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const CylinderScene& scene,
+                              const std::function<FlowProblem(int level)>& make_problem);
 
 
 }  // namespace mmval::simulate::detail

@@ -15,6 +15,7 @@
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/core/SchemaBlocks.hpp"
+#include "mmval/simulate/CylinderScene.hpp"
 #include "mmval/simulate/ThroatCheck.hpp"
 #include "mmval/simulate/Kinds.hpp"
 
@@ -44,7 +45,11 @@ CaseKind cylinderChannelKind() {
     s.choice("numerics.mode", {"steady", "unsteady"}, "Steady (Newton) or unsteady (BDF2 time stepping) solution").def("steady");
     s.quantity("numerics.end_time", "s", "Unsteady: simulated time").def("8 s").positive();
     s.quantity("numerics.time_step", "s", "Unsteady: first time step (then adjusted: mmval grows it by at most 25 % per step up to the Courant limit numerics.max_courant)").def("1e-3 s").positive();
-    s.integer("numerics.cells_around", "Resolution: cells around the cylinder (mmval: near-body spacing h = pi D / cells_around)").def(64).min(8).max(4096);
+    s.integer("numerics.cells_around",
+              "Resolution: cells around the cylinder's circumference, so the surface spacing is pi D / cells_around in both solvers "
+              "(mmval: uniform cells of that size in a box about the cylinder and its near wake; OpenFOAM: an O-grid with cells_around "
+              "cells on the circumference, a multiple of 4, and cells of at most 8 D / cells_around at the edge of its 2 D box)")
+        .def(64).min(8).max(4096);
     s.integerList("numerics.levels", "Resolution ladder (cells_around per level); absent: one run at cells_around").optional();
     s.real("numerics.stretch_ratio", "mmval: growth ratio of neighbouring cells outside the refined box").def(1.05).min(1.0).max(1.3);
     s.real("numerics.max_cell_ratio", "mmval: largest cell over the near-body spacing h").def(4.0).min(1.0).max(64);
@@ -73,34 +78,27 @@ CaseKind cylinderChannelKind() {
     declareUnsteadyCylinderKeys(s);
   };
   k.run = [](const Case& c, const RunContext& ctx) {
-    const double Lx = c.quantity("geometry.length"), H = c.quantity("geometry.height");
-    const double cx = c.quantity("geometry.cylinder_x"), cy = c.quantity("geometry.cylinder_y"), D = c.quantity("geometry.diameter");
-    const double rho = c.quantity("fluid.density"), mu = c.quantity("fluid.viscosity");
-    const double Umax = c.quantity("inflow.max_velocity");
-    const bool uniform = c.text("inflow.profile") == "uniform", slip = c.text("geometry.walls") == "slip";
-    if (cx - 0.5 * D <= 0 || cy - 0.5 * D <= 0 || cy + 0.5 * D >= H || cx + 0.5 * D >= Lx)
-      throw InputError(c.where("geometry.cylinder_x"), "the cylinder does not fit inside the channel", {}, "0 < x - d/2, x + d/2 < length, 0 < y - d/2, y + d/2 < height");
-    const double Uref = c.has("forces.reference_velocity") ? c.quantity("forces.reference_velocity") : (uniform ? 1.0 : 2.0 / 3.0) * Umax;
-    const double Lref = c.has("forces.reference_length") ? c.quantity("forces.reference_length") : D;
-    const double coef = 2.0 / (rho * Uref * Uref * Lref);
+    const CylinderScene scene = readCylinderScene(c);
+    const double Lx = scene.length_m, H = scene.height_m;
+    const double cx = scene.centre_x_m, cy = scene.centre_y_m, D = scene.diameter_m;
+    const double Lref = scene.l_ref_m;
+    const double coef = scene.forceCoefficient();
     const std::vector<int> levels = levelsOf(c, "numerics.cells_around", 8, 4096);
     const Acceptance* primary = c.acceptanceFor("c_D");
     const Acceptance* lift = c.acceptanceFor("c_L");
-    const bool probes = c.has("probes.pressure_a") && c.has("probes.pressure_b");
-    if (probes && (c.reals("probes.pressure_a").size() != 2 || c.reals("probes.pressure_b").size() != 2))
-      throw InputError(c.where("probes.pressure_a"), "a probe needs two coordinates", {}, "[\"x\", \"y\"]");
+    const bool probes = !scene.pressure_probes.empty();
     RunOutput out;
     out.details["solver"] = kSolverName;
     out.details["immersed"] = immersedLabel(c);
-    out.details["Re"] = rho * Uref * D / mu;
-    out.details["domain"] = {{"length_m", Lx}, {"height_m", H}, {"blockage", D / H}};
+    out.details["Re"] = scene.reynolds();
+    out.details["domain"] = {{"length_m", Lx}, {"height_m", H}, {"blockage", scene.blockage()}};
     nlohmann::json ladder = nlohmann::json::array();
     std::unique_ptr<SteadyFlowSolver> last;
     BodyLoad load;
     double dp = 0;
     const double down = c.real("numerics.refine_downstream"), across = c.real("numerics.refine_across");
     const double wall_refine = c.real("numerics.wall_refine");
-    if (wall_refine > 1 && slip)
+    if (wall_refine > 1 && scene.slip_walls)
       throw InputError(c.where("numerics.wall_refine"), "a wall layer needs no-slip walls", fmt::format("{} with slip walls", wall_refine),
                        "1 (no wall layer) or geometry.walls = \"no-slip\"");
     const int body_refine = static_cast<int>(c.integer("numerics.body_refine"));
@@ -110,7 +108,7 @@ CaseKind cylinderChannelKind() {
       throw InputError(c.where("numerics.grid_offset"), "the grid offset needs two fractions of a cell", fmt::format("{} values", offset.size()),
                        "[x, y], each in [0, 1)");
     auto makeProblem = [&](int cells_around) {
-      const double h = M_PI * D / cells_around;
+      const double h = surfaceSpacing(scene, cells_around);
       const double ratio = c.real("numerics.stretch_ratio"), hmax = c.real("numerics.max_cell_ratio") * h;
       FlowProblem p;
       // Refined box: 0.75 D upstream, `across` D to the sides, `down` D downstream
@@ -134,22 +132,21 @@ CaseKind cylinderChannelKind() {
       }
       if (wall_refine > 1) p.y = wallGradedAxis(p.y, h / wall_refine, grade);
       p.boundary[0].type = BoundaryType::velocity;
-      if (uniform) p.boundary[0].velocity = [Umax](double) { return Umax; };
-      else p.boundary[0].velocity = [Umax, H](double y) { return 4 * Umax * y * (H - y) / (H * H); };
+      p.boundary[0].velocity = [scene](double y) { return scene.inflowAt(y); };
       p.boundary[1].type = BoundaryType::pressure;
-      p.boundary[2].type = p.boundary[3].type = slip ? BoundaryType::slip : BoundaryType::no_slip;
-      p.density = rho;
-      p.viscosity = mu;
+      p.boundary[2].type = p.boundary[3].type = scene.slip_walls ? BoundaryType::slip : BoundaryType::no_slip;
+      p.density = scene.density_kg_m3;
+      p.viscosity = scene.viscosity_pa_s;
       p.inertia = true;
       p.shape = std::make_shared<Circles>(std::vector<Circle>{{cx, cy, 0.5 * D}});
       setImmersed(c, p);
       return p;
     };
     if (c.text("numerics.mode") == "unsteady") {
-      RunOutput uo = runUnsteadyCylinder(c, ctx, makeProblem, coef, Uref, D, cx, cy);
+      RunOutput uo = runUnsteadyCylinder(c, ctx, scene, makeProblem);
       uo.details["immersed"] = c.text("numerics.immersed");
-      uo.details["Re"] = rho * Uref * D / mu;
-      uo.details["domain"] = {{"length_m", Lx}, {"height_m", H}, {"blockage", D / H}};
+      uo.details["Re"] = scene.reynolds();
+      uo.details["domain"] = {{"length_m", Lx}, {"height_m", H}, {"blockage", scene.blockage()}};
       return uo;
     }
     for (const int n : levels) {  // before the first level runs: the finest must fit too
@@ -160,14 +157,14 @@ CaseKind cylinderChannelKind() {
     Progress progress("fluid " + c.name(), levels.size(), ctx.quiet);
     for (std::size_t li = 0; li < levels.size(); ++li) {
       const auto t0 = std::chrono::steady_clock::now();
-      const double h = M_PI * D / levels[li];
+      const double h = surfaceSpacing(scene, levels[li]);
       const FlowProblem p = makeProblem(levels[li]);
       last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c));
       solveNamingKey(*last, c.has("numerics.levels") ? "numerics.levels" : "numerics.cells_around");
       load = last->bodyLoads()[0];
       if (probes) {
-        const auto& a = c.reals("probes.pressure_a");
-        const auto& b = c.reals("probes.pressure_b");
+        const auto& a = scene.pressure_probes[0];
+        const auto& b = scene.pressure_probes[1];
         dp = last->pressureAt(a[0], a[1]) - last->pressureAt(b[0], b[1]);
       }
       auto row = ladderRow(li, levels[li], *last, secondsSince(t0), coef * load.force.x(), primary);

@@ -67,8 +67,10 @@ void declareUnsteadyCylinderKeys(Schema& s) {
       .min(0);
 }
 
-RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const std::function<FlowProblem(int level)>& make_problem, double coef, double Uref,
-                              double D, double cx, double cy) {
+RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const CylinderScene& scene,
+                              const std::function<FlowProblem(int level)>& make_problem) {
+  const double coef = scene.forceCoefficient(), Uref = scene.u_ref_m_s;
+  const double D = scene.diameter_m, cx = scene.centre_x_m, cy = scene.centre_y_m;
   const double end_time = c.quantity("numerics.end_time"), dt0 = c.quantity("numerics.time_step");
   const double from = c.has("numerics.statistics_from") ? c.quantity("numerics.statistics_from") : 0.5 * end_time;
   if (from >= end_time)

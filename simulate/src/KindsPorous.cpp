@@ -16,6 +16,7 @@
 #include "mmval/simulate/FieldOutput.hpp"
 #include "mmval/simulate/GridConvergence.hpp"
 #include "mmval/simulate/Kinds.hpp"
+#include "mmval/simulate/PeriodicArrayScene.hpp"
 #include "mmval/simulate/Petsc.hpp"
 #include "mmval/simulate/PoreSpace.hpp"
 #include "mmval/simulate/Stokes3D.hpp"
@@ -238,9 +239,9 @@ CaseKind periodicArrayKind() {
     declareSolverKeys(s, true);
   };
   k.run = [](const Case& c, const RunContext& ctx) {
-    const double L = c.quantity("geometry.cell"), phi = c.quantity("geometry.solid_fraction"), mu = c.quantity("fluid.viscosity");
-    if (phi > M_PI / 4 - 1e-9)
-      throw InputError(c.where("geometry.solid_fraction"), "the cylinders touch (phi > pi/4 closes the square array)", fmt::format("{}", phi), "phi < 0.785");
+    // The scene the OpenFOAM peer reads too (one reader; it refuses touching cylinders).
+    const PeriodicArrayScene scene = readPeriodicArrayScene(c);
+    const double L = scene.cell_m, phi = scene.solid_fraction, mu = scene.viscosity_pa_s;
     const std::vector<int> levels = levelsOf(c, "numerics.cells_around", 8, 4096);
     for (const int n : levels)  // before the first level runs: the finest must fit too
       requireSteadyFlowMemory(c, n, n, 0.0, c.has("numerics.levels") ? "numerics.levels" : "numerics.cells_around",

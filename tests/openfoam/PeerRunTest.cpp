@@ -51,7 +51,7 @@ TEST(OpenFoamPeer, SquareArrayPermeabilityAtSolidFraction02) {
   s.max_iterations = 3000;
   const Result r = runCase(s, outDir("foam-array02"));
   ASSERT_TRUE(r.ok) << r.failure;
-  EXPECT_TRUE(r.converged) << "residuals " << residualText(r.residuals);  // a value only from a converged SIMPLE solve (issue 22)
+  EXPECT_TRUE(r.converged) << "residuals " << residualText(r.residuals);  // a value only from a converged SIMPLE solve
   ASSERT_TRUE(r.f_star);
   // Sangani & Acrivos (1982): F* = 51.53 at phi = 0.2. This 1,536-cell O-grid gave +0.31 %.
   EXPECT_NEAR(*r.f_star, 51.53, 0.01 * 51.53);

@@ -89,7 +89,7 @@ TEST(PeerScene, OtherKindsAreRefusedNamingTheKind) {
 
 
 TEST(PeerScene, UnconvergedLevelsAreReportedWithoutAValue) {
-  // Issue 22: canned Results (no OpenFOAM) for a three-level square-array ladder whose finest
+  // Canned Results (no OpenFOAM) for a three-level square-array ladder whose finest
   // SIMPLE solve stopped at its cap with residuals near 0.9 and F* = 1.45e5 in its last iterate.
   // That level's row says "not converged" with its residuals and has no value or error (so no
   // observed order), and the run's metrics are null, never 1.45e5.
@@ -127,8 +127,11 @@ TEST(PeerScene, UnconvergedLevelsAreReportedWithoutAValue) {
   EXPECT_NE(w.find("Ux 0.91, Uy 0.88, p 0.93"), std::string::npos) << w;
   ASSERT_TRUE(out.metrics.count("F_star"));
   EXPECT_TRUE(std::isnan(out.metrics.at("F_star")));  // written as null in result.json
-  for (const auto& m : evaluateMetrics(c, out))
-    if (m.name.rfind("F_star", 0) == 0) EXPECT_FALSE(std::isfinite(m.value)) << m.name;
+  for (const auto& m : evaluateMetrics(c, out)) {
+    if (m.name.rfind("F_star", 0) == 0) {
+      EXPECT_FALSE(std::isfinite(m.value)) << m.name;
+    }
+  }
 }
 
 TEST(PeerScene, ConvergedLaddersKeepTheirValuesAndOrder) {

@@ -110,7 +110,7 @@ TEST(PeerSmooth, MeshHoldsTheSmoothBoundaryAndAgreesWithMmval) {
               own.metrics.count("permeability_2d_observed_order") ? own.metrics.at("permeability_2d_observed_order") : std::nan(""),
               peer.metrics.count("permeability_2d_observed_order") ? peer.metrics.at("permeability_2d_observed_order") : std::nan(""), 100 * gci_own,
               100 * gci_peer);
-  // 2 %: the target for the two solvers' extrapolated values (measured -1.2 %). The peer's
+  // 2 %: the target for the two solvers' extrapolated values (measured -1.2 %). The peer's
   // ladder converges at order 1.27 (its snapped cut cells), so its GCI (~3 %) is the wider error
   // bar; the two values must also lie within their combined GCI, which is what the 2 % rests on.
   EXPECT_NEAR(k_peer / k_own, 1.0, 0.02);

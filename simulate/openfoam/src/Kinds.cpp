@@ -9,7 +9,9 @@
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/openfoam/Peer.hpp"
+#include "mmval/simulate/CylinderScene.hpp"
 #include "mmval/simulate/GridConvergence.hpp"
+#include "mmval/simulate/PeriodicArrayScene.hpp"
 
 namespace mmval::openfoam {
 
@@ -23,31 +25,26 @@ constexpr int kCellsBetweenLevels = 3;
 /// to a fraction of that (docs/validation/peer-smooth.md).
 constexpr double kMeshPorosityTolerance = 0.005;
 
+/// The peer's scene of a cylinder-channel case: the solver-neutral scene mmval's own solver also
+/// builds from (simulate::readCylinderScene), plus the peer's numerics.
 Scene cylinderScene(const Case& c) {
+  const simulate::CylinderScene cyl = simulate::readCylinderScene(c);
   Scene s;
   s.kind = Scene::Kind::cylinder_channel;
-  s.length = c.quantity("geometry.length");
-  s.height = c.quantity("geometry.height");
-  s.cx = c.quantity("geometry.cylinder_x");
-  s.cy = c.quantity("geometry.cylinder_y");
-  s.diameter = c.quantity("geometry.diameter");
-  s.depth = c.quantity("geometry.depth");
-  s.rho = c.quantity("fluid.density");
-  s.nu = c.quantity("fluid.viscosity") / s.rho;
-  s.inflow_max = c.quantity("inflow.max_velocity");
-  s.uniform_inflow = c.text("inflow.profile") == "uniform";
-  s.slip_walls = c.text("geometry.walls") == "slip";
-  s.u_ref = c.has("forces.reference_velocity") ? c.quantity("forces.reference_velocity")
-                                                : (s.uniform_inflow ? 1.0 : 2.0 / 3.0) * s.inflow_max;
-  s.l_ref = c.has("forces.reference_length") ? c.quantity("forces.reference_length") : s.diameter;
-  if (c.has("probes.pressure_a") && c.has("probes.pressure_b")) {
-    const auto& a = c.reals("probes.pressure_a");
-    const auto& b = c.reals("probes.pressure_b");
-    if (a.size() != 2 || b.size() != 2) throw InputError(c.where("probes.pressure_a"), "a probe needs two coordinates", {}, "[\"x\", \"y\"]");
-    s.pressure_probes = {{a[0], a[1]}, {b[0], b[1]}};
-  }
-  if (s.cx - 0.5 * s.diameter <= 0 || s.cy - 0.5 * s.diameter <= 0 || s.cy + 0.5 * s.diameter >= s.height || s.cx + 0.5 * s.diameter >= s.length)
-    throw InputError(c.where("geometry.cylinder_x"), "the cylinder does not fit inside the channel", {}, "0 < x - d/2, x + d/2 < length, 0 < y - d/2, y + d/2 < height");
+  s.length = cyl.length_m;
+  s.height = cyl.height_m;
+  s.cx = cyl.centre_x_m;
+  s.cy = cyl.centre_y_m;
+  s.diameter = cyl.diameter_m;
+  s.depth = cyl.depth_m;
+  s.rho = cyl.density_kg_m3;
+  s.nu = cyl.kinematicViscosity();
+  s.inflow_max = cyl.inflow_max_m_s;
+  s.uniform_inflow = cyl.uniform_inflow;
+  s.slip_walls = cyl.slip_walls;
+  s.u_ref = cyl.u_ref_m_s;
+  s.l_ref = cyl.l_ref_m;
+  s.pressure_probes = cyl.pressure_probes;
   s.unsteady = c.text("numerics.mode") == "unsteady";
   if (s.unsteady) {
     s.end_time = c.quantity("numerics.end_time");
@@ -58,16 +55,18 @@ Scene cylinderScene(const Case& c) {
   return s;
 }
 
+/// The peer's scene of a periodic-array case: the solver-neutral scene (simulate::readPeriodicArrayScene)
+/// plus the peer's numerics.
 Scene arrayScene(const Case& c) {
+  const simulate::PeriodicArrayScene arr = simulate::readPeriodicArrayScene(c);
   Scene s;
   s.kind = Scene::Kind::periodic_array;
-  s.cell = c.quantity("geometry.cell");
-  const double phi = c.quantity("geometry.solid_fraction");
-  s.radius = s.cell * std::sqrt(phi / M_PI);
+  s.cell = arr.cell_m;
+  s.radius = arr.radius();
   s.depth = s.cell / 10;
-  s.rho = c.quantity("fluid.density");
-  s.nu = c.quantity("fluid.viscosity") / s.rho;
-  s.mean_velocity = c.quantity("flow.mean_velocity");
+  s.rho = arr.density_kg_m3;
+  s.nu = arr.kinematicViscosity();
+  s.mean_velocity = arr.mean_velocity_m_s;
   s.max_iterations = static_cast<int>(c.integer("numerics.max_iterations"));
   s.residual = c.real("numerics.residual");
   return s;
@@ -225,7 +224,8 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
   const Acceptance* primary = c.acceptanceFor(primaryMetric(c.kind()));
   RunOutput out;
   out.details["solver"] = "openfoam " + inst.version;
-  if (scene.kind == Scene::Kind::cylinder_channel) out.details["Re"] = scene.u_ref * scene.l_ref / scene.nu;
+  // On the diameter, as simulate::CylinderScene::reynolds (mmval's details.Re), whatever l_ref is.
+  if (scene.kind == Scene::Kind::cylinder_channel) out.details["Re"] = scene.u_ref * scene.diameter / scene.nu;
   out.details["ranks"] = options.ranks;
   nlohmann::json ladder = nlohmann::json::array();
   nlohmann::json warnings = nlohmann::json::array();

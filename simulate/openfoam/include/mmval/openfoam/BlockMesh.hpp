@@ -52,8 +52,11 @@ struct CylinderChannel {
 
 /// O-grid around the cylinder inside a square box of side 4r (clipped to the
 /// channel), Cartesian blocks elsewhere, cells stretched downstream.
-/// `cells_around` (multiple of 4) sets the resolution; `radial_grading` is the
-/// ratio of the outer to the inner radial cell size.
+/// `cells_around` (multiple of 4) cells lie on the circumference, each pi D /
+/// cells_around long (the surface spacing numerics.cells_around sets in mmval's
+/// own grid too; simulate::surfaceSpacing); the box edge has cells_around / 4
+/// cells per side. `radial_grading` is the ratio of the outer to the inner
+/// radial cell size.
 BlockMeshDict cylinderChannelMesh(const CylinderChannel& g, int cells_around, double radial_grading = 4.0);
 
 /// Unit cell [0, L]^2 with a cylinder of radius a at its centre: four O-grid
