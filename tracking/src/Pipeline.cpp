@@ -17,6 +17,7 @@
 #include "PipelineDetail.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/tracking/Background.hpp"
+#include "mmval/tracking/LargeDiscs.hpp"
 #include "mmval/tracking/SceneDecisions.hpp"
 #include "mmval/tracking/TrackSmooth.hpp"
 
@@ -53,6 +54,9 @@ MotionDecision chooseMotion(const TrackConfig& c, std::vector<LinkedPoint>& link
 
 /// Frames the polarity and ring guesses sample, spread over the video.
 constexpr int kPolaritySamples = 24;
+/// Large discs: radii searched, as multiples of detect.refine_radius (the real discs video
+/// has radii ~40-60 px, +-20 % about its middle; 0.7-1.3 also allows a size given roughly).
+constexpr double kDiscRadiusLow = 0.7, kDiscRadiusHigh = 1.3;
 
 /// detect.background: as set, or decided from `frames`, those sampled for the median.
 BackgroundDecision chooseBackground(const std::vector<cv::Mat>& frames, const TrackConfig& c, Polarity polarity, const DetectOptions& options, const cv::Mat& median) {
@@ -147,19 +151,33 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   } else {
     run.polarity_reason = fmt::format("detect.polarity = \"{}\"", polarityName(polarity));
   }
+  // A disc-centroid size of kMinDiscRadiusPx or more (--diameter 41 and up): large discs,
+  // found whole by their rims (LargeDiscs.hpp) on the frame itself, radii 0.7-1.3 x it.
+  const bool large_discs = c.detect.refinement == Refinement::disc && c.detect.refine_radius >= kMinDiscRadiusPx;
+  if (large_discs) {
+    polarity = Polarity::bright;
+    run.polarity_reason = fmt::format("large discs: detect.refinement = \"disc\" with detect.refine_radius = {} px (>= {} px, e.g. --diameter {}): "
+                                      "each disc found once, at the centre of a circle fitted to its bright rim, radii {:.0f}-{:.0f} px",
+                                      c.detect.refine_radius, kMinDiscRadiusPx, 2 * c.detect.refine_radius + 1, kDiscRadiusLow * c.detect.refine_radius,
+                                      kDiscRadiusHigh * c.detect.refine_radius);
+  }
   if (polarity == Polarity::ring) {
     options.ring_radius_px = run.ring.rings ? run.ring.radius_px : static_cast<double>(c.detect.refine_radius);
     options.ring_kernel = ringKernel(run.ring.rings ? run.ring.profile : std::vector<float>{}, options.ring_radius_px);
   }
   lap("polarity");
   run.background_decision = chooseBackground(background_frames, c, polarity, options, run.background);
+  if (large_discs) {
+    run.background_decision.subtract = false;
+    run.background_decision.reason = "large discs are detected on the frame itself (a still disc is its own median)";
+  }
   background_frames.clear();
   if (!run.background_decision.subtract) {
     run.background.release();
     rolling = RollingBackground{};
     // Without a temporal background the polarity is judged within each frame (a temporal
     // median of still particles is the particles, and the foreground against it noise).
-    if (polarity_in == Polarity::automatic && polarity != Polarity::ring) {
+    if (polarity_in == Polarity::automatic && polarity != Polarity::ring && !large_discs) {
       polarity = guessPolaritySpatial(polarity_frames);
       run.polarity_reason += fmt::format("; with no background subtracted: {} (more band-passed excess on that side)", polarityName(polarity));
     }
@@ -214,6 +232,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
       const std::lock_guard<std::mutex> lock(absent_mutex);
       for (std::size_t i : missing) absent[i].push_back(frame_number);
     }
+    if (large_discs) return detectDiscs(f, kDiscRadiusLow * options.refine_radius, kDiscRadiusHigh * options.refine_radius);
     return detect(f, rolling.backgrounds.empty() ? run.background : rolling.at(frame_number), polarity, options);
   };
   auto link = [&](int index, std::vector<Detection>&& found) {
