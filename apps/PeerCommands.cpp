@@ -25,8 +25,8 @@ struct PeerCli {
 };
 
 /// The ladder's cap is the case file's: numerics.cells_around takes at most kMaxLevel, and
-/// --levels (or numerics.levels, which the schema leaves unbounded) may not exceed it either;
-/// `--levels 1000000000` used to reach blockMesh. Levels are cells around the cylinder (or
+/// --levels (or numerics.levels, which the schema leaves unbounded) may not exceed it either,
+/// so that a huge ladder is refused before blockMesh runs. Levels are cells around the cylinder (or
 /// along the unit cell), multiples of 4 from 8, as the OpenFOAM meshes need.
 constexpr int kMaxLevel = 4096;
 

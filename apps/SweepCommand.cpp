@@ -15,13 +15,16 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/reports/Plot.hpp"
-#include "CaseFolders.hpp"
+#include "mmval/validate/RunFolders.hpp"
 
 namespace fs = std::filesystem;
 
 namespace mmval::app {
 
 namespace {
+
+using validate::earlierRun;
+using validate::requireOwnedFolder;
 
 constexpr int kMaxRuns = 1000;  ///< a guard against a mistyped product of axes
 

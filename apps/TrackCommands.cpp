@@ -15,11 +15,12 @@
 #include "mmval/core/ImageHeader.hpp"
 #include "mmval/core/Resources.hpp"
 #include "mmval/core/Run.hpp"
+#include "mmval/simulate/PoreFlowMap.hpp"
+#include "mmval/tracking/SynthDiscs.hpp"
 #include "mmval/tracking/Kinds.hpp"
 #include "mmval/tracking/Synth.hpp"
 #include "mmval/tracking/SynthRings.hpp"
 #include "mmval/tracking/SynthSlab.hpp"
-#include "SynthFlow.hpp"
 
 namespace fs = std::filesystem;
 
@@ -228,6 +229,31 @@ void runRingScene(SynthCli& sy) {
               r.particles, r.ring_radius_px, sy.out.c_str());
 }
 
+/// synth --scene large-discs: the stand-in of the real discs video's class (SynthDiscs.hpp);
+/// the shared options given on the command line replace the scene's defaults.
+void runDiscScene(SynthCli& sy) {
+  tracking::DiscSceneOptions d;
+  if (sy.width->count() > 0) d.width = sy.o.width;
+  if (sy.height->count() > 0) d.height = sy.o.height;
+  if (sy.frames->count() > 0) d.frames = sy.o.frames;
+  if (sy.fps->count() > 0) d.fps_hz = sy.o.fps;
+  if (sy.pixel->count() > 0) d.pixel_size_um = sy.pixel_um;
+  if (sy.particles->count() > 0) d.particles = sy.o.particles;
+  if (sy.noise->count() > 0) d.noise = sy.o.noise;
+  d.seed = sy.o.seed;
+  d.format = tracking::parseSynthFormat(sy.format);
+  try {
+    StagedDirectory staged(sy.out);
+    tracking::writeDiscScene(d, staged.path());
+    staged.commit();
+  } catch (const std::invalid_argument& e) {
+    throw InputError({}, e.what(), {}, "fewer discs (--particles) or a larger frame (--width, --height)");
+  }
+  std::printf("synth: %d frames (%s), %d large discs of radius %g-%g px -> %s, truth.csv, truth.json (track them with --diameter %d)\n", d.frames,
+              sy.format.c_str(), d.particles, d.radius_min_px, d.radius_max_px, sy.out.c_str(),
+              static_cast<int>(d.radius_min_px + d.radius_max_px) + 1);
+}
+
 }  // namespace
 
 void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
@@ -260,7 +286,7 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
   track->add_option("--set", t->set, "KEY=VALUE: set any key of a tracking-video case as if the --config file said KEY = VALUE (repeatable)")
       ->allow_extra_args(false);
   track->callback([t, &registry, pixel_opt, fps_opt] {
-    // Given values are checked here, not mistaken for absent ones (a bad --fps used to read "missing").
+    // Given values are checked here, so a bad --fps is named as bad, not reported as missing.
     if (pixel_opt->count() > 0)
       requireOptionValue("--pixel-size-um", t->pixel_um, 0, true, 1e6, "a pixel size in micrometres, finite and > 0 (e.g. --pixel-size-um 0.65)");
     if (fps_opt->count() > 0) requireOptionValue("--fps", t->fps, 0, true, 1e9, "a frame rate in frames per second, finite and > 0 (e.g. --fps 20)");
@@ -315,8 +341,9 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
   synth->add_option("--out", sy->out, "Output folder")->required();
   synth->add_option("--scene", sy->scene,
                     "flow (micromodel flow past grains), brownian-slab (3D diffusion in a slab, depth-dependent defocus, drift, flicker) or "
-                    "brightfield-rings (ring-shaped colloids: bright centre, dark ring, halo; Brownian, illumination gradient, static specks)")
-      ->check(CLI::IsMember({"flow", "brownian-slab", "brightfield-rings"}))
+                    "brightfield-rings (ring-shaped colloids: bright centre, dark ring, halo; Brownian, illumination gradient, static specks) or "
+                    "large-discs (bright-rimmed discs of radius 40-60 px with darker interiors, Brownian; track with --diameter 101)")
+      ->check(CLI::IsMember({"flow", "brownian-slab", "brightfield-rings", "large-discs"}))
       ->capture_default_str();
   synth->add_option("--format", sy->format, "Frames as png (8-bit grey), rgba (RGBA PNG), tiff16 (16-bit grey TIFF) or mp4 (one lossy video.mp4)")
       ->check(CLI::IsMember({"png", "rgba", "tiff16", "mp4"}))
@@ -342,7 +369,7 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
   addSlabOptions(synth, *sy);
   addRingOptions(synth, *sy);
   synth->callback([sy, snr_opt] {
-    // NaN passes CLI11's range checks and used to write NaN times: every real option is checked here (exit 2).
+    // NaN passes CLI11's range checks and would write NaN times: every real option is checked here (exit 2).
     requireOptionValue("--fps", sy->o.fps, 0, true, 1e9, "a frame rate in frames per second, finite and > 0 (e.g. --fps 10)");
     requireOptionValue("--pixel-size-um", sy->pixel_um, 0, true, 1e6, "a pixel size in micrometres, finite and > 0");
     requireOptionValue("--speed", sy->o.speed, 0, false, 1e6, "a flow speed in px per frame, finite and >= 0");
@@ -361,6 +388,10 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
       runRingScene(*sy);
       return;
     }
+    if (sy->scene == "large-discs") {
+      runDiscScene(*sy);
+      return;
+    }
     if (slab) {
       runBrownianSlab(*sy);
       return;
@@ -369,7 +400,7 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
     if (snr_opt->count() > 0) requireOptionValue("--snr", sy->snr, 0, true, 1e12, "a signal-to-noise ratio, finite and > 0");
     sy->o.pixel_size = sy->pixel_um * 1e-6;
     if (sy->snr > 0) sy->o.noise = sy->o.spot_amplitude / sy->snr;
-    std::unique_ptr<PoreFlowMap> flow;
+    std::unique_ptr<simulate::PoreFlowMap> flow;
     if (!sy->geometry.empty()) {
       // The image's size from its header, before decoding. synth --geometry peaks at 11.6 B per mask
       // pixel above ~0.5 GB (measured with /usr/bin/time -v: 3000^2 and 6000^2 masks, 588 and 902 MB);
@@ -381,7 +412,7 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
       if (img.empty()) throw InputError({sy->geometry, 0, 0, "--geometry"}, "cannot read the image", {}, "a PNG or TIFF mask");
       cv::threshold(img, sy->o.geometry, 127, 255, sy->grains == "dark" ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
       try {
-        flow = std::make_unique<PoreFlowMap>(sy->o.geometry, sy->o.speed);
+        flow = std::make_unique<simulate::PoreFlowMap>(sy->o.geometry, sy->o.speed);
       } catch (const std::runtime_error& e) {
         throw InputError({sy->geometry, 0, 0, "--geometry"}, e.what(), {}, "an image with a connected pore path from the left to the right edge");
       }

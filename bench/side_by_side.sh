@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Ours and OpenFOAM on the same three case files, one after the other in one
-# run (issue 5's side-by-side table): Schaefer-Turek 2D-1, the square array at
+# run (a side-by-side table): Schaefer-Turek 2D-1, the square array at
 # solid fraction 0.2 and the Pore2Chip chip permeability. Prints cells, value,
 # error and wall time per level from each result.json, then writes a report.
 # Usage: bench/side_by_side.sh [BUILD_DIR] [OUT_DIR] [NP]

@@ -15,7 +15,7 @@ install(TARGETS mmval RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 # The libraries are static by default and live inside the binary; a
 # -DBUILD_SHARED_LIBS=ON build installs them beside it, in ../lib (the run path).
 if(BUILD_SHARED_LIBS)
-  foreach(lib mmval_core mmval_tracking mmval_simulate mmval_openfoam mmval_particles mmval_compare mmval_reports)
+  foreach(lib mmval_core mmval_tracking mmval_simulate mmval_openfoam mmval_particles mmval_compare mmval_reports mmval_validate)
     if(TARGET ${lib})
       install(TARGETS ${lib} LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
     endif()

@@ -1,5 +1,5 @@
-// Overdamped engine against LIGGGHTS on a shared window of one scene (issue 6,
-// "the table of cheaper-model errors against LIGGGHTS"), with the overdamped
+// Overdamped engine against LIGGGHTS on a shared window of one scene (the table
+// of the cheaper model's errors against LIGGGHTS), with the overdamped
 // step ladder, and the overdamped throughput at the micromodel's conditions.
 //   bench_particles_engines [out.json]
 #include <chrono>

@@ -1,4 +1,4 @@
-// Tracker throughput (issue 3): detect + link frames per second on synthetic
+// Tracker throughput: detect + link frames per second on synthetic
 // frames, 640 x 424 px with ~600 particles (trackpy's walkthrough reports ~45
 // frames/s there, single process) and 2048 x 2048 px with ~5,000, on 1 and 2
 // threads. Never asserts on time.
@@ -6,7 +6,7 @@
 //   BM_Pipeline/<scene>/<threads>  whole tracker from PNG files on disk (decode,
 //                                  detection, linking), no background removal
 //   BM_PipelineMemory/<scene>/<threads>/<deblend>  detection + linking of the same frames
-//                                  already decoded in memory (what the issue's target counts),
+//                                  already decoded in memory (what the throughput target counts),
 //                                  with the default joint fit of overlapping spots or without
 //                                  it (the work trackpy's locate does)
 //   BM_Detect/<scene>/<deblend>    detection of one in-memory frame, with the joint fit of

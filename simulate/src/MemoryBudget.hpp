@@ -1,4 +1,4 @@
-// Memory a fluid run will need, estimated before it starts (issue 22): a grid
+// Memory a fluid run will need, estimated before it starts: a grid
 // of 4096^2 cells or a 30000 x 30000 mask is refused in a second with the
 // estimate and the key to change, instead of ending in PETSc's out-of-memory
 // dump or std::bad_alloc after minutes.

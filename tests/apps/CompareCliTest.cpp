@@ -1,4 +1,4 @@
-// `mmval compare` as a user meets it (issue 22): ids above 2^53 stay apart,
+// `mmval compare` as a user meets it: ids above 2^53 stay apart,
 // degenerate tracks files exit 2 naming file, column and value, and a failed
 // metric exits 3 after the outputs are written.
 #include <gmock/gmock.h>

@@ -1,4 +1,4 @@
-// Issue 22: small inputs that ask for a huge run fail fast (seconds, little
+// Small inputs that ask for a huge run fail fast (seconds, little
 // memory) with exit 2 naming the key or option, and bad command-line values
 // are reported as bad, not as missing. Each test runs build/bin/mmval under
 // /usr/bin/time to check the refused run's peak memory.

@@ -1,4 +1,4 @@
-// Determinism and MPI ranks of the coupled micromodel scene (issue 6): the same
+// Determinism and MPI ranks of the coupled micromodel scene: the same
 // seed on the same ranks gives byte-identical outputs, and 2 ranks give the 1-rank
 // scene. Ranks share the fluid solve (PETSc distributes its rows; the answer is the
 // same to solver tolerance) and every rank moves all particles with the same random

@@ -1,6 +1,5 @@
-// `mmval report` and `report --diff` on files that are not what mmval wrote
-// (issue 22): each exits 2 naming the file and the field; before, a JSON type
-// error with no file name and exit 4.
+// `mmval report` and `report --diff` on files that are not what mmval wrote:
+// each exits 2 naming the file and the field, not a bare JSON type error (exit 4).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Tracks files that cannot be compared fail loudly, naming file, column and
 // value: no rows, single rows, time that stands still, ids that a double
-// would merge (issue 22). Before, they gave 0 or NaN metrics and exit 0.
+// would merge; never 0 or NaN metrics with exit 0.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // Image sizes from headers, without decoding: a 1 MB file that declares 30000 x
-// 30000 pixels is refused before any pixel buffer exists (issue 22).
+// 30000 pixels is refused before any pixel buffer exists.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// Only replace what mmval wrote (issue: never lose a user's data): the staged
+// Only replace what mmval wrote (never lose a user's data): the staged
 // output folder refuses a user's folder or file, replaces only folders that
 // carry mmval's marker and nothing beyond its list, normalises the path before
 // any work, locks against a second writer and cleans up after a failure.

@@ -1,4 +1,4 @@
-// Check 5 of issue 24: single-collector efficiency of a post in its Kuwabara cell
+// Check 5 of docs/validation/particle-physics.md: single-collector efficiency of a post in its Kuwabara cell
 // against fibre-filtration theory. The shipped cases (cases/physics-collector-*.toml)
 // run through runCase and must meet their acceptance entries; the theory the runner
 // prints is compared with reference-data/fibre-filtration.toml (values evaluated

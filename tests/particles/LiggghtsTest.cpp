@@ -72,7 +72,7 @@ TEST(Liggghts, SphereSettlesOntoBottomWall) {
 }
 
 // Hertz head-on collision: two spheres approaching at +-v/2 stay in contact for
-// t_c = 2.868 (m*^2 / (R* E*^2 v))^(1/5) (benchmarks.md). Nearly elastic, no fluid
+// t_c = 2.868 (m*^2 / (R* E*^2 v))^(1/5) (Johnson 1985; reference-data/particle-facts.toml). Nearly elastic, no fluid
 // (viscosity 1e-12 Pa s), the contact time measured from the centre distance.
 TEST(Liggghts, HeadOnCollisionLastsHertzContactTime) {
   const double h = 100e-6;

@@ -1,4 +1,4 @@
-// Pieces of the coupled micromodel scene (issue 6), each against an
+// Pieces of the coupled micromodel scene, each against an
 // independent reference: the distance transform against brute force, deposit
 // volume conservation (columns and plate layers), the flux through thinned
 // apertures (Reynolds equation), throat bottlenecks of masks with known widths, engine

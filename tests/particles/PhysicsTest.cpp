@@ -1,4 +1,5 @@
-// Single-particle formulas against benchmarks.md ("Particles in a viscous fluid").
+// Single-particle formulas against the values of reference-data/particle-facts.toml
+// (Stokes, Einstein, Faxen, Brenner, Hertz as given by Johnson; sources there).
 // Tolerances: the references are printed to 2-4 significant digits, so each
 // check allows half a unit of the last printed digit (stated per check).
 #include <gtest/gtest.h>
@@ -28,7 +29,7 @@ TEST(Physics, RelaxationTimesMatchBenchmarks) {
 }
 
 TEST(Physics, StokesSettlingAndTimeThrough20umMatchBenchmarks) {
-  const Fluid water;  // 998.2 kg/m3: the density benchmarks.md's numbers imply
+  const Fluid water;  // 998.2 kg/m3: the density the reference values imply
   EXPECT_NEAR(settlingSpeed(water, polystyrene(5e-6)), 7.1e-7, 0.05e-7);
   EXPECT_NEAR(settlingSpeed(water, polystyrene(10e-6)), 2.8e-6, 0.05e-6);
   EXPECT_NEAR(settlingSpeed(water, polystyrene(15e-6)), 6.4e-6, 0.05e-6);
@@ -46,7 +47,7 @@ TEST(Physics, StokesEinsteinAt293K) {
 
 TEST(Physics, FaxenParallelMatchesTabulatedValues) {
   // x = a/h: 1.060 at 0.1, 1.126 at 0.2, 1.386 at 0.5. The series gives 1.05948 at
-  // 0.1 (benchmarks.md rounds it up), so one unit of the last digit there.
+  // 0.1 (the reference rounds it up), so one unit of the last digit there.
   EXPECT_NEAR(faxenParallel(0.1, 1.0), 1.060, 1e-3);
   EXPECT_NEAR(faxenParallel(0.2, 1.0), 1.126, 5e-4);
   EXPECT_NEAR(faxenParallel(0.5, 1.0), 1.386, 5e-4);
@@ -173,7 +174,7 @@ TEST(Physics, HertzContactTimeFormulaAndRayleighStep) {
   EXPECT_NEAR(hertzContactTimeEqual(p, v), tc, 1e-12 * tc);
   // t_c ~ v^(-1/5)
   EXPECT_NEAR(hertzContactTimeEqual(p, 32 * v), tc / 2, 1e-12 * tc);
-  // liggghts-notes.md: 10 % of the Rayleigh time is 4.4e-8 s at E = 1e6 Pa, 4.4e-9 s at 1e8 Pa
+  // 10 % of the Rayleigh time (the usual DEM step bound) is 4.4e-8 s at E = 1e6 Pa, 4.4e-9 s at 1e8 Pa
   EXPECT_NEAR(0.1 * rayleighTime(p), 4.4e-8, 0.05e-8);
   p.youngs_modulus = 1e8;
   EXPECT_NEAR(0.1 * rayleighTime(p), 4.4e-9, 0.05e-9);

@@ -9,7 +9,7 @@ namespace {
 
 SceneScales paperMicromodel() {
   // 5 um polystyrene, 20 um deep chip, 10 mm wide, porosity 0.58, 5 uL/min,
-  // 2.9e7 particles/mL (paper-notes.md).
+  // 2.9e7 particles/mL (reference-data/micromodel-experiment.toml).
   SceneScales s;
   s.particle.diameter = 5e-6;
   s.particle.density = 1050;

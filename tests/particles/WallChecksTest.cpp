@@ -1,4 +1,4 @@
-// Checks 1, 2 and 8 of issue 24 (WallChecks.cpp): the shipped cases run and meet
+// Checks 1, 2 and 8 of docs/validation/particle-physics.md (WallChecks.cpp): the shipped cases run and meet
 // their acceptance entries, and the measured values agree with the literature
 // numbers of reference-data/wall-hydrodynamics.toml and rsa-blocking.toml within
 // 3 of their own standard errors (seeds fixed in the cases). The theory functions

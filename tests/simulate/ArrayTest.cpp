@@ -28,7 +28,7 @@ ArrayResult solveArray(double phi, int n, ImmersedMethod method, const std::stri
 
 }  // namespace
 
-// Sangani & Acrivos (1982) F*; tolerance 2 % (issue 4) at 32 cells per side.
+// Sangani & Acrivos (1982) F*; tolerance 2 % at 32 cells per side.
 // Measured (sharp, 32 cells): -0.17 % (0.05), -0.27 % (0.1), -0.34 % (0.2), -0.32 % (0.3), -0.92 % (0.5).
 TEST(Array, SharpMatchesSanganiAcrivos) {
   const double phis[] = {0.05, 0.1, 0.2, 0.3, 0.5};

@@ -59,7 +59,7 @@ TEST(Channel, VelocityInletPressureOutlet) {
   SteadyFlowSolver s(p);
   s.solve();
   const double G = (s.pressureAt(0.25 * L, 0.5 * W) - s.pressureAt(0.75 * L, 0.5 * W)) / (0.5 * L);
-  EXPECT_NEAR(G / (12 * mu * Umean / (W * W)), 1.0, 5e-3);  // issue 4: 0.5 %
+  EXPECT_NEAR(G / (12 * mu * Umean / (W * W)), 1.0, 5e-3);  // 0.5 %
   EXPECT_NEAR(s.flowRate(Side::east) / s.flowRate(Side::west), 1.0, 1e-10);  // mass conservation
   EXPECT_NEAR(s.flowRate(Side::west) / (Umean * W), 1.0, 1e-3);  // inflow profile sampled at 32 cell centres
   EXPECT_GT(s.stats().newton_iterations, 0);

@@ -1,4 +1,4 @@
-// The micromodel generator (issue 26, item 1): porosity by construction, the k target met and
+// The micromodel generator (docs/chip-generator.md): porosity by construction, the k target met and
 // confirmed by an independent image-permeability run of the written PNG, reproducibility by seed,
 // percolation, and bad targets refused by `mmval chip` with exit 2 naming the option.
 #include <filesystem>

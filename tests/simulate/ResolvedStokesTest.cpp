@@ -1,5 +1,5 @@
 // Rigid bodies moving in creeping flow (ResolvedStokes, the resolved coupling
-// of issue 6) against exact Stokes solutions for a cylinder inside a fixed
+// mode) against exact Stokes solutions for a cylinder inside a fixed
 // concentric cylinder (radii a < b), per unit length:
 //   rotation (circular Couette flow):  T = -4 pi mu Omega a^2 b^2 / (b^2 - a^2)
 //   translation:                       F = -4 pi mu U / (ln(b/a) - (b^2 - a^2) / (b^2 + a^2))

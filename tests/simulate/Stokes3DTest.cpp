@@ -121,7 +121,7 @@ TEST(Stokes3D, FieldFileHoldsTheFlowRate) {
 }
 
 TEST(Stokes3D, SquareDuctAgainstTheExactSeriesAndOrder) {
-  // h / w = 1, no-slip sides: Q factor 0.4217 (benchmarks.md). n x n cells in the cross-section.
+  // h / w = 1, no-slip sides: Q factor 0.4217 (reference-data/shallow-channels.toml). n x n cells in the cross-section.
   const double h = 20e-6, exact = ductFactor(1.0);
   EXPECT_NEAR(exact, 0.4217, 5e-5);
   std::vector<double> err;
@@ -138,7 +138,7 @@ TEST(Stokes3D, SquareDuctAgainstTheExactSeriesAndOrder) {
 }
 
 TEST(Stokes3D, ShallowDuctAgainstTheExactSeries) {
-  // h / w = 0.1 (20 um deep, 200 um wide), no-slip sides: factor 0.9370 (benchmarks.md).
+  // h / w = 0.1 (20 um deep, 200 um wide), no-slip sides: factor 0.9370 (reference-data/shallow-channels.toml).
   // Cells dy = 2.5 dz (anisotropic, like the chip grids); both spacings halve per level.
   const double h = 20e-6, exact = ductFactor(0.1);
   EXPECT_NEAR(exact, 0.9370, 5e-5);

@@ -1,4 +1,4 @@
-// Throats (issue 22): the narrowest cross-section of the widest inlet-to-outlet path
+// Throats: the narrowest cross-section of the widest inlet-to-outlet path
 // (narrowestThroat) on masks and analytic shapes, and the resolution check the fluid kinds run
 // before a solve (checkThroats): a throat narrower than one cell is a NumericalFailure naming the
 // resolution key, narrower than two a warning. Unit tier: no solve, well under a second.
@@ -79,7 +79,7 @@ TEST(Throat, SquareArrayGapIsLMinusTwoRadii) {
 }
 
 TEST(Throat, GapUnderOneCellIsANumericalFailureNamingTheKey) {
-  // Issue 22: phi 0.75 at 32 cells (gap 0.0228 L = 0.73 cells) said only "the fluid solution is not finite".
+  // phi 0.75 at 32 cells: gap 0.0228 L = 0.73 cells. The failure names the resolution, not just "the fluid solution is not finite".
   const FlowProblem p = squareArrayProblem(100e-6, 32, 0.75, 1e-3, 1.0);
   RunOutput out;
   try {

@@ -1,7 +1,7 @@
 // Resuming the unsteady cylinder (cylinder-channel, mmval's BDF2 solver) after an interruption
 // at a random time step, on 1 MPI rank: forces.csv of the resumed run must be byte-identical to
-// the uninterrupted run's (issue 22: a restart that refactorised the lagged LU instead of
-// rebuilding it diverged from step 70, c_L amplitude -0.5 %). The interruption is the
+// the uninterrupted run's (a restart that refactorises the lagged LU instead of rebuilding
+// it diverges from step 70, c_L amplitude -0.5 %). The interruption is the
 // run.stop_after_steps hook, which writes the checkpoint a kill would have left behind and
 // stops as if killed; `mmval run --resume` then continues from it.
 #include <cstdio>

@@ -1,4 +1,4 @@
-// Deposited particles (issue 3, step 5): particles that move and then stop are
+// Deposited particles: particles that move and then stop are
 // counted as retained from the time they stopped, whether they stop late (still
 // foreground after background removal) or early enough to become part of the
 // temporal median background (then the tracker joins the particle it finds in the
@@ -182,7 +182,7 @@ TEST(Deposit, SyntheticVideoRecoversTheTruthsRetainedFraction) {
   EXPECT_EQ(ours.immobile, 4);
 }
 
-// Rests in the middle of a track (issue 3 step 5, issue 7 speeds per region): a
+// Rests in the middle of a track (deposits, and speeds per region): a
 // deposit whose track a passing particle takes over rests for hundreds of frames and
 // then moves on. Those resting steps are localisation noise, not motion, and leave the
 // velocity statistics as a trailing rest's do.

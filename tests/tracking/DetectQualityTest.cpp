@@ -259,7 +259,7 @@ TEST(DetectQuality, TracksCsvQualityColumnsRoundTripAndOldFilesStillRead) {
   EXPECT_NEAR(back.points[0].quality.ep_px, 0.042, 1e-9);
   EXPECT_FALSE(back.points[2].quality.measured());
   EXPECT_NEAR(back.points[2].x, 12e-6, 1e-12);
-  // A file in the schema without the quality columns reads as before, and so does
+  // A file in the schema without the quality columns reads, and so does
   // one with columns a reader does not know in between (trackpy writes its own: ecc, size,
   // raw_mass, ep) and NaN written as pandas writes it.
   std::ofstream(dir / "old.csv") << "frame,particle,x,y,x_um,y_um,t_s,state\n0,1,3.0,4.0,3.0,4.0,0,mobile\n1,1,3.5,4.0,3.5,4.0,0.1,mobile\n";

@@ -1,7 +1,7 @@
 // The radius-query grids of the detector and the linker (tracking/src/DetectionGrid.hpp)
 // against a brute-force search over all points: the same points, the same distances.
 // GrowingGrid is queried after every point added, as the joint spot fit's search for
-// hidden spots does (it used to compare each new spot with every earlier one).
+// hidden spots does (instead of comparing each new spot with every earlier one).
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// Automatic polarity from what moves (issue 3: "automatic detection of polarity"): the
+// Automatic polarity from what moves: the
 // micromodel's grains and deposits are dark whatever the particles are, and a deposit
 // that arrives mid-video is in the median background but missing from the early frames,
 // where it looks like a bright spot. Unit (< 1 s).

@@ -1,6 +1,6 @@
-// Bad and unusual input (issue 3): each case ends in a clear message naming the
+// Bad and unusual input: each case ends in a clear message naming the
 // file and what is wrong, or is handled correctly. Unit tier: well under a second
-// each. Complements Frames.BadInputsAreNamed in TrackingTest.cpp (empty folder,
+// each. Complements Frames.BadInputsAreNamed in FramesTest.cpp (empty folder,
 // images of different sizes, a file that is not a video, a glob that matches nothing).
 #include <gtest/gtest.h>
 

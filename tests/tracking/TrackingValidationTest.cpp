@@ -1,4 +1,4 @@
-// Issue 3's "must show" numbers on synthetic micromodel videos with ground
+// The tracker's accuracy targets on synthetic micromodel videos with ground
 // truth: a crowded, noisy pore scene scored after Chenouard et al. (2014), and
 // the statistics (MSD diffusion coefficient, dispersion) against the analytic
 // values the video was rendered with. Seconds each (label: validation).
@@ -38,7 +38,7 @@ double fastestStep(const Tracks& truth) {
   return v;
 }
 
-// The scene of issue 3: 300 moving particles plus 75 stuck (20 %), SNR 4, carried
+// The validation scene: 300 moving particles plus 75 stuck (20 %), SNR 4, carried
 // through a field of grains at a mean 2.5 px/frame (up to 5 px/frame beside grains).
 SynthOptions micromodelScene() {
   SynthOptions o;
@@ -81,7 +81,7 @@ TEST(TrackingValidation, MicromodelSnr4MeetsIssueTargets) {
                   s.beta, s.rmse_px, recall, run.stuck_found);
       EXPECT_GE(fastest, 4.5);  // the scene really reaches ~5 px/frame
       if (method != Linker::global) continue;  // the paper's rule is reported, the targets are the global linker's
-      // Issue 3's targets: JSC >= 0.95, JSC_theta >= 0.85, immobile recall >= 0.95 (met:
+      // The targets: JSC >= 0.95, JSC_theta >= 0.85, immobile recall >= 0.95 (met:
       // measured 0.967-0.981, 0.955-0.968, 0.960-1.000 over the three seeds).
       EXPECT_GE(s.jaccard_points, 0.95);
       EXPECT_GE(s.jaccard_tracks, 0.85);
@@ -93,7 +93,7 @@ TEST(TrackingValidation, MicromodelSnr4MeetsIssueTargets) {
       // travelling closer than ~2 px add the rest (no single-frame estimator separates them
       // at this SNR). Guarded at the measured level plus a small margin.
       EXPECT_LE(s.rmse_px, 0.34);
-      // Issue 3's RMSE <= 0.3 px comes from using the track: a quadratic fit along each
+      // The target RMSE <= 0.3 px comes from using the track: a quadratic fit along each
       // moving track over 5 frames (link.smooth_frames = 2, what the case sets) averages
       // independent frame errors (variance x 17/35 at the centre). Measured 0.258-0.262 px
       // over the three seeds; JSC and JSC_theta are unchanged (positions move, links do not).

@@ -91,7 +91,7 @@ TEST(TrackpyPeer, DetectionsOnTheFirstFrame) {
               "contours %zu ours, %d within 1 px (%.1f %%), RMS %.3f px\n",
               ref.size(), peaks.ours, peaks.within_1px, 100.0 * peaks.within_1px / ref.size(), peaks.rms_px, contours.ours, contours.within_1px,
               100.0 * contours.within_1px / ref.size(), contours.rms_px);
-  // Issue 3 asks for >= 90 % within 1 px; measured 343 / 344 (the one left is 1.0-2 px
+  // The target is >= 90 % within 1 px; measured 343 / 344 (the one left is 1.0-2 px
   // away: two touching particles whose centroid windows overlap). Where both find a
   // particle the positions agree to the ~0.1 px localisation noise of either method.
   EXPECT_GE(peaks.within_1px, static_cast<int>(0.97 * ref.size()));

@@ -112,7 +112,7 @@ FrameSource::FrameSource(const std::string& input, std::optional<cv::Rect> roi, 
   const int last = m_range.last < 0 ? m_total - 1 : std::min(m_range.last, m_total - 1);
   m_count = m_total > 0 && last >= m_range.first ? (last - m_range.first) / m_range.step + 1 : 0;
   if (m_count == 0) {
-    // Say so here: an empty range used to end as "no particles found ... check the polarity".
+    // Say so here: otherwise an empty range ends as "no particles found ... check the polarity".
     const bool last_before_first = m_range.last >= 0 && m_range.last < m_range.first;
     throw InputError({input, 0, 0, last_before_first ? "inputs.last_frame" : "inputs.first_frame"}, "the frame range selects no frame",
                      fmt::format("frames {} to {} of an input with {} frame{}", m_range.first, m_range.last < 0 ? std::string("the end") : std::to_string(m_range.last),

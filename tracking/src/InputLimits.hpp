@@ -1,5 +1,5 @@
-// Bounds on the tracking kinds' input files, checked before they are read
-// (issue 22): a tracks CSV that is /dev/zero or a FIFO is never read forever,
+// Bounds on the tracking kinds' input files, checked before they are read:
+// a tracks CSV that is /dev/zero or a FIFO is never read forever,
 // and one too large for memory is refused with its size.
 #pragma once
 

@@ -234,7 +234,7 @@ RunOutput runTrackingVideo(const Case& c, const RunContext& ctx) {
   TrackConfig cfg = trackerConfig(c);
   cfg.pixel_size = c.quantity("inputs.pixel_size");
   cfg.fps = c.quantity("inputs.frame_rate");
-  // An infinite pixel size used to write inf positions: finite and positive, whichever way it came.
+  // An infinite pixel size would write inf positions: finite and positive, whichever way it came.
   if (!(std::isfinite(cfg.pixel_size) && cfg.pixel_size > 0))
     throw InputError(c.where("inputs.pixel_size"), "the pixel size must be finite and positive", fmt::format("{:g} um", cfg.pixel_size * 1e6),
                      "a length such as \"0.65 um\" (or --pixel-size-um 0.65)");

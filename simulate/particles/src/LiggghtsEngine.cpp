@@ -51,7 +51,8 @@ LiggghtsEngine::LiggghtsEngine(std::shared_ptr<const FlowField> flow, SceneConfi
   m_setup = liggghtsSetupFor(*m_flow, m_cfg, m_outlet);
   const std::vector<std::string> commands = liggghtsSetupCommands(m_setup);  // validates; throws before LIGGGHTS starts
   ensureMpi();
-  // -screen none segfaults on STL input (liggghts-notes.md): always use files.
+  // LIGGGHTS 3.8 with -screen none segfaults once fix mesh/surface reads an STL
+  // (it writes to the null screen unchecked): always use files.
   std::string log = m_setup.log_file.string(), screen = m_setup.screen_file.string();
   std::string a0 = "mmval", a1 = "-log", a3 = "-screen", a5 = "-echo", a6 = "none";
   char* argv[] = {a0.data(), a1.data(), log.data(), a3.data(), screen.data(), a5.data(), a6.data()};

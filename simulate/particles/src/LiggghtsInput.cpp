@@ -180,7 +180,7 @@ std::vector<std::string> liggghtsSetupCommands(const LiggghtsSetup& s) {
     require(safePath(s.grain_stl), "work_dir", "grain mesh path empty or with spaces/special characters", 0, "a plain path");
     require(s.grain_triangles > 0 && s.grain_triangles <= 2000000, "geometry.mask", "grain mesh triangle count out of range", static_cast<double>(s.grain_triangles),
             "1 .. 2e6 triangles");
-    // LIGGGHTS rejects meshes whose extent is under ~1e-4 m (liggghts-notes.md).
+    // LIGGGHTS 3.8 rejects meshes whose overall extent is under ~1e-4 m (a 60 um duct is refused).
     require(std::max(s.x1 - s.x0, s.y1 - s.y0) > 1.5e-4, "geometry.mask", "a grain mesh smaller than LIGGGHTS accepts", std::max(s.x1 - s.x0, s.y1 - s.y0),
             "a field wider than 150 um");
   }

@@ -10,7 +10,7 @@
 //   BMP   BITMAPINFOHEADER and later, or the old OS/2 BITMAPCOREHEADER
 //   PGM/PPM/PBM  Netpbm headers (P1-P6), comments allowed
 // Anything else (or a file that cannot be read) gives no header: the caller's
-// decoder then decides, as before.
+// decoder then decides.
 #pragma once
 
 #include <cstdint>

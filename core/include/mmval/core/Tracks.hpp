@@ -8,8 +8,8 @@
 // the file as it is. x_um/y_um are required (or pixels plus a pixel size
 // given by the caller); pixel columns are optional for simulated
 // trajectories. x_px/y_px are read as synonyms of x/y. Readers find columns
-// by name, so a column they do not know is skipped (the quality columns were
-// newer columns; files without them read as before).
+// by name, so a column they do not know is skipped, and the optional quality
+// columns may be absent.
 //
 // The quality columns describe the detected spot behind each point (the
 // tracker writes them; simulated trajectories have none): see SpotQuality.

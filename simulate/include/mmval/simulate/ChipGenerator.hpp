@@ -1,4 +1,4 @@
-// A micromodel generator from statistics (issue 26, item 1; docs/chip-generator.md): a
+// A micromodel generator from statistics (docs/chip-generator.md): a
 // sand-pack-like chip mask for a target porosity, depth-averaged permeability at a given depth,
 // grain-size distribution (and optionally mean throat size), over a given size and pixel size.
 //

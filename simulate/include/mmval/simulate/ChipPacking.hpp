@@ -1,4 +1,4 @@
-// Sand-pack-like micromodel patterns (issue 26, item 1): random polydisperse discs with a minimum
+// Sand-pack-like micromodel patterns (docs/chip-generator.md): random polydisperse discs with a minimum
 // gap, between two solid walls, with open inlet and outlet columns.
 //
 // Grain diameters are lognormal (mean, coefficient of variation), as sieved sands are usually

@@ -71,7 +71,7 @@ namespace mmval::simulate {
 
 /// The flow solve failed on a valid problem: the solution is not finite, a linear solve diverged,
 /// an unsteady flow blew up. A NumericalFailure (exit 5) that names no case key (solvers do not
-/// know them, house style 18): the case kind that chose the resolution rethrows withKey(its key).
+/// know them; one place, the kind, knows the option names): the case kind that chose the resolution rethrows withKey(its key).
 class FlowFailure : public NumericalFailure {
  public:
   FlowFailure(std::string cause, std::string advice) : NumericalFailure(cause, "", advice), m_cause(std::move(cause)), m_advice(std::move(advice)) {}

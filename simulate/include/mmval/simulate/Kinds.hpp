@@ -1,4 +1,4 @@
-// Case kinds run by mmval's own fluid solver (issue 4):
+// Case kinds run by mmval's own fluid solver:
 //   channel            plane Poiseuille (periodic + body force, pressure inlet/outlet,
 //                      or velocity inlet) and the depth-averaged shallow duct
 //   periodic-array     Stokes flow through a square array of cylinders: F*, k / L^2

@@ -1,4 +1,4 @@
-// Connectivity of the pore space of a binary mask (geometry sanity, issue 4).
+// Connectivity of the pore space of a binary mask: a geometry is checked before any solve.
 //
 // Pores are 4-connected fluid pixels (an edge shared, not just a corner: a
 // diagonal contact carries no flow on a Cartesian grid). Only components that
@@ -6,7 +6,7 @@
 // isolated pores, excluded from the flow solve (turned solid) and from the
 // connected porosity. Periodic directions wrap.
 //
-// Throats (issue 22): a flow path is only as resolved as its narrowest
+// Throats: a flow path is only as resolved as its narrowest
 // cross-section. narrowestThroat() finds the widest inlet-to-outlet path (the
 // one whose narrowest cross-section is largest: a grid that cannot resolve it
 // cannot resolve any path) and that cross-section's width and position.

@@ -1,7 +1,7 @@
 // Rigid bodies moving through creeping flow, resolved on the fluid grid.
 //
-// The coupling mode for particles that span many cells (issue 6: "resolved
-// immersed boundary when a particle spans enough cells"). Each body's no-slip
+// The coupling mode for particles that span many cells (a resolved immersed
+// boundary once a particle spans enough cells). Each body's no-slip
 // condition is its rigid motion, imposed by the sharp immersed boundary of
 // FlowOperator (nodes inside the body take U + spin x r, cut viscous fluxes
 // take it at the surface point), and the force and torque on it are the

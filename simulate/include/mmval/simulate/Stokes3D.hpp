@@ -1,5 +1,5 @@
 // Steady 3D Stokes flow through a chip: a 2D grain mask extruded through the
-// depth between two no-slip plates (issue 4, case 6: "coarse 3D").
+// depth between two no-slip plates.
 //
 // Discretisation. Staggered MAC grid (Harlow & Welch 1965), uniform spacing
 // per axis (dx, dy in the plane, dz across the depth; cells may be strongly

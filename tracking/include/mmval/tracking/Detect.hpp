@@ -15,7 +15,7 @@
 // jointly (deblend): each spot's centroid and amplitude on the signal minus its
 // neighbours' models, spots hidden beside brighter ones looked for in the residual, and
 // elongated blobs split in two when two spots fit significantly better (a
-// likelihood-ratio test). On issue 3's SNR 4 scene this took JSC from 0.938 to 0.979 and
+// likelihood-ratio test). On the SNR 4 scene of tests/tracking/TrackingValidationTest.cpp this took JSC from 0.938 to 0.979 and
 // the RMSE from 0.43 to 0.32 px (with the linker's smoothed velocity).
 #pragma once
 #include <string>

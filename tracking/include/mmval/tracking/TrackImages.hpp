@@ -1,4 +1,4 @@
-// Pictures of a tracker run that people look at rather than read (issue 3):
+// Pictures of a tracker run that people look at rather than read:
 // the steps of every moving particle drawn over the background, coloured by
 // speed, and the mean speed binned on the pore space. Both carry a colour bar
 // with its scale in um/s.

@@ -1,5 +1,5 @@
 // Where deposited particles sit, in the fluid's terms (four-way coupling of the
-// micromodel scene, issue 6). The chip is depth-averaged, so a deposit is a
+// micromodel scene). The chip is depth-averaged, so a deposit is a
 // volume booked on the image's pixels, in one of two ways:
 //  - a column deposit (particles caught at a grain wall) fills the pixel's
 //    column (pixel area x chip depth); the column closes (becomes solid for the
@@ -14,7 +14,7 @@
 // Volume that does not fit spills into the nearest open pore pixels (nearest
 // first, ties by index), so deposited volume is conserved exactly. This is the
 // constant-volume idea of the paper's dilation of sub-cell particles
-// (paper-notes.md, coupling) on the pixel grid. A deposit may stand for
+// (Elrahmani et al. 2022, Powder Technol. 398:117130, the coupling) on the pixel grid. A deposit may stand for
 // `weight` real particles (a parcel, when the scene simulates a sample).
 //
 // Packing of a plate layer: colloids attaching to a plate at random form a

@@ -1,5 +1,5 @@
 // Measuring one engine against another on a shared window of the same scene
-// (issue 6: the cheaper model's error against LIGGGHTS): both get the same
+// (the cheaper model's error against LIGGGHTS): both get the same
 // particles at the same positions and are advanced to the same output times.
 #pragma once
 #include <cstdint>

@@ -1,5 +1,5 @@
 // The flow that moves particles, seen through a small interface so that the
-// particle engines never depend on the fluid solver (issue 6). All SI.
+// particle engines never depend on the fluid solver. All SI.
 //
 // The chip is quasi-2D: (x, y) in the plane, z across the depth from the
 // bottom plate (z = 0) to the top plate (z = h(x, y)). A field gives the
@@ -7,7 +7,8 @@
 // Hele-Shaw profile across the depth,
 //   u(z) = 6 u_mean z (h - z) / h^2        (plane Poiseuille, mean u_mean),
 // which is exact between parallel plates and the standard closure of
-// depth-averaged micromodel flow (architecture.md, "shallow chips").
+// depth-averaged micromodel flow (Bruus 2008, Theoretical Microfluidics;
+// reference-data/shallow-channels.toml).
 #pragma once
 #include <cstdint>
 #include <memory>
@@ -72,7 +73,7 @@ class UniformFlow final : public FlowField {
 /// y = width, flow along +x with depth-averaged speed u_mean, inlet x = 0,
 /// outlet x = length. The depth-averaged velocity is a plug in y (the
 /// side-wall boundary layers, ~ one depth thick, are left out: valid for
-/// width >> depth; benchmarks.md gives the duct correction).
+/// width >> depth; reference-data/shallow-channels.toml gives the duct correction).
 class HeleShawChannel final : public FlowField {
  public:
   HeleShawChannel(double length, double width, double depth, double u_mean);

@@ -1,4 +1,4 @@
-// LIGGGHTS 3.8 driven in-process (liggghts-notes.md): Hertz normal contact with
+// LIGGGHTS 3.8 driven in-process (the Debian libliggghts-dev): Hertz normal contact with
 // damping and tangential history (+ sjkr cohesion), the chip's plates (and a
 // channel's side walls) as primitive walls, Newton-Euler integration
 // (nve/sphere). The paper's particle physics, resolved in time.

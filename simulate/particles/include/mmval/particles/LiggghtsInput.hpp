@@ -1,5 +1,6 @@
 // The LIGGGHTS input we generate, validated before a single command is sent
-// (every LIGGGHTS input error ends the process: liggghts-notes.md). Pure
+// (every LIGGGHTS 3.8 input error calls exit(1) or MPI_Abort: there is no error
+// API to recover from). Pure
 // functions, built and tested without LIGGGHTS.
 #pragma once
 #include <filesystem>

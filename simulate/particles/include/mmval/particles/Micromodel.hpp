@@ -1,6 +1,6 @@
 // The coupled validation scene, case kind "particles-micromodel":
-// the micromodel experiment of the paper (paper-notes.md, "The micromodel
-// experiment") on a pore mask. The geometry comes from a binary image (pixel
+// the micromodel experiment of the paper (Elrahmani et al. 2022; its numbers in
+// reference-data/micromodel-experiment.toml) on a pore mask. The geometry comes from a binary image (pixel
 // size and chip depth from the case), the depth-averaged Stokes flow from
 // mmval's fluid solver (MicromodelFlow) at the experiment's Darcy velocity,
 // fines of the experiment's size and density enter at the inlet at the

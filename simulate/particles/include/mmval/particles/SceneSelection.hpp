@@ -1,6 +1,6 @@
 // Picking the particle engine (and the fluid-particle coupling mode) of a
-// scene from its dimensionless numbers (architecture.md, "model only what a
-// scene needs"; issue 6). The rules are deliberately few and their reason is
+// scene from its dimensionless numbers: model only what a scene needs, the
+// cheapest engine whose physics the scene's numbers call for. The rules are deliberately few and their reason is
 // returned as text that goes into result.json.
 #pragma once
 #include <string>

@@ -1,0 +1,38 @@
+// Tracking scores (Score.hpp) on tracks whose scores follow from their definition.
+#include <gtest/gtest.h>
+
+#include "mmval/tracking/Score.hpp"
+
+namespace mmval::tracking {
+namespace {
+
+TEST(Score, PerfectAndShiftedTracks) {
+  Tracks t;
+  for (int p = 0; p < 3; ++p)
+    for (int f = 0; f < 10; ++f) {
+      TrackPoint q;
+      q.frame = f;
+      q.particle = p;
+      q.x_px = 10 + 3 * f;
+      q.y_px = 10 + 20 * p;
+      t.points.push_back(q);
+    }
+  const Scores same = scoreTracks(t, t);
+  EXPECT_DOUBLE_EQ(same.alpha, 1.0);
+  EXPECT_DOUBLE_EQ(same.jaccard_points, 1.0);
+  EXPECT_DOUBLE_EQ(same.jaccard_tracks, 1.0);
+  Tracks shifted = t;
+  for (auto& p : shifted.points) p.x_px += 1.0;  // 1 px off everywhere, gate 5: alpha = 1 - 1/5
+  const Scores s = scoreTracks(t, shifted);
+  EXPECT_NEAR(s.alpha, 0.8, 1e-12);
+  EXPECT_NEAR(s.rmse_px, 1.0, 1e-12);
+  EXPECT_DOUBLE_EQ(s.jaccard_points, 1.0);
+  Tracks half = t;
+  std::erase_if(half.points, [](const TrackPoint& p) { return p.particle == 2; });
+  const Scores h = scoreTracks(t, half);
+  EXPECT_NEAR(h.jaccard_points, 20.0 / 30.0, 1e-12);
+  EXPECT_NEAR(h.jaccard_tracks, 2.0 / 3.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace mmval::tracking

@@ -1,0 +1,114 @@
+#include "mmval/validate/Validation.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <optional>
+
+#include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/Error.hpp"
+#include "mmval/core/Run.hpp"
+#include "mmval/openfoam/Kinds.hpp"
+#include "mmval/openfoam/Peer.hpp"
+#include "mmval/reports/Report.hpp"
+#include "mmval/validate/CaseSelection.hpp"
+#include "mmval/validate/RunFolders.hpp"
+
+namespace fs = std::filesystem;
+
+namespace mmval::validate {
+
+namespace {
+
+bool tagged(const Case& c, const std::string& tag) {
+  const auto& tags = c.strings("case.tags");
+  return std::find(tags.begin(), tags.end(), tag) != tags.end();
+}
+
+/// mmval's run of one case: the complete earlier run when resuming and the case is unchanged, else a new run.
+nlohmann::json ownRun(const Case& c, const CaseKindRegistry& registry, const fs::path& run_dir, const ValidationOptions& options) {
+  if (std::optional<nlohmann::json> done = options.resume ? earlierRun(c, run_dir) : std::nullopt) {
+    std::fprintf(stderr, "      kept the complete earlier run in %s (same case hash)\n", run_dir.string().c_str());
+    return *done;
+  }
+  // --resume also lets a runner pick up its own checkpoints in the staged folder.
+  return runCase(c, registry, run_dir, {options.quiet, options.resume}).result;
+}
+
+/// The OpenFOAM peer's run of a case tagged "peer": an earlier complete peer
+/// run when resuming, else a new run, else (no OpenFOAM) a "not run" result.
+nlohmann::json peerRun(const Case& c, const fs::path& peer_dir, const ValidationOptions& options) {
+  std::optional<nlohmann::json> done = options.resume ? earlierRun(c, peer_dir) : std::nullopt;
+  if (done && done->value("details", nlohmann::json::object()).value("status", "") != "not run") return *done;
+  if (!openfoam::detect().available) {
+    const std::string reason = openfoam::detect().reason;
+    std::fprintf(stderr, "      OpenFOAM peer not run for %s: %s\n", c.name().c_str(), reason.c_str());
+    return peerNotRun(c, reason, peer_dir);
+  }
+  std::fprintf(stderr, "      %s through the OpenFOAM peer\n", c.name().c_str());
+  const auto runner = [](const Case& cc, const RunContext& ctx) { return openfoam::runPeer(cc, ctx, {}); };
+  return runCaseWith(c, runner, peer_dir, {options.quiet, false}).result;
+}
+
+}  // namespace
+
+ValidationResult runValidation(const ValidationOptions& options, const CaseKindRegistry& registry) {
+  const auto start = std::chrono::steady_clock::now();
+  ValidationResult result;
+  result.out = normaliseOutputPath(options.out);
+  const fs::path& out = result.out;
+  requireOwnedFolder(out);
+  const fs::path cases_dir = casesFolder(options.cases);
+  const auto files = casesTagged(cases_dir, options.tags, registry);
+  if (files.empty())
+    throw InputError({cases_dir.string(), 0, 0, "case.tags"}, "no case carries the tag '" + (options.tags.empty() ? std::string() : options.tags.front()) + "'",
+                     {}, "at least one case to run");
+  std::fprintf(stderr, "validate: %zu case(s) from %s\n", files.size(), cases_dir.string().c_str());
+  fs::create_directories(out / "runs");
+  const FolderLock lock(out, out.string());
+  writeOutputMarker(out);
+  reports::Summary& summary = result.summary;
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    const Case c = Case::load(files[i], registry);
+    std::fprintf(stderr, "[%zu/%zu] %s (%s)\n", i + 1, files.size(), c.name().c_str(), c.kind().c_str());
+    summary.results.push_back(ownRun(c, registry, out / "runs" / c.name(), options));
+    if (tagged(c, "peer")) summary.results.push_back(peerRun(c, out / "runs" / (c.name() + "-openfoam"), options));
+    summary.total_wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    writeSummary(out, summary);  // partial summaries survive an interrupted validation
+    writeOutputMarker(out);
+  }
+  // The full report over every run folder.
+  reports::ReportInput input = reports::collect({out});
+  input.summary.total_wall_seconds = summary.total_wall_seconds;
+  result.figures = reports::writeReport(input, out);
+  writeOutputMarker(out);
+  result.cases = files.size();
+  return result;
+}
+
+void writeSummary(const fs::path& out, const reports::Summary& summary) {
+  writeFileAtomic(out / "metrics.json", summary.metricsJson().dump(2) + "\n");
+  writeFileAtomic(out / "index.md", summary.markdown());
+  writeFileAtomic(out / "index.html", summary.html());
+}
+
+nlohmann::json peerNotRun(const Case& c, const std::string& reason, const fs::path& dir) {
+  const nlohmann::json row = {{"name", "openfoam_peer"}, {"value", nullptr},      {"unit", ""},
+                              {"reference", nullptr},    {"error", nullptr},      {"tolerance", nullptr},
+                              {"pass", nullptr},         {"status", "not run"},   {"note", "not run: " + reason}};
+  nlohmann::json doc = {{"schema", "mmval-result/1"},
+                        {"case", {{"name", c.name() + "-openfoam"}, {"kind", c.kind()}, {"file", c.file().string()}, {"hash", c.hash()},
+                                  {"description", c.description()}}},
+                        {"metrics", nlohmann::json::array({row})},
+                        {"all_pass", true},
+                        {"cost", {{"wall_seconds", 0.0}, {"peak_memory_bytes", 0}}},
+                        {"details", {{"solver", "OpenFOAM (not run)"}, {"status", "not run"}, {"reason", reason}}},
+                        {"files", nlohmann::json::array()},
+                        {"provenance", provenanceJson()}};
+  StagedDirectory staged(dir);
+  writeFileAtomic(staged.path() / "result.json", doc.dump(2) + "\n");
+  staged.commit();
+  return doc;
+}
+
+}  // namespace mmval::validate
