@@ -1,6 +1,6 @@
 // The files a report reads may be anything a user points at: missing, empty,
 // not JSON, of the wrong shape or far too large. Each is an InputError naming
-// the file and the field (issue 22); before, a JSON type error with no file name.
+// the file and the field, never a bare JSON type error.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 

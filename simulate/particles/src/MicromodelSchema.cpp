@@ -54,7 +54,8 @@ void declareMicromodel(Schema& s) {
   s.quantity("particles.injection_time", "s", "Particles enter during [0, injection_time]; 0: the whole run").def(0.0).nonNegative();
   s.choice("particles.engine", {"auto", "overdamped"},
            "Particle engine. auto: from the scene's numbers, which must allow the overdamped engine (LIGGGHTS cannot run this "
-           "scene's length: liggghts-notes.md); overdamped: forced, with the automatic choice recorded")
+           "scene: its contact time step, set by the particles' stiffness and mass, is many orders below a 20-minute run; "
+           "SceneSelection.hpp); overdamped: forced, with the automatic choice recorded")
       .def("auto");
   declarePhysicsAndDeposition(s, 1e-20);
   s.choice("coupling.mode", {"four-way", "one-way"},

@@ -1,6 +1,6 @@
 // "particles-resolved": particles that span many fluid cells, moved through
-// creeping flow by the resolved immersed boundary (issue 6, the coupling mode
-// for d/dx >= ~8). Each particle is a rigid disk in the 2D flow (a cylinder
+// creeping flow by the resolved immersed boundary (the coupling mode SceneSelection
+// picks for d/dx >= ~8). Each particle is a rigid disk in the 2D flow (a cylinder
 // through the plane, or with channel.depth > 0 a pillar spanning a Hele-Shaw
 // chip); its motion is the Stokes mobility problem of ResolvedStokes: no
 // drag law, no wall correction, no lubrication model: the flow between the
