@@ -283,4 +283,20 @@ SynthResult writeSyntheticVideo(const SynthOptions& options, const std::filesyst
   return result;
 }
 
+void writeSynthTruth(const std::filesystem::path& dir, Tracks& truth, const SynthSceneCommon& c, nlohmann::json model) {
+  std::stable_sort(truth.points.begin(), truth.points.end(),
+                   [](const TrackPoint& a, const TrackPoint& b) { return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame; });
+  writeTracksCsv(dir / "truth.csv", truth, c.pixel_size_um * 1e-6);
+  model["scene"] = c.scene;
+  model["seed"] = c.seed;
+  model["frames"] = c.frames;
+  model["width_px"] = c.width;
+  model["height_px"] = c.height;
+  model["fps_hz"] = c.fps_hz;
+  model["pixel_size_um"] = c.pixel_size_um;
+  model["format"] = synthFormatName(c.format);
+  model["particles"] = c.particles;
+  writeFileAtomic(dir / "truth.json", model.dump(2) + "\n");
+}
+
 }  // namespace mmval::tracking

@@ -110,19 +110,7 @@ DiscSceneResult writeDiscScene(const DiscSceneOptions& o, const std::filesystem:
     writer.write(f, render(discs, o, camera));
   }
   result.files = writer.finish();
-  std::stable_sort(result.truth.points.begin(), result.truth.points.end(),
-                   [](const TrackPoint& a, const TrackPoint& b) { return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame; });
-  writeTracksCsv(dir / "truth.csv", result.truth, o.pixel_size_um * 1e-6);
   nlohmann::json j;
-  j["scene"] = "large-discs";
-  j["seed"] = o.seed;
-  j["frames"] = o.frames;
-  j["width_px"] = o.width;
-  j["height_px"] = o.height;
-  j["fps_hz"] = o.fps_hz;
-  j["pixel_size_um"] = o.pixel_size_um;
-  j["format"] = synthFormatName(o.format);
-  j["particles"] = o.particles;
   j["radii_px"] = result.radii_px;
   j["rim"] = {{"contrast", o.rim_contrast}, {"sigma_px", o.rim_sigma_px}, {"offset_px", o.rim_offset_px}};
   j["interior"] = o.interior;
@@ -130,7 +118,7 @@ DiscSceneResult writeDiscScene(const DiscSceneOptions& o, const std::filesystem:
   j["step_px"] = o.step_px;
   j["noise"] = o.noise;
   j["profile"] = "I(d) = b + (I_in - b) S(R - d) + A exp(-(d - R + o)^2 / 2 s^2)";
-  writeFileAtomic(dir / "truth.json", j.dump(2) + "\n");
+  writeSynthTruth(dir, result.truth, {"large-discs", o.seed, o.frames, o.width, o.height, o.particles, o.fps_hz, o.pixel_size_um, o.format}, std::move(j));
   return result;
 }
 

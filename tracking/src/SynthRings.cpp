@@ -130,19 +130,7 @@ RingSceneResult writeRingScene(const RingSceneOptions& o, const std::filesystem:
     writer.write(f, img);
   }
   result.files = writer.finish();
-  std::stable_sort(result.truth.points.begin(), result.truth.points.end(),
-                   [](const TrackPoint& a, const TrackPoint& b) { return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame; });
-  writeTracksCsv(dir / "truth.csv", result.truth, o.pixel_size_um * 1e-6);
   nlohmann::json j;
-  j["scene"] = "brightfield-rings";
-  j["seed"] = o.seed;
-  j["frames"] = o.frames;
-  j["width_px"] = o.width;
-  j["height_px"] = o.height;
-  j["fps_hz"] = o.fps_hz;
-  j["pixel_size_um"] = o.pixel_size_um;
-  j["format"] = synthFormatName(o.format);
-  j["particles"] = o.particles;
   j["ring_radius_px"] = o.ring_radius_px;
   j["ring_width_px"] = o.ring_width_px;
   j["centre_sigma_px"] = o.centre_sigma_px;
@@ -153,7 +141,7 @@ RingSceneResult writeRingScene(const RingSceneOptions& o, const std::filesystem:
   j["static_specks"] = o.static_specks;
   j["noise"] = o.noise;
   j["profile"] = "I/b = 1 + C exp(-r^2/2s_c^2) - K exp(-(r-R)^2/2w^2) + H exp(-(r-R-2.5w)^2/2w^2) (phenomenological Lorenz-Mie pattern)";
-  writeFileAtomic(dir / "truth.json", j.dump(2) + "\n");
+  writeSynthTruth(dir, result.truth, {"brightfield-rings", o.seed, o.frames, o.width, o.height, o.particles, o.fps_hz, o.pixel_size_um, o.format}, std::move(j));
   return result;
 }
 

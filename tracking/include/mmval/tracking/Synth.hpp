@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include "mmval/core/Tracks.hpp"
@@ -58,6 +59,19 @@ class SynthFrameWriter {
   struct Video;
   std::unique_ptr<Video> m_video;
 };
+
+/// The fields every scene with a truth.json shares.
+struct SynthSceneCommon {
+  std::string scene;
+  std::uint64_t seed = 1;
+  int frames = 0, width = 0, height = 0, particles = 0;
+  double fps_hz = 0, pixel_size_um = 0;
+  SynthFormat format = SynthFormat::png8;
+};
+
+/// What such scenes write alike, each file atomically: `truth` sorted by particle, then frame,
+/// into truth.csv, and truth.json with the common fields plus the scene's own `model` fields.
+void writeSynthTruth(const std::filesystem::path& dir, Tracks& truth, const SynthSceneCommon& common, nlohmann::json model);
 
 struct SynthOptions {
   int width = 320, height = 240, frames = 60;
