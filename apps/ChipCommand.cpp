@@ -44,6 +44,13 @@ void printSummary(const simulate::ChipResult& r, const std::string& out) {
     std::printf("  k target            %.4g D +- %.1f %% at %g cells/px: achieved %.4g D (%s)%s\n", r.spec.permeability_D, 100 * r.spec.permeability_tolerance,
                 r.spec.cells_per_pixel, r.k_target_level_D, t["permeability_depth_averaged_D"]["met"].get<bool>() ? "met" : "NOT met",
                 j["permeability"]["converged"].get<bool>() ? "" : "; the ladder is not converged within the tolerance (see chip.json)");
+  if (j["permeability"].contains("tile_samples") && j["permeability"]["tile_samples"].contains("mean_D")) {
+    const auto& ts = j["permeability"]["tile_samples"];
+    std::printf("  chip windows        depth-averaged k %.4g D +- %.2g (SD of %zu) at %g cells/px against the tile's %.4g D (x %.3f)%s\n",
+                ts["mean_D"].get<double>(), ts["sd_D"].get<double>(), ts["windows"].size(), ts["cells_per_pixel"].get<double>(),
+                ts["tile_k_D"].get<double>(), ts["mean_over_tile"].get<double>(),
+                ts["representative"].get<bool>() ? "" : "; the tile does not represent the chip within the tolerance");
+  }
   std::printf("  grains              mean diameter %.4g um, cv %.3f (asked %.3f)\n", j["grains"]["mean_diameter_um"].get<double>(), j["grains"]["cv"].get<double>(),
               r.spec.grain_cv);
   std::printf("  throats             %d, mean width %.4g um (radius %.4g um), min %.4g um, median %.4g um\n", j["throats"]["count"].get<int>(),

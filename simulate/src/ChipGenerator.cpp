@@ -259,6 +259,39 @@ void solveLadders(const ChipSpec& s, const BoolArray& solved, const std::vector<
     if (std::abs(s.ladder[i] - s.cells_per_pixel) < 1e-12) r.k_target_level_D = r.ladder_da.runs[i].permeability_m2 / kDarcyM2;
 }
 
+/// Stage 4b (solve-on tile): four tile-sized windows of the chip itself, framed as the tile is
+/// (ports and walls), depth-averaged, at the ladder's coarsest level, to compare with the tile at
+/// that level (chip.json tile_samples).
+void sampleChipTiles(const ChipSpec& s, int tile_cols, int tile_rows, ChipResult& r, const std::function<void(const std::string&)>& log) {
+  const BoolArray& chip = r.packing.solid;
+  const double level = s.ladder.front();
+  if (log) log(fmt::format("chip: 4 windows of {} x {} px of the chip at {:g} cells/px, depth-averaged (is the tile representative?)", tile_cols, tile_rows, level));
+  for (const double fy : kTileSampleFractions)
+    for (const double fx : kTileSampleFractions) {
+      ChipTileSample t;
+      t.col = static_cast<int>(std::lround(fx * static_cast<double>(chip.cols() - tile_cols)));
+      t.row = static_cast<int>(std::lround(fy * static_cast<double>(chip.rows() - tile_rows)));
+      // Framed as the tile is packed: grain-free inlet and outlet columns, solid wall rows (a bare
+      // cut would compare entrance losses through cut grains, not the pattern).
+      BoolArray window = chip.block(t.row, t.col, tile_rows, tile_cols);
+      const int port = std::min(tile_cols / 4, static_cast<int>(std::lround((s.port_um > 0 ? s.port_um : r.mean_grain_um) / s.pixel_um)));
+      const int wall = std::min(tile_rows / 4, s.wall_px);
+      window.leftCols(port) = false;
+      window.rightCols(port) = false;
+      window.topRows(wall) = true;
+      window.bottomRows(wall) = true;
+      const PoreSpaceReport pores = analysePoreSpace(window);
+      t.porosity = pores.porosity_total;
+      try {
+        t.k_D = chipPermeability(pores.solid_connected, flowSettings(s), level).permeability_m2 / kDarcyM2;
+      } catch (const std::exception& e) {
+        t.k_D = std::nan("");
+        t.error = e.what();
+      }
+      r.tile_samples.push_back(t);
+    }
+}
+
 }  // namespace
 
 ChipResult generateChip(const ChipSpec& s, const std::function<void(const std::string&)>& log) {
@@ -286,8 +319,12 @@ ChipResult generateChip(const ChipSpec& s, const std::function<void(const std::s
   if (tuned && !tile_is_chip && !s.solve_on_tile) d = confirmOnChip(s, d, r, known, log);
   r.mean_grain_um = d;
   lap("confirm");
-  if (s.solve_on_tile && !tile_is_chip) solveLadders(s, pack(s, tile_cols, tile_rows, d).solid, {}, r, log);
-  else solveLadders(s, r.packing.solid, known, r, log);
+  if (s.solve_on_tile && !tile_is_chip) {
+    solveLadders(s, pack(s, tile_cols, tile_rows, d).solid, {}, r, log);
+    sampleChipTiles(s, tile_cols, tile_rows, r, log);
+  } else {
+    solveLadders(s, r.packing.solid, known, r, log);
+  }
   lap("ladder");
   if (log) log("chip: statistics (pore space, throats, narrowest spanning throat)");
   r.stats = chipStatistics(r);

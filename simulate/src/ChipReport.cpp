@@ -96,6 +96,38 @@ void writeHistogramCsv(const nlohmann::json& h, const std::string& quantity, con
   if (!f) throw std::runtime_error("cannot write " + file.string());
 }
 
+/// The chip's own windows against the tile at the ladder's coarsest level: mean, SD, and whether
+/// the mean is within the k tolerance of the tile (else the chip's k is not the tile's).
+nlohmann::json tileSamplesJson(const ChipResult& r) {
+  const double tile_k = r.ladder_da.runs.front().permeability_m2 / kDarcyM2;
+  nlohmann::json samples = nlohmann::json::array();
+  std::vector<double> ks;
+  for (const auto& t : r.tile_samples) {
+    nlohmann::json e = {{"col", t.col}, {"row", t.row}, {"porosity", t.porosity}};
+    e["k_D"] = std::isfinite(t.k_D) ? nlohmann::json(t.k_D) : nlohmann::json(nullptr);
+    if (!t.error.empty()) e["error"] = t.error;
+    if (std::isfinite(t.k_D)) ks.push_back(t.k_D);
+    samples.push_back(e);
+  }
+  nlohmann::json j = {{"cells_per_pixel", r.spec.ladder.front()}, {"tile_k_D", tile_k}, {"windows", samples},
+                      {"method", "tile-sized windows of the chip itself at 1/4 and 3/4 of its free range in x and y, framed as the tile is "
+                                 "(grain-free inlet and outlet columns, solid wall rows), depth-averaged, at the ladder's coarsest level, "
+                                 "against the tuned tile at that level"}};
+  if (ks.empty()) {
+    j["representative"] = false;
+    return j;
+  }
+  double mean = 0, sd = 0;
+  for (const double k : ks) mean += k / static_cast<double>(ks.size());
+  for (const double k : ks) sd += (k - mean) * (k - mean) / static_cast<double>(std::max<std::size_t>(ks.size() - 1, 1));
+  sd = std::sqrt(sd);
+  j["mean_D"] = mean;
+  j["sd_D"] = sd;
+  j["mean_over_tile"] = mean / tile_k;
+  j["representative"] = std::abs(mean / tile_k - 1) <= r.spec.permeability_tolerance;
+  return j;
+}
+
 }  // namespace
 
 nlohmann::json chipStatistics(const ChipResult& r) {
@@ -134,6 +166,7 @@ nlohmann::json chipStatistics(const ChipResult& r) {
                        {"converged", r.ladder_da.convergence.has_order && std::isfinite(gci) && gci <= s.permeability_tolerance},
                        {"converged_rule", "depth-averaged ladder monotone with an observed order and GCI of the finest level within the k tolerance"},
                        {"boundary", s.smooth_boundary ? "smooth (image-permeability geometry.boundary = smooth, smoothing 0.75 px)" : "pixels"}};
+  if (!r.tile_samples.empty()) j["permeability"]["tile_samples"] = tileSamplesJson(r);
   j["grains"] = {{"count", r.packing.discs.size()}, {"mean_diameter_um", g.mean}, {"cv", g.cv}, {"min_diameter_um", g.min},
                  {"median_diameter_um", g.median}, {"histogram", histogram(grainDiametersUm(r))},
                  {"distribution", fmt::format("lognormal, clipped to [{:g}, {:g}] x the mean", kMinDiameterFactor, kMaxDiameterFactor)}};

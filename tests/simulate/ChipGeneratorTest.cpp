@@ -1,6 +1,8 @@
 // The micromodel generator (docs/chip-generator.md): porosity by construction, the k target met and
 // confirmed by an independent image-permeability run of the written PNG, reproducibility by seed,
 // percolation, and bad targets refused by `mmval chip` with exit 2 naming the option.
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -174,4 +176,54 @@ TEST(ChipCommand, BadTargetsAreRefusedWithExit2NamingTheOption) {
   ChipSpec s = smallChip();
   s.porosity = 0.2;
   EXPECT_THROW(validateChipSpec(s), InputError);
+}
+
+// Solved on a tile, the generator also solves four tile-sized windows of the chip itself and says
+// whether the tile stands for the chip: the windows lie in the four quadrants of the chip, their
+// porosity is the fraction of pore pixels counted here directly on the chip's mask (framed with the
+// tile's ports and walls), and chip.json's
+// mean, SD and verdict follow from the windows' k as listed.
+TEST(ChipGenerator, SolvedOnATileItSamplesWindowsOfTheChipAgainstTheTile) {
+  ChipSpec s = smallChip();
+  s.length_mm = 1.0;
+  s.tile_mm = 0.4;
+  s.mean_grain_um = 25;
+  s.solve_on_tile = true;
+  const ChipResult r = generateChip(s);
+  const auto& solid = r.packing.solid;
+  ASSERT_EQ(r.tile_samples.size(), 4u);
+  const int tile = 160;  // 0.4 mm at 2.5 um/px
+  std::vector<double> ks;
+  for (const auto& t : r.tile_samples) {
+    ASSERT_GE(t.col, 0);
+    ASSERT_GE(t.row, 0);
+    ASSERT_LE(t.col + tile, solid.cols());
+    ASSERT_LE(t.row + tile, solid.rows());
+    // Framed as the tile is packed: wall rows solid, one-grain (25 um = 10 px) ports open.
+    const int wall = s.wall_px, port = 10;
+    int pore = 0;
+    for (int y = 0; y < tile; ++y)
+      for (int x = 0; x < tile; ++x) {
+        const bool is_wall = y < wall || y >= tile - wall, is_port = x < port || x >= tile - port;
+        pore += is_wall ? 0 : is_port ? 1 : solid(t.row + y, t.col + x) ? 0 : 1;
+      }
+    EXPECT_NEAR(t.porosity, pore / double(tile * tile), 1e-12) << "window at " << t.col << ", " << t.row;
+    ASSERT_TRUE(std::isfinite(t.k_D)) << t.error;
+    EXPECT_GT(t.k_D, 0.0);
+    ks.push_back(t.k_D);
+  }
+  // One window in each quadrant: two distinct columns and two distinct rows.
+  EXPECT_NE(r.tile_samples[0].col, r.tile_samples[1].col);
+  EXPECT_NE(r.tile_samples[0].row, r.tile_samples[2].row);
+  const auto& ts = r.stats["permeability"]["tile_samples"];
+  double mean = 0;
+  for (const double k : ks) mean += k / 4;
+  double var = 0;
+  for (const double k : ks) var += (k - mean) * (k - mean) / 3;
+  EXPECT_NEAR(ts["mean_D"].get<double>(), mean, 1e-12 * mean);
+  EXPECT_NEAR(ts["sd_D"].get<double>(), std::sqrt(var), 1e-9 * mean);
+  const double tile_k = r.ladder_da.runs.front().permeability_m2 / kDarcyM2;
+  EXPECT_NEAR(ts["tile_k_D"].get<double>(), tile_k, 1e-12 * tile_k);
+  EXPECT_EQ(ts["representative"].get<bool>(), std::abs(mean / tile_k - 1) <= s.permeability_tolerance);
+  std::printf("tile %.4g D; windows %.4g %.4g %.4g %.4g D, mean x %.3f of the tile\n", tile_k, ks[0], ks[1], ks[2], ks[3], mean / tile_k);
 }

@@ -66,6 +66,18 @@ struct ChipTuneStep {
   double seconds = 0;
 };
 
+/// A tile-sized window of the chip solved at the ladder's coarsest level (solve-on tile only):
+/// how well the tuned tile stands for the chip it was tuned for.
+struct ChipTileSample {
+  int col = 0, row = 0;    ///< top-left pixel of the window in the chip
+  double porosity = 0;     ///< pore pixels / all pixels of the window
+  double k_D = 0;          ///< depth-averaged k, darcy (NaN with `error`)
+  std::string error;       ///< why the window gave no k (no spanning path), empty otherwise
+};
+
+/// Windows sampled at these fractions of the free range along x and y (four, one per quadrant).
+inline constexpr double kTileSampleFractions[] = {0.25, 0.75};
+
 struct ChipResult {
   ChipSpec spec;
   ChipPacking packing;             ///< the full chip
@@ -74,6 +86,7 @@ struct ChipResult {
   ChipLadder ladder_2d, ladder_da; ///< ladders on the chip (or the tile: spec.solve_on_tile)
   int solved_cols = 0, solved_rows = 0;  ///< size of what the ladder solved, px
   double k_target_level_D = 0;     ///< depth-averaged k at spec.cells_per_pixel (what the target is met at)
+  std::vector<ChipTileSample> tile_samples;  ///< solve-on tile: windows of the chip at the ladder's coarsest level
   nlohmann::json stats;            ///< chip.json (see docs/chip-generator.md)
   double seconds = 0;
   nlohmann::json stage_seconds = nlohmann::json::object();  ///< wall time per stage (tune, pack, confirm, ladder, statistics)
