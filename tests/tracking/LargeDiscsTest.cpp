@@ -17,6 +17,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "../apps/RunMmval.hpp"
+#include "DetectionCounts.hpp"
 #include "mmval/tracking/LargeDiscs.hpp"
 #include "mmval/tracking/SynthDiscs.hpp"
 
@@ -25,6 +26,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using mmval::test::freshTestFolder;
+using mmval::test::countInRegion;
 using mmval::test::runMmval;
 
 // The radii searched for the scene's 40-60 px discs: what `--diameter 101` asks for
@@ -80,27 +82,6 @@ void expectDiscsFound(const DiscSceneResult& truth, const fs::path& input, doubl
 }
 
 const fs::path kVideos = fs::path(MMVAL_SHARED_DATA_DIR) / "particletracker-videos";
-
-/// Detections per frame from detections.csv (frame, t_s, x_px, y_px, ...) whose centre
-/// lies in [x0, x1) x [y0, y1).
-std::map<int, int> countInRegion(const fs::path& csv, double x0, double y0, double x1, double y1) {
-  std::ifstream in(csv);
-  std::string line;
-  std::getline(in, line);
-  std::map<int, int> n;
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string frame, t, x, y;
-    std::getline(ss, frame, ',');
-    std::getline(ss, t, ',');
-    std::getline(ss, x, ',');
-    std::getline(ss, y, ',');
-    int& count = n[std::stoi(frame)];
-    const double xv = std::stod(x), yv = std::stod(y);
-    if (xv >= x0 && xv < x1 && yv >= y0 && yv < y1) ++count;
-  }
-  return n;
-}
 
 TEST(TrackingLargeDiscs, RealDiscsVideoCountNearAHandCount) {
   if (!fs::exists(kVideos / "discs.mp4")) GTEST_SKIP() << "no shared data at " << kVideos;

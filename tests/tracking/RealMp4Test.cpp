@@ -13,35 +13,17 @@
 #include <nlohmann/json.hpp>
 
 #include "../apps/RunMmval.hpp"
+#include "DetectionCounts.hpp"
 
 namespace mmval::tracking {
 namespace {
 
 namespace fs = std::filesystem;
 using mmval::test::freshTestFolder;
+using mmval::test::countInRegion;
 using mmval::test::runMmval;
 
 const fs::path kVideos = fs::path(MMVAL_SHARED_DATA_DIR) / "particletracker-videos";
-
-/// Detections per frame whose centre lies in [x0, x1) x [y0, y1), from detections.csv.
-std::map<int, int> countInRegion(const fs::path& csv, double x0, double y0, double x1, double y1) {
-  std::ifstream in(csv);
-  std::string line;
-  std::getline(in, line);  // frame,t_s,x_px,y_px,...
-  std::map<int, int> n;
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string frame, t, x, y;
-    std::getline(ss, frame, ',');
-    std::getline(ss, t, ',');
-    std::getline(ss, x, ',');
-    std::getline(ss, y, ',');
-    const double xv = std::stod(x), yv = std::stod(y);
-    int& count = n[std::stoi(frame)];
-    if (xv >= x0 && xv < x1 && yv >= y0 && yv < y1) ++count;
-  }
-  return n;
-}
 
 TEST(TrackingRealMp4, HydrogelPackingCountMatchesAHandCount) {
   if (!fs::exists(kVideos / "hydrogel.mp4")) GTEST_SKIP() << "no shared data at " << kVideos;
