@@ -98,8 +98,12 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   RollingBackground rolling;
   // threads 0: every core (the decoding and detection of frames are independent).
   const int threads = c.threads > 0 ? c.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  const bool background_wanted = c.detect.subtract_background && c.detect.background_mode != BackgroundMode::none;
-  const bool sample_polarity = c.detect.polarity == Polarity::automatic || c.detect.polarity == Polarity::ring;
+  // A disc-centroid size of kMinDiscRadiusPx or more (--diameter 41 and up): large discs,
+  // found whole by their rims (LargeDiscs.hpp) on the frame itself, radii 0.7-1.3 x it. That
+  // path needs no background, ring or polarity guess, so none of their frames is sampled.
+  const bool large_discs = c.detect.refinement == Refinement::disc && c.detect.refine_radius >= kMinDiscRadiusPx;
+  const bool background_wanted = !large_discs && c.detect.subtract_background && c.detect.background_mode != BackgroundMode::none;
+  const bool sample_polarity = !large_discs && (c.detect.polarity == Polarity::automatic || c.detect.polarity == Polarity::ring);
   {
     // Every frame is decoded once: the samplers below read only the frames they keep,
     // in one forward pass (videos), into the source's cache, which the main pass reads.
@@ -138,9 +142,15 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   const std::vector<cv::Mat> polarity_frames = sample_polarity ? sampleFrames(source, kPolaritySamples) : std::vector<cv::Mat>{};
   if (sample_polarity) run.ring = guessRings(polarity_frames);
   lap("rings");
-  // From frames spread over the video, not the first alone: the first frame of a scene can
-  // hold no moving particle yet, only the absence of deposits that arrive later.
-  if (polarity == Polarity::automatic) {
+  if (large_discs) {
+    polarity = Polarity::bright;
+    run.polarity_reason = fmt::format("large discs: detect.refinement = \"disc\" with detect.refine_radius = {} px (>= {} px, e.g. --diameter {}): "
+                                      "each disc found once, at the centre of a circle fitted to its bright rim, radii {:.0f}-{:.0f} px",
+                                      c.detect.refine_radius, kMinDiscRadiusPx, 2 * c.detect.refine_radius + 1, kDiscRadiusLow * c.detect.refine_radius,
+                                      kDiscRadiusHigh * c.detect.refine_radius);
+  } else if (polarity == Polarity::automatic) {
+    // From frames spread over the video, not the first alone: the first frame of a scene can
+    // hold no moving particle yet, only the absence of deposits that arrive later.
     if (run.ring.rings) {
       polarity = Polarity::ring;
       run.polarity_reason = run.ring.reason;
@@ -151,25 +161,17 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   } else {
     run.polarity_reason = fmt::format("detect.polarity = \"{}\"", polarityName(polarity));
   }
-  // A disc-centroid size of kMinDiscRadiusPx or more (--diameter 41 and up): large discs,
-  // found whole by their rims (LargeDiscs.hpp) on the frame itself, radii 0.7-1.3 x it.
-  const bool large_discs = c.detect.refinement == Refinement::disc && c.detect.refine_radius >= kMinDiscRadiusPx;
-  if (large_discs) {
-    polarity = Polarity::bright;
-    run.polarity_reason = fmt::format("large discs: detect.refinement = \"disc\" with detect.refine_radius = {} px (>= {} px, e.g. --diameter {}): "
-                                      "each disc found once, at the centre of a circle fitted to its bright rim, radii {:.0f}-{:.0f} px",
-                                      c.detect.refine_radius, kMinDiscRadiusPx, 2 * c.detect.refine_radius + 1, kDiscRadiusLow * c.detect.refine_radius,
-                                      kDiscRadiusHigh * c.detect.refine_radius);
-  }
   if (polarity == Polarity::ring) {
     options.ring_radius_px = run.ring.rings ? run.ring.radius_px : static_cast<double>(c.detect.refine_radius);
     options.ring_kernel = ringKernel(run.ring.rings ? run.ring.profile : std::vector<float>{}, options.ring_radius_px);
   }
   lap("polarity");
-  run.background_decision = chooseBackground(background_frames, c, polarity, options, run.background);
   if (large_discs) {
+    run.background_decision.requested = c.detect.subtract_background ? backgroundModeName(c.detect.background_mode) : "none";
     run.background_decision.subtract = false;
     run.background_decision.reason = "large discs are detected on the frame itself (a still disc is its own median)";
+  } else {
+    run.background_decision = chooseBackground(background_frames, c, polarity, options, run.background);
   }
   background_frames.clear();
   if (!run.background_decision.subtract) {
