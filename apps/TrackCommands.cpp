@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
@@ -330,7 +331,7 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
     if (t->smooth >= 0) c.set("link.smooth_frames", static_cast<std::int64_t>(t->smooth));
     const RunSummary s = runCaseWith(c, tracking::runTrackingVideo, t->out, {t->quiet, false});
     for (const auto& m : s.metrics) std::printf("%-20s %12.5g %s\n", m.name.c_str(), m.value, m.unit.c_str());
-    if (s.result["details"].value("detections", 1) == 0)
+    if (detailInteger(resultDetails(s.result), DetailField::detections).value_or(1) == 0)
       std::fprintf(stderr, "mmval: warning: no particles found in %s; check the polarity (--config detect.polarity), "
                            "the threshold and the background removal (--no-background)\n", t->input.c_str());
     std::printf("track: %s in %.1f s\n", t->out.c_str(), s.wall_seconds);

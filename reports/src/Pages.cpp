@@ -8,6 +8,7 @@
 
 #include "ReportParts.hpp"
 #include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/reports/InputFiles.hpp"
 #include "mmval/reports/Site.hpp"
 #include "mmval/reports/Summary.hpp"
@@ -49,12 +50,12 @@ std::string metricNote(const nlohmann::json& m, const nlohmann::json& details) {
     return "D: the largest gap between the two cumulative distributions of per-step speeds, an effect size (0: identical, 1: disjoint). See the p-value's note.";
   if (name == "speed_ks_p_value") {
     std::string steps;
-    if (details.is_object() && details.contains("experiment") && details["experiment"].is_object())
-      for (const char* k : {"steps", "speed_samples", "mobile"})
-        if (details["experiment"].contains(k) && details["experiment"][k].is_number()) {
-          steps = fmt::format(" ({} {} on the first side)", number(details["experiment"][k]), k);
-          break;
-        }
+    if (const auto side = detailObject(details, DetailField::experiment)) {
+      if (const auto n = detailInteger(*side, DetailField::experiment_steps))
+        steps = fmt::format(" ({} steps on the first side)", *n);
+      else if (const auto mobile = detailInteger(*side, DetailField::experiment_mobile))
+        steps = fmt::format(" ({} mobile tracks on the first side)", *mobile);
+    }
     return "Computed over every per-frame step" + steps +
            " as if the steps were independent. Steps along one track are strongly correlated, so the effective sample is closer to the number of tracks: "
            "the asymptotic p-value is far smaller than a correlation-respecting test would give and does not measure how different the distributions are. "
@@ -157,8 +158,7 @@ void writePages(const ReportInput& input, const Parts& parts, const fs::path& ou
     Entry e;
     e.name = pageKey(r);
     e.kind = r["case"]["kind"].get<std::string>();
-    if (r.contains("details") && r["details"].is_object() && r["details"].contains("solver") && r["details"]["solver"].is_string())
-      e.kind += ", " + r["details"]["solver"].get<std::string>();
+    if (const auto solver = detailString(resultDetails(r), DetailField::solver)) e.kind += ", " + *solver;
     if (e.name != r["case"]["name"].get<std::string>()) e.what = "case " + r["case"]["name"].get<std::string>() + ". ";
     e.what += r["case"].value("description", std::string());
     e.run = r;
@@ -253,7 +253,7 @@ void writePages(const ReportInput& input, const Parts& parts, const fs::path& ou
     html += fmt::format("<p class=\"{}\">Result: <b>{}</b> ({} of {} judged metrics pass). Kind: {}.</p>\n", e.status(), e.status(), e.passed, e.judged, htmlEscape(e.kind));
     if (!e.what.empty()) html += "<p>" + htmlEscape(e.what) + "</p>\n";
     std::string value_head = "value", reference_head = "reference", tracked;
-    const nlohmann::json details = e.run.is_null() ? nlohmann::json::object() : e.run.value("details", nlohmann::json::object());
+    const nlohmann::json& details = resultDetails(e.run);
     if (e.comparison != nullptr) {
       const ComparisonNames n = comparisonNames(e.run, input);
       html += fmt::format("<p><b>{}</b>: {}<br>value: {}<br>reference: {}</p>\n", htmlEscape(n.kind), htmlEscape(n.explanation), htmlEscape(n.candidate), htmlEscape(n.reference));

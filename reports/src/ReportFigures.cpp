@@ -12,8 +12,10 @@
 #include <fmt/format.h>
 
 #include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/reports/InputFiles.hpp"
 #include "mmval/reports/Site.hpp"
+#include "mmval/reports/Summary.hpp"
 #include "ReportStages.hpp"
 
 namespace fs = std::filesystem;
@@ -84,14 +86,14 @@ namespace {
 void speedErrorFigure(const ReportInput& input, FigureSink& sink) {
   Plot p{"Speed against error", "wall time (s)", "relative error", true, true, {}, 640, 420};
   for (const auto& r : input.summary.results) {
-    const auto& d = r["details"];
-    if (!d.is_object() || !d.contains("ladder")) continue;
-    Series s{r["case"]["name"].get<std::string>() + " (" + d.value("solver", std::string("mmval")) + ")", {}, {}, "linespoints"};
-    for (const auto& level : d["ladder"])
-      if (level.contains("wall_seconds") && level.contains("error") && level["error"].is_number()) {
-        s.x.push_back(level["wall_seconds"].get<double>());
-        s.y.push_back(std::abs(level["error"].get<double>()));
+    Series s{r["case"]["name"].get<std::string>() + " (" + solverOf(r) + ")", {}, {}, "linespoints"};
+    for (const DetailRow& level : detailRows(resultDetails(r), DetailField::ladder)) {
+      const auto wall = detailNumber(level, DetailField::ladder_wall_seconds), error = detailNumber(level, DetailField::ladder_error);
+      if (wall && error) {
+        s.x.push_back(*wall);
+        s.y.push_back(std::abs(*error));
       }
+    }
     if (!s.x.empty()) p.series.push_back(s);
   }
   if (!p.series.empty()) sink.addPlot("speed-vs-error", "Wall time against relative error over each case's resolution ladder (log-log).", p);
@@ -103,17 +105,17 @@ void speedErrorFigure(const ReportInput& input, FigureSink& sink) {
 std::map<std::string, Series> dragSeries(const ReportInput& input, std::vector<std::string>& left_out) {
   std::map<std::string, Series> by_label;
   for (const auto& r : input.summary.results) {
-    const auto& d = r["details"];
-    if (!d.is_object() || !d.contains("Re")) continue;
+    const auto re_run = detailNumber(resultDetails(r), DetailField::Re);
+    if (!re_run) continue;
     const std::string run_name = r["case"]["name"].get<std::string>();
     if (!paperCylinderSetup(r)) {
       if (std::find(left_out.begin(), left_out.end(), run_name) == left_out.end()) left_out.push_back(run_name);
       continue;
     }
-    const double re = d["Re"].get<double>();
+    const double re = *re_run;
     for (const auto& m : r["metrics"]) {
       if (metricOf(m) != "c_D" || !m["value"].is_number()) continue;
-      const std::string solver = d.value("solver", std::string("mmval"));
+      const std::string solver = solverOf(r);
       auto& ours = by_label[solver];
       ours.name = solver;
       ours.style = "points pt 7 ps 1.2";
@@ -227,13 +229,13 @@ std::array<Series, 4> forceSeries(const std::vector<std::vector<double>>& cols, 
 
 void forceHistoryFigures(const ReportInput& input, FigureSink& sink) {
   for (const auto& r : input.summary.results) {
-    const auto& d = r["details"];
-    if (!d.is_object() || !d.contains("statistics_window_s") || !r.contains("run_dir")) continue;
+    const auto window = detailNumbers(resultDetails(r), DetailField::statistics_window_s);  // [begin, end], declared with two entries
+    if (!window || !std::isfinite((*window)[0]) || !std::isfinite((*window)[1]) || !r.contains("run_dir")) continue;
     const fs::path file = fs::path(r["run_dir"].get<std::string>()) / "forces.csv";
     if (!fs::exists(file)) continue;
     const auto cols = readColumns(file);
     if (cols.size() < 3 || cols[0].empty()) continue;
-    const double w0 = d["statistics_window_s"][0].get<double>(), w1 = d["statistics_window_s"][1].get<double>();
+    const double w0 = (*window)[0], w1 = (*window)[1];
     std::array<Series, 4> s = forceSeries(cols, w0, w1);
     auto metric = [&](const std::string& name) {
       const auto v = metricValue(r, name);
@@ -253,7 +255,8 @@ void forceHistoryFigures(const ReportInput& input, FigureSink& sink) {
     sink.addPlot(name + "-forces",
                  fmt::format("Drag and lift coefficients against time ({}; y range of the statistics window); statistics window {:.4g} - {:.4g} s ({} shedding "
                              "periods): c_D max {}, c_L max {}, St {}.",
-                             name, w0, w1, d.value("shedding_periods", 0), metric("c_D_max"), metric("c_L_max"), metric("St")),
+                             name, w0, w1, detailInteger(resultDetails(r), DetailField::shedding_periods).value_or(0), metric("c_D_max"),
+                             metric("c_L_max"), metric("St")),
                  p, pageKey(r));
   }
 }

@@ -12,6 +12,7 @@
 
 #include <fmt/format.h>
 
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/core/VtkWriter.hpp"
 #include "mmval/reports/InputFiles.hpp"
 #include "mmval/reports/Summary.hpp"
@@ -65,13 +66,11 @@ Provenance provenanceOf(const nlohmann::json& result) {
   p.petsc = str(deps, "petsc");
   p.openfoam = str(deps, "openfoam");
   p.liggghts = str(deps, "liggghts");
-  const nlohmann::json details = result.value("details", nlohmann::json::object());
-  if (details.is_object()) {
-    const std::string solver = details.value("solver", std::string());
-    if (p.openfoam == "not recorded" && solver.rfind("openfoam", 0) == 0) p.openfoam = solver + " (from the run's details.solver)";
-    if (p.liggghts == "not recorded" && details.contains("liggghts_version") && details["liggghts_version"].is_string())
-      p.liggghts = details["liggghts_version"].get<std::string>();
-  }
+  const nlohmann::json& details = resultDetails(result);
+  const std::string solver = detailString(details, DetailField::solver).value_or("");
+  if (p.openfoam == "not recorded" && solver.rfind("openfoam", 0) == 0) p.openfoam = solver + " (from the run's details.solver)";
+  if (p.liggghts == "not recorded")
+    if (const auto v = detailString(details, DetailField::liggghts_version)) p.liggghts = *v;
   p.report_date = nowUtc();
   p.gnuplot = gnuplotVersion();
   return p;

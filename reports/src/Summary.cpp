@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include "mmval/core/DetailFields.hpp"
+
 namespace mmval::reports {
 
 namespace {
@@ -10,12 +12,6 @@ std::string number(const nlohmann::json& v) {
   if (v.is_null()) return "-";
   if (v.is_number()) return fmt::format("{:.6g}", v.get<double>());
   return v.dump();
-}
-
-/// Who computed the case's numbers (details.solver), "mmval" by default.
-std::string solverOf(const nlohmann::json& r) {
-  if (r.contains("details") && r["details"].is_object() && r["details"].contains("solver")) return r["details"]["solver"].get<std::string>();
-  return "mmval";
 }
 
 /// The reference with the metric's unit, as the value has it ("1": dimensionless, no unit).
@@ -30,6 +26,8 @@ std::string passText(const nlohmann::json& m) {
 }
 
 }  // namespace
+
+std::string solverOf(const nlohmann::json& run) { return detailString(resultDetails(run), DetailField::solver).value_or("mmval"); }
 
 std::string htmlEscape(const std::string& s) {
   std::string out;

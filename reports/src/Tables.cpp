@@ -15,6 +15,7 @@
 #include "mmval/reports/Summary.hpp"
 
 #include "mmval/core/DataPaths.hpp"
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ReferenceData.hpp"
 
@@ -25,11 +26,6 @@ namespace mmval::reports {
 namespace {
 
 std::string num(double v, int digits = 4) { return std::isfinite(v) ? fmt::format("{:.{}g}", v, digits) : "-"; }
-
-std::string solverOf(const nlohmann::json& r) {
-  const auto& d = r["details"];
-  return d.is_object() && d.contains("solver") && d["solver"].is_string() ? d["solver"].get<std::string>() : std::string("mmval");
-}
 
 bool isOpenFoam(const std::string& solver) { return solver.rfind("openfoam", 0) == 0 || solver.rfind("OpenFOAM", 0) == 0; }
 
@@ -105,7 +101,7 @@ fs::path findReferenceData(const ReportInput& input) {
 }
 
 std::string table3CaseOf(const std::string& name, const nlohmann::json& details) {
-  if (details.is_object() && details.contains("table3_case") && details["table3_case"].is_string()) return details["table3_case"].get<std::string>();
+  if (auto roman = detailString(details, DetailField::table3_case)) return *roman;
   static const std::regex re(R"((?:^|[-_. ])(?:case|table3)[-_]?(iii|ii|iv|v|i)(?:$|[-_.]))", std::regex::icase);
   std::smatch m;
   if (!std::regex_search(name, m, re)) return {};
@@ -124,12 +120,12 @@ std::optional<Table> cylinderDragTable(const ReportInput& input, const fs::path&
   std::map<double, std::map<std::string, double>> ours;
   bool any_openfoam = false;
   for (const auto& r : input.summary.results) {
-    const auto& d = r["details"];
-    if (!d.is_object() || !d.contains("Re") || !d["Re"].is_number()) continue;
+    const auto re_run = detailNumber(resultDetails(r), DetailField::Re);
+    if (!re_run) continue;
     // Only the paper's set-up (Schaefer-Turek runs also carry Re and c_D, in a channel).
     const auto cd = metricValue(r, "c_D");
     if (!cd || !paperCylinderSetup(r)) continue;
-    double re = d["Re"].get<double>();
+    double re = *re_run;
     for (double row : {10.0, 20.0, 40.0, 100.0})
       if (std::abs(re - row) <= 0.01 * row) re = row;
     const bool of = isOpenFoam(solverOf(r));
@@ -211,7 +207,7 @@ std::optional<Table> table3TrendsTable(const ReportInput& input, const fs::path&
   };
   std::map<std::string, Case> ours;
   for (const auto& r : input.summary.results) {
-    const std::string roman = table3CaseOf(r["case"]["name"].get<std::string>(), r.value("details", nlohmann::json::object()));
+    const std::string roman = table3CaseOf(r["case"]["name"].get<std::string>(), resultDetails(r));
     const auto red = metricValue(r, "permeability_reduction");
     if (roman.empty() || !red) continue;
     const auto t10 = metricValue(r, "time_to_10pct_reduction");
@@ -264,20 +260,27 @@ std::optional<Table> engineComparisonTable(const ReportInput& input) {
            "gravity raised as the window states so that particles reach the bottom plate. Wall times of one run, same machine.";
   t.header = {"case", "candidate", "window (s)", "particles", "RMS position diff (um)", "median final diff (nm)", "max diff (um)",
               "captured LIGGGHTS / candidate / both", "RMS capture time diff (s)", "retained LIGGGHTS / candidate", "wall LIGGGHTS / candidate (s)", "speed-up"};
-  for (const auto& r : input.summary.results) {
-    const auto& d = r.value("details", nlohmann::json::object());
-    if (!d.contains("engine_comparison")) continue;
-    for (const auto& e : d["engine_comparison"]) {
-      const double wl = e.value("wall_seconds_reference", 0.0), wc = e.value("wall_seconds_candidate", 0.0);
-      t.rows.push_back({r["case"]["name"].get<std::string>(), e.value("candidate", std::string("overdamped")), num(e.value("window_s", 0.0), 3),
-                        std::to_string(e.value("particles", 0)), num(1e6 * e.value("rms_position_difference_m", 0.0), 3),
-                        num(1e9 * e.value("median_final_difference_m", 0.0), 3), num(1e6 * e.value("max_position_difference_m", 0.0), 3),
-                        fmt::format("{} / {} / {}", e.value("captured_reference", 0), e.value("captured_candidate", 0), e.value("captured_both", 0)),
-                        num(e.value("rms_capture_time_difference_s", 0.0), 3),
-                        num(e.value("retained_fraction_reference", 0.0), 3) + " / " + num(e.value("retained_fraction_candidate", 0.0), 3),
+  using F = DetailField;
+  for (const auto& r : input.summary.results)
+    for (const DetailRow& e : detailRows(resultDetails(r), F::engine_comparison)) {
+      // A value the row lacks (or a non-finite one, written as null) reads "-".
+      const auto value = [&e](F member, double scale) { return num(scale * detailNumber(e, member).value_or(NAN), 3); };
+      const auto count = [&e](F member) {
+        const auto n = detailInteger(e, member);
+        return n ? std::to_string(*n) : std::string("-");
+      };
+      const double wl = detailNumber(e, F::engine_comparison_wall_seconds_reference).value_or(NAN);
+      const double wc = detailNumber(e, F::engine_comparison_wall_seconds_candidate).value_or(NAN);
+      t.rows.push_back({r["case"]["name"].get<std::string>(), detailString(e, F::engine_comparison_candidate).value_or("overdamped"),
+                        value(F::engine_comparison_window_s, 1), count(F::engine_comparison_particles),
+                        value(F::engine_comparison_rms_position_difference_m, 1e6), value(F::engine_comparison_median_final_difference_m, 1e9),
+                        value(F::engine_comparison_max_position_difference_m, 1e6),
+                        count(F::engine_comparison_captured_reference) + " / " + count(F::engine_comparison_captured_candidate) + " / " +
+                            count(F::engine_comparison_captured_both),
+                        value(F::engine_comparison_rms_capture_time_difference_s, 1),
+                        value(F::engine_comparison_retained_fraction_reference, 1) + " / " + value(F::engine_comparison_retained_fraction_candidate, 1),
                         num(wl, 3) + " / " + num(wc, 3), wc > 0 ? num(wl / wc, 3) : "-"});
     }
-  }
   if (t.rows.empty()) return std::nullopt;
   return t;
 }

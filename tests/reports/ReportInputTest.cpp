@@ -128,9 +128,27 @@ INSTANTIATE_TEST_SUITE_P(
                       Spoiled{"HostNumber", [](nlohmann::json& r) { r["provenance"]["host"] = 1; }, "provenance.host"},
                       Spoiled{"ReString", [](nlohmann::json& r) { r["details"]["Re"] = "twenty"; }, "details.Re"},
                       Spoiled{"WindowOneEnd", [](nlohmann::json& r) { r["details"]["statistics_window_s"] = {6.5}; }, "details.statistics_window_s"},
+                      Spoiled{"SolverNumber", [](nlohmann::json& r) { r["details"]["solver"] = 2; }, "details.solver"},
+                      Spoiled{"PeriodsFraction", [](nlohmann::json& r) { r["details"]["shedding_periods"] = 2.5; }, "details.shedding_periods"},
+                      Spoiled{"LadderWallString",
+                              [](nlohmann::json& r) { r["details"]["ladder"] = {{{"wall_seconds", 1.0}}, {{"wall_seconds", "1 s"}}}; },
+                              "details.ladder[1].wall_seconds"},
+                      Spoiled{"EngineParticlesString",
+                              [](nlohmann::json& r) { r["details"]["engine_comparison"] = {{{"particles", "forty"}}}; },
+                              "details.engine_comparison[0].particles"},
+                      Spoiled{"ExperimentList", [](nlohmann::json& r) { r["details"]["experiment"] = {1, 2}; }, "details.experiment"},
                       Spoiled{"DetailsMissing", [](nlohmann::json& r) { r.erase("details"); }, "details"},
                       Spoiled{"OtherSchema", [](nlohmann::json& r) { r["schema"] = "mmval-compare/1"; }, "schema"}),
     [](const ::testing::TestParamInfo<Spoiled>& info) { return info.param.name; });
+
+TEST(JsonShape, UndeclaredDetailsAreAllowedAndListed) {
+  nlohmann::json r = validResult();
+  r["details"]["engine_settings"] = {{"step", 0.1}};
+  r["details"]["note"] = "informational";
+  EXPECT_EQ(checkResultShape(r, "result.json"), (std::vector<std::string>{"engine_settings", "note"}));
+  r["details"] = nullptr;  // a run with no details at all
+  EXPECT_TRUE(checkResultShape(r, "result.json").empty());
+}
 
 TEST(JsonShape, WholeDocumentOfTheWrongTypeIsNamed) {
   const std::string m = inputErrorOf([] { checkResultShape(nlohmann::json::array({1, 2}), "result.json"); });

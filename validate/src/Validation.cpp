@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <optional>
 
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Run.hpp"
@@ -39,7 +40,7 @@ nlohmann::json ownRun(const Case& c, const CaseKindRegistry& registry, const fs:
 /// run when resuming, else a new run, else (no OpenFOAM) a "not run" result.
 nlohmann::json peerRun(const Case& c, const fs::path& peer_dir, const ValidationOptions& options) {
   std::optional<nlohmann::json> done = options.resume ? earlierRun(c, peer_dir) : std::nullopt;
-  if (done && done->value("details", nlohmann::json::object()).value("status", "") != "not run") return *done;
+  if (done && detailString(resultDetails(*done), DetailField::status).value_or("") != "not run") return *done;
   if (!openfoam::detect().available) {
     const std::string reason = openfoam::detect().reason;
     std::fprintf(stderr, "      OpenFOAM peer not run for %s: %s\n", c.name().c_str(), reason.c_str());

@@ -1,18 +1,24 @@
 // The shapes of the JSON files a report reads, checked before any field is
 // used: a field missing or of the wrong type is named with its file and path
 // ("metrics[2].pass") instead of surfacing as a JSON type error in a figure.
-// Only the fields the report and the diff read are checked; others are free.
+// Only the fields the report and the diff read are checked (details: every
+// declared field); others are free.
 #pragma once
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 namespace mmval::reports {
 
 /// result.json of `mmval run` (schema mmval-result/1): case name, kind and
-/// hash, metrics, all_pass, cost, provenance, files, and the details the
-/// report's figures and tables read. Throws InputError naming `file` and the field.
-void checkResultShape(const nlohmann::json& doc, const std::filesystem::path& file);
+/// hash, metrics, all_pass, cost, provenance, files, and every declared
+/// details field present (mmval/core/DetailFields.hpp: type, array length,
+/// members). Throws InputError naming `file` and the field. Returns the keys
+/// of details that no declaration names: allowed (the kinds' informational
+/// keys, which no reader takes apart), sorted.
+std::vector<std::string> checkResultShape(const nlohmann::json& doc, const std::filesystem::path& file);
 
 /// metrics.json of `mmval compare` (schema mmval-compare/1): metrics,
 /// all_pass, regions and alignment. Throws InputError naming `file` and the field.

@@ -29,5 +29,7 @@ std::string htmlEscape(const std::string& s);
 std::string referenceText(const nlohmann::json& metric);
 /// Formats a metric's error: relative as %, absolute in the metric's unit.
 std::string errorText(const nlohmann::json& metric);
+/// Who computed a run's numbers: details.solver (mmval/core/DetailFields.hpp), "mmval" when absent.
+std::string solverOf(const nlohmann::json& run);
 
 }  // namespace mmval::reports

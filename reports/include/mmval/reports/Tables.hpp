@@ -27,8 +27,9 @@ struct Table {
 /// mmval's own (mmval/core/DataPaths.hpp); empty when neither exists.
 std::filesystem::path findReferenceData(const ReportInput& input);
 
-/// "I".."V" when the run is one of the paper's Table 3 cases: details.table3_case,
-/// or a run name holding "case-III", "case_iii", "table3-III" (any case; the
+/// "I".."V" when the run is one of the paper's Table 3 cases: details.table3_case
+/// (a declared field, mmval/core/DetailFields.hpp), or, as long as no kind writes
+/// it, a run name holding "case-III", "case_iii", "table3-III" (any case; the
 /// numeral ends the name or is followed by '-', '_' or '.'); "" otherwise.
 std::string table3CaseOf(const std::string& run_name, const nlohmann::json& details);
 
