@@ -20,6 +20,14 @@ constexpr double kOverPush = 1.02;
 constexpr int kMaxSweeps = 3000;
 constexpr double kGrowthStages[] = {0.8, 0.9, 0.95, 1.0};
 constexpr int kMaxPorosityRounds = 12;
+/// Positions a disc tries in random sequential addition before it is left to the jittered grid.
+/// Near RSA saturation the free area falls steeply (as (theta_J - theta)^3 for discs, Pomeau 1980,
+/// J. Phys. A 13, L193; Swendsen 1981, Phys. Rev. A 24, 504), so more attempts add little coverage
+/// for much time.
+constexpr int kRsaAttempts = 200;
+/// Discs in a row that found no room: the pattern is saturated (the free area is below ~1 / 200
+/// of it), and the rest go to the jittered grid without trying.
+constexpr int kRsaStopFailures = 50;
 
 /// Uniform in [0, 1) from the top 53 bits: the same numbers on every standard library (the
 /// std:: distributions are implementation-defined, which would break "same seed, same bytes").
@@ -34,18 +42,27 @@ double normal01(std::mt19937_64& rng) {
 /// Buckets of disc indices on a square grid of cell size `cell`.
 class CellList {
  public:
-  CellList(const std::vector<ChipDisc>& d, double cell, int cols, int rows) : m_cell(cell) {
+  /// An empty grid over cols x rows px.
+  CellList(double cell, int cols, int rows) : m_cell(cell) {
     m_nx = std::max(1, static_cast<int>(std::ceil(cols / cell)) + 1);
     m_ny = std::max(1, static_cast<int>(std::ceil(rows / cell)) + 1);
     m_bins.assign(static_cast<std::size_t>(m_nx) * m_ny, {});
-    for (std::size_t i = 0; i < d.size(); ++i) m_bins[bin(d[i].x, d[i].y)].push_back(static_cast<int>(i));
   }
+  CellList(const std::vector<ChipDisc>& d, double cell, int cols, int rows) : CellList(cell, cols, rows) {
+    for (std::size_t i = 0; i < d.size(); ++i) insert(static_cast<int>(i), d[i].x, d[i].y);
+  }
+  void insert(int i, double x, double y) { m_bins[bin(x, y)].push_back(i); }
   /// Calls f(j) for every disc in the 3 x 3 cells around (x, y).
   template <class F>
   void around(double x, double y, F&& f) const {
-    const int cx = clampX(x), cy = clampY(y);
-    for (int by = std::max(0, cy - 1); by <= std::min(m_ny - 1, cy + 1); ++by)
-      for (int bx = std::max(0, cx - 1); bx <= std::min(m_nx - 1, cx + 1); ++bx)
+    within(x, y, m_cell, f);
+  }
+  /// Calls f(j) for every disc in the cells that reach within `reach` of (x, y) (and a few more).
+  template <class F>
+  void within(double x, double y, double reach, F&& f) const {
+    const int cx = clampX(x), cy = clampY(y), n = std::max(1, static_cast<int>(std::ceil(reach / m_cell)));
+    for (int by = std::max(0, cy - n); by <= std::min(m_ny - 1, cy + n); ++by)
+      for (int bx = std::max(0, cx - n); bx <= std::min(m_nx - 1, cx + n); ++bx)
         for (const int j : m_bins[static_cast<std::size_t>(by) * m_nx + bx]) f(j);
   }
 
@@ -64,12 +81,19 @@ double maxRadius(const std::vector<ChipDisc>& d) {
   return r;
 }
 
+/// Where a disc's centre may lie: clear of the ports, and the gap from the walls.
+struct CentreRange {
+  double x0, x1, y0, y1;
+};
+CentreRange centreRange(const ChipDisc& c, const ChipPackingSpec& s) {
+  return {s.port_px + c.r, s.cols - s.port_px - c.r, s.wall_px + s.min_gap_px + c.r, s.rows - s.wall_px - s.min_gap_px - c.r};
+}
+
 /// Keeps a disc inside the pattern: clear of the ports, and `gap` from the walls.
 void clampDisc(ChipDisc& c, const ChipPackingSpec& s) {
-  const double x0 = s.port_px + c.r, x1 = s.cols - s.port_px - c.r;
-  const double y0 = s.wall_px + s.min_gap_px + c.r, y1 = s.rows - s.wall_px - s.min_gap_px - c.r;
-  c.x = x1 > x0 ? std::clamp(c.x, x0, x1) : 0.5 * (x0 + x1);
-  c.y = y1 > y0 ? std::clamp(c.y, y0, y1) : 0.5 * (y0 + y1);
+  const CentreRange r = centreRange(c, s);
+  c.x = r.x1 > r.x0 ? std::clamp(c.x, r.x0, r.x1) : 0.5 * (r.x0 + r.x1);
+  c.y = r.y1 > r.y0 ? std::clamp(c.y, r.y0, r.y1) : 0.5 * (r.y0 + r.y1);
 }
 
 /// Gauss-Seidel overlap removal of the discs inflated by half the gap at their current radii;
@@ -124,7 +148,8 @@ int relax(std::vector<ChipDisc>& d, const ChipPackingSpec& s) {
   return total;
 }
 
-/// Discs of lognormal diameter, drawn until they cover `grain_area` px^2, at random positions.
+/// Discs of lognormal diameter, drawn until they cover `grain_area` px^2, each with a position
+/// uniform at random in the pattern (the Poisson start; the uniform start replaces the positions).
 std::vector<ChipDisc> drawDiscs(const ChipPackingSpec& s, double grain_area, std::mt19937_64& rng) {
   const double sig2 = std::log(1 + s.diameter_cv * s.diameter_cv);
   const double mu = std::log(s.mean_diameter_px) - 0.5 * sig2;
@@ -141,6 +166,88 @@ std::vector<ChipDisc> drawDiscs(const ChipPackingSpec& s, double grain_area, std
     d.push_back(c);
   }
   return d;
+}
+
+/// Random sequential addition, largest disc first: each disc tries up to kRsaAttempts uniform
+/// positions and keeps the first at least the gap from every disc placed so far. A disc that finds
+/// none is left to the jittered grid (smaller discs after it may still fit); after
+/// kRsaStopFailures such discs in a row the pattern is saturated and every disc left goes to the
+/// grid. Both rules are per disc, so the share placed by RSA does not depend on the chip's size.
+/// Returns the discs left over, in `order`'s order.
+std::vector<int> placeBySequentialAddition(std::vector<ChipDisc>& d, const std::vector<int>& order, const ChipPackingSpec& s, std::mt19937_64& rng) {
+  const double rmax = maxRadius(d);
+  double mean_r = 0;
+  for (const auto& c : d) mean_r += c.r / static_cast<double>(d.size());
+  // Cells of one mean inflated diameter: a query scans the cells within its reach (r + rmax + gap).
+  CellList grid(2 * mean_r + s.min_gap_px, s.cols, s.rows);
+  std::vector<int> left;
+  int failures_in_a_row = 0;
+  for (const int i : order) {
+    ChipDisc& c = d[static_cast<std::size_t>(i)];
+    if (failures_in_a_row >= kRsaStopFailures) {
+      left.push_back(i);
+      continue;
+    }
+    const CentreRange cr = centreRange(c, s);
+    const double reach = c.r + rmax + s.min_gap_px;
+    bool found = false;
+    for (int attempt = 0; attempt < kRsaAttempts && !found; ++attempt) {
+      const double x = cr.x0 + uniform01(rng) * std::max(0.0, cr.x1 - cr.x0), y = cr.y0 + uniform01(rng) * std::max(0.0, cr.y1 - cr.y0);
+      bool clear = true;
+      grid.within(x, y, reach, [&](int j) {
+        if (!clear) return;
+        const double need = c.r + d[static_cast<std::size_t>(j)].r + s.min_gap_px;
+        const double dx = x - d[static_cast<std::size_t>(j)].x, dy = y - d[static_cast<std::size_t>(j)].y;
+        if (dx * dx + dy * dy < need * need) clear = false;
+      });
+      if (clear) {
+        c.x = x;
+        c.y = y;
+        grid.insert(i, x, y);
+        found = true;
+      }
+    }
+    failures_in_a_row = found ? 0 : failures_in_a_row + 1;
+    if (!found) left.push_back(i);
+  }
+  return left;
+}
+
+/// The discs RSA could not place, one per cell of a jittered grid over the pattern (stratified
+/// sampling: one disc per cell of equal area, at a uniform position inside it), the cells chosen
+/// at random when there are more cells than discs. The relaxation then separates them.
+void placeOnJitteredGrid(std::vector<ChipDisc>& d, const std::vector<int>& rest, const ChipPackingSpec& s, std::mt19937_64& rng) {
+  if (rest.empty()) return;
+  const double w = s.cols - 2 * s.port_px, h = s.rows - 2 * s.wall_px;
+  const auto m = static_cast<double>(rest.size());
+  const int nx = std::max(1, static_cast<int>(std::lround(std::sqrt(m * w / h))));
+  const int ny = std::max(1, static_cast<int>(std::ceil(m / nx)));
+  std::vector<int> cells(static_cast<std::size_t>(nx) * ny);
+  for (std::size_t k = 0; k < cells.size(); ++k) cells[k] = static_cast<int>(k);
+  // Fisher-Yates with our own uniform numbers (std::shuffle is implementation-defined).
+  for (std::size_t k = cells.size(); k > 1; --k)
+    std::swap(cells[k - 1], cells[std::min(k - 1, static_cast<std::size_t>(uniform01(rng) * static_cast<double>(k)))]);
+  for (std::size_t k = 0; k < rest.size(); ++k) {
+    ChipDisc& c = d[static_cast<std::size_t>(rest[k])];
+    const int cx = cells[k] % nx, cy = cells[k] / nx;
+    c.x = s.port_px + (cx + uniform01(rng)) * w / nx;
+    c.y = s.wall_px + (cy + uniform01(rng)) * h / ny;
+  }
+}
+
+/// The uniform start: random sequential addition of the discs, largest first, with the gap rule,
+/// then the rest on a jittered grid (see ChipPacking.hpp for why). Returns the discs RSA placed.
+std::size_t placeUniformly(std::vector<ChipDisc>& d, const ChipPackingSpec& s, std::mt19937_64& rng) {
+  std::vector<int> order(d.size());
+  for (std::size_t i = 0; i < d.size(); ++i) order[i] = static_cast<int>(i);
+  // Largest first, ties by index: a total order, so the same on every standard library.
+  std::sort(order.begin(), order.end(), [&d](int a, int b) {
+    const double ra = d[static_cast<std::size_t>(a)].r, rb = d[static_cast<std::size_t>(b)].r;
+    return ra > rb || (ra == rb && a < b);
+  });
+  const std::vector<int> left = placeBySequentialAddition(d, order, s, rng);
+  placeOnJitteredGrid(d, left, s, rng);
+  return d.size() - left.size();
 }
 
 double inflatedFraction(const std::vector<ChipDisc>& d, const ChipPackingSpec& s) {
@@ -180,6 +287,7 @@ ChipPacking packChip(const ChipPackingSpec& s) {
   std::mt19937_64 rng(s.seed);
   ChipPacking out;
   out.discs = drawDiscs(s, grain_area, rng);
+  out.sequentially_added = s.placement == ChipPlacement::uniform ? static_cast<int>(placeUniformly(out.discs, s, rng)) : 0;
   for (int round = 1; round <= kMaxPorosityRounds; ++round) {
     if (const double f = inflatedFraction(out.discs, s); f > kMaxInflatedFraction)
       throw std::invalid_argument(fmt::format("grains inflated by half the minimum gap cover {:.3f} of the pattern (at most {:.2f} can be separated)", f,
@@ -189,13 +297,41 @@ ChipPacking packChip(const ChipPackingSpec& s) {
     out.solid = renderChip(out.discs, s.cols, s.rows, s.wall_px);
     out.porosity_total = porosityOf(out.solid);
     out.porosity_rounds = round;
-    if (std::abs(out.porosity_total - s.porosity) <= s.porosity_tolerance) return out;
+    if (std::abs(out.porosity_total - s.porosity) <= s.porosity_tolerance) {
+      out.homogeneity = windowPorosity(out.solid, out.discs, s, static_cast<int>(std::lround(kHomogeneityWindowDiameters * s.mean_diameter_px)));
+      return out;
+    }
     // Grain pixels scale with r^2: one multiplicative correction of every radius.
     const double grain_px = (1 - out.porosity_total) * total - wall_area;
     const double scale = std::sqrt(grain_area / std::max(1.0, grain_px));
     for (auto& c : out.discs) c.r *= scale;
   }
   throw std::invalid_argument(fmt::format("the porosity {:.4f} could not be brought within {:g} of {:g}", out.porosity_total, s.porosity_tolerance, s.porosity));
+}
+
+ChipWindowPorosity windowPorosity(const BoolArray& solid, const std::vector<ChipDisc>& discs, const ChipPackingSpec& s, int side_px) {
+  ChipWindowPorosity w;
+  w.side_px = side_px;
+  const int x_lo = static_cast<int>(std::ceil(s.port_px)), x_hi = static_cast<int>(solid.cols()) - x_lo;
+  const int y_lo = s.wall_px, y_hi = static_cast<int>(solid.rows()) - s.wall_px;
+  if (side_px < 1 || x_hi - x_lo < side_px || y_hi - y_lo < side_px) return w;
+  const int nx = (x_hi - x_lo) / side_px, ny = (y_hi - y_lo) / side_px;
+  const int x0 = x_lo + (x_hi - x_lo - nx * side_px) / 2, y0 = y_lo + (y_hi - y_lo - ny * side_px) / 2;
+  const double area = static_cast<double>(side_px) * side_px;
+  std::vector<double> phi;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) phi.push_back(1.0 - static_cast<double>(solid.block(y0 + j * side_px, x0 + i * side_px, side_px, side_px).count()) / area);
+  w.count = static_cast<int>(phi.size());
+  w.min = *std::min_element(phi.begin(), phi.end());
+  w.max = *std::max_element(phi.begin(), phi.end());
+  for (const double v : phi) w.mean += v / w.count;
+  for (const double v : phi) w.sd += (v - w.mean) * (v - w.mean);
+  w.sd = w.count > 1 ? std::sqrt(w.sd / (w.count - 1)) : 0.0;
+  const double p = area / (static_cast<double>(x_hi - x_lo) * (y_hi - y_lo));
+  double sum_a2 = 0;
+  for (const auto& c : discs) sum_a2 += std::pow(M_PI * c.r * c.r, 2);
+  w.poisson_sd = std::sqrt(p * (1 - p) * sum_a2) / area;
+  return w;
 }
 
 std::vector<ChipThroat> chipThroats(const std::vector<ChipDisc>& d, int rows, int wall_px, double max_width_px) {

@@ -128,6 +128,24 @@ nlohmann::json tileSamplesJson(const ChipResult& r) {
   return j;
 }
 
+/// Porosity of non-overlapping windows of ~10 mean grain diameters over the chip's grain region,
+/// against the SD the same grains would give placed independently (ChipPacking.hpp).
+nlohmann::json homogeneityJson(const ChipResult& r) {
+  const ChipWindowPorosity& w = r.packing.homogeneity;
+  nlohmann::json j = {{"window_um", w.side_px * r.spec.pixel_um}, {"window_px", w.side_px}, {"window_mean_grains", kHomogeneityWindowDiameters},
+                      {"count", w.count},
+                      {"definition", "porosity (pore pixels / window pixels) of non-overlapping square windows tiling the region between the "
+                                     "inlet and outlet columns and the wall rows, centred in it"}};
+  if (w.count == 0) return j;
+  j["porosity"] = {{"mean", w.mean}, {"sd", w.sd}, {"min", w.min}, {"max", w.max}};
+  j["poisson_sd"] = w.poisson_sd;
+  j["sd_over_poisson"] = w.count > 1 && w.poisson_sd > 0 ? nlohmann::json(w.sd / w.poisson_sd) : nlohmann::json(nullptr);
+  if (w.count < 2) j["porosity"]["sd"] = nullptr;
+  j["poisson_definition"] = "SD if the same grains were placed independently: sqrt(p (1 - p) sum (pi r^2)^2) / window area, p = window / region "
+                            "area (binomial; cut grains and overlaps neglected)";
+  return j;
+}
+
 }  // namespace
 
 nlohmann::json chipStatistics(const ChipResult& r) {
@@ -167,6 +185,7 @@ nlohmann::json chipStatistics(const ChipResult& r) {
                        {"converged_rule", "depth-averaged ladder monotone with an observed order and GCI of the finest level within the k tolerance"},
                        {"boundary", s.smooth_boundary ? "smooth (image-permeability geometry.boundary = smooth, smoothing 0.75 px)" : "pixels"}};
   if (!r.tile_samples.empty()) j["permeability"]["tile_samples"] = tileSamplesJson(r);
+  j["homogeneity"] = homogeneityJson(r);
   j["grains"] = {{"count", r.packing.discs.size()}, {"mean_diameter_um", g.mean}, {"cv", g.cv}, {"min_diameter_um", g.min},
                  {"median_diameter_um", g.median}, {"histogram", histogram(grainDiametersUm(r))},
                  {"distribution", fmt::format("lognormal, clipped to [{:g}, {:g}] x the mean", kMinDiameterFactor, kMaxDiameterFactor)}};
@@ -184,7 +203,10 @@ nlohmann::json chipStatistics(const ChipResult& r) {
   j["tuning"] = tuning;
   j["tuning_quantity"] = s.permeability_D > 0 ? "depth-averaged k (D)" : s.mean_throat_um > 0 ? "mean throat width (um)" : "none";
   j["generation"] = {{"mean_grain_um", r.mean_grain_um}, {"min_throat_px", s.min_throat_px}, {"relax_sweeps", r.packing.relax_sweeps},
-                     {"porosity_rounds", r.packing.porosity_rounds}, {"tile_mm", s.tile_mm}, {"wall_seconds", r.seconds}};
+                     {"porosity_rounds", r.packing.porosity_rounds}, {"tile_mm", s.tile_mm}, {"wall_seconds", r.seconds},
+                     {"placement", "random sequential addition with the minimum gap, largest grain first; grains that find no room (and all "
+                                   "after 50 such in a row) on a jittered grid; then overlap removal (ChipPacking.hpp)"},
+                     {"sequentially_added", r.packing.sequentially_added}};
   return j;
 }
 
