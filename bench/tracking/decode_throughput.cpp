@@ -7,6 +7,9 @@
 //
 //   decode-1     cv::imread (cv::VideoCapture::read for the mp4) of every frame, one thread
 //   decode-N     the same with N threads taking frames from a shared counter (files only)
+//   source-1     FrameSource::next() over every frame, one thread: the tracker's own decoding
+//                (8-bit PNG: its libdeflate reader when built with it, else cv::imread) and
+//                the conversion to float grey
 //   track-1/-N   runTracker + writeTrackOutputs with detect.threads 1 / N
 //   grab        (mp4) cv::VideoCapture::grab() of every frame: what skipping costs
 //   stages       track-N's own account (TrackRun::stage_seconds): sampling, background,
@@ -189,6 +192,12 @@ int main(int argc, char** argv) {
     int n = 0;
     const double dec1 = seconds([&] { n = decodeAll(input, 1); });
     const double decn = fs::is_directory(input) ? seconds([&] { decodeAll(input, threads); }) : dec1;
+    const double source1 = seconds([&] {
+      FrameSource src(input.string());
+      cv::Mat f;
+      for (int index = 0; src.next(f, index);) {
+      }
+    });
     long decoded1 = 0, decodedn = 0, decoded_old = 0, grabbed1 = 0, grabbedn = 0;
     const double t1 = track(input, 1, out, decoded1, grabbed1);
     RunStages stages_n;
@@ -210,6 +219,8 @@ int main(int argc, char** argv) {
     decoded_old = decoded1 + old_reads;
     std::printf("%-7s %6d %10.1f %10.1f %10.1f %10.1f %10.1f %8.2f %8.0f%% %4.2f/%4.2f\n", format.c_str(), n, n / dec1, n / decn, n / t1, n / tn,
                 n / t_old, t_old / t1, 100.0 * dec1 / t1, static_cast<double>(decoded1) / n, static_cast<double>(decoded_old) / n);
+    std::printf("%-7s source-1 (FrameSource decode + grey float, 1 thread): %.1f frames/s against decode-1 (cv::imread) %.1f frames/s\n", "", n / source1,
+                n / dec1);
     printStages(format, threads, stages_n);
     if (!fs::is_directory(input)) {
       // What a sampler's grab() saves over read(): the pixel conversion only.

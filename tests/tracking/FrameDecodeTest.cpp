@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +16,7 @@
 #include <unistd.h>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
 #include "mmval/core/Tracks.hpp"
@@ -185,6 +187,57 @@ TEST(FrameDecode, WithoutTheCacheTheSameTracksAndTheSampledFramesTwice) {
   for (const auto& block : rollingSamplePositions(in.frames, 12, 10)) sampler_reads += block.size();
   EXPECT_EQ(uncached.decoded(), static_cast<long>(in.frames + sampler_reads));
   EXPECT_EQ(cached.decoded(), in.frames);
+}
+
+TEST(FrameDecode, PngFramesEqualImreadForEveryColourTypeAndFilter) {
+  // FrameSource reads common 8-bit PNGs with its own reader when built with libdeflate
+  // (tracking/src/PngReader.hpp), the others with cv::imread: either way a frame must
+  // equal the reference exactly, cv::imread(IMREAD_UNCHANGED) then the conversion to
+  // float grey (16 bit: stretched by the frame's own range, as the first frame's).
+  // Grey, RGB, RGBA, 16-bit grey and RGB; compression levels 0-9; noisy
+  // images (every row filter gets chosen) and smooth ramps (Sub / Up / Paeth rows).
+  const fs::path dir = scratch("png-kinds");
+  cv::RNG rng(11);
+  int compared = 0;
+  for (const int type : {CV_8UC1, CV_8UC3, CV_8UC4, CV_16UC1, CV_16UC3})
+    for (const int level : {0, 1, 6, 9})
+      for (const double noise : {0.3, 0.02}) {
+        const bool wide = CV_MAT_DEPTH(type) == CV_16U;
+        cv::Mat img(37, 53, type), ramp(37, 53, type);
+        rng.fill(img, cv::RNG::UNIFORM, 0, wide ? 65536 : 256);
+        for (int y = 0; y < ramp.rows; ++y)
+          for (int x = 0; x < ramp.cols * ramp.channels(); ++x) {
+            const int v = (3 * x + 5 * y) % 256;
+            if (wide) ramp.ptr<std::uint16_t>(y)[x] = static_cast<std::uint16_t>(v * 257);
+            else ramp.ptr<unsigned char>(y)[x] = static_cast<unsigned char>(v);
+          }
+        cv::addWeighted(img, noise, ramp, 1 - noise, 0, img);
+        // One file per folder: the frames of a folder share their size and 16-bit range.
+        const std::string name = "t" + std::to_string(type) + "_l" + std::to_string(level) + "_n" + std::to_string(noise);
+        fs::create_directories(dir / name);
+        const fs::path file = dir / name / "frame.png";
+        ASSERT_TRUE(cv::imwrite(file.string(), img, {cv::IMWRITE_PNG_COMPRESSION, level}));
+        const cv::Mat raw = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
+        cv::Mat grey = raw, expected;
+        if (raw.channels() != 1) {
+          cv::cvtColor(raw, grey, raw.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+        }
+        if (wide) {
+          double lo = 0, hi = 0;
+          cv::minMaxLoc(grey, &lo, &hi);
+          grey.convertTo(expected, CV_32F, 1.0 / (hi - lo), -lo / (hi - lo));
+        } else {
+          expected = toFloatGrey(grey);
+        }
+        FrameSource src((dir / name).string());
+        cv::Mat f;
+        int index = -1;
+        ASSERT_TRUE(src.next(f, index)) << name;
+        ASSERT_EQ(f.size(), expected.size()) << name;
+        EXPECT_EQ(cv::norm(f, expected, cv::NORM_INF), 0.0) << name << ": the frame differs from imread + the grey conversion";
+        ++compared;
+      }
+  EXPECT_EQ(compared, 5 * 4 * 2);
 }
 
 }  // namespace

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "Selection.hpp"
+
 namespace mmval::tracking {
 
 cv::Mat quantileOfFrames(const std::vector<cv::Mat>& frames, double q) {
@@ -15,14 +17,13 @@ cv::Mat quantileOfFrames(const std::vector<cv::Mat>& frames, double q) {
   // Rows in parallel (OpenCV's pool, cv::setNumThreads): each pixel is independent.
   cv::parallel_for_(cv::Range(0, bg.rows), [&](const cv::Range& range) {
     std::vector<const float*> rows(n);
-    std::vector<float> v(n);
+    std::vector<float> v(n), scratch;
     for (int r = range.start; r < range.end; ++r) {
       for (std::size_t i = 0; i < n; ++i) rows[i] = frames[i].ptr<float>(r);
       float* out = bg.ptr<float>(r);
       for (int c = 0; c < bg.cols; ++c) {
         for (std::size_t i = 0; i < n; ++i) v[i] = rows[i][c];
-        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(rank), v.end());
-        out[c] = v[rank];
+        out[c] = detail::kthSmallest(v.data(), n, rank, scratch);
       }
     }
   });

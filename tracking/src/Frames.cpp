@@ -15,6 +15,7 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ImageHeader.hpp"
 #include "mmval/core/Resources.hpp"
+#include "PngReader.hpp"
 
 namespace fs = std::filesystem;
 
@@ -67,6 +68,18 @@ class DecodeTimer {
   std::atomic<long long>& m_total;
   long long m_start;
 };
+
+/// An image file as cv::imread(IMREAD_UNCHANGED) reads it, or, for the common 8-bit PNG
+/// when built with libdeflate, its grey image (the same grey values, read ~2x faster).
+cv::Mat readImage(const std::string& file) {
+#if defined(MMVAL_HAVE_LIBDEFLATE)
+  cv::Mat grey;
+  if (file.size() > 4 && (file.compare(file.size() - 4, 4, ".png") == 0 || file.compare(file.size() - 4, 4, ".PNG") == 0) &&
+      detail::readPngGrey8(file, grey))
+    return grey;
+#endif
+  return cv::imread(file, cv::IMREAD_UNCHANGED);
+}
 
 }  // namespace
 
@@ -162,7 +175,7 @@ bool FrameSource::readRaw(int index, cv::Mat& out) {
   switch (m_kind) {
     case Kind::images:
       if (index >= static_cast<int>(m_files.size())) return false;
-      out = cv::imread(m_files[index], cv::IMREAD_UNCHANGED);
+      out = readImage(m_files[index]);
       if (out.empty()) throw InputError({m_files[index], 0, 0, {}}, "cannot read the image", {}, "PNG, TIFF or JPEG, 8 or 16 bit");
       ++m_stats->decoded;
       return true;
@@ -325,7 +338,7 @@ void FrameSource::decodeAt(int pos, cv::Mat& frame, int& index) const {
   index = m_range.first + pos * m_range.step;
   cv::Mat raw;
   if (m_kind == Kind::images) {
-    raw = cv::imread(m_files[index], cv::IMREAD_UNCHANGED);
+    raw = readImage(m_files[index]);
     if (raw.empty()) throw InputError({m_files[index], 0, 0, {}}, "cannot read the image", {}, "PNG, TIFF or JPEG, 8 or 16 bit");
   } else {
     std::vector<cv::Mat> pages;

@@ -257,7 +257,6 @@ RunOutput runTrackingVideo(const Case& c, const RunContext& ctx) {
   const TrackRun run = runTracker(source, cfg, ctx.quiet);
   nlohmann::json extra = {{"input", video}, {"pixel_size_um", cfg.pixel_size * 1e6}, {"fps", cfg.fps}};
   RunOutput out;
-  const TrackStats stats = analyseTracks(run.tracks, cfg.analysis);
   if (c.has("inputs.truth")) {
     const Tracks truth = readTracksCsv(c.path("inputs.truth"), cfg.pixel_size);
     Tracks truth_px = truth;
@@ -294,6 +293,7 @@ RunOutput runTrackingVideo(const Case& c, const RunContext& ctx) {
     out.metrics["tracks"] = b.particles;
     out.metrics["immobile"] = b.immobile;
   } else {
+    const TrackStats stats = analyseTracks(run.tracks, cfg.analysis);  // flow statistics: not needed for Brownian motion
     out.metrics["mean_speed"] = stats.mean_speed;
     out.units["mean_speed"] = "um/s";
     out.metrics["median_speed"] = stats.median_speed;

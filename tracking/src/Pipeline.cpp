@@ -8,10 +8,12 @@
 #include <exception>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <unordered_map>
 
 #include <fmt/format.h>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "PipelineDetail.hpp"
@@ -51,6 +53,20 @@ MotionDecision chooseMotion(const TrackConfig& c, std::vector<LinkedPoint>& link
   }
   return m;
 }
+
+/// OpenCV's own thread pool held to `threads` while it lives, restored after: while our
+/// workers each detect a frame, each worker's OpenCV calls (blur, subtract) would
+/// otherwise fan out over every core again (oversubscription on a machine with few cores).
+class OpenCvThreads {
+ public:
+  explicit OpenCvThreads(int threads) : m_before(cv::getNumThreads()) { cv::setNumThreads(threads); }
+  ~OpenCvThreads() { cv::setNumThreads(m_before); }
+  OpenCvThreads(const OpenCvThreads&) = delete;
+  OpenCvThreads& operator=(const OpenCvThreads&) = delete;
+
+ private:
+  int m_before;
+};
 
 /// Frames the polarity and ring guesses sample, spread over the video.
 constexpr int kPolaritySamples = 24;
@@ -245,6 +261,10 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   };
   cv::Mat frame;
   int index = 0;
+  // One OpenCV thread per worker of ours (the workers are the parallelism); one worker
+  // keeps OpenCV's pool.
+  std::optional<OpenCvThreads> opencv_threads;
+  if (threads > 1) opencv_threads.emplace(1);
   if (threads > 1 && source.randomAccess() && source.next(frame, index)) {
     // Image files: `threads` workers each read (decode) and detect whole frames, taking
     // the next frame number from a shared counter; this thread links them in order as
@@ -327,6 +347,7 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
     }
   }
   progress.finish();
+  opencv_threads.reset();
   lap("frames");
   run.polarity = polarity;
   run.link = linker.stats();

@@ -6,8 +6,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
+#include <utility>
 
 #include "DetectionGrid.hpp"
+#include "Selection.hpp"
 
 namespace mmval::tracking::detail {
 
@@ -24,43 +27,57 @@ double pixelNoise(const cv::Mat& img) {
     for (int x = 0; x + 1 < img.cols; ++x) diffs.push_back(std::abs(row[x + 1] - row[x]));
   }
   if (diffs.empty()) return 0;
-  std::nth_element(diffs.begin(), diffs.begin() + static_cast<std::ptrdiff_t>(diffs.size() / 2), diffs.end());
-  return 1.4826 * diffs[diffs.size() / 2] / std::sqrt(2.0);
+  thread_local std::vector<float> scratch;
+  return 1.4826 * kthSmallest(diffs.data(), diffs.size(), diffs.size() / 2, scratch) / std::sqrt(2.0);
 }
 
 namespace {
 
+/// Per |dy| from 0 to r_out - 1, the ring's half-widths (wo, wi): the ring's pixels in the
+/// row dy are |dx| < wo and |dx| >= wi, the same pixels as the test r_in^2 <= r2 < r_out^2.
+/// Computed once per thread and ring (measureSpot asks for a few dozen rings, again and again).
+const std::vector<std::pair<int, int>>& ringWidths(int r_in, int r_out) {
+  thread_local std::map<std::pair<int, int>, std::vector<std::pair<int, int>>> tables;
+  auto [it, added] = tables.try_emplace({r_in, r_out});
+  if (added) {
+    auto halfWidth = [](int r2_limit, int dy2) {  // smallest w >= 0 with w^2 + dy2 >= r2_limit
+      int w = 0;
+      if (r2_limit > dy2) w = static_cast<int>(std::sqrt(static_cast<double>(r2_limit - dy2)));
+      while (w > 0 && (w - 1) * (w - 1) + dy2 >= r2_limit) --w;
+      while (w * w + dy2 < r2_limit) ++w;
+      return w;
+    };
+    for (int dy = 0; dy < r_out; ++dy) it->second.emplace_back(halfWidth(r_out * r_out, dy * dy), halfWidth(r_in * r_in, dy * dy));
+  }
+  return it->second;
+}
+
 /// Median of the pixels of `img` in the ring r_in <= |p - (cx, cy)| < r_out (clipped to
 /// the image); NaN when the ring is empty.
 double ringMedian(const cv::Mat& img, int cx, int cy, int r_in, int r_out) {
-  thread_local std::vector<float> v;
-  v.clear();
+  if (r_out <= 0) return std::nan("");
   // Per row, only the ring's one or two runs of columns (the box around the ring holds
-  // ~12 times as many pixels for the large windows of blurred spots): |dx| < wo outside,
-  // |dx| >= wi inside, the same pixels as the test r_in^2 <= r2 < r_out^2.
-  auto halfWidth = [](int r2_limit, int dy2) {  // smallest w >= 0 with w^2 + dy2 >= r2_limit
-    int w = 0;
-    if (r2_limit > dy2) w = static_cast<int>(std::sqrt(static_cast<double>(r2_limit - dy2)));
-    while (w > 0 && (w - 1) * (w - 1) + dy2 >= r2_limit) --w;
-    while (w * w + dy2 < r2_limit) ++w;
-    return w;
-  };
+  // ~12 times as many pixels for the large windows of blurred spots).
+  const std::vector<std::pair<int, int>>& widths = ringWidths(r_in, r_out);
+  thread_local std::vector<float> v;
+  v.resize(static_cast<std::size_t>(2 * r_out) * static_cast<std::size_t>(2 * r_out));
+  float* out = v.data();
   for (int y = std::max(0, cy - r_out + 1); y <= std::min(img.rows - 1, cy + r_out - 1); ++y) {
     const float* row = img.ptr<float>(y);
-    const int dy2 = (y - cy) * (y - cy);
-    const int wo = halfWidth(r_out * r_out, dy2), wi = halfWidth(r_in * r_in, dy2);
+    const auto [wo, wi] = widths[static_cast<std::size_t>(std::abs(y - cy))];
     // Columns cx - wo < x <= cx - wi and cx + wi <= x < cx + wo (one run when wi = 0).
     const int xa = std::max(0, cx - wo + 1), xd = std::min(img.cols - 1, cx + wo - 1);
     if (wi == 0) {
-      for (int x = xa; x <= xd; ++x) v.push_back(row[x]);
+      for (int x = xa; x <= xd; ++x) *out++ = row[x];
       continue;
     }
-    for (int x = xa; x <= std::min(xd, cx - wi); ++x) v.push_back(row[x]);
-    for (int x = std::max(xa, cx + wi); x <= xd; ++x) v.push_back(row[x]);
+    for (int x = xa, end = std::min(xd, cx - wi); x <= end; ++x) *out++ = row[x];
+    for (int x = std::max(xa, cx + wi); x <= xd; ++x) *out++ = row[x];
   }
-  if (v.empty()) return std::nan("");
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
+  const std::size_t n = static_cast<std::size_t>(out - v.data());
+  if (n == 0) return std::nan("");
+  thread_local std::vector<float> scratch;
+  return kthSmallest(v.data(), n, n / 2, scratch);
 }
 
 /// Symmetric 2 x 2 matrix [a b; b c].
