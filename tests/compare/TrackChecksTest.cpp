@@ -6,11 +6,13 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <limits>
 
 #include <fmt/format.h>
 
+#include "../InputErrorMessage.hpp"
 #include "../TestScratch.hpp"
 #include "mmval/compare/Compare.hpp"
 #include "mmval/compare/TrackChecks.hpp"
@@ -40,17 +42,8 @@ std::string movingRows(const std::vector<std::int64_t>& ids) {
   return rows;
 }
 
-/// The message of the InputError `f` throws; fails the test when it throws none.
-template <class F>
-std::string inputErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no InputError";
-  return {};
-}
+/// The message of the InputError `f` throws ("(no InputError)" when it throws none).
+std::string inputErrorOf(const std::function<void()>& f) { return mmval::test::inputErrorMessage(f); }
 
 TEST(TracksCsv, ParticleIdsAtAndAbove2To53StayDistinct) {
   const fs::path file = writeCsv("big-ids.csv", movingRows({kTwoTo53, kTwoTo53 + 1, kTwoTo53 + 2}));
