@@ -51,6 +51,10 @@ void printSummary(const simulate::ChipResult& r, const std::string& out) {
                 ts["tile_k_D"].get<double>(), ts["mean_over_tile"].get<double>(),
                 ts["representative"].get<bool>() ? "" : "; the tile does not represent the chip within the tolerance");
   }
+  if (const auto& h = j["homogeneity"]; h.contains("porosity") && h["sd_over_poisson"].is_number())
+    std::printf("  homogeneity         porosity of %d windows of %.0f um: SD %.4f (%.2f x that of independently placed grains), range %.4f-%.4f\n",
+                h["count"].get<int>(), h["window_um"].get<double>(), h["porosity"]["sd"].get<double>(), h["sd_over_poisson"].get<double>(),
+                h["porosity"]["min"].get<double>(), h["porosity"]["max"].get<double>());
   std::printf("  grains              mean diameter %.4g um, cv %.3f (asked %.3f)\n", j["grains"]["mean_diameter_um"].get<double>(), j["grains"]["cv"].get<double>(),
               r.spec.grain_cv);
   std::printf("  throats             %d, mean width %.4g um (radius %.4g um), min %.4g um, median %.4g um\n", j["throats"]["count"].get<int>(),
