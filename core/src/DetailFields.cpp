@@ -18,6 +18,7 @@ using F = DetailField;
 using T = DetailType;
 
 constexpr const char* kFluidLadderKinds = "channel, cylinder-channel, periodic-array, image-permeability, `mmval peer openfoam`";
+constexpr const char* kPhysicsReferenceKinds = "physics-settling-slit, physics-diffusion-slit, physics-near-wall-shear, physics-sedimentation";
 
 // The declarations, in DetailField order (checked when the table is first used).
 std::vector<DetailFieldDecl> makeDeclarations() {
@@ -32,8 +33,9 @@ std::vector<DetailFieldDecl> makeDeclarations() {
        "LIGGGHTS version of a run that used it, shown in the provenance block when provenance.dependencies has none",
        "none yet (particles-micromodel with an engine comparison should)"},
       {F::table3_case, "table3_case", top, T::string, none, 0, "-",
-       "the case of the paper's Table 3 the run reproduces (`I`..`V`); without it the report takes the numeral from the run name",
-       "none yet (the particles-table3-* cases should)"},
+       "the case of the paper's Table 3 the run reproduces (`I`..`V`), from the case's analysis.table3_case; the report's Table 3 "
+       "rows are the runs that carry it",
+       "particles-micromodel (cases/particles-table3-*.toml)"},
       {F::Re, "Re", top, T::number, none, 0, "1", "Reynolds number U D / nu of the cylinder, U the reference speed of the case (the mean inflow speed in a channel)",
        "cylinder-channel, `mmval peer openfoam` (cylinder scenes)"},
       {F::status, "status", top, T::string, none, 0, "-",
@@ -41,7 +43,7 @@ std::vector<DetailFieldDecl> makeDeclarations() {
        "`mmval validate`, `mmval peer openfoam`"},
       {F::cells, "cells", top, T::integer, none, 0, "1", "grid cells of the finest level", kFluidLadderKinds},
       {F::warnings, "warnings", top, T::array, T::string, 0, "-", "numerical warnings of the run, one sentence each (throats under-resolved, no observed order, ...)",
-       "periodic-array, image-permeability, `mmval peer openfoam`"},
+       "periodic-array, image-permeability, cylinder-channel (unsteady), particles-resolved, `mmval peer openfoam`"},
       {F::undeclared_metrics, "undeclared_metrics", top, T::array, T::string, 0, "-",
        "metrics the runner reported that its kind does not declare, or in another dimension (a bug in mmval)", "any kind (`mmval run`)"},
 
@@ -86,6 +88,29 @@ std::vector<DetailFieldDecl> makeDeclarations() {
        "particles-micromodel"},
       {F::straining, "straining", top, T::string, none, 0, "-", "whether the largest particles are strained by the throats, in a sentence",
        "particles-micromodel"},
+      {F::coupling, "coupling", top, T::object, none, 0, "-",
+       "how the particles and the fluid are coupled, and what the coupling did (deposit counts, grid)", "particles-micromodel, particles-resolved"},
+      {F::coupling_mode, "mode", F::coupling, T::string, none, 0, "-",
+       "`four-way` (deposits change the flow, which is solved again) or `one-way` (particles-micromodel); `resolved` (particles-resolved: "
+       "the particles are rigid bodies on the fluid grid)",
+       "particles-micromodel, particles-resolved"},
+      {F::coupling_fluid_grid_cells, "fluid_grid_cells", F::coupling, T::array, T::integer, 2, "1", "fluid grid cells along x and along y",
+       "particles-micromodel, particles-resolved"},
+      {F::coupling_cells_per_diameter, "cells_per_diameter", F::coupling, T::integer, none, 0, "1", "fluid grid cells across a particle diameter",
+       "particles-resolved"},
+      {F::coupling_deposits_at_walls, "deposits_at_walls", F::coupling, T::integer, none, 0, "1",
+       "deposits at grains (booked as filled pixel columns) over the run", "particles-micromodel"},
+      {F::coupling_deposits_on_plates, "deposits_on_plates", F::coupling, T::integer, none, 0, "1",
+       "deposits on the chip's plates away from grains over the run (booked as aperture layers or as columns, as the case's "
+       "coupling.plate_deposits says)",
+       "particles-micromodel"},
+      {F::reference, "reference", top, T::object, none, 0, "-",
+       "what a physics check compares against: `description` always, the reference's own numbers (`l_s_um`, ...) where the check has them",
+       kPhysicsReferenceKinds},
+      {F::reference_description, "description", F::reference, T::string, none, 0, "-",
+       "the reference in a sentence: closed form, series or tables, with their source", kPhysicsReferenceKinds},
+      {F::reference_file, "file", F::reference, T::string, none, 0, "-", "the reference-data file the reference values were read from",
+       "physics-near-wall-shear"},
       {F::square_array, "square_array", top, T::object, none, 0, "-",
        "the same search in the plane Stokes flow through a square array of posts (collector.square_array)", "physics-collector-interception"},
       {F::engine_comparison, "engine_comparison", top, T::array, T::object, 0, "-",

@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/BuildInfo.hpp"
 
@@ -141,7 +142,7 @@ RunSummary runCaseWith(const Case& c, const std::function<RunOutput(const Case&,
               {"cost", {{"wall_seconds", wall}, {"peak_memory_bytes", peakMemoryBytes()}}},
               {"details", undeclared.empty() ? output.details : [&] {
                  nlohmann::json d = output.details;
-                 d["undeclared_metrics"] = undeclared;
+                 setDetail(d, DetailField::undeclared_metrics, undeclared);
                  return d;
                }()},
               {"files", output.files},

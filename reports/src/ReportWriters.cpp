@@ -23,7 +23,7 @@ std::vector<Table> paperTables(const ReportInput& input, const fs::path& referen
     Table t;
     t.id = "table3";
     t.title = "Permeability reduction (the paper's Table 3 cases)";
-    t.note = "Runs that wrote permeability.csv; the paper's value when the run name names a Table 3 case (case-I ... case-V).";
+    t.note = "Runs that wrote permeability.csv; the paper's value when the case sets analysis.table3_case (I ... V).";
     t.header = {"run", "Table 3 case", "t end (s)", "k/k0 at end", "reduction", "paper", "difference", "first 10 % loss (s)", "clogged (s)"};
     t.rows = reduction_rows;
     tables.push_back(t);

@@ -6,7 +6,6 @@
 #include <cmath>
 #include <fstream>
 #include <map>
-#include <regex>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -100,14 +99,10 @@ fs::path findReferenceData(const ReportInput& input) {
   return referenceDataDirectory();  // mmval's own: installed, MMVAL_DATA_DIR or the source tree (DataPaths.hpp)
 }
 
-std::string table3CaseOf(const std::string& name, const nlohmann::json& details) {
-  if (auto roman = detailString(details, DetailField::table3_case)) return *roman;
-  static const std::regex re(R"((?:^|[-_. ])(?:case|table3)[-_]?(iii|ii|iv|v|i)(?:$|[-_.]))", std::regex::icase);
-  std::smatch m;
-  if (!std::regex_search(name, m, re)) return {};
-  std::string roman = m[1].str();
-  for (auto& c : roman) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  return roman;
+// The run name is no longer read: the case says which Table 3 case it is (analysis.table3_case of
+// particles-micromodel, written to details.table3_case), so renaming a run cannot change its row.
+std::string table3CaseOf(const std::string& /*run_name*/, const nlohmann::json& details) {
+  return detailString(details, DetailField::table3_case).value_or("");
 }
 
 std::optional<double> table3Reduction(const fs::path& dir, const std::string& roman) {

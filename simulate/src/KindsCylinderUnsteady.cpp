@@ -10,6 +10,7 @@
 
 #include "KindsCommon.hpp"
 #include "MemoryBudget.hpp"
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Checkpoint.hpp"
 #include "mmval/core/Error.hpp"
@@ -250,8 +251,8 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const Cylind
   out.details["resumed_from_step"] = resumed_from;
   out.details["statistics_window_s"] = {last_stats.window_start_s, last_stats.window_end_s};
   out.details["shedding_periods"] = last_stats.periods;
-  if (last_stats.periods == 0)
-    out.details["warning"] = "no periodic shedding detected in the statistics window: St is 0 and the extrema are over the whole window";
+  std::string warning;
+  if (last_stats.periods == 0) warning = "no periodic shedding detected in the statistics window: St is 0 and the extrema are over the whole window";
   out.metrics["c_D_max"] = last_stats.cd_max;
   out.metrics["c_D_min"] = last_stats.cd_min;
   out.metrics["c_D_mean"] = last_stats.cd_mean;
@@ -262,10 +263,13 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const Cylind
   // The start-up approaches the periodic state geometrically (2D-2: the c_L amplitude grew 0.3 % in
   // the period before 4.5 s and 0.7 % in all after it): extrema read before then are too small.
   if (last_stats.periods >= 2 && std::abs(last_stats.cl_amplitude_drift) > 2e-3)
-    out.details["warning"] = fmt::format("the shedding has not reached its periodic state: the c_L amplitude changed {:+.2f} % over the last period; "
+    warning = fmt::format("the shedding has not reached its periodic state: the c_L amplitude changed {:+.2f} % over the last period; "
                                          "run longer (numerics.end_time) and start the statistics later (numerics.statistics_from)",
-                                         100 * last_stats.cl_amplitude_drift);
-  if (out.details.contains("warning") && PetscSession::rank() == 0) spdlog::warn("{}: {}", c.name(), out.details["warning"].get<std::string>());
+                          100 * last_stats.cl_amplitude_drift);
+  if (!warning.empty()) {
+    setDetail(out.details, DetailField::warnings, nlohmann::json::array({warning}));
+    if (PetscSession::rank() == 0) spdlog::warn("{}: {}", c.name(), warning);
+  }
   out.metrics["St"] = last_stats.frequency_hz * D / Uref;
   out.metrics["frequency"] = last_stats.frequency_hz;
   out.units["frequency"] = "Hz";

@@ -148,6 +148,29 @@ TEST(DetailFields, SetDetailWritesTheDeclaredKeyAndRefusesAnotherType) {
   EXPECT_EQ(d.size(), 2U) << "a refused value is not written";
 }
 
+TEST(DetailFields, OneTypePerKeyWhateverTheKind) {
+  // Keys that kinds once wrote in different types (issue 27) now have one declaration each:
+  // the forms that are no longer allowed are refused at the writer.
+  json d = json::object();
+  EXPECT_THROW(setDetail(d, F::coupling, "resolved immersed boundary: 16 cells per diameter"), std::logic_error);  // particles-resolved's old string
+  EXPECT_THROW(setDetail(d, F::reference, "Graetz series for plane Poiseuille flow"), std::logic_error);           // the slit checks' old string
+  EXPECT_THROW(setDetail(d, F::warnings, "forces are coarse"), std::logic_error);                                   // a list, even of one
+  EXPECT_THROW(setDetail(d, F::coupling, {{"mode", "resolved"}, {"fluid_grid_cells", {50}}}), std::logic_error);     // x and y
+  EXPECT_THROW(setDetail(d, F::table3_case, 3), std::logic_error);
+  EXPECT_TRUE(d.empty());
+  setDetail(d, F::coupling, {{"mode", "four-way"}, {"fluid_grid_cells", {30, 15}}, {"deposits_on_plates", 3}, {"layer_packing", 0.36}});
+  setDetail(d, F::reference, {{"description", "Boltzmann (Perrin 1909)"}, {"l_s_um", 0.787}});
+  const auto coupling = detailObject(d, F::coupling);
+  ASSERT_TRUE(coupling.has_value());
+  EXPECT_EQ(detailString(*coupling, F::coupling_mode), "four-way");
+  EXPECT_EQ(detailInteger(*coupling, F::coupling_deposits_on_plates), 3);
+  EXPECT_FALSE(detailInteger(*coupling, F::coupling_deposits_at_walls).has_value());
+  const auto reference = detailObject(d, F::reference);
+  ASSERT_TRUE(reference.has_value());
+  EXPECT_EQ(detailString(*reference, F::reference_description), "Boltzmann (Perrin 1909)");
+  EXPECT_EQ(detailPath(F::coupling_fluid_grid_cells), "details.coupling.fluid_grid_cells");
+}
+
 TEST(DetailFields, OutputsDocListsEveryDeclaredField) {
   std::ifstream in(std::filesystem::path(MMVAL_SOURCE_DIR) / "docs" / "outputs.md");
   ASSERT_TRUE(in) << "docs/outputs.md";

@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "mmval/compare/Compare.hpp"
+#include "mmval/core/Error.hpp"
 #include "mmval/core/OutputTables.hpp"
 #include "mmval/reports/Plot.hpp"
 #include "mmval/reports/Report.hpp"
@@ -149,8 +150,8 @@ std::string slurp(const fs::path& p) {
 TEST(Report, PaperTablesPermeabilityAndRetentionFromTheRunsPresent) {
   const fs::path dir = fs::path(MMVAL_BINARY_DIR) / "test-output" / "report-tables";
   fs::remove_all(dir);
-  // A Table 3 run whose permeability falls linearly to 0.8 k0 over 100 s.
-  fakeRun(dir / "runs" / "fines-case-III", "fines-case-III", "particles-micromodel", nlohmann::json::array());
+  // A Table 3 run (its case says which: details.table3_case) whose permeability falls linearly to 0.8 k0 over 100 s.
+  fakeRun(dir / "runs" / "fines-case-III", "fines-case-III", "particles-micromodel", nlohmann::json::array(), {{"table3_case", "III"}});
   {
     std::ofstream f(dir / "runs" / "fines-case-III" / "permeability.csv");
     f << tables::permeabilityHeader();
@@ -245,14 +246,13 @@ TEST(MetricValue, MatchesTheDeclaredMetricNotTheDisplayName) {
   EXPECT_FALSE(metricValue(run, "c_L").has_value());
 }
 
-TEST(Report, Table3CaseFromTheRunName) {
-  EXPECT_EQ(table3CaseOf("particles-table3-iii", nullptr), "III");
-  EXPECT_EQ(table3CaseOf("particles-table3-i", nullptr), "I");
-  EXPECT_EQ(table3CaseOf("particles-table3-iv", nullptr), "IV");
-  EXPECT_EQ(table3CaseOf("fines_case_V", nullptr), "V");
-  EXPECT_EQ(table3CaseOf("particles-micromodel", nullptr), "");
-  EXPECT_EQ(table3CaseOf("case-vi", nullptr), "");
+TEST(Report, Table3CaseFromTheDetailsNotFromTheRunName) {
   EXPECT_EQ(table3CaseOf("anything", nlohmann::json{{"table3_case", "II"}}), "II");
+  EXPECT_EQ(table3CaseOf("particles-table3-iv", nlohmann::json{{"table3_case", "I"}}), "I");
+  // A name that looks like a Table 3 case is not one without the field (the name is never parsed).
+  EXPECT_EQ(table3CaseOf("particles-table3-iii", nullptr), "");
+  EXPECT_EQ(table3CaseOf("fines_case_V", nlohmann::json::object()), "");
+  EXPECT_THROW(table3CaseOf("particles-table3-iii", nlohmann::json{{"table3_case", 3}}), InputError);
   const fs::path ref = fs::path(MMVAL_SOURCE_DIR) / "reference-data";
   EXPECT_NEAR(*table3Reduction(ref, "I"), 3.2, 1e-12);
   EXPECT_NEAR(*table3Reduction(ref, "II"), 5.9, 1e-12);
@@ -263,13 +263,15 @@ TEST(Report, Table3TrendsAgainstThePaper) {
   // Five Table 3 runs: velocity trend broken (I reduces more than II), the rest followed.
   const fs::path dir = fs::path(MMVAL_BINARY_DIR) / "test-output" / "report-trends";
   fs::remove_all(dir);
-  const std::vector<std::tuple<std::string, double, double>> runs{
-      {"particles-table3-i", 30.0, 40.0}, {"particles-table3-ii", 20.0, 30.0}, {"particles-table3-iii", 25.0, 5.0}, {"particles-table3-iv", 2.0, -1.0},
-      {"particles-table3-v", 10.0, 50.0}};
-  for (const auto& [name, red, t10] : runs) {
+  // The run names say nothing: the cases' details.table3_case do. A sixth run named like case I but
+  // without the field is not one of them (read after run-a, it would replace case I's 30 % by 1 %).
+  const std::vector<std::tuple<std::string, std::string, double, double>> runs{
+      {"run-a", "I", 30.0, 40.0}, {"run-b", "II", 20.0, 30.0}, {"run-c", "III", 25.0, 5.0}, {"run-d", "IV", 2.0, -1.0}, {"run-e", "V", 10.0, 50.0},
+      {"zz-table3-i", "", 1.0, 90.0}};
+  for (const auto& [name, roman, red, t10] : runs) {
     nlohmann::json m = nlohmann::json::array({info("permeability_reduction", red, "%")});
     if (t10 > 0) m.push_back(info("time_to_10pct_reduction", t10, "s"));
-    fakeRun(dir / "runs" / name, name, "particles-micromodel", m);
+    fakeRun(dir / "runs" / name, name, "particles-micromodel", m, roman.empty() ? nlohmann::json::object() : nlohmann::json{{"table3_case", roman}});
   }
   const ReportInput input = collect({dir});
   const auto t = table3TrendsTable(input, fs::path(MMVAL_SOURCE_DIR) / "reference-data");

@@ -18,6 +18,7 @@
 
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Case.hpp"
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/OutputTables.hpp"
 #include "mmval/core/Tracks.hpp"
@@ -137,7 +138,7 @@ void compareEnginesOnTheScene(const Case& c, std::shared_ptr<const FlowField> fi
   out.metrics["engines_captured_overdamped"] = r.captured_candidate;
   out.metrics["engines_capture_difference"] = std::abs(r.captured_reference - r.captured_candidate);
   out.metrics["engines_speedup"] = r.wall_seconds_reference / std::max(r.wall_seconds_candidate, 1e-9);
-  out.details["engine_comparison"] = rows;
+  setDetail(out.details, DetailField::engine_comparison, rows);
 }
 
 /// The pump's outputs: the pressure drop the set rate needed on the clean
@@ -147,7 +148,8 @@ void reportPump(const RunnerState& s, const std::optional<PumpStall>& stall, dou
                 std::int64_t injected, RunOutput& out) {
   const auto pressureFor = [&](double k) { return k > 0 ? mu_u_L / k : 0.0; };
   double k_open = s.k0;
-  for (double km2 : tables::parseTable(s.permeability, "permeability.csv").at("k_m2"))
+  const auto table = tables::parseTable(s.permeability, "permeability.csv");  // named: a temporary would die before the loop
+  for (double km2 : table.at("k_m2"))
     if (km2 > 0) k_open = km2;
   const nlohmann::json limit = max_pressure > 0 ? nlohmann::json(max_pressure) : nlohmann::json(nullptr);
   out.metrics["pressure_drop_initial"] = pressureFor(s.k0);
@@ -167,13 +169,14 @@ void reportPump(const RunnerState& s, const std::optional<PumpStall>& stall, dou
     out.metrics["pump_stall_pressure"] = stall->pressure_Pa;
     out.units["pump_stall_pressure"] = "Pa";
   }
-  out.details["pump_stall"] = {{"time_s", stall->time_s},
-                               {"reason", stall->reasonName()},
-                               {"pressure_Pa", std::isfinite(stall->pressure_Pa) ? nlohmann::json(stall->pressure_Pa) : nlohmann::json(nullptr)},
-                               {"max_pressure_Pa", limit},
-                               {"message", stall->describe()},
-                               {"then", "injection stopped and the run ended at this frame; particles still moving are counted as inside"},
-                               {"never_injected", scheduled - injected}};
+  setDetail(out.details, DetailField::pump_stall,
+            {{"time_s", stall->time_s},
+             {"reason", stall->reasonName()},
+             {"pressure_Pa", std::isfinite(stall->pressure_Pa) ? nlohmann::json(stall->pressure_Pa) : nlohmann::json(nullptr)},
+             {"max_pressure_Pa", limit},
+             {"message", stall->describe()},
+             {"then", "injection stopped and the run ended at this frame; particles still moving are counted as inside"},
+             {"never_injected", scheduled - injected}});
   std::fprintf(stderr, "mmval: %s; injection stopped and the run ended there (%lld of %lld scheduled particles never injected)\n",
                stall->describe().c_str(), static_cast<long long>(scheduled - injected), static_cast<long long>(scheduled));
 }
@@ -419,19 +422,19 @@ void reportScene(const MicromodelSetup& set, const ClassTally& a, const RunnerSt
   out.details["interstitial_velocity_m_s"] = porosity > 0 ? u_darcy / porosity : u_darcy;
   out.details["injection_rate_per_s"] = set.schedule.rate_per_s;
   out.details["parcel_weight"] = cp.weight;
-  out.details["coupling"] = {{"mode", cp.four_way ? "four-way" : "one-way"},
-                             {"resolve_threshold_pixels", cp.resolve_pixels},
-                             {"plate_deposits", cp.layers ? "layer" : "column"},
-                             {"layer_packing", cp.layer_model.packing},
-                             {"min_aperture_um", cp.layer_model.min_aperture * 1e6},
-                             {"deposits_at_walls", s.wall_deposits},
-                             {"deposits_on_plates", s.plate_deposits},
-                             {"pore_pixels", set.geo.pore_pixels},
-                             {"pixel_capacity_um3", deposits.capacity() * 1e18},
-                             {"deposited_volume_um3", deposits.depositedVolume() * 1e18},
-                             {"fluid_grid_cells",
-                              {std::lround(set.geo.grains.cols() * set.flow.cells_per_pixel),
-                               std::lround(set.geo.grains.rows() * set.flow.cells_per_pixel)}}};
+  setDetail(out.details, DetailField::coupling,
+            {{"mode", cp.four_way ? "four-way" : "one-way"},
+             {"resolve_threshold_pixels", cp.resolve_pixels},
+             {"plate_deposits", cp.layers ? "layer" : "column"},
+             {"layer_packing", cp.layer_model.packing},
+             {"min_aperture_um", cp.layer_model.min_aperture * 1e6},
+             {"deposits_at_walls", s.wall_deposits},
+             {"deposits_on_plates", s.plate_deposits},
+             {"pore_pixels", set.geo.pore_pixels},
+             {"pixel_capacity_um3", deposits.capacity() * 1e18},
+             {"deposited_volume_um3", deposits.depositedVolume() * 1e18},
+             {"fluid_grid_cells",
+              {std::lround(set.geo.grains.cols() * set.flow.cells_per_pixel), std::lround(set.geo.grains.rows() * set.flow.cells_per_pixel)}}});
   out.details["outputs"] = {
       {"trajectories.csv", "frame,particle,x,y,x_um,y_um,t_s,z_um,state (tracks schema; x, y pixels of the geometry image from the "
                            "top-left pixel centre, y down; x_um = x * pixel size; deposited particles appear once, state deposited)"},
@@ -457,7 +460,7 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   const std::string fp = checkpointFingerprint(c);
   RunnerState s;
   const bool resumed = startOrResume(c, ctx, ckpt, fp, set, s, classes, deposits, flow);
-  out.details["resumed_from_frame"] = resumed ? s.next_frame : 0;
+  setDetail(out.details, DetailField::resumed_from_frame, resumed ? s.next_frame : 0);
   if (!resumed && c.quantity("engines.compare_window") > 0) compareEnginesOnTheScene(c, flow.field(), set.scene, classes[0].diameter, out);
 
   const auto wall_now = [&] { return s.wall_before + std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count(); };
@@ -484,7 +487,7 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   const ClassTally tally = tallyClasses(classes, set.schedule, run);
   reportCounts(tally, set.sample, out);
   const double t_end = static_cast<double>(s.next_frame - 1) * run.dt_out;  // the last frame written
-  out.details["end_time_s"] = t_end;
+  setDetail(out.details, DetailField::end_time_s, t_end);
   reportPump(s, stall, set.max_pressure, set.flow.viscosity * set.flow.darcy_velocity * set.geo.width, tally.scheduled, tally.n.injected, out);
   if (!run.window.empty()) reportWindow(s, run.window, t_end, out);
   out.metrics["mean_speed"] = s.speed_n ? s.speed_sum / s.speed_n : 0.0;

@@ -102,6 +102,10 @@ void declareMicromodel(Schema& s) {
                  "injected (window_retained_fraction); a window past the end of the run is cut at it")
       .optional()
       .nonNegative();
+  s.choice("analysis.table3_case", {"I", "II", "III", "IV", "V"},
+           "The case of Table 3 of Elrahmani et al. (2022) this scene reproduces; written to details.table3_case, from which the report's "
+           "Table 3 takes the paper's values. Absent: not a Table 3 case")
+      .optional();
   s.quantity("run.duration", "s", "Physical time simulated").def("20 min").positive();
   s.quantity("run.output_interval", "s", "Output (frame) interval").def("1 s").positive();
   s.integer("run.seed", "Random seed (Brownian motion, injection)").def(1).min(0);

@@ -9,6 +9,7 @@
 
 #include "CaseScene.hpp"
 #include "MicromodelDetail.hpp"
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/OutputTables.hpp"
 
@@ -62,15 +63,16 @@ double checkParticlesFit(const Case& c, const std::vector<SizeClass>& classes, c
                      fmt::format("< geometry.depth ({:.3g} um)", geo.depth * 1e6));
   const double opening = inletOpening(geo.grains, geo.pixel), passable = passableDiameter(geo.grains, geo.pixel);
   out.details["inlet_opening_um"] = opening * 1e6;
-  out.details["passable_diameter_um"] = passable * 1e6;
+  setDetail(out.details, DetailField::passable_diameter_um, passable * 1e6);
   if (opening < d_max)
     throw InputError(c.where(dkey), "no pore at the inlet (first image column) is wide enough to take a particle",
                      fmt::format("{:.3g} um", d_max * 1e6),
                      fmt::format("a diameter below the widest inlet opening, {:.3g} um, or a mask/crop with a wider inlet", opening * 1e6));
-  out.details["straining"] = passable < d_max ? fmt::format("every inlet-to-outlet pore path has a throat narrower than the (largest) "
-                                                            "particles ({:.3g} um < {:.3g} um): they are strained, none can leave",
-                                                            passable * 1e6, d_max * 1e6)
-                                              : std::string("none: some path admits the particles");
+  setDetail(out.details, DetailField::straining,
+            passable < d_max ? fmt::format("every inlet-to-outlet pore path has a throat narrower than the (largest) particles ({:.3g} um < "
+                                           "{:.3g} um): they are strained, none can leave",
+                                           passable * 1e6, d_max * 1e6)
+                             : std::string("none: some path admits the particles"));
   return d_max;
 }
 
@@ -213,6 +215,7 @@ MicromodelSetup readSetup(const Case& c, RunOutput& out) {
   set.choice = chooseSceneEngine(c, set);
   set.scene = readScene(c, set.choice, geo);
   set.seed = static_cast<std::uint64_t>(c.integer("run.seed"));
+  if (c.has("analysis.table3_case")) setDetail(out.details, DetailField::table3_case, c.text("analysis.table3_case"));
   return set;
 }
 

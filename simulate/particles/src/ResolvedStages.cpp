@@ -9,6 +9,7 @@
 #include "MicromodelDetail.hpp"
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Checkpoint.hpp"
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/OutputTables.hpp"
 #include "mmval/core/Progress.hpp"
@@ -303,7 +304,7 @@ RunOutput resolvedResult(const Setup& setup, const Transport& tr, const Scene& s
   RunOutput out;
   out.files = {"trajectories.csv", "retention.csv", "speed.png", "fields.vtr"};
   if (sc.U > 0) out.files.push_back("permeability.csv");
-  out.details["resumed_from_frame"] = tr.resumed_from;
+  setDetail(out.details, DetailField::resumed_from_frame, tr.resumed_from);
   // First particle's velocity at the end: the terminal velocity of a settling scene.
   const bool first_mobile = sc.disks[0].state == State::mobile;
   const Eigen::Vector2d v0 = first_mobile ? tr.velocities[0] : Eigen::Vector2d::Zero();
@@ -337,9 +338,15 @@ RunOutput resolvedResult(const Setup& setup, const Transport& tr, const Scene& s
   out.metrics["wall_time"] = wall_s;
   out.units["wall_time"] = "s";
   const int per_d = setup.cells_per_diameter;
-  out.details["coupling"] = fmt::format("resolved immersed boundary: {} cells per diameter (grid {} x {}, cell {:.3g} um), Stokes mobility of free rigid disks",
-                                        per_d, setup.problem.x.cells(), setup.problem.y.cells(), setup.cell_m * 1e6);
-  if (per_d < 8) out.details["warning"] = fmt::format("{} cells per diameter is below the ~8 a resolved particle needs: forces are coarse", per_d);
+  setDetail(out.details, DetailField::coupling,
+            {{"mode", "resolved"},
+             {"cells_per_diameter", per_d},
+             {"fluid_grid_cells", {setup.problem.x.cells(), setup.problem.y.cells()}},
+             {"cell_um", setup.cell_m * 1e6},
+             {"description", "resolved immersed boundary, Stokes mobility of free rigid disks"}});
+  if (per_d < 8)
+    setDetail(out.details, DetailField::warnings,
+              nlohmann::json::array({fmt::format("{} cells per diameter is below the ~8 a resolved particle needs: forces are coarse", per_d)}));
   if (sc.grains) out.details["geometry"] = setup.geometry;
   out.details["steps"] = tr.steps;
   out.details["stokes_solves"] = tr.solves;

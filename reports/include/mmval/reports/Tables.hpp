@@ -28,9 +28,8 @@ struct Table {
 std::filesystem::path findReferenceData(const ReportInput& input);
 
 /// "I".."V" when the run is one of the paper's Table 3 cases: details.table3_case
-/// (a declared field, mmval/core/DetailFields.hpp), or, as long as no kind writes
-/// it, a run name holding "case-III", "case_iii", "table3-III" (any case; the
-/// numeral ends the name or is followed by '-', '_' or '.'); "" otherwise.
+/// (a declared field, mmval/core/DetailFields.hpp, written from the case's
+/// analysis.table3_case); "" otherwise. `run_name` is not read.
 std::string table3CaseOf(const std::string& run_name, const nlohmann::json& details);
 
 /// The paper's permeability reduction (percent) of a Table 3 case, if known.

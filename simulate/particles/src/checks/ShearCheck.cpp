@@ -20,6 +20,7 @@
 #include "PhysicsChecks.hpp"
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/DataPaths.hpp"
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ReferenceData.hpp"
 #include "mmval/core/SchemaBlocks.hpp"
@@ -137,7 +138,10 @@ RunOutput runShear(const Case& c, const RunContext& ctx) {
   writeFileAtomic(ctx.out_dir / "near-wall-shear.csv", csv.str());
   out.files.push_back("near-wall-shear.csv");
   out.details["heights"] = rows;
-  out.details["reference"] = (dir / kReferenceFile).string();
+  setDetail(out.details, DetailField::reference,
+            {{"description", "Goldman, Cox & Brenner (1967) exact tables of a sphere near a plane wall; a free sphere's U / (gamma h) and "
+                             "Omega / gamma from their force and torque balance"},
+             {"file", (dir / kReferenceFile).string()}});
   out.details["scene"] = {{"radius_um", a * 1e6}, {"depth_um", h * 1e6}, {"wall_shear_rate_1_s", gamma}, {"advance_time_s", t_end}};
   out.details["engine_settings"] = engine.describe();
   return out;

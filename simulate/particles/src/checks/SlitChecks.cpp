@@ -34,6 +34,7 @@
 
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Case.hpp"
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/SchemaBlocks.hpp"
 #include "mmval/particles/OverdampedEngine.hpp"
@@ -323,9 +324,10 @@ RunOutput runSettling(const Case& c, const RunContext& ctx) {
   out.details["engine_seconds"] = {{"point", rp.outcome.engine_seconds}, {"full", rf.outcome.engine_seconds}};
   out.details["engine_steps"] = {{"point", rp.outcome.stats.steps}, {"full", rf.outcome.stats.steps}};
   out.details["engine_settings"] = {{"point", OverdampedEngine(slit.flow, point).describe()}, {"full", OverdampedEngine(slit.flow, full).describe()}};
-  out.details["reference"] = "point run: closed form f(L) = [F(min(s*, 1 - a/h)) - F(a/h)] / [F(1 - a/h) - F(a/h)], F(s) = 3 s^2 - 2 s^3, "
+  setDetail(out.details, DetailField::reference,
+            {{"description", "point run: closed form f(L) = [F(min(s*, 1 - a/h)) - F(a/h)] / [F(1 - a/h) - F(a/h)], F(s) = 3 s^2 - 2 s^3, "
                              "F(s*) = F((a + c)/h) + L v_s / (U h) (-> L v_s / (h U) for point particles); full run: quadrature of "
-                             "dx/dz = v_x / v_z of the engine's own drift (checks stepping and capture, not the model)";
+                             "dx/dz = v_x / v_z of the engine's own drift (checks stepping and capture, not the model)"}});
   return out;
 }
 
@@ -528,9 +530,10 @@ RunOutput runDiffusion(const Case& c, const RunContext& ctx) {
   out.details["engine_settings"] = OverdampedEngine(slit.flow, scene).describe();
   out.details["graetz_modes"] = {{"lambda", graetz.lambda}, {"weight", graetz.weight}, {"entry_fraction", graetz.entry_fraction}};
   out.details["graetz_point_modes"] = {{"lambda", graetz_point.lambda}, {"weight", graetz_point.weight}};
-  out.details["reference"] = "Graetz series for plane Poiseuille flow between absorbing plates, P = sum G_n exp(-lambda_n^2 (8/3) mu'), "
+  setDetail(out.details, DetailField::reference,
+            {{"description", "Graetz series for plane Poiseuille flow between absorbing plates, P = sum G_n exp(-lambda_n^2 (8/3) mu'), "
                              "mu' = D L / (U h^2), 40 modes computed from the eigenproblem on the centres' domain (caught at a + c); "
-                             "penetration_graetz_point: the same for point particles";
+                             "penetration_graetz_point: the same for point particles"}});
   return out;
 }
 

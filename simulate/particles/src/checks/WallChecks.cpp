@@ -31,6 +31,7 @@
 
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Case.hpp"
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/SchemaBlocks.hpp"
 #include "mmval/particles/OverdampedEngine.hpp"
@@ -189,12 +190,12 @@ RunOutput runSedimentation(const Case& c, const RunContext& ctx) {
   out.details["dt_min_s"] = es.min_dt;
   out.details["dt_max_s"] = es.max_dt;
   out.details["snapshots"] = snapshots;
-  out.details["reference"] = {
-      {"distribution", "p(z) = exp(-(z - a)/l_s) / (l_s (1 - exp(-(h - 2a)/l_s))) on [a, h - a] (Boltzmann; Perrin 1909)"},
+  setDetail(out.details, DetailField::reference, {
+      {"description", "p(z) = exp(-(z - a)/l_s) / (l_s (1 - exp(-(h - 2a)/l_s))) on [a, h - a] (Boltzmann; Perrin 1909)"},
       {"l_s_um", ref.ls * 1e6},
       {"mean_height_um", ref_mean * 1e6},
       {"area_fraction", n * kPi * a * a / std::pow(2 * (flow->bounds().x1), 2)},
-      {"without_ito", "mean height of p ~ lambda_perp(z) exp(-(z - a)/l_s), the Ito stationary density with the drift k_B T dM/dz left out"}};
+      {"without_ito", "mean height of p ~ lambda_perp(z) exp(-(z - a)/l_s), the Ito stationary density with the drift k_B T dM/dz left out"}});
   return out;
 }
 
