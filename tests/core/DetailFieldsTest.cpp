@@ -17,6 +17,8 @@
 #include "mmval/core/DetailFields.hpp"
 #include "mmval/core/Error.hpp"
 
+#include "../InputErrorMessage.hpp"
+
 namespace mmval {
 namespace {
 
@@ -24,16 +26,8 @@ using ::testing::HasSubstr;
 using json = nlohmann::json;
 using F = DetailField;
 
-template <class Fn>
-std::string inputErrorOf(Fn&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no InputError";
-  return {};
-}
+/// The message of the InputError `f` throws ("(no InputError)" when it throws none).
+std::string inputErrorOf(const std::function<void()>& f) { return mmval::test::inputErrorMessage(f); }
 
 TEST(DetailFields, EveryDeclarationHasTypeUnitMeaningAndWriters) {
   std::set<std::string> paths;

@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "../InputErrorMessage.hpp"
 #include "../TestScratch.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/reports/InputFiles.hpp"
@@ -30,16 +31,8 @@ fs::path writeFile(const std::string& name, const std::string& text) {
   return file;
 }
 
-template <class F>
-std::string inputErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no InputError";
-  return {};
-}
+/// The message of the InputError `f` throws ("(no InputError)" when it throws none).
+std::string inputErrorOf(const std::function<void()>& f) { return mmval::test::inputErrorMessage(f); }
 
 nlohmann::json metric(const std::string& name, double value, const std::string& tolerance, bool pass) {
   return {{"name", name}, {"metric", name}, {"label", ""}, {"dimension", "m s^-1"}, {"value", value}, {"unit", "um/s"}, {"reference", 10.0},
