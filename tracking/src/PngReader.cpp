@@ -1,9 +1,6 @@
 // The PNG format: W3C / ISO/IEC 15948:2004, "Portable Network Graphics (PNG)
-// Specification (Second Edition)" (chunks sec. 5, IHDR sec. 11.2.2, filters sec. 9). Built only with libdeflate
-// (MMVAL_HAVE_LIBDEFLATE); without it FrameSource reads every image with cv::imread.
+// Specification (Second Edition)" (chunks sec. 5, IHDR sec. 11.2.2, filters sec. 9). Inflated with libdeflate.
 #include "PngReader.hpp"
-
-#if defined(MMVAL_HAVE_LIBDEFLATE)
 
 #include <cstdint>
 #include <cstdio>
@@ -157,4 +154,3 @@ bool decodePngGrey8(const unsigned char* data_begin, std::size_t size, cv::Mat& 
 
 }  // namespace mmval::tracking::detail
 
-#endif  // MMVAL_HAVE_LIBDEFLATE
