@@ -13,6 +13,7 @@
 #include <sstream>
 #include <string>
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <opencv2/imgcodecs.hpp>
@@ -25,6 +26,7 @@
 #include "mmval/tracking/Frames.hpp"
 #include "mmval/tracking/Pipeline.hpp"
 #include "mmval/tracking/Synth.hpp"
+#include "PngReader.hpp"
 
 namespace mmval::tracking {
 namespace {
@@ -238,6 +240,37 @@ TEST(FrameDecode, PngFramesEqualImreadForEveryColourTypeAndFilter) {
         ++compared;
       }
   EXPECT_EQ(compared, 5 * 4 * 2);
+}
+
+TEST(FrameDecode, PngHeaderLargerThanItsDataIsRefusedWithoutAllocatingIt) {
+  // A 70-byte PNG whose header says 40000 x 40000 grey (1.6 GB of pixels) with a few
+  // bytes of image data: DEFLATE cannot expand more than 1032:1, so the reader must
+  // refuse it before allocating the image (fuzz_png ran out of 4 GB on such files).
+  // Independent check: the process's peak resident memory (getrusage) grows by far less
+  // than the image the header claims.
+  std::vector<unsigned char> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  const auto chunk = [&png](const char* type, const std::vector<unsigned char>& data) {
+    for (const int shift : {24, 16, 8, 0}) png.push_back(static_cast<unsigned char>(data.size() >> shift));
+    png.insert(png.end(), type, type + 4);
+    png.insert(png.end(), data.begin(), data.end());
+    for (int i = 0; i < 4; ++i) png.push_back(0);  // CRC (not checked below)
+  };
+  const unsigned side = 40000;
+  std::vector<unsigned char> ihdr;
+  for (const unsigned v : {side, side})
+    for (const int shift : {24, 16, 8, 0}) ihdr.push_back(static_cast<unsigned char>(v >> shift));
+  ihdr.insert(ihdr.end(), {8, 0, 0, 0, 0});                            // 8-bit grey, no interlace
+  chunk("IHDR", ihdr);
+  chunk("IDAT", {0x78, 0x9c, 0x63, 0x60, 0x00, 0x00, 0x00, 0x02, 0x00, 0x01});  // zlib of two zero bytes
+  chunk("IEND", {});
+  rusage before{}, after{};
+  getrusage(RUSAGE_SELF, &before);
+  cv::Mat grey;
+  EXPECT_FALSE(detail::decodePngGrey8(png.data(), png.size(), grey, false));
+  getrusage(RUSAGE_SELF, &after);
+  EXPECT_TRUE(grey.empty());
+  const double grown_mb = static_cast<double>(after.ru_maxrss - before.ru_maxrss) / 1024.0;  // ru_maxrss in KiB
+  EXPECT_LT(grown_mb, 200.0) << "peak memory grew by " << grown_mb << " MB for a header claiming " << side * side / 1e6 << " MB";
 }
 
 }  // namespace

@@ -124,7 +124,12 @@ bool decodePngGrey8(const unsigned char* data_begin, std::size_t size, cv::Mat& 
   const std::size_t stride = static_cast<std::size_t>(width) * static_cast<std::size_t>(channels);
   const std::size_t expected = static_cast<std::size_t>(height) * (stride + 1);
   if (width > (1u << 20) || height > (1u << 20) || expected > (std::size_t{1} << 31)) return false;
-  pixels.resize(expected);
+  // DEFLATE cannot expand by more than 1032:1 (a 258-byte match costs at least 2 bits),
+  // so a header whose size the image data could never fill is refused here, before the
+  // buffer is allocated: a 60-byte file must not make the reader take gigabytes (found by
+  // fuzz_png, which ran out of its 4 GB on such headers).
+  if (expected / 1032 > compressed.size() + 1) return false;
+  if (pixels.size() < expected) pixels.resize(expected);
   thread_local std::unique_ptr<libdeflate_decompressor, DecompressorDeleter> inflater(libdeflate_alloc_decompressor());
   if (!inflater) return false;
   std::size_t produced = 0;
