@@ -31,7 +31,7 @@ std::vector<DetailFieldDecl> makeDeclarations() {
        "channel, cylinder-channel, periodic-array, image-permeability, `mmval peer openfoam`, `mmval validate` (peer not run)"},
       {F::liggghts_version, "liggghts_version", top, T::string, none, 0, "-",
        "LIGGGHTS version of a run that used it, shown in the provenance block when provenance.dependencies has none",
-       "none yet (particles-micromodel with an engine comparison should)"},
+       "particles-channel (engine liggghts), particles-micromodel (engines.compare)"},
       {F::table3_case, "table3_case", top, T::string, none, 0, "-",
        "the case of the paper's Table 3 the run reproduces (`I`..`V`), from the case's analysis.table3_case; the report's Table 3 "
        "rows are the runs that carry it",

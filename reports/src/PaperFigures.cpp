@@ -38,7 +38,7 @@ PermeabilityFigure permeabilityFigure(const ReportInput& input, const fs::path& 
       const auto& t = cols.at("t_s");
       if (t.empty()) continue;
       p.series.push_back({name, t, ratio, "lines"});
-      const std::string roman = table3CaseOf(name, resultDetails(r));
+      const std::string roman = table3CaseOf(resultDetails(r));
       const auto ref = table3Reduction(refdir, roman);
       const double final_ratio = ratio.back();
       if (ref) {

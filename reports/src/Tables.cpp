@@ -99,9 +99,9 @@ fs::path findReferenceData(const ReportInput& input) {
   return referenceDataDirectory();  // mmval's own: installed, MMVAL_DATA_DIR or the source tree (DataPaths.hpp)
 }
 
-// The run name is no longer read: the case says which Table 3 case it is (analysis.table3_case of
-// particles-micromodel, written to details.table3_case), so renaming a run cannot change its row.
-std::string table3CaseOf(const std::string& /*run_name*/, const nlohmann::json& details) {
+// The case says which Table 3 case it is (analysis.table3_case of particles-micromodel, written to
+// details.table3_case).
+std::string table3CaseOf(const nlohmann::json& details) {
   return detailString(details, DetailField::table3_case).value_or("");
 }
 
@@ -202,7 +202,7 @@ std::optional<Table> table3TrendsTable(const ReportInput& input, const fs::path&
   };
   std::map<std::string, Case> ours;
   for (const auto& r : input.summary.results) {
-    const std::string roman = table3CaseOf(r["case"]["name"].get<std::string>(), resultDetails(r));
+    const std::string roman = table3CaseOf(resultDetails(r));
     const auto red = metricValue(r, "permeability_reduction");
     if (roman.empty() || !red) continue;
     const auto t10 = metricValue(r, "time_to_10pct_reduction");

@@ -148,5 +148,22 @@ TEST(LiggghtsInput, GriddedGrainsBecomeAnStlMeshWall) {
   }
 }
 
+// The first line of a real LIGGGHTS 3.8.0 log (Debian libliggghts3 3.8.0+repack1-9+b2),
+// and the text between its parentheses, which the library holds as its version.
+TEST(LiggghtsInput, VersionComesFromTheLogHeader) {
+  const std::string header = "LIGGGHTS (Version LIGGGHTS-PUBLIC 3.8.0, compiled 2022-01-26-19:42:32 by buildd, git commit unknown)";
+  const std::string version = "LIGGGHTS-PUBLIC 3.8.0, compiled 2022-01-26-19:42:32 by buildd, git commit unknown";
+  EXPECT_EQ(liggghtsVersionFromHeader(header), version);
+  EXPECT_EQ(liggghtsVersionFromHeader(header + "\nCreated orthogonal box = (0 0 0) to (1 1 1)\n"), version);
+  EXPECT_EQ(liggghtsVersionFromHeader(header + "\r\n"), version);
+  EXPECT_EQ(liggghtsVersionFromHeader("Version " + version), version);
+  EXPECT_EQ(liggghtsVersionFromHeader(version), version);
+  // Not a header: another program's banner, a LIGGGHTS line without a version number, nothing.
+  EXPECT_FALSE(liggghtsVersionFromHeader("LAMMPS (29 Oct 2020)").has_value());
+  EXPECT_FALSE(liggghtsVersionFromHeader("LIGGGHTS (Version LIGGGHTS-PUBLIC)").has_value());
+  EXPECT_FALSE(liggghtsVersionFromHeader("Created 1 atoms\n" + header).has_value());
+  EXPECT_FALSE(liggghtsVersionFromHeader("").has_value());
+}
+
 }  // namespace
 }  // namespace mmval::particles

@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
 
 #include <iostream>
 
@@ -153,6 +156,7 @@ TEST(EngineComparison, SceneWindowRunsLiggghtsOnceForEveryStepSetting) {
   for (const auto& e : r) {
     EXPECT_LT(e.rms_position_difference, 0.5 * c.particle.diameter);
     EXPECT_LE(std::abs(e.captured_reference - e.captured_candidate), 1);
+    EXPECT_EQ(e.reference_version.rfind("LIGGGHTS", 0), 0u) << "the reference's version, for the run's provenance: " << e.reference_version;
   }
   for (const auto& p : samplePoreSpace(*flow, c.particle.radius(), 12, w.seed)) EXPECT_TRUE(insertionProblem(*flow, c.particle.radius(), p, {}).empty());
 }
@@ -235,6 +239,54 @@ TEST(EngineComparison, OverdampedMatchesLiggghtsOnSharedWindow) {
   EXPECT_GT(r.captured_reference, 0);
   EXPECT_LE(std::abs(r.captured_reference - r.captured_candidate), 1);
   EXPECT_GE(r.captured_both, r.captured_reference - 1);
+}
+
+// The version the engine records is the one LIGGGHTS prints as the first line of
+// its log, and it carries the upstream version of the installed Debian package
+// (dpkg's "3.8.0+repack1-9+b2" -> "3.8.0") when dpkg knows the package.
+TEST(Liggghts, VersionIsTheOneItsLogHeaderPrints) {
+  auto flow = std::make_shared<UniformFlow>(Vec2(0, 0), 40e-6, Bounds2{0, 60e-6, 0, 60e-6});
+  const SceneConfig c = quietScene("version");
+  std::string version;
+  {
+    LiggghtsEngine e(flow, c);
+    version = e.engineVersion();
+  }  // closing LIGGGHTS flushes and closes its log
+  std::ifstream log(c.work_dir / "liggghts.log");
+  std::string first;
+  ASSERT_TRUE(std::getline(log, first)) << c.work_dir;
+  const auto from_log = liggghtsVersionFromHeader(first);
+  ASSERT_TRUE(from_log.has_value()) << first;
+  EXPECT_EQ(version, *from_log);
+  FILE* pipe = popen("dpkg-query -W -f '${Version}' libliggghts3 2>/dev/null", "r");
+  std::string package;
+  if (pipe != nullptr) {
+    char buf[256];
+    while (std::fgets(buf, sizeof buf, pipe) != nullptr) package += buf;
+    pclose(pipe);
+  }
+  const std::string upstream = package.substr(0, package.find_first_of("+-~"));
+  if (upstream.empty()) GTEST_SKIP() << "dpkg does not know libliggghts3; the log header check above passed";
+  EXPECT_NE(version.find(" " + upstream), std::string::npos) << version << " against the package's " << package;
+}
+
+// Before the first insertion there is nothing to integrate: advancing moves the
+// clock (to the nearest whole step) without running LIGGGHTS, which would end the
+// process on a run without atoms; particles inserted later then move as usual.
+TEST(Liggghts, AdvancingWithoutParticlesOnlyMovesTheClock) {
+  const double u_mean = 1e-3, h = 100e-6;
+  auto flow = std::make_shared<UniformFlow>(Vec2(u_mean, 0), h, Bounds2{0, 200e-6, 0, 100e-6});
+  const SceneConfig c = quietScene("empty-start");
+  LiggghtsEngine e(flow, c);
+  const double tau = relaxationTime(c.fluid, c.particle);
+  e.advance(2 * tau);
+  EXPECT_NEAR(e.time(), 2 * tau, 0.5 * e.dt());
+  EXPECT_EQ(e.stats().steps, 0);
+  e.insert({Vec3(50e-6, 50e-6, 0.5 * h)});
+  e.advance(7 * tau);
+  // Released at 2 tau, it relaxes for 5 tau: v = 1.5 u_mean (1 - exp(-5)), as in SphereRelaxesToFlowVelocityWithTauP.
+  const double uf = 1.5 * u_mean, t = e.time() - 2 * tau;
+  EXPECT_NEAR(e.particles()[0].v.x(), uf * (1 - std::exp(-t / tau)), 2e-3 * uf);
 }
 
 }  // namespace

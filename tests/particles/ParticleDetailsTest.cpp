@@ -20,6 +20,7 @@
 #include "mmval/core/Case.hpp"
 #include "mmval/core/DetailFields.hpp"
 #include "mmval/core/Run.hpp"
+#include "mmval/particles/EngineFactory.hpp"
 
 namespace mmval::particles {
 namespace {
@@ -148,6 +149,41 @@ TEST(ParticleDetails, Table3CasesNameTheirCase) {
     ASSERT_TRUE(c.has("analysis.table3_case"));
     EXPECT_EQ(c.text("analysis.table3_case"), roman);
   }
+}
+
+// Two particles through a short channel with the LIGGGHTS engine (softened to a
+// 1.4e-7 s DEM step, ~4e4 steps): the run records the LIGGGHTS version, which
+// the report's provenance block shows. The first interval has no particle yet
+// (injection spreads them over 5 ms), which LIGGGHTS must not be run on.
+constexpr const char* kLiggghtsChannel = R"(
+[case]
+name = "details-liggghts-channel"
+kind = "particles-channel"
+[channel]
+length = "400 um"
+width = "100 um"
+depth = "20 um"
+mean_velocity = "0.7 mm/s"
+[particles]
+diameter = "5 um"
+count = 2
+injection_time = "0.005 s"
+engine = "liggghts"
+youngs_modulus = "1e5 Pa"
+[run]
+duration = "0.01 s"
+output_interval = "0.005 s"
+)";
+
+TEST(ParticleDetails, LiggghtsChannelRunRecordsTheLiggghtsVersion) {
+  if (!liggghtsAvailable()) GTEST_SKIP() << "this build has no LIGGGHTS engine";
+  const nlohmann::json r = runAndRead(kLiggghtsChannel, "details-liggghts-channel");
+  expectDeclaredTypes(r, "details-liggghts-channel");
+  const nlohmann::json& d = resultDetails(r);
+  EXPECT_EQ(d.value("engine", ""), "liggghts");
+  const auto version = detailString(d, F::liggghts_version);
+  ASSERT_TRUE(version.has_value()) << d.dump(1);
+  EXPECT_EQ(version->rfind("LIGGGHTS", 0), 0u) << *version;
 }
 
 }  // namespace

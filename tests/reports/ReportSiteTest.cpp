@@ -247,6 +247,11 @@ TEST(Provenance, DirtyFlagFromTheGitHashAndNotRecordedForTheRest) {
   EXPECT_EQ(q.git_hash, "0123abc");
   EXPECT_EQ(q.dirty, "yes (uncommitted changes)");
   EXPECT_THAT(q.openfoam, HasSubstr("openfoam v1912"));
+  // A run that used LIGGGHTS records the version its log header prints (details.liggghts_version).
+  EXPECT_EQ(p.liggghts, "not recorded");
+  const std::string v = "LIGGGHTS-PUBLIC 3.8.0, compiled 2022-01-26-19:42:32 by buildd, git commit unknown";
+  const Provenance r = provenanceOf(nlohmann::json{{"provenance", {{"git_hash", "0123abc"}}}, {"details", {{"liggghts_version", v}}}});
+  EXPECT_EQ(r.liggghts, v);
 }
 
 TEST(LinkDois, DoisBecomeLinksAndTheRestIsEscaped) {

@@ -88,6 +88,7 @@ std::vector<EngineComparison> compareEngines(ParticleEngine& reference, const st
     r.wall_seconds_candidate = candidates[j]->stats().wall_seconds;
     r.steps_reference = reference.stats().steps;
     r.steps_candidate = candidates[j]->stats().steps;
+    r.reference_version = reference.engineVersion();
   }
   return out;
 }

@@ -14,6 +14,7 @@
 
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Case.hpp"
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/OutputTables.hpp"
 #include "mmval/core/Resources.hpp"
@@ -193,6 +194,8 @@ RunOutput runChannel(const Case& c, const RunContext& ctx) {
   out.details["engine_reason"] = reason;
   out.details["selection"] = choice.toJson();
   out.details["engine_settings"] = engine->describe();
+  // The provenance block shows the LIGGGHTS version of runs that used it (mmval/reports/Site.hpp).
+  if (const std::string v = engine->engineVersion(); !v.empty()) setDetail(out.details, DetailField::liggghts_version, v);
   out.details["counts"] = {{"injected", n.injected}, {"inside", n.inside}, {"deposited", n.deposited}, {"left", n.left}};
   out.details["steps"] = st.steps;
   out.details["particle_steps"] = st.particle_steps;

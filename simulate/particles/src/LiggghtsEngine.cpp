@@ -5,6 +5,7 @@
 #include <lammps.h>
 #include <library.h>
 #include <modify.h>
+#include <universe.h>
 #include <update.h>
 
 #include <algorithm>
@@ -58,11 +59,14 @@ LiggghtsEngine::LiggghtsEngine(std::shared_ptr<const FlowField> flow, SceneConfi
   char* argv[] = {a0.data(), a1.data(), log.data(), a3.data(), screen.data(), a5.data(), a6.data()};
   lammps_open(7, argv, m_comm, &m_lmp);
   if (!m_lmp) throw std::runtime_error("lammps_open failed");
+  auto* lmp = static_cast<LAMMPS_NS::LAMMPS*>(m_lmp);
+  // The string the log header prints between "LIGGGHTS (" and ")"; kept as is if its form is new.
+  const std::string printed = lmp->universe->version != nullptr ? lmp->universe->version : "";
+  m_version = liggghtsVersionFromHeader(printed).value_or(printed);
   for (const auto& c : commands) command(c);
   command("fix mmval_nve all nve/sphere");
   // After the wall fixes: the callback sees pair and wall forces already summed in f.
   command("fix mmval_fluid all external pf/callback 1 1");
-  auto* lmp = static_cast<LAMMPS_NS::LAMMPS*>(m_lmp);
   const int ifix = lmp->modify->find_fix("mmval_fluid");
   if (ifix < 0) throw std::logic_error("fix mmval_fluid not found after creation");
   static_cast<LAMMPS_NS::FixExternal*>(lmp->modify->fix[ifix])->set_callback(fluidCallback, this);
@@ -184,6 +188,15 @@ void LiggghtsEngine::retime() {
 }
 
 void LiggghtsEngine::advance(double t_end) {
+  if (m_particles.empty()) {
+    // Nothing to integrate, and LIGGGHTS 3.8 ends the process on a run without atoms
+    // ("Atom sorting has bin size = 0.0", exit 1): only the clock moves.
+    const long long n = std::llround((t_end - m_t) / m_setup.dt);
+    if (n > 0) m_t += static_cast<double>(n) * m_setup.dt;
+    m_t_base = m_t;
+    m_step_base = static_cast<long long>(static_cast<LAMMPS_NS::LAMMPS*>(m_lmp)->update->ntimestep);
+    return;
+  }
   const auto t0 = std::chrono::steady_clock::now();
   retime();
   const long long n = std::llround((t_end - m_t) / m_setup.dt);

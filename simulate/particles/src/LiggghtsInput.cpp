@@ -239,4 +239,23 @@ std::vector<std::string> liggghtsInsertCommands(const LiggghtsSetup& s, const st
   return c;
 }
 
+std::optional<std::string> liggghtsVersionFromHeader(std::string_view text) {
+  std::string_view line = text.substr(0, text.find('\n'));
+  const auto trim = [](std::string_view v) {
+    const auto b = v.find_first_not_of(" \t\r");
+    if (b == std::string_view::npos) return std::string_view{};
+    return v.substr(b, v.find_last_not_of(" \t\r") - b + 1);
+  };
+  line = trim(line);
+  // The log's first line wraps the version: "LIGGGHTS (" + version + ")".
+  constexpr std::string_view wrapper = "LIGGGHTS (";
+  if (line.substr(0, wrapper.size()) == wrapper && line.back() == ')') line = trim(line.substr(wrapper.size(), line.size() - wrapper.size() - 1));
+  constexpr std::string_view prefix = "Version ";
+  if (line.substr(0, prefix.size()) == prefix) line = trim(line.substr(prefix.size()));
+  const bool names_liggghts = line.substr(0, 8) == "LIGGGHTS";
+  const bool has_number = line.find_first_of("0123456789") != std::string_view::npos;
+  if (!names_liggghts || !has_number) return std::nullopt;
+  return std::string(line);
+}
+
 }  // namespace mmval::particles

@@ -139,6 +139,7 @@ void compareEnginesOnTheScene(const Case& c, std::shared_ptr<const FlowField> fi
   out.metrics["engines_capture_difference"] = std::abs(r.captured_reference - r.captured_candidate);
   out.metrics["engines_speedup"] = r.wall_seconds_reference / std::max(r.wall_seconds_candidate, 1e-9);
   setDetail(out.details, DetailField::engine_comparison, rows);
+  if (!r.reference_version.empty()) setDetail(out.details, DetailField::liggghts_version, r.reference_version);
 }
 
 /// The pump's outputs: the pressure drop the set rate needed on the clean

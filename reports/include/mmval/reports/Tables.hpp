@@ -29,8 +29,10 @@ std::filesystem::path findReferenceData(const ReportInput& input);
 
 /// "I".."V" when the run is one of the paper's Table 3 cases: details.table3_case
 /// (a declared field, mmval/core/DetailFields.hpp, written from the case's
-/// analysis.table3_case); "" otherwise. `run_name` is not read.
-std::string table3CaseOf(const std::string& run_name, const nlohmann::json& details);
+/// analysis.table3_case); "" otherwise. The run's name is never read, so
+/// renaming a run cannot change its row. Throws InputError when the field is
+/// not a string.
+std::string table3CaseOf(const nlohmann::json& details);
 
 /// The paper's permeability reduction (percent) of a Table 3 case, if known.
 std::optional<double> table3Reduction(const std::filesystem::path& reference_dir, const std::string& roman);

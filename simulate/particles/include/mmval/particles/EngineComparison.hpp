@@ -4,6 +4,7 @@
 #pragma once
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -24,6 +25,8 @@ struct EngineComparison {
   double retained_fraction_reference = 0, retained_fraction_candidate = 0;
   double wall_seconds_reference = 0, wall_seconds_candidate = 0;
   long long steps_reference = 0, steps_candidate = 0;
+  /// The reference engine's engineVersion() (for the run's provenance; not in toJson).
+  std::string reference_version;
   nlohmann::json toJson() const;
 };
 

@@ -57,6 +57,9 @@ class LiggghtsEngine final : public ParticleEngine {
   Counts counts() const override { return countParticles(m_particles); }
   EngineStats stats() const override { return m_stats; }
   nlohmann::json describe() const override;
+  /// The version this LIGGGHTS library reports, as the first line of its log
+  /// prints it (liggghtsVersionFromHeader), e.g. "LIGGGHTS-PUBLIC 3.8.0, compiled ...".
+  std::string engineVersion() const override { return m_version; }
   double dt() const { return m_setup.dt; }
   /// Sets the velocity of particle `id` (m/s), e.g. for collision tests.
   void setVelocity(std::int64_t id, const Vec3& v);
@@ -77,6 +80,7 @@ class LiggghtsEngine final : public ParticleEngine {
   MPI_Comm m_comm;
   LiggghtsSetup m_setup;
   void* m_lmp = nullptr;
+  std::string m_version;
   double m_outlet = 0.0;
   double m_t = 0.0;
   double m_t_base = 0.0;      ///< time at LIGGGHTS step m_step_base (the last dt change)

@@ -4,7 +4,9 @@
 // functions, built and tested without LIGGGHTS.
 #pragma once
 #include <filesystem>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "mmval/particles/FlowField.hpp"
@@ -49,6 +51,14 @@ LiggghtsSetup liggghtsSetupFor(const FlowField& flow, const SceneConfig& cfg, do
 /// and coupling fixes, which the engine adds). Throws InputError naming the bad
 /// value; nothing is generated from unvalidated numbers.
 std::vector<std::string> liggghtsSetupCommands(const LiggghtsSetup& s);
+
+/// The version in the first line LIGGGHTS writes to its log and screen,
+/// "LIGGGHTS (Version LIGGGHTS-PUBLIC 3.8.0, compiled 2022-01-26-19:42:32 by buildd, git commit unknown)",
+/// or in the text between its parentheses (what the library holds): the text
+/// after "Version ", e.g. "LIGGGHTS-PUBLIC 3.8.0, compiled ...". Only the first
+/// line of `text` is read; nullopt when it is not such a line (it must name
+/// LIGGGHTS and carry a version number).
+std::optional<std::string> liggghtsVersionFromHeader(std::string_view text);
 
 /// `create_atoms` + `set` commands for particles `first_id ..` at `positions`;
 /// each position must be strictly inside the box (InputError otherwise).

@@ -173,6 +173,9 @@ class ParticleEngine {
   virtual EngineStats stats() const = 0;
   /// Scene and numerical settings (for result.json).
   virtual nlohmann::json describe() const = 0;
+  /// The version of the third-party engine behind this one, as the engine
+  /// itself reports it (for the run's provenance); "" for mmval's own engines.
+  virtual std::string engineVersion() const { return ""; }
 };
 
 /// Counts of a particle list.
