@@ -24,10 +24,12 @@ struct PeerCli {
   bool quiet = false;
 };
 
-/// The ladder's cap is the case file's: numerics.cells_around takes at most kMaxLevel, and
+/// The ladder's cap is the case file's: the resolution key takes at most kMaxLevel, and
 /// --levels (or numerics.levels, which the schema leaves unbounded) may not exceed it either,
-/// so that a huge ladder is refused before blockMesh runs. Levels are cells around the cylinder (or
-/// along the unit cell), multiples of 4 from 8, as the OpenFOAM meshes need.
+/// so that a huge ladder is refused before blockMesh runs. Cylinder levels are cells around the
+/// cylinder, multiples of 4 from 8, as its O-grid needs; periodic-array levels are cells along the
+/// unit-cell side (numerics.cells_per_side), any integer from 8, from which the peer derives its
+/// cells around (openfoam::arrayCellsAround).
 constexpr int kMaxLevel = 4096;
 
 /// Refuses, before OpenFOAM starts, a ladder above the case file's cap and a mask image whose
@@ -45,8 +47,12 @@ void checkPeerLimits(const Case& c, const std::vector<int>& cli_levels) {
                        "a smaller image: crop or downscale it");
     return;
   }
-  auto check = [](int level, const InputLocation& where, const std::string& shown) {
-    if (level < 8 || level > kMaxLevel || level % 4 != 0)
+  const bool array = c.kind() == "periodic-array";
+  auto check = [array](int level, const InputLocation& where, const std::string& shown) {
+    if (array && (level < 8 || level > kMaxLevel))
+      throw InputError(where, "a resolution level must be from 8 to " + std::to_string(kMaxLevel) + " (the case file's cap)", shown,
+                       "8 to " + std::to_string(kMaxLevel) + " cells along the unit-cell side");
+    if (!array && (level < 8 || level > kMaxLevel || level % 4 != 0))
       throw InputError(where, "a resolution level must be a multiple of 4 from 8 to " + std::to_string(kMaxLevel) + " (the case file's cap)", shown,
                        "8, 12, 16, ..., " + std::to_string(kMaxLevel) + " cells around");
   };
@@ -66,7 +72,7 @@ void registerPeerCommands(CLI::App& app, const CaseKindRegistry& registry) {
   of->add_option("case", o->file, "Case file (cylinder-channel, periodic-array or image-permeability)")->required();
   of->add_option("--out", o->out, "Output folder: result.json and the OpenFOAM case(s)")->required();
   of->add_option("--np", o->np, "MPI ranks (decomposePar + mpirun)")->capture_default_str()->check(CLI::Range(1, 64));
-  of->add_option("--levels", o->levels, "Resolution ladder (cells around the cylinder), overrides numerics.levels")->delimiter(',');
+  of->add_option("--levels", o->levels, "Resolution ladder (cells around the cylinder; periodic arrays: cells along the unit-cell side), overrides numerics.levels")->delimiter(',');
   of->add_flag("--quiet", o->quiet, "No progress output");
   of->callback([o, &registry] {
     const Case c = Case::load(o->file, registry);

@@ -207,6 +207,8 @@ class CaseReader {
   }
 
   void unknownKey(const Schema& schema, const std::string& path, int line) const {
+    if (const auto* r = schema.findRenamed(path))
+      fail(line, path, "renamed to '" + r->first + "' for kind '" + schema.kind() + "': " + r->second, {}, "'" + r->first + "'");
     const auto all = candidates(schema);
     std::string near = nearest(path, all);
     if (near.empty()) {

@@ -218,6 +218,15 @@ void Schema::metric(std::string name, std::string unit, std::string doc) {
   m_metrics.push_back(std::move(decl));
 }
 
+void Schema::renamed(std::string old_key, std::string new_key, std::string why) {
+  m_renamed[std::move(old_key)] = {std::move(new_key), std::move(why)};
+}
+
+const std::pair<std::string, std::string>* Schema::findRenamed(std::string_view old_key) const {
+  const auto it = m_renamed.find(old_key);
+  return it == m_renamed.end() ? nullptr : &it->second;
+}
+
 const MetricDecl* Schema::findMetric(std::string_view name) const {
   for (const auto& m : m_metrics)
     if (m.name == name) return &m;

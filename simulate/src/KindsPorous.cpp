@@ -233,8 +233,17 @@ CaseKind periodicArrayKind() {
     s.quantity("geometry.solid_fraction", "1", "Solid area fraction phi = pi a^2 / L^2").min(0.0, true).max(0.75);
     declareFluid(s, {.viscosity = 1e-3, .density = 1000.0});
     s.quantity("flow.mean_velocity", "m/s", "Mean velocity scale (keep Re << 1; mmval solves Stokes, so F* does not depend on it)").def("1e-4 m/s").positive();
-    s.integer("numerics.cells_around", "Resolution (mmval: cells along the unit-cell side; OpenFOAM: cells around the cylinder)").def(64).min(8).max(4096);
-    s.integerList("numerics.levels", "Resolution ladder (cells_around per level); absent: one run at cells_around").optional();
+    s.integer("numerics.cells_per_side",
+              "Resolution: cells along the unit-cell side L, so the grid spacing is h = L / cells_per_side in both solvers (mmval: "
+              "uniform square cells of side h; OpenFOAM: an O-grid whose cells around the cylinder are pi D / h rounded to a multiple "
+              "of 4, at least 8, so that its surface spacing is h too; result.json's ladder records both numbers)")
+        .def(64)
+        .min(8)
+        .max(4096);
+    s.integerList("numerics.levels", "Resolution ladder (cells_per_side per level); absent: one run at cells_per_side").optional();
+    s.renamed("numerics.cells_around", "numerics.cells_per_side",
+              "the array's resolution is the cells along the unit-cell side in both solvers (the OpenFOAM peer derives its cells "
+              "around the cylinder from it); the value is not carried over, because cells_around meant cells around the cylinder to the peer");
     s.integer("numerics.supersample", "Penalized method: samples per face control volume and direction").def(6).min(1).max(32);
     declareSolverKeys(s, true);
   };
@@ -242,10 +251,10 @@ CaseKind periodicArrayKind() {
     // The scene the OpenFOAM peer reads too (one reader; it refuses touching cylinders).
     const PeriodicArrayScene scene = readPeriodicArrayScene(c);
     const double L = scene.cell_m, phi = scene.solid_fraction, mu = scene.viscosity_pa_s;
-    const std::vector<int> levels = levelsOf(c, "numerics.cells_around", 8, 4096);
+    const std::vector<int> levels = levelsOf(c, "numerics.cells_per_side", 8, 4096);
+    const std::string res_key = c.has("numerics.levels") ? "numerics.levels" : "numerics.cells_per_side";
     for (const int n : levels)  // before the first level runs: the finest must fit too
-      requireSteadyFlowMemory(c, n, n, 0.0, c.has("numerics.levels") ? "numerics.levels" : "numerics.cells_around",
-                              "fewer cells along the unit cell (256 give F* within 1 % at phi 0.2)");
+      requireSteadyFlowMemory(c, n, n, 0.0, res_key, "fewer cells along the unit cell (256 give F* within 1 % at phi 0.2)");
     const Acceptance* primary = c.acceptanceFor("F_star");
     RunOutput out;
     out.details["solver"] = kSolverName;
@@ -260,7 +269,6 @@ CaseKind periodicArrayKind() {
       FlowProblem p = squareArrayProblem(L, levels[li], phi, mu, G);
       setImmersed(c, p);
       p.supersample = static_cast<int>(c.integer("numerics.supersample"));
-      const std::string res_key = c.has("numerics.levels") ? "numerics.levels" : "numerics.cells_around";
       checkThroats(p, res_key, levels[li], out, ctx.quiet);
       last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c));
       solveNamingKey(*last, res_key);
@@ -268,6 +276,8 @@ CaseKind periodicArrayKind() {
       fstar = G * L * L / (mu * last->superficialVelocity());
       force_check = last->bodyLoads()[0].force.x() / (G * L * L);
       auto row = ladderRow(li, levels[li], *last, secondsSince(t0), fstar, primary);
+      row["cells_per_side"] = levels[li];
+      row["spacing_m"] = L / levels[li];
       row["force_over_GL2"] = force_check;
       row["max_divergence"] = last->maxRelativeDivergence();
       ladder.push_back(row);

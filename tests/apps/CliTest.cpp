@@ -146,7 +146,7 @@ TEST(Cli, ValidateMarksAMissingOpenFoamPeerNotRun) {
   std::ofstream(d / "cases" / "array.toml")
       << "[case]\nname = \"array\"\nkind = \"periodic-array\"\ntags = [\"default\", \"peer\"]\n"
          "[geometry]\ncell = \"100 um\"\nsolid_fraction = 0.2\n[fluid]\ndensity = \"1000 kg/m3\"\nviscosity = \"1e-3 Pa s\"\n"
-         "[flow]\nmean_velocity = \"1e-4 m/s\"\n[numerics]\ncells_around = 32\n";
+         "[flow]\nmean_velocity = \"1e-4 m/s\"\n[numerics]\ncells_per_side = 32\n";
   const Outcome v = mmval("validate --quiet --cases " + (d / "cases").string() + " --out " + (d / "out").string(),
                           "WM_PROJECT_DIR=" + (d / "no-openfoam").string() + " ");
   EXPECT_EQ(v.status, 0) << v.output;

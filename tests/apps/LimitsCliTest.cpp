@@ -180,10 +180,10 @@ TEST(Limits, BillionSecondRunIsRefusedNamingTheKey) {
 
 TEST(Limits, SquareArrayAt4096SquaredCellsIsRefusedWithTheEstimate) {
   const fs::path d = scratch("array-4096");
-  const fs::path c = editedCase("fluid-square-array-phi020", "cells_around = [0-9]+\nlevels = \\[[^\\]]*\\]", "cells_around = 4096", d);
+  const fs::path c = editedCase("fluid-square-array-phi020", "cells_per_side = [0-9]+\nlevels = \\[[^\\]]*\\]", "cells_per_side = 4096", d);
   const Outcome o = mmval("run " + c.string() + " --out " + (d / "out").string());
   expectFastRefusal(o);
-  EXPECT_THAT(o.output, HasSubstr("key 'numerics.cells_around'"));
+  EXPECT_THAT(o.output, HasSubstr("key 'numerics.cells_per_side'"));
   EXPECT_THAT(o.output, HasSubstr("4096 x 4096"));
   EXPECT_THAT(o.output, HasSubstr("needs about"));
   EXPECT_THAT(o.output, Not(HasSubstr("PETSC ERROR")));

@@ -78,6 +78,25 @@ TEST(BlockMesh, PeriodicCellHasCyclicPairs) {
   EXPECT_THAT(text, HasSubstr("neighbourPatch top;"));
 }
 
+TEST(BlockMesh, CellsAroundForASpacingAreTheNearestMultipleOfFour) {
+  // pi D / h for D = 1: 10 pi = 31.4 -> 32; 8 pi = 25.1 -> 24; 2 pi = 6.28 -> 8 (the floor).
+  EXPECT_EQ(cellsAroundForSpacing(1.0, 0.1), 32);
+  EXPECT_EQ(cellsAroundForSpacing(1.0, 0.125), 24);
+  EXPECT_EQ(cellsAroundForSpacing(1.0, 0.5), 8);
+  EXPECT_EQ(cellsAroundForSpacing(1.0, 10.0), 8);
+  // pi D / h exactly 100: the surface spacing is h itself.
+  EXPECT_EQ(cellsAroundForSpacing(100 / M_PI, 1.0), 100);
+  EXPECT_THROW(cellsAroundForSpacing(0.0, 0.1), std::invalid_argument);
+  EXPECT_THROW(cellsAroundForSpacing(1.0, -0.1), std::invalid_argument);
+  EXPECT_THROW(cellsAroundForSpacing(1.0, std::nan("")), std::invalid_argument);
+  // Within the rounding: |pi D / n - h| / h <= 2 / n whenever pi D / h >= 6.
+  for (double h = 0.01; h < 0.5; h *= 1.07) {
+    const int n = cellsAroundForSpacing(1.0, h);
+    EXPECT_EQ(n % 4, 0);
+    EXPECT_LE(std::abs(M_PI / n - h) / h, 2.0 / n + 1e-12) << "h " << h << " n " << n;
+  }
+}
+
 TEST(CaseWriter, CylinderCaseHasParabolicInletForcesAndProbes) {
   Scene s;
   s.pressure_probes = {{0.15, 0.2}, {0.25, 0.2}};

@@ -7,11 +7,15 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <map>
+#include <vector>
 
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Run.hpp"
+#include "mmval/openfoam/BlockMesh.hpp"
 #include "mmval/openfoam/Kinds.hpp"
+#include "mmval/simulate/FlowSolver.hpp"
 #include "mmval/simulate/Kinds.hpp"
 
 namespace mmval::openfoam {
@@ -65,6 +69,72 @@ TEST(PeerScene, SquareArrayRadiusFollowsTheSolidFraction) {
   EXPECT_NEAR(M_PI * s.radius * s.radius / (s.cell * s.cell), 0.20, 1e-12);  // phi = pi a^2 / L^2
   EXPECT_DOUBLE_EQ(s.mean_velocity, 1e-4);
   EXPECT_DOUBLE_EQ(s.nu, 1e-6);  // 1e-3 Pa s over 1000 kg/m3
+}
+
+TEST(PeerScene, SquareArraySurfaceSpacingIsMmvalsCellSize) {
+  // cases/fluid-square-array-phi020.toml: L = 100 um, phi = 0.2, numerics.levels [32, 64, 128,
+  // 192] cells along the side. D = 2 L sqrt(phi / pi) = 50.46 um, so pi D / h = 1.5853 n: 50.7,
+  // 101.5, 202.9, 304.4, whose nearest multiples of 4 are 52, 100, 204, 304 (worked by hand).
+  const Case c = load("fluid-square-array-phi020.toml");
+  const double L = 100e-6, D = 2 * L * std::sqrt(0.2 / M_PI);
+  const std::vector<int> per_side{32, 64, 128, 192}, around{52, 100, 204, 304};
+  std::vector<BlockMeshDict> meshes;
+  PeerRunOptions o;
+  o.runner = [&](const Scene& s, const fs::path&, int) {
+    meshes.push_back(periodicCellMesh(s.cell, s.radius, s.depth, s.cells_around));  // the mesh the peer would write
+    Result r;
+    r.ok = true;
+    r.f_star = 51.53;
+    r.permeability = L * L / *r.f_star;
+    return r;
+  };
+  const RunOutput out = runPeer(c, RunContext{fs::temp_directory_path(), true, false, 0}, o);
+  const auto& ladder = out.details.at("ladder");
+  ASSERT_EQ(ladder.size(), per_side.size());
+  ASSERT_EQ(meshes.size(), per_side.size());
+  for (std::size_t i = 0; i < per_side.size(); ++i) {
+    // mmval's grid at this level: uniform cells of side h = L / n.
+    const simulate::FlowProblem p = simulate::squareArrayProblem(L, per_side[i], 0.2, 1e-3, 1.0);
+    const double h = p.x.maxWidth();
+    EXPECT_NEAR(h, L / per_side[i], 1e-12 * L);
+    EXPECT_NEAR(p.y.minWidth(), h, 1e-12 * L);
+    // The peer's O-grid: its cells on the circumference are the tangential cells of its four blocks.
+    int on_circle = 0;
+    for (const Block& b : meshes[i].blocks) on_circle += b.cells[0];
+    EXPECT_EQ(on_circle, around[i]) << "cells_per_side " << per_side[i];
+    // Same spacing within the rounding to a multiple of 4: |pi D / n_around - h| / h <= 2 / n_around.
+    const double surface = M_PI * D / on_circle;
+    EXPECT_LE(std::abs(surface - h) / h, 2.0 / on_circle) << "surface " << surface << " m, h " << h << " m";
+    // result.json's ladder row carries both numbers and both spacings.
+    EXPECT_EQ(ladder[i].at("cells_per_side").get<int>(), per_side[i]);
+    EXPECT_EQ(ladder[i].at("cells_around").get<int>(), around[i]);
+    EXPECT_NEAR(ladder[i].at("spacing_m").get<double>(), h, 1e-12 * h);
+    EXPECT_NEAR(ladder[i].at("surface_spacing_m").get<double>(), surface, 1e-12 * surface);
+  }
+  // A scene read on its own takes the file's numerics.cells_per_side (64): 100 cells around.
+  EXPECT_EQ(peerScene(c).cells_around, 100);
+}
+
+TEST(PeerScene, CellsAroundOnAnArrayIsRefusedNamingCellsPerSide) {
+  // numerics.cells_around is the cylinder kinds' key (cells around the circumference); an array's
+  // resolution is numerics.cells_per_side. A file that still sets the former is refused (exit 2
+  // from the command line), naming the file, the line, the key and the key to use.
+  const fs::path dir = fs::temp_directory_path() / "mmval-peer-scene-old-key";
+  fs::create_directories(dir);
+  const fs::path file = dir / "array-cells-around.toml";
+  std::ofstream(file) << "[case]\nname = \"array\"\nkind = \"periodic-array\"\n"
+                         "[geometry]\ncell = \"100 um\"\nsolid_fraction = 0.2\n"
+                         "[numerics]\ncells_around = 64\n";
+  try {
+    load(file.string().c_str());
+    FAIL() << "numerics.cells_around was accepted on a periodic-array case";
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    EXPECT_EQ(e.where().key, "numerics.cells_around") << m;
+    EXPECT_NE(m.find("array-cells-around.toml:8"), std::string::npos) << m;
+    EXPECT_NE(m.find("numerics.cells_per_side"), std::string::npos) << m;
+  }
+  fs::remove_all(dir);
 }
 
 TEST(PeerScene, Pore2ChipMaskPixelAndDrive) {
@@ -152,8 +222,9 @@ TEST(PeerScene, ConvergedLaddersKeepTheirValuesAndOrder) {
   const auto& ladder = out.details.at("ladder");
   EXPECT_NEAR(out.metrics.at("F_star"), 51.775, 1e-12);
   EXPECT_FALSE(out.details.contains("status"));
-  // p = log2((52.40 - 51.90) / (51.90 - 51.775)) = log2(4) = 2.
-  EXPECT_NEAR(ladder[2].at("observed_order").get<double>(), 2.0, 1e-9);
+  // The O-grids refine as their cells around: 52, 100, 204 at cells_per_side 32, 64, 128, so
+  // p = log((52.40 - 51.90) / (51.90 - 51.775)) / log(204 / 100) = log 4 / log 2.04 = 1.9439.
+  EXPECT_NEAR(ladder[2].at("observed_order").get<double>(), std::log(4.0) / std::log(2.04), 1e-9);
 }
 
 }  // namespace

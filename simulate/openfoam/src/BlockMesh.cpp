@@ -176,6 +176,13 @@ BlockMeshDict cylinderChannelMesh(const CylinderChannel& g, int n, double radial
                    {"frontAndBack", "empty", {}, {}}});
 }
 
+int cellsAroundForSpacing(double diameter, double spacing) {
+  if (!(diameter > 0) || !(spacing > 0) || !std::isfinite(diameter) || !std::isfinite(spacing))
+    throw std::invalid_argument("cellsAroundForSpacing: diameter and spacing must be positive and finite");
+  const double quarters = std::round(M_PI * diameter / spacing / 4);
+  return 4 * static_cast<int>(std::clamp(quarters, 2.0, 1e6));
+}
+
 BlockMeshDict periodicCellMesh(double L, double radius, double depth, int n, double radial_grading) {
   if (n < 4 || n % 4 != 0) throw std::invalid_argument("periodicCellMesh: cells_around must be a multiple of 4");
   if (radius <= 0 || radius >= 0.5 * L * 0.98) throw std::invalid_argument("periodicCellMesh: radius must be in (0, 0.49 L)");

@@ -28,23 +28,7 @@ constexpr double kMeshPorosityTolerance = 0.005;
 /// The peer's scene of a cylinder-channel case: the solver-neutral scene mmval's own solver also
 /// builds from (simulate::readCylinderScene), plus the peer's numerics.
 Scene cylinderScene(const Case& c) {
-  const simulate::CylinderScene cyl = simulate::readCylinderScene(c);
-  Scene s;
-  s.kind = Scene::Kind::cylinder_channel;
-  s.length = cyl.length_m;
-  s.height = cyl.height_m;
-  s.cx = cyl.centre_x_m;
-  s.cy = cyl.centre_y_m;
-  s.diameter = cyl.diameter_m;
-  s.depth = cyl.depth_m;
-  s.rho = cyl.density_kg_m3;
-  s.nu = cyl.kinematicViscosity();
-  s.inflow_max = cyl.inflow_max_m_s;
-  s.uniform_inflow = cyl.uniform_inflow;
-  s.slip_walls = cyl.slip_walls;
-  s.u_ref = cyl.u_ref_m_s;
-  s.l_ref = cyl.l_ref_m;
-  s.pressure_probes = cyl.pressure_probes;
+  Scene s = peerScene(simulate::readCylinderScene(c));
   s.unsteady = c.text("numerics.mode") == "unsteady";
   if (s.unsteady) {
     s.end_time = c.quantity("numerics.end_time");
@@ -56,17 +40,9 @@ Scene cylinderScene(const Case& c) {
 }
 
 /// The peer's scene of a periodic-array case: the solver-neutral scene (simulate::readPeriodicArrayScene)
-/// plus the peer's numerics.
+/// at the case's numerics.cells_per_side, plus the peer's numerics.
 Scene arrayScene(const Case& c) {
-  const simulate::PeriodicArrayScene arr = simulate::readPeriodicArrayScene(c);
-  Scene s;
-  s.kind = Scene::Kind::periodic_array;
-  s.cell = arr.cell_m;
-  s.radius = arr.radius();
-  s.depth = s.cell / 10;
-  s.rho = arr.density_kg_m3;
-  s.nu = arr.kinematicViscosity();
-  s.mean_velocity = arr.mean_velocity_m_s;
+  Scene s = peerScene(simulate::readPeriodicArrayScene(c), static_cast<int>(c.integer("numerics.cells_per_side")));
   s.max_iterations = static_cast<int>(c.integer("numerics.max_iterations"));
   s.residual = c.real("numerics.residual");
   return s;
@@ -192,6 +168,41 @@ std::string notConvergedText(const Scene& s, const Result& r, const std::string&
                      case_dir, r.iterations, s.max_iterations, residualText(r.residuals), s.residual);
 }
 
+Scene peerScene(const simulate::CylinderScene& cyl) {
+  Scene s;
+  s.kind = Scene::Kind::cylinder_channel;
+  s.length = cyl.length_m;
+  s.height = cyl.height_m;
+  s.cx = cyl.centre_x_m;
+  s.cy = cyl.centre_y_m;
+  s.diameter = cyl.diameter_m;
+  s.depth = cyl.depth_m;
+  s.rho = cyl.density_kg_m3;
+  s.nu = cyl.kinematicViscosity();
+  s.inflow_max = cyl.inflow_max_m_s;
+  s.uniform_inflow = cyl.uniform_inflow;
+  s.slip_walls = cyl.slip_walls;
+  s.u_ref = cyl.u_ref_m_s;
+  s.l_ref = cyl.l_ref_m;
+  s.pressure_probes = cyl.pressure_probes;
+  return s;
+}
+
+Scene peerScene(const simulate::PeriodicArrayScene& arr, int cells_per_side) {
+  Scene s;
+  s.kind = Scene::Kind::periodic_array;
+  s.cell = arr.cell_m;
+  s.radius = arr.radius();
+  s.depth = s.cell / 10;
+  s.rho = arr.density_kg_m3;
+  s.nu = arr.kinematicViscosity();
+  s.mean_velocity = arr.mean_velocity_m_s;
+  s.cells_around = arrayCellsAround(s, cells_per_side);
+  return s;
+}
+
+int arrayCellsAround(const Scene& s, int cells_per_side) { return cellsAroundForSpacing(2 * s.radius, s.cell / cells_per_side); }
+
 Scene peerScene(const Case& c) {
   if (c.kind() == "cylinder-channel") return cylinderScene(c);
   if (c.kind() == "periodic-array") return arrayScene(c);
@@ -217,10 +228,19 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
                                                           : std::vector<double>{c.real("numerics.cells_per_pixel")};
     for (std::size_t i = 0; i < cpp_levels.size(); ++i) levels.push_back(static_cast<int>(i));
   }
-  if (levels.empty()) levels.push_back(static_cast<int>(c.integer("numerics.cells_around")));
-  for (int l : levels)
-    if (c.kind() != "image-permeability" && (l < 8 || l > 4096 || l % 4 != 0))
-      throw InputError(c.where("numerics.levels"), "a resolution level must be a multiple of 4 from 8 to 4096", std::to_string(l), "8, 12, 16, ... 4096");
+  // A cylinder's levels are the O-grid's cells around it; an array's are cells along the unit-cell
+  // side, mmval's spacing h = L / n, from which the O-grid's cells around follow (arrayCellsAround).
+  const bool array = scene.kind == Scene::Kind::periodic_array;
+  const char* single_key = array ? "numerics.cells_per_side" : "numerics.cells_around";
+  if (levels.empty()) levels.push_back(static_cast<int>(c.integer(single_key)));
+  const std::string level_key = c.has("numerics.levels") || options.levels ? "numerics.levels" : single_key;
+  for (int l : levels) {
+    if (image) continue;
+    if (array && (l < 8 || l > 4096))
+      throw InputError(c.where(level_key), "a resolution level (cells along the unit-cell side) must be from 8 to 4096", std::to_string(l), "8 ... 4096");
+    if (!array && (l < 8 || l > 4096 || l % 4 != 0))
+      throw InputError(c.where(level_key), "a resolution level must be a multiple of 4 from 8 to 4096", std::to_string(l), "8, 12, 16, ... 4096");
+  }
   const Acceptance* primary = c.acceptanceFor(primaryMetric(c.kind()));
   RunOutput out;
   out.details["solver"] = "openfoam " + inst.version;
@@ -231,15 +251,25 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
   nlohmann::json warnings = nlohmann::json::array();
   Progress progress("openfoam " + c.name(), levels.size(), ctx.quiet);
   Result last;
+  std::vector<int> cells_around;  // the O-grid's refinement, for the observed order
   for (std::size_t i = 0; i < levels.size(); ++i) {
     if (image) scene.cells_per_pixel = cpp_levels[i];
-    else scene.cells_around = levels[i];
+    else scene.cells_around = array ? arrayCellsAround(scene, levels[i]) : levels[i];
+    cells_around.push_back(scene.cells_around);
     const std::string sub = levels.size() > 1 ? fmt::format("openfoam-level{}", i) : "openfoam";
     last = options.runner ? options.runner(scene, ctx.out_dir / sub, options.ranks) : runCase(scene, ctx.out_dir / sub, options.ranks);
     if (!last.ok) throw std::runtime_error(fmt::format("OpenFOAM run of '{}' failed (case kept in {}): {}", c.name(), (ctx.out_dir / sub).string(), last.failure));
     nlohmann::json row = {{"level", i}, {"cells_around", levels[i]}, {"cells", last.cells}, {"ranks", last.ranks},
                           {"mesh_seconds", last.mesh_seconds}, {"solve_seconds", last.solve_seconds},
                           {"wall_seconds", last.mesh_seconds + last.solve_seconds}, {"iterations", last.iterations}, {"case_dir", sub}};
+    if (array) {
+      // Both numbers of one resolution: mmval's cells along the side and the O-grid's around the
+      // cylinder, with the spacings they give (h = L / n; pi D / cells_around at the surface).
+      row["cells_per_side"] = levels[i];
+      row["cells_around"] = scene.cells_around;
+      row["spacing_m"] = scene.cell / levels[i];
+      row["surface_spacing_m"] = 2 * M_PI * scene.radius / scene.cells_around;
+    }
     if (image) {
       row.erase("cells_around");
       row["cells_per_pixel"] = cpp_levels[i];
@@ -267,7 +297,7 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
   }
   progress.finish();
   if (image) addImageConvergence(scene, cpp_levels, ladder, out, warnings, c.name(), ctx.quiet);
-  else addObservedOrder(ladder, levels);
+  else addObservedOrder(ladder, cells_around);
   out.details["ladder"] = ladder;
   out.details["cells"] = last.cells;
   if (image) {

@@ -10,6 +10,7 @@
 #pragma once
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -110,6 +111,12 @@ class Schema {
   const MetricDecl* findMetric(std::string_view name) const;
   const std::deque<MetricDecl>& metrics() const { return m_metrics; }
 
+  /// A key the kind no longer takes under this name: a file that sets `old_key` is refused with
+  /// a message naming `new_key` and `why` (the meaning changed, so its value is not carried over).
+  void renamed(std::string old_key, std::string new_key, std::string why);
+  /// The new name and the reason for `old_key`, or nullptr when it was not renamed.
+  const std::pair<std::string, std::string>* findRenamed(std::string_view old_key) const;
+
   const std::string& kind() const { return m_kind; }
   const std::string& summary() const { return m_summary; }
   const std::deque<KeyDecl>& keys() const { return m_keys; }
@@ -124,6 +131,7 @@ class Schema {
   std::string m_kind, m_summary;
   std::deque<KeyDecl> m_keys;  // deque: KeyBuilder references stay valid
   std::deque<MetricDecl> m_metrics;
+  std::map<std::string, std::pair<std::string, std::string>, std::less<>> m_renamed;  // old key -> (new key, why)
 };
 
 /// Keys every case has ([case] table), declared into a kind's schema by the registry.

@@ -1,9 +1,9 @@
 // The periodic-array scene, solver-neutral: a square unit cell of side L with
 // one cylinder of solid area fraction phi at its centre, creeping flow at a
 // mean velocity (a case of kind "periodic-array"), read once from the case for
-// mmval's own solver and the OpenFOAM peer. Resolution keys stay with each
-// solver: numerics.cells_around is mmval's cells along the unit-cell side and
-// the peer's cells around the cylinder (see that key's doc). SI units.
+// mmval's own solver and the OpenFOAM peer. The resolution,
+// numerics.cells_per_side, sets h = L / n for both: the peer derives its cells
+// around the cylinder from it (openfoam::arrayCellsAround). SI units.
 #pragma once
 
 namespace mmval {

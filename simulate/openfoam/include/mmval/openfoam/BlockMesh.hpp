@@ -61,7 +61,17 @@ BlockMeshDict cylinderChannelMesh(const CylinderChannel& g, int cells_around, do
 
 /// Unit cell [0, L]^2 with a cylinder of radius a at its centre: four O-grid
 /// blocks from the circle to the cell edges; cyclic pairs left/right and
-/// bottom/top; patch "cylinder" is a wall.
+/// bottom/top; patch "cylinder" is a wall. `cells_around` (multiple of 4) cells
+/// lie on the circumference, cells_around / 4 on each cell edge.
 BlockMeshDict periodicCellMesh(double cell, double radius, double depth, int cells_around, double radial_grading = 2.0);
+
+/// The cells around a cylinder of diameter `diameter` whose arc length on the surface is
+/// closest to `spacing` (same unit): pi D / spacing rounded to the nearest multiple of 4 (the
+/// O-grid's four blocks), at least 8. The periodic array's numerics.cells_per_side sets
+/// mmval's spacing h = L / cells_per_side; the peer's O-grid takes this many cells around so
+/// that its surface spacing is h within the rounding: pi D / cells_around differs from h by at
+/// most 2 / cells_around relative when pi D / h >= 6 (exactly h when pi D / h is a multiple of 4).
+/// Throws std::invalid_argument unless both are positive and finite.
+int cellsAroundForSpacing(double diameter, double spacing);
 
 }  // namespace mmval::openfoam

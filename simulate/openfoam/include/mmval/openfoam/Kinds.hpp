@@ -14,6 +14,11 @@
 #include "mmval/core/CaseKind.hpp"
 #include "mmval/openfoam/Peer.hpp"
 
+namespace mmval::simulate {
+struct CylinderScene;
+struct PeriodicArrayScene;
+}  // namespace mmval::simulate
+
 namespace mmval::openfoam {
 
 struct PeerRunOptions {
@@ -27,6 +32,21 @@ struct PeerRunOptions {
 /// The scene the peer solves for a case of one of these kinds (geometry, fluid, drive, numerics);
 /// a case of another kind is an InputError naming case.kind.
 Scene peerScene(const Case& c);
+
+/// The peer's scene of a solver-neutral cylinder-channel scene (simulate::readCylinderScene's):
+/// channel, cylinder, fluid, inflow, force scales and probes as given; numerics at Scene's
+/// defaults (steady, 64 cells around). The one place the two structs' fields are matched.
+Scene peerScene(const simulate::CylinderScene& scene);
+
+/// The peer's scene of a solver-neutral periodic-array scene (simulate::readPeriodicArrayScene's)
+/// at `cells_per_side` cells along the unit-cell side (the O-grid's cells around follow from it,
+/// arrayCellsAround); the one-cell-thick mesh is L / 10 deep; other numerics at Scene's defaults.
+Scene peerScene(const simulate::PeriodicArrayScene& scene, int cells_per_side);
+
+/// The O-grid's cells around the cylinder of a periodic-array scene (Scene::cells_around) at
+/// `cells_per_side` cells along its unit-cell side: the surface spacing of mmval's grid
+/// h = L / cells_per_side, in cells around (cellsAroundForSpacing: a multiple of 4, at least 8).
+int arrayCellsAround(const Scene& s, int cells_per_side);
 
 /// The warning for a steady level that did not converge: case folder, iterations against the cap,
 /// final residuals against the target, and the key to change.

@@ -68,7 +68,9 @@ struct Scene {
   int surface_level = 0;
   int cells_between_levels = 3;
   // numerics
-  int cells_around = 64;            ///< resolution (cylinder: cells around it; channel: cells across)
+  /// Resolution: cells around the cylinder (cylinder channel and periodic array; a periodic-array
+  /// case sets it from numerics.cells_per_side, arrayCellsAround), cells across (channel).
+  int cells_around = 64;
   bool unsteady = false;
   double end_time = 0, dt = 0;      ///< unsteady
   int max_iterations = 2000;        ///< steady
