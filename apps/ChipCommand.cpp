@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/Error.hpp"
 #include "mmval/simulate/ChipGenerator.hpp"
 #include "mmval/simulate/Petsc.hpp"
 
@@ -19,6 +20,7 @@ struct ChipCli {
   std::string out;
   std::string boundary = "smooth";
   std::string solve_on = "chip";
+  std::string depth = "20";
   bool quiet = false;
   simulate::ChipSpec spec;
 };
@@ -40,6 +42,13 @@ void printSummary(const simulate::ChipResult& r, const std::string& out) {
                 l["extrapolated_D"].is_null() ? "-" : fmt::format("{:.4g}", l["extrapolated_D"].get<double>()).c_str(),
                 l["gci"].is_null() ? "-" : fmt::format("{:.2f} %", 100 * l["gci"].get<double>()).c_str());
   }
+  if (j.contains("depth_fit")) {
+    std::string steps;
+    for (const auto& st : j["depth_fit"]["steps"])
+      steps += fmt::format(" {} {:.4g} um: {:.4g} D;", st["where"].get<std::string>(), st["depth_um"].get<double>(), st["k_D"].get<double>());
+    std::printf("  depth fitted        %.4g um (k at%s plane-2D bound %.4g D): %s\n", r.spec.depth_um, steps.c_str(),
+                j["depth_fit"]["k_plane_2d_tile_D"].get<double>(), j["depth_fit"]["why"].get<std::string>().c_str());
+  }
   if (r.spec.permeability_D > 0)
     std::printf("  k target            %.4g D +- %.1f %% at %g cells/px: achieved %.4g D (%s)%s\n", r.spec.permeability_D, 100 * r.spec.permeability_tolerance,
                 r.spec.cells_per_pixel, r.k_target_level_D, t["permeability_depth_averaged_D"]["met"].get<bool>() ? "met" : "NOT met",
@@ -60,6 +69,9 @@ void printSummary(const simulate::ChipResult& r, const std::string& out) {
   std::printf("  throats             %d, mean width %.4g um (radius %.4g um), min %.4g um, median %.4g um\n", j["throats"]["count"].get<int>(),
               j["throats"]["mean_width_um"].get<double>(), j["throats"]["mean_radius_um"].get<double>(), j["throats"]["min_width_um"].get<double>(),
               j["throats"]["median_width_um"].get<double>());
+  if (const auto& q = j["throats"]["quantiles_width_um"]; q.is_object())
+    std::printf("  throat widths       percentiles 10/25/75/90: %.4g / %.4g / %.4g / %.4g um\n", q["p10"].get<double>(), q["p25"].get<double>(),
+                q["p75"].get<double>(), q["p90"].get<double>());
   if (j.contains("narrowest_spanning_throat"))
     std::printf("  spanning path       narrowest %.4g um at (%g, %g) px\n", j["narrowest_spanning_throat"]["width_um"].get<double>(),
                 j["narrowest_spanning_throat"]["x_px"].get<double>(), j["narrowest_spanning_throat"]["y_px"].get<double>());
@@ -77,7 +89,10 @@ void registerChipCommand(CLI::App& app) {
   cmd->add_option("--length-mm", s.length_mm, "Chip length along the flow (x)")->capture_default_str();
   cmd->add_option("--width-mm", s.width_mm, "Chip width across the flow (y)")->capture_default_str();
   cmd->add_option("--pixel-um", s.pixel_um, "Pixel size")->capture_default_str();
-  cmd->add_option("--depth-um", s.depth_um, "Channel depth h (Hele-Shaw friction 12 mu u / h^2)")->capture_default_str();
+  cmd->add_option("--depth-um", c->depth,
+                  "Channel depth h in um (Hele-Shaw friction 12 mu u / h^2), or 'fit': the depth that gives --permeability-D with the grain scale set by "
+                  "--mean-throat-um (both required)")
+      ->capture_default_str();
   cmd->add_option("--porosity", s.porosity, "Target porosity (walls included), in (0.2, 0.95)")->capture_default_str();
   cmd->add_option("--porosity-tolerance", s.porosity_tolerance, "Absolute porosity tolerance")->capture_default_str();
   cmd->add_option("--permeability-D", s.permeability_D, "Target depth-averaged permeability in darcy (0: none)")->capture_default_str();
@@ -104,6 +119,17 @@ void registerChipCommand(CLI::App& app) {
   cmd->callback([c] {
     c->spec.smooth_boundary = c->boundary == "smooth";
     c->spec.solve_on_tile = c->solve_on == "tile";
+    c->spec.fit_depth = c->depth == "fit";
+    if (!c->spec.fit_depth) {
+      std::size_t used = 0;
+      try {
+        c->spec.depth_um = std::stod(c->depth, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used == 0 || used != c->depth.size())
+        throw InputError(InputLocation{"", 0, 0, "--depth-um"}, "not a depth", c->depth, "a channel depth in um (> 0) or 'fit'");
+    }
     simulate::validateChipSpec(c->spec);  // before the folder is touched
     StagedDirectory staged(c->out);
     const bool quiet = c->quiet;

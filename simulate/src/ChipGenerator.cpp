@@ -35,8 +35,16 @@ InputLocation opt(const char* name) { return InputLocation{"", 0, 0, name}; }
 
 double seconds(std::chrono::steady_clock::time_point t0) { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
 
-/// Open Hele-Shaw limit of the depth-averaged permeability: porosity x h^2 / 12, darcy.
-double hsLimitDarcy(const ChipSpec& s) { return s.porosity * std::pow(s.depth_um * 1e-6, 2) / 12 / kDarcyM2; }
+/// Open Hele-Shaw limit of the depth-averaged permeability: porosity x h^2 / 12, darcy (with
+/// fit_depth at the deepest depth searched).
+double hsLimitDarcy(const ChipSpec& s) {
+  const double h_um = s.fit_depth ? kFitDepthMaxUm : s.depth_um;
+  return s.porosity * std::pow(h_um * 1e-6, 2) / 12 / kDarcyM2;
+}
+
+/// The grain scale is tuned on k (else on the mean throat, or not tuned). With fit_depth the
+/// throat sets the grain scale and k sets the depth.
+bool tunesK(const ChipSpec& s) { return s.permeability_D > 0 && !s.fit_depth; }
 
 /// Porosity of a cols x rows pattern (the chip or a tile of it) whose grain region (between the
 /// ports and the walls) is as dense as the chip's. The chip's porosity counts its solid walls and
@@ -108,7 +116,7 @@ double kDarcyOf(const ChipPacking& p, const ChipSpec& s) {
 double startDiameterUm(const ChipSpec& s) {
   if (s.mean_grain_um > 0) return s.mean_grain_um;
   const double phi = s.porosity;
-  if (s.permeability_D > 0) {
+  if (tunesK(s)) {
     const double k2d = 1.0 / (1.0 / s.permeability_D - 1.0 / hsLimitDarcy(s)) * kDarcyM2;
     return std::sqrt(k2d * 180 * (1 - phi) * (1 - phi) / (phi * phi * phi)) * 1e6;
   }
@@ -142,10 +150,11 @@ struct Secant {
 
 /// The tile's grain scale for the k (or mean throat) target; returns the mean diameter in um.
 double tuneOnTile(const ChipSpec& s, int cols, int rows, ChipResult& r, const std::function<void(const std::string&)>& log) {
-  const bool by_k = s.permeability_D > 0;
+  const bool by_k = tunesK(s);
   const double target = by_k ? s.permeability_D : s.mean_throat_um;
   const double d_min = minDiameterUm(s);
-  const double d_max = (rows - 2 * s.wall_px - 2 * s.min_throat_px) / kMaxDiameterFactor * s.pixel_um;
+  // Just inside the packer's bound (ChipPacking.cpp: the largest grains fit between the walls), so rounding cannot refuse d_max itself.
+  const double d_max = (1 - 1e-9) * (rows - 2 * s.wall_px - 2 * s.min_throat_px) / kMaxDiameterFactor * s.pixel_um;
   double x = std::log(std::clamp(startDiameterUm(s), d_min, d_max));
   Secant sec;
   double best_x = x, best_err = INFINITY;
@@ -191,11 +200,15 @@ void validateChipSpec(const ChipSpec& s) {
   need(s.length_mm > 0 && s.length_mm <= 1000, "--length-mm", s.length_mm, "a chip length in mm, > 0");
   need(s.width_mm > 0 && s.width_mm <= 1000, "--width-mm", s.width_mm, "a chip width in mm, > 0");
   need(s.pixel_um > 0 && s.pixel_um <= 1000, "--pixel-um", s.pixel_um, "a pixel size in um, > 0");
-  need(s.depth_um > 0 && s.depth_um <= 1e4, "--depth-um", s.depth_um, "a channel depth in um, > 0");
+  need(s.fit_depth || (s.depth_um > 0 && s.depth_um <= 1e4), "--depth-um", s.depth_um, "a channel depth in um, > 0");
   need(s.grain_cv >= 0 && s.grain_cv <= 1, "--grain-cv", s.grain_cv, "a coefficient of variation in [0, 1]");
   need(s.min_throat_px >= 2 && s.min_throat_px <= 100, "--min-throat-px", s.min_throat_px,
        "at least 2 px (a throat of 1 px is under one cell at 1 cell per pixel and off by ~200 % at that)");
   need(s.wall_px >= 1 && s.wall_px <= 100, "--wall-px", s.wall_px, "a wall thickness in px, 1 to 100");
+  if (s.fit_depth && !(s.permeability_D > 0 && s.mean_throat_um > 0))
+    throw InputError(opt("--depth-um"), "--depth-um fit solves for the depth that gives the k target at the grain scale set by the throat target",
+                     fmt::format("fit with --permeability-D {:g} and --mean-throat-um {:g}", s.permeability_D, s.mean_throat_um),
+                     "both --permeability-D (the depth-averaged k to fit) and --mean-throat-um (the throat width that sets the grain scale), > 0");
   need(s.permeability_D >= 0, "--permeability-D", s.permeability_D, "a permeability in darcy, > 0 (0 or absent: no target)");
   need(s.permeability_tolerance >= 0.005 && s.permeability_tolerance <= 0.5, "--permeability-tolerance", s.permeability_tolerance,
        "a relative tolerance in [0.005, 0.5] (below the tile's scatter of ~1 % the search cannot settle)");
@@ -209,8 +222,9 @@ void validateChipSpec(const ChipSpec& s) {
   if (s.permeability_D > 0) {
     const double lim = hsLimitDarcy(s);
     need(s.permeability_D < lim, "--permeability-D", s.permeability_D,
-         fmt::format("a depth-averaged k below the open Hele-Shaw limit porosity x h^2 / 12 = {:.4g} D for --depth-um {:g} and --porosity {:g} (grains only "
-                     "lower it)", lim, s.depth_um, s.porosity));
+         fmt::format("a depth-averaged k below the open Hele-Shaw limit porosity x h^2 / 12 = {:.4g} D for --depth-um {} and --porosity {:g} (grains only "
+                     "lower it)", lim, s.fit_depth ? fmt::format("fit (deepest searched: {:g} um)", kFitDepthMaxUm) : fmt::format("{:g}", s.depth_um),
+                     s.porosity));
   }
   const double side_cols = (s.solve_on_tile ? std::min(s.tile_mm, s.length_mm) : s.length_mm) * 1e3 / s.pixel_um;
   const double side_rows = (s.solve_on_tile ? std::min(s.tile_mm, s.width_mm) : s.width_mm) * 1e3 / s.pixel_um;
@@ -238,7 +252,7 @@ namespace {
 double confirmOnChip(const ChipSpec& s, double d, ChipResult& r, std::vector<std::pair<double, ChipFlowResult>>& known,
                      const std::function<void(const std::string&)>& log) {
   Secant sec;
-  const bool by_k = s.permeability_D > 0;
+  const bool by_k = tunesK(s);
   const double target = by_k ? s.permeability_D : s.mean_throat_um;
   const double tol = by_k ? s.permeability_tolerance : kChipThroatTolerance;
   const int cols = static_cast<int>(r.packing.solid.cols()), rows = static_cast<int>(r.packing.solid.rows());
@@ -260,6 +274,83 @@ double confirmOnChip(const ChipSpec& s, double d, ChipResult& r, std::vector<std
     known.clear();
   }
   return d;
+}
+
+/// Solves of the depth fit on one pattern.
+constexpr int kMaxDepthSteps = 12;
+/// A depth step changes h by at most this factor.
+constexpr double kMaxDepthStepFactor = 4.0;
+/// d ln k / d ln h where the Hele-Shaw friction 12 mu u / h^2 dominates (throats much wider than h).
+constexpr double kDepthStartSlope = 2.0;
+
+/// Stage 3b (fit_depth): the depth h (um) whose depth-averaged k at cells_per_pixel meets the
+/// target on `connected` (isolated pores closed): a secant on ln k against ln h from `h_um`, k(h)
+/// being monotone, within [kFitDepthMinUm, kFitDepthMaxUm]. Every solve goes into r.depth_fit;
+/// `known` gets the solve at the returned depth. Throws InputError (--permeability-D, --depth-um)
+/// when the search ends at a bound with the target still beyond it.
+double fitDepth(const ChipSpec& s, const BoolArray& connected, const std::string& where, double h_um, double tol, int max_steps, ChipResult& r,
+                std::vector<std::pair<double, ChipFlowResult>>& known, const std::function<void(const std::string&)>& log) {
+  const double lo = std::log(kFitDepthMinUm), hi = std::log(kFitDepthMaxUm), max_step = std::log(kMaxDepthStepFactor);
+  double x = std::clamp(std::log(h_um), lo, hi), x0 = std::nan(""), f0 = std::nan("");
+  double best_x = x, best_err = INFINITY;
+  ChipFlowResult best;
+  for (int step = 1; step <= max_steps; ++step) {
+    const auto t0 = std::chrono::steady_clock::now();
+    ChipFlowSettings fs = flowSettings(s);
+    fs.depth_m = std::exp(x) * 1e-6;
+    const ChipFlowResult res = chipPermeability(connected, fs, s.cells_per_pixel);
+    const double k = res.permeability_m2 / kDarcyM2;
+    r.depth_fit.push_back({where, std::exp(x), k, seconds(t0)});
+    if (log) log(fmt::format("chip: depth fit on the {} ({} x {} px), step {}: h {:.4g} um -> k {:.4g} D (target {:.4g} D, {:.1f} s)", where, connected.cols(),
+                             connected.rows(), step, std::exp(x), k, s.permeability_D, seconds(t0)));
+    const double f = std::log(k / s.permeability_D);
+    if (std::abs(f) < best_err) best_err = std::abs(f), best_x = x, best = res;
+    if (std::abs(k / s.permeability_D - 1) <= tol) break;
+    if ((f < 0 && x >= hi - 1e-9) || (f > 0 && x <= lo + 1e-9))
+      throw InputError(opt("--permeability-D"),
+                       fmt::format("--depth-um fit: no depth in [{:g}, {:g}] um gives this k with grains set by --mean-throat-um {:g}; at {:g} um k is {:.4g} D",
+                                   kFitDepthMinUm, kFitDepthMaxUm, s.mean_throat_um, std::exp(x), k),
+                       fmt::format("{:g}", s.permeability_D),
+                       f < 0 ? "a smaller --permeability-D or a larger --mean-throat-um" : "a larger --permeability-D or a smaller --mean-throat-um");
+    double slope = kDepthStartSlope;
+    if (std::isfinite(x0) && std::abs(x - x0) > 1e-9) slope = (f - f0) / (x - x0);
+    if (!(slope > 0) || !std::isfinite(slope)) slope = kDepthStartSlope;
+    x0 = x;
+    f0 = f;
+    x = std::clamp(x - std::clamp(f / slope, -max_step, max_step), lo, hi);
+  }
+  if (best_err > std::log1p(tol) && log)
+    log(fmt::format("chip: the depth fit did not settle within {} steps; keeping the closest ({:.2f} % off)", max_steps, 100 * (std::exp(best_err) - 1)));
+  known = {{s.cells_per_pixel, best}};
+  return std::exp(best_x);
+}
+
+/// Stage 3b: the depth for the k target, fitted on the tile at the final grain scale (the chip's
+/// own pattern when the tile is the chip), then confirmed on the chip when the ladder solves the
+/// chip. Refuses a target at or above the tile's plane-2D k, which bounds k at any depth.
+double fitChipDepth(const ChipSpec& s, const BoolArray& tile, bool confirm_on_chip, ChipResult& r, std::vector<std::pair<double, ChipFlowResult>>& known,
+                    const std::function<void(const std::string&)>& log) {
+  const BoolArray tile_connected = analysePoreSpace(tile).solid_connected;
+  ChipFlowSettings plane = flowSettings(s);
+  plane.depth_m = 0;
+  r.k_plane_2d_tile_D = chipPermeability(tile_connected, plane, s.cells_per_pixel).permeability_m2 / kDarcyM2;
+  if (log) log(fmt::format("chip: depth fit: the tile's plane-2D k (the bound at any depth) is {:.4g} D", r.k_plane_2d_tile_D));
+  if (s.permeability_D >= r.k_plane_2d_tile_D)
+    throw InputError(opt("--permeability-D"),
+                     fmt::format("--depth-um fit: the target is not below {:.4g} D, the plane-2D k of the pattern set by --mean-throat-um {:g}, which bounds the "
+                                 "depth-averaged k at any depth", r.k_plane_2d_tile_D, s.mean_throat_um),
+                     fmt::format("{:g}", s.permeability_D), "a smaller --permeability-D or a larger --mean-throat-um");
+  // Start where the open Hele-Shaw channel would give the target (h = sqrt(12 k / porosity)), a
+  // lower bound of h, times 1.5: the grains' side walls add friction.
+  const double h0 = 1.5 * std::sqrt(12 * s.permeability_D * kDarcyM2 / s.porosity) * 1e6;
+  const double tol = s.permeability_tolerance;
+  double h = fitDepth(s, tile_connected, "tile", h0, confirm_on_chip ? 0.5 * tol : 0.25 * tol, kMaxDepthSteps, r, known, log);
+  if (confirm_on_chip) {
+    ChipSpec at = s;
+    at.depth_um = h;
+    h = fitDepth(at, analysePoreSpace(r.packing.solid).solid_connected, "chip", h, tol, kMaxChipCorrections + 1, r, known, log);
+  }
+  return h;
 }
 
 /// Stage 4: both depth models on the ladder, on `solved` (the chip or a tile).
@@ -310,8 +401,9 @@ void sampleChipTiles(const ChipSpec& s, int tile_cols, int tile_rows, ChipResult
 
 }  // namespace
 
-ChipResult generateChip(const ChipSpec& s, const std::function<void(const std::string&)>& log) {
-  validateChipSpec(s);
+ChipResult generateChip(const ChipSpec& spec, const std::function<void(const std::string&)>& log) {
+  validateChipSpec(spec);
+  ChipSpec s = spec;  // with fit_depth, depth_um becomes the fitted depth
   const auto t0 = std::chrono::steady_clock::now();
   ChipResult r;
   r.spec = s;
@@ -335,8 +427,15 @@ ChipResult generateChip(const ChipSpec& s, const std::function<void(const std::s
   if (tuned && !tile_is_chip && !s.solve_on_tile) d = confirmOnChip(s, d, r, known, log);
   r.mean_grain_um = d;
   lap("confirm");
+  if (s.fit_depth) {
+    const bool on_chip = !tile_is_chip && !s.solve_on_tile;
+    s.depth_um = fitChipDepth(s, tile_is_chip ? r.packing.solid : pack(s, tile_cols, tile_rows, d).solid, on_chip, r, known, log);
+    r.spec = s;
+    if (log) log(fmt::format("chip: fitted depth {:.4g} um (the depth-averaged k target at {:g} cells/px; the ladder uses it)", s.depth_um, s.cells_per_pixel));
+    lap("depth_fit");
+  }
   if (s.solve_on_tile && !tile_is_chip) {
-    solveLadders(s, pack(s, tile_cols, tile_rows, d).solid, {}, r, log);
+    solveLadders(s, pack(s, tile_cols, tile_rows, d).solid, known, r, log);
     sampleChipTiles(s, tile_cols, tile_rows, r, log);
   } else {
     solveLadders(s, r.packing.solid, known, r, log);

@@ -45,6 +45,16 @@ Moments moments(std::vector<double> v) {
   return m;
 }
 
+/// The 10th, 25th, 75th and 90th percentiles (nearest rank) of `v`: the spread of a skewed distribution, with its mean and median.
+nlohmann::json quantiles(std::vector<double> v) {
+  if (v.empty()) return nullptr;
+  std::sort(v.begin(), v.end());
+  nlohmann::json q = nlohmann::json::object();
+  for (const auto& [name, p] : {std::pair{"p10", 0.10}, std::pair{"p25", 0.25}, std::pair{"p75", 0.75}, std::pair{"p90", 0.90}})
+    q[name] = v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
+  return q;
+}
+
 nlohmann::json finiteOrNull(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
 nlohmann::json ladderJson(const ChipLadder& l) {
@@ -162,14 +172,14 @@ nlohmann::json chipStatistics(const ChipResult& r) {
                 {"grains", "dark"}, {"wall_px", s.wall_px}, {"port_um", s.port_um > 0 ? s.port_um : r.mean_grain_um}};
   j["targets"] = {{"length_mm", s.length_mm},
                   {"width_mm", s.width_mm},
-                  {"depth_um", s.depth_um},
+                  {"depth_um", s.fit_depth ? nlohmann::json("fit") : nlohmann::json(s.depth_um)},
                   {"porosity", target(s.porosity, s.porosity_tolerance, pores.porosity_connected, false)},
                   {"permeability_depth_averaged_D", target(s.permeability_D, s.permeability_tolerance, r.k_target_level_D, true)},
                   {"permeability_at_cells_per_pixel", s.cells_per_pixel},
-                  {"mean_throat_um", target(s.mean_throat_um, s.permeability_D > 0 ? 0.0 : kChipThroatTolerance, t.mean, true)},
+                  {"mean_throat_um", target(s.mean_throat_um, s.permeability_D > 0 && !s.fit_depth ? 0.0 : kChipThroatTolerance, t.mean, true)},
                   {"mean_grain_um", target(s.permeability_D > 0 || s.mean_throat_um > 0 ? 0.0 : s.mean_grain_um, 0.05, g.mean, true)},
                   {"grain_cv", target(s.grain_cv, 0.05, g.cv, false)}};
-  if (s.permeability_D > 0 && s.mean_throat_um > 0)
+  if (s.permeability_D > 0 && s.mean_throat_um > 0 && !s.fit_depth)
     j["targets"]["mean_throat_um"]["note"] = "not tuned: at fixed porosity and grain-size distribution the grain scale that sets k also sets the throats";
   j["porosity"] = {{"total", pores.porosity_total}, {"connected", pores.porosity_connected}, {"components", pores.components},
                    {"spanning_components", pores.spanning_components},
@@ -185,12 +195,25 @@ nlohmann::json chipStatistics(const ChipResult& r) {
                        {"converged_rule", "depth-averaged ladder monotone with an observed order and GCI of the finest level within the k tolerance"},
                        {"boundary", s.smooth_boundary ? "smooth (image-permeability geometry.boundary = smooth, smoothing 0.75 px)" : "pixels"}};
   if (!r.tile_samples.empty()) j["permeability"]["tile_samples"] = tileSamplesJson(r);
+  if (s.fit_depth) {
+    nlohmann::json steps = nlohmann::json::array();
+    for (const auto& st : r.depth_fit) steps.push_back({{"where", st.where}, {"depth_um", st.depth_um}, {"k_D", st.k_D}, {"seconds", st.seconds}});
+    j["depth_fit"] = {{"depth_um", s.depth_um},
+                      {"steps", steps},
+                      {"searched_um", {kFitDepthMinUm, kFitDepthMaxUm}},
+                      {"k_plane_2d_tile_D", r.k_plane_2d_tile_D},
+                      {"method", "secant on ln k against ln h (k ~ h^2 to start), each step a depth-averaged solve at the target's cells per pixel on "
+                                 "the tuning tile at the final grain scale, then on the chip when the ladder solves the chip"},
+                      {"why", "the depth was fitted (--depth-um fit) because the source states porosity, permeability and mean throat size but no "
+                              "depth: the throat target sets the grain scale, and the depth-averaged k (Hele-Shaw friction 12 mu u / h^2) then "
+                              "depends on h alone"}};
+  }
   j["homogeneity"] = homogeneityJson(r);
   j["grains"] = {{"count", r.packing.discs.size()}, {"mean_diameter_um", g.mean}, {"cv", g.cv}, {"min_diameter_um", g.min},
                  {"median_diameter_um", g.median}, {"histogram", histogram(grainDiametersUm(r))},
                  {"distribution", fmt::format("lognormal, clipped to [{:g}, {:g}] x the mean", kMinDiameterFactor, kMaxDiameterFactor)}};
   j["throats"] = {{"count", tw.size()}, {"mean_width_um", t.mean}, {"mean_radius_um", 0.5 * t.mean}, {"min_width_um", t.min},
-                  {"median_width_um", t.median}, {"histogram", histogram(tw)},
+                  {"median_width_um", t.median}, {"quantiles_width_um", quantiles(tw)}, {"histogram", histogram(tw)},
                   {"definition", "gap between two neighbouring grains (or a grain and a wall) along their line of centres, counted when its midpoint "
                                  "is nearer to those two than to any other solid (a saddle of the distance map on the medial axis); widths up to "
                                  "one mean grain diameter; from the disc geometry, not the pixels"}};
@@ -201,7 +224,7 @@ nlohmann::json chipStatistics(const ChipResult& r) {
   nlohmann::json tuning = nlohmann::json::array();
   for (const auto& st : r.tuning) tuning.push_back({{"where", st.where}, {"mean_grain_um", st.mean_grain_um}, {"value", st.value}, {"seconds", st.seconds}});
   j["tuning"] = tuning;
-  j["tuning_quantity"] = s.permeability_D > 0 ? "depth-averaged k (D)" : s.mean_throat_um > 0 ? "mean throat width (um)" : "none";
+  j["tuning_quantity"] = s.permeability_D > 0 && !s.fit_depth ? "depth-averaged k (D)" : s.mean_throat_um > 0 ? "mean throat width (um)" : "none";
   j["generation"] = {{"mean_grain_um", r.mean_grain_um}, {"min_throat_px", s.min_throat_px}, {"relax_sweeps", r.packing.relax_sweeps},
                      {"porosity_rounds", r.packing.porosity_rounds}, {"tile_mm", s.tile_mm}, {"wall_seconds", r.seconds},
                      {"placement", "random sequential addition with the minimum gap, largest grain first; grains that find no room (and all "

@@ -1,6 +1,7 @@
 // The micromodel generator (docs/chip-generator.md): the k target met and confirmed by an
 // independent image-permeability run of the written PNG, reproducibility by seed, bad targets
-// refused by `mmval chip` with exit 2 naming the option, the chip's windows against the tile. The
+// refused by `mmval chip` with exit 2 naming the option, the chip's windows against the tile, the
+// depth fit (--depth-um fit) and its refusals. The
 // packing itself (porosity, gap, homogeneity) is tested in ChipPackingTest.cpp.
 #include <cmath>
 #include <cstdio>
@@ -8,6 +9,7 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -176,4 +178,93 @@ TEST(ChipGenerator, SolvedOnATileItSamplesWindowsOfTheChipAgainstTheTile) {
   EXPECT_NEAR(ts["tile_k_D"].get<double>(), tile_k, 1e-12 * tile_k);
   EXPECT_EQ(ts["representative"].get<bool>(), std::abs(mean / tile_k - 1) <= s.permeability_tolerance);
   std::printf("tile %.4g D; windows %.4g %.4g %.4g %.4g D, mean x %.3f of the tile\n", tile_k, ks[0], ks[1], ks[2], ks[3], mean / tile_k);
+}
+
+// --depth-um fit: the throat target sets the grain scale and the depth is solved for the k target.
+// The fitted depth reproduces the target; the same solve called directly at that depth gives the
+// same k; the root is bracketed (k below the target 10 % shallower, above it 10 % deeper: k(h) is
+// monotone); k stays under both bounds (the open Hele-Shaw channel porosity h^2 / 12 and the
+// pattern's plane-2D k).
+TEST(ChipGenerator, FittedDepthMeetsTheKTargetAndADirectSolveAtThatDepthAgrees) {
+  ChipSpec s = smallChip();
+  s.length_mm = s.width_mm = s.tile_mm = 0.4;  // 160 x 160 px, ~16 grains across: the fit needs no more
+  s.mean_grain_um = 25;                         // the start of the throat tuning
+  s.fit_depth = true;
+  s.mean_throat_um = 10;  // ~25 um grains at porosity 0.58, ~3 D at 20 um deep (measured above)
+  s.permeability_D = 2.0;
+  s.permeability_tolerance = 0.05;
+  const ChipResult r = generateChip(s);
+  const double h = r.spec.depth_um;
+  ASSERT_FALSE(r.depth_fit.empty());
+  EXPECT_GT(h, kFitDepthMinUm);
+  EXPECT_LT(h, 20.0) << "2 D is below the ~3 D of this statistics at 20 um";
+  EXPECT_NEAR(r.depth_fit.back().depth_um, h, 1e-12 * h);
+  // The tile is the chip: the fit's own tolerance is a quarter of the k tolerance.
+  EXPECT_NEAR(r.k_target_level_D / s.permeability_D, 1.0, 0.25 * s.permeability_tolerance) << "k " << r.k_target_level_D << " D at h " << h;
+  EXPECT_NEAR(r.stats["throats"]["mean_width_um"].get<double>() / s.mean_throat_um, 1.0, kChipThroatTolerance);
+  // The same solve, called directly on the written mask at the fitted depth.
+  ChipFlowSettings f;
+  f.pixel_m = s.pixel_um * 1e-6;
+  f.depth_m = h * 1e-6;
+  const BoolArray connected = analysePoreSpace(r.packing.solid).solid_connected;
+  const double k_direct = chipPermeability(connected, f, s.cells_per_pixel).permeability_m2 / kDarcyM2;
+  EXPECT_NEAR(k_direct / r.k_target_level_D, 1.0, 1e-9);  // deterministic direct solve of the same system
+  f.depth_m = h / 1.1 * 1e-6;
+  EXPECT_LT(chipPermeability(connected, f, s.cells_per_pixel).permeability_m2 / kDarcyM2, s.permeability_D);
+  f.depth_m = h * 1.1 * 1e-6;
+  EXPECT_GT(chipPermeability(connected, f, s.cells_per_pixel).permeability_m2 / kDarcyM2, s.permeability_D);
+  EXPECT_LT(k_direct, r.k_plane_2d_tile_D);
+  EXPECT_LT(k_direct, s.porosity * std::pow(h * 1e-6, 2) / 12 / kDarcyM2);
+  // chip.json: the fitted depth, every step, why; the ladder at the fitted depth.
+  const auto& j = r.stats;
+  EXPECT_EQ(j["targets"]["depth_um"].get<std::string>(), "fit");
+  EXPECT_NEAR(j["permeability"]["depth_um"].get<double>(), h, 1e-12 * h);
+  EXPECT_EQ(j["depth_fit"]["steps"].size(), r.depth_fit.size());
+  EXPECT_NE(j["depth_fit"]["why"].get<std::string>().find("no depth"), std::string::npos);
+  EXPECT_TRUE(j["targets"]["permeability_depth_averaged_D"]["met"].get<bool>());
+  std::printf("fitted depth %.4g um in %zu solves: k %.4g D (plane 2D %.4g D)\n", h, r.depth_fit.size(), r.k_target_level_D, r.k_plane_2d_tile_D);
+}
+
+namespace {
+
+struct BadFit {
+  std::string args;
+  std::vector<std::string> names;  ///< each must appear in the error
+};
+
+/// Runs each case through `mmval chip`: exit 2, every name in the output, no output folder.
+void expectRefused(const std::string& folder, const std::vector<BadFit>& cases) {
+  const fs::path d = mmval::test::freshTestFolder("chip", folder);
+  const std::string out = " --out " + (d / "out").string();
+  for (const auto& b : cases) {
+    const auto r = mmval::test::runMmval(b.args + out);
+    EXPECT_EQ(r.status, 2) << b.args << ": " << r.output;
+    for (const auto& n : b.names) EXPECT_NE(r.output.find(n), std::string::npos) << "'" << n << "' in: " << r.output;
+  }
+  EXPECT_FALSE(fs::exists(d / "out"));
+}
+
+const std::string kSmallFitCli = "chip --quiet --length-mm 0.4 --width-mm 0.4 --pixel-um 2.5 --tile-mm 0.4 --mean-grain-um 25 --ladder 1 --depth-um fit";
+
+}  // namespace
+
+// Refused before any solve: a target missing, above the open Hele-Shaw limit at the deepest depth, or not a depth.
+TEST(ChipCommand, DepthFitWithoutItsTargetsIsRefusedNamingTheFlags) {
+  expectRefused("bad-fit-input", {
+      {kSmallFitCli + " --mean-throat-um 10", {"--depth-um", "--permeability-D", "--mean-throat-um"}},
+      {kSmallFitCli + " --permeability-D 2", {"--depth-um", "--permeability-D", "--mean-throat-um"}},
+      // 0.58 x (200 um)^2 / 12 = 1959 D.
+      {kSmallFitCli + " --permeability-D 3000 --mean-throat-um 10", {"--permeability-D", "1959 D", "fit"}},
+      {"chip --quiet --depth-um deep", {"--depth-um", "'fit'"}},
+  });
+}
+
+// Refused after the solves show no depth can reach the target.
+TEST(ChipCommand, DepthFitWithAnUnreachableTargetIsRefusedNamingTheFlags) {
+  expectRefused("bad-fit-reach", {
+      // Above the pattern's plane-2D k (~4.3 D for 10 um throats), which bounds k at any depth.
+      {kSmallFitCli + " --permeability-D 500 --mean-throat-um 10", {"--permeability-D", "plane-2D", "--mean-throat-um"}},
+      // Below k at the shallowest depth searched (1 um: under porosity h^2 / 12 = 0.049 D, far above 1e-4 D).
+      {kSmallFitCli + " --permeability-D 0.0001 --mean-throat-um 10", {"--permeability-D", "[1, 200] um", "--mean-throat-um"}},
+  });
 }

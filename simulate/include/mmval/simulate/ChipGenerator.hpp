@@ -4,8 +4,9 @@
 //
 // Stages: validate -> tune the grain scale on a tile (secant on ln k against ln d, mmval's own
 // depth-averaged solve at cells_per_pixel) -> generate the full chip and confirm k there (up to
-// kMaxChipCorrections corrections of d) -> statistics and a grid-convergence ladder on the full
-// chip. Porosity is met by construction (ChipPacking.hpp). Same spec and seed: the same mask,
+// kMaxChipCorrections corrections of d) -> with fit_depth, the depth for the k target (secant on
+// ln k against ln h on the tile at the final scale, confirmed on the chip when the ladder solves it)
+// -> statistics and a grid-convergence ladder on the full chip. Porosity is met by construction (ChipPacking.hpp). Same spec and seed: the same mask,
 // byte for byte.
 #pragma once
 #include <cstdint>
@@ -25,12 +26,15 @@ namespace mmval::simulate {
 struct ChipSpec {
   double length_mm = 4, width_mm = 2;  ///< along the flow (x) and across (y)
   double pixel_um = 5;
-  double depth_um = 20;
+  double depth_um = 20;                ///< channel depth; with fit_depth, the fitted depth is written here in ChipResult::spec
+  /// Solve for depth_um instead: the grain scale is set by mean_throat_um, then the depth that gives
+  /// the depth-averaged permeability_D at cells_per_pixel is found (both targets required).
+  bool fit_depth = false;
   double porosity = 0.58;
   double porosity_tolerance = 0.005;
   double permeability_D = 0;           ///< depth-averaged target; 0: none
   double permeability_tolerance = 0.05;  ///< relative
-  double mean_throat_um = 0;           ///< mean throat width target (used when no permeability target); 0: none
+  double mean_throat_um = 0;           ///< mean throat width target (used without a k target, or with fit_depth); 0: none
   double mean_grain_um = 0;            ///< mean grain diameter: fixed without k / throat targets, else the start; 0: estimated
   double grain_cv = 0.3;               ///< coefficient of variation of the grain diameter
   double min_throat_px = 3;            ///< smallest gap between grains (and grain to wall)
@@ -48,7 +52,8 @@ struct ChipSpec {
 
 /// Throws InputError naming the option (--porosity, --permeability-D, ...) and its limit:
 /// porosity outside (kMinPorosity, kMaxPorosity), k not below the open Hele-Shaw limit
-/// porosity x h^2 / 12, sizes that are not positive or too large, a ladder without
+/// porosity x h^2 / 12 (with fit_depth: at kFitDepthMaxUm), fit_depth without both a k and a
+/// mean-throat target, sizes that are not positive or too large, a ladder without
 /// cells_per_pixel, a ladder whose finest level would not fit in memory (direct solver, 8.8 kB per
 /// cell measured: simulate/src/MemoryBudget.hpp) on the chip (or tile) it is solved on.
 void validateChipSpec(const ChipSpec& s);
@@ -57,6 +62,17 @@ inline constexpr double kMinPorosity = 0.2, kMaxPorosity = 0.95;
 inline constexpr double kChipThroatTolerance = 0.02;
 /// At most this many corrections of the grain scale on the full chip after tuning on the tile.
 inline constexpr int kMaxChipCorrections = 2;
+/// Depths (um) the depth fit searches. k grows with h towards the plane-2D k (no wall friction),
+/// which bounds it at every depth; a target above k(200 um) is refused as unreachable.
+inline constexpr double kFitDepthMinUm = 1, kFitDepthMaxUm = 200;
+
+/// One permeability solve of the depth fit.
+struct ChipDepthStep {
+  std::string where;   ///< "tile" or "chip"
+  double depth_um = 0;
+  double k_D = 0;      ///< depth-averaged k at cells_per_pixel, darcy
+  double seconds = 0;
+};
 
 /// One evaluation of the tuning loop.
 struct ChipTuneStep {
@@ -83,6 +99,8 @@ struct ChipResult {
   ChipPacking packing;             ///< the full chip
   double mean_grain_um = 0;        ///< scale used
   std::vector<ChipTuneStep> tuning;
+  std::vector<ChipDepthStep> depth_fit;  ///< fit_depth: every (h, k) solve, in order
+  double k_plane_2d_tile_D = 0;    ///< fit_depth: the tile's plane-2D k at cells_per_pixel (the bound of k at any depth)
   ChipLadder ladder_2d, ladder_da; ///< ladders on the chip (or the tile: spec.solve_on_tile)
   int solved_cols = 0, solved_rows = 0;  ///< size of what the ladder solved, px
   double k_target_level_D = 0;     ///< depth-averaged k at spec.cells_per_pixel (what the target is met at)
