@@ -1,5 +1,6 @@
 #include "mmval/tracking/Detect.hpp"
 
+#include "Selection.hpp"
 #include "SpotFit.hpp"
 
 #include <algorithm>
@@ -56,30 +57,41 @@ Polarity guessPolarity(const std::vector<cv::Mat>& frames, const cv::Mat& backgr
       cv::Mat f;
       frames[k].convertTo(f, CV_32F);
       cv::GaussianBlur(f - bg, fg[k], cv::Size(0, 0), 1.0);
-      std::vector<float> a(fg[k].begin<float>(), fg[k].end<float>());
-      for (auto& v : a) v = std::abs(v);
-      std::nth_element(a.begin(), a.begin() + a.size() / 2, a.end());
-      noise[k] = std::max(1e-6, 1.4826 * a[a.size() / 2]);
+      // The median absolute value (the exact order statistic nth_element would give).
+      thread_local std::vector<float> a, scratch;
+      a.resize(fg[k].total());
+      const float* p = fg[k].ptr<float>();  // continuous: allocated by the blur
+      for (std::size_t i = 0; i < a.size(); ++i) a[i] = std::abs(p[i]);
+      noise[k] = std::max(1e-6, 1.4826 * detail::kthSmallest(a.data(), a.size(), a.size() / 2, scratch));
     }
   });
   for (std::size_t k = 0; k < frames.size(); ++k) {
     const float t = static_cast<float>(4 * noise[k]);
-    for (int r = 0; r < bg.rows; ++r)
+    for (int r = 0; r < bg.rows; ++r) {
+      const float* f = fg[k].ptr<float>(r);
+      int* up = above.ptr<int>(r);
+      int* down = below.ptr<int>(r);
       for (int c = 0; c < bg.cols; ++c) {
-        const float v = fg[k].at<float>(r, c);
-        if (v > t) ++above.at<int>(r, c);
-        if (v < -t) ++below.at<int>(r, c);
+        up[c] += f[c] > t;
+        down[c] += f[c] < -t;
       }
+    }
   }
   const int persistent = std::max(1, static_cast<int>(frames.size()) / 4);
   double bright = 0, dark = 0;
-  for (std::size_t k = 0; k < frames.size(); ++k)
-    for (int r = 0; r < bg.rows; ++r)
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    const double t = 4 * noise[k];
+    for (int r = 0; r < bg.rows; ++r) {
+      const float* f = fg[k].ptr<float>(r);
+      const int* up = above.ptr<int>(r);
+      const int* down = below.ptr<int>(r);
       for (int c = 0; c < bg.cols; ++c) {
-        const double v = fg[k].at<float>(r, c), t = 4 * noise[k];
-        if (v > t && above.at<int>(r, c) <= persistent) bright += v - t;
-        if (v < -t && below.at<int>(r, c) <= persistent) dark += -v - t;
+        const double v = f[c];
+        if (v > t && up[c] <= persistent) bright += v - t;
+        if (v < -t && down[c] <= persistent) dark += -v - t;
       }
+    }
+  }
   if (bright == 0 && dark == 0) return guessPolarity(frames.front(), bg);
   return dark >= bright ? Polarity::dark : Polarity::bright;
 }

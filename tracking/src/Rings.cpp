@@ -4,8 +4,10 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "Selection.hpp"
 #include "mmval/tracking/SceneDecisions.hpp"
 
 namespace mmval::tracking {
@@ -24,15 +26,17 @@ constexpr int kMaxCandidatesPerFrame = 300;
 constexpr std::size_t kRingFrames = 8;
 constexpr double kRelativeStrength = 0.3;
 
-double robustStd(const cv::Mat& m) {
-  std::vector<float> v(m.begin<float>(), m.end<float>());
-  if (v.empty()) return 0;
-  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  const float med = *mid;
-  for (auto& x : v) x = std::abs(x - med);
-  std::nth_element(v.begin(), mid, v.end());
-  return 1.4826 * *mid;
+/// 1.4826 x the median absolute deviation of a CV_32F image (exact medians).
+double robustStd(const cv::Mat& image) {
+  if (image.empty()) return 0;
+  const cv::Mat m = image.isContinuous() ? image : image.clone();
+  const float* p = m.ptr<float>();
+  const std::size_t n = m.total();
+  std::vector<float> scratch;
+  const float med = detail::kthSmallest(p, n, n / 2, scratch);
+  std::vector<float> v(n);
+  for (std::size_t i = 0; i < n; ++i) v[i] = std::abs(p[i] - med);
+  return 1.4826 * detail::kthSmallest(v.data(), n, n / 2, scratch);
 }
 
 struct RingTest {
@@ -139,19 +143,32 @@ RingGuess guessRings(const std::vector<cv::Mat>& frames) {
   RingGuess guess;
   SideCount bright, dark;
   const std::size_t n = std::min(frames.size(), kRingFrames);
-  for (std::size_t k = 0; k < n; ++k) {
-    const cv::Mat& raw = frames[k * frames.size() / n];
-    if (raw.rows <= 2 * kLevelOuterPx + 2 || raw.cols <= 2 * kLevelOuterPx + 2) continue;
-    cv::Mat f, g, coarse;
-    raw.convertTo(f, CV_32F);
-    cv::GaussianBlur(f, g, cv::Size(0, 0), kFineSigmaPx);
-    cv::GaussianBlur(f, coarse, cv::Size(0, 0), kCoarseSigmaPx);
-    const cv::Mat band = g - coarse;
-    // Noise of the smoothed frame: robust std of what the coarse blur leaves (an upper
-    // bound where particles are dense, which makes the test stricter).
-    const double noise = std::max(1e-6, robustStd(band));
-    countRings(g, band, +1, noise, bright);
-    countRings(g, band, -1, noise, dark);
+  // Each frame's band-pass and noise in parallel (independent); the candidates are counted
+  // in frame order, so the profile sums add up in the same order whatever the threads.
+  struct Filtered {
+    cv::Mat g, band;
+    double noise = 0;
+  };
+  std::vector<Filtered> filtered(n);
+  cv::parallel_for_(cv::Range(0, static_cast<int>(n)), [&](const cv::Range& range) {
+    for (int k = range.start; k < range.end; ++k) {
+      const cv::Mat& raw = frames[static_cast<std::size_t>(k) * frames.size() / n];
+      if (raw.rows <= 2 * kLevelOuterPx + 2 || raw.cols <= 2 * kLevelOuterPx + 2) continue;
+      Filtered& out = filtered[static_cast<std::size_t>(k)];
+      cv::Mat f, coarse;
+      raw.convertTo(f, CV_32F);
+      cv::GaussianBlur(f, out.g, cv::Size(0, 0), kFineSigmaPx);
+      cv::GaussianBlur(f, coarse, cv::Size(0, 0), kCoarseSigmaPx);
+      out.band = out.g - coarse;
+      // Noise of the smoothed frame: robust std of what the coarse blur leaves (an upper
+      // bound where particles are dense, which makes the test stricter).
+      out.noise = std::max(1e-6, robustStd(out.band));
+    }
+  });
+  for (const Filtered& f : filtered) {
+    if (f.band.empty()) continue;
+    countRings(f.g, f.band, +1, f.noise, bright);
+    countRings(f.g, f.band, -1, f.noise, dark);
   }
   guess.candidates = bright.candidates;
   guess.ringed = bright.ringed;

@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <vector>
 
+#include <opencv2/core/hal/intrin.hpp>
+
 namespace mmval::tracking::detail {
 
 /// The value std::nth_element would put at position k of v[0, n) (the k-th smallest,
@@ -17,8 +19,21 @@ namespace mmval::tracking::detail {
 /// faster than nth_element's introselect for n = 60-500, whose comparisons the CPU cannot
 /// predict.
 inline float kthSmallest(const float* v, std::size_t n, std::size_t k, std::vector<float>& scratch) {
+  // Extremes 4 values at a time (the values are finite, so v_min / v_max agree with
+  // std::min / std::max).
+  std::size_t i = 0;
   float lo = v[0], hi = v[0];
-  for (std::size_t i = 1; i < n; ++i) {
+  if (n >= 4) {
+    cv::v_float32x4 lo4 = cv::v_load(v), hi4 = lo4;
+    for (i = 4; i + 4 <= n; i += 4) {
+      const cv::v_float32x4 x = cv::v_load(v + i);
+      lo4 = cv::v_min(lo4, x);
+      hi4 = cv::v_max(hi4, x);
+    }
+    lo = cv::v_reduce_min(lo4);
+    hi = cv::v_reduce_max(hi4);
+  }
+  for (; i < n; ++i) {
     lo = std::min(lo, v[i]);
     hi = std::max(hi, v[i]);
   }
@@ -31,20 +46,28 @@ inline float kthSmallest(const float* v, std::size_t n, std::size_t k, std::vect
   constexpr std::size_t kMaxBins = 1024;
   const int bins = static_cast<int>(std::clamp<std::size_t>(n / 2, 8, kMaxBins));
   const float scale = static_cast<float>(bins - 1) / (hi - lo);
+  // (x - lo) * scale is monotone in x; clamped to [0, bins - 1] against rounding at hi.
+  thread_local std::vector<std::int32_t> bin_of;
+  bin_of.resize(n);
+  {
+    const cv::v_float32x4 vlo = cv::v_setall_f32(lo), vscale = cv::v_setall_f32(scale);
+    const cv::v_int32x4 zero = cv::v_setzero_s32(), top = cv::v_setall_s32(bins - 1);
+    for (i = 0; i + 4 <= n; i += 4)
+      cv::v_store(bin_of.data() + i, cv::v_min(cv::v_max(cv::v_trunc((cv::v_load(v + i) - vlo) * vscale), zero), top));
+    for (; i < n; ++i) bin_of[i] = std::clamp(static_cast<std::int32_t>((v[i] - lo) * scale), 0, bins - 1);
+  }
   std::uint32_t counts[kMaxBins];
   std::fill(counts, counts + bins, 0u);
-  // (x - lo) * scale is monotone in x and within [0, bins - 1] for x in [lo, hi].
-  thread_local std::vector<std::uint16_t> bin_of;
-  bin_of.resize(n);
-  for (std::size_t i = 0; i < n; ++i) bin_of[i] = static_cast<std::uint16_t>((v[i] - lo) * scale);
-  for (std::size_t i = 0; i < n; ++i) ++counts[bin_of[i]];
+  for (i = 0; i < n; ++i) ++counts[bin_of[i]];
   std::size_t below = 0;
-  std::uint16_t b = 0;
+  int b = 0;
   while (below + counts[b] <= k) below += counts[b++];
   // The values of bin b, gathered without branches (each value is written, kept if in b).
+  // (Measured on ring-like samples of 60-600 values, whose neighbours share bins: faster
+  // than interleaved histograms or skipping blocks without a value of b.)
   scratch.resize(static_cast<std::size_t>(counts[b]) + 1);
   std::size_t m = 0;
-  for (std::size_t i = 0; i < n; ++i) {
+  for (i = 0; i < n; ++i) {
     scratch[m] = v[i];
     m += bin_of[i] == b ? 1 : 0;
   }

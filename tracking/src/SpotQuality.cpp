@@ -7,7 +7,10 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <type_traits>
 #include <utility>
+
+#include <opencv2/core/hal/intrin.hpp>
 
 #include "DetectionGrid.hpp"
 #include "Selection.hpp"
@@ -95,6 +98,83 @@ struct Sym2 {
   }
 };
 
+/// Sums of the Gaussian-weighted moments over a window (see measureSpot).
+struct WindowMoments {
+  double s0 = 0, sxx = 0, syy = 0, sxy = 0;
+};
+
+/// The moments of (img - level) under the separable mask ex(x - cx + r) ey(y - cy + r)
+/// over the window of half-width r around (cx, cy) (clipped to the image), about (mx, my).
+/// Each row is summed along x in double precision, then the rows in order. Rows are taken
+/// two or four at a time in the lanes of double vectors: each lane does exactly the scalar
+/// operations of its row in the same order, so the sums are the same to the bit, but the
+/// rows' dependency chains (an addition each per pixel) run side by side.
+WindowMoments windowMoments(const cv::Mat& img, int cx, int cy, int r, double mx, double my, double level, const float* ex, const float* ey) {
+  WindowMoments m;
+  const int x0 = std::max(0, cx - r), x1 = std::min(img.cols - 1, cx + r);
+  const int y0 = std::max(0, cy - r), y1 = std::min(img.rows - 1, cy + r);
+  if (x1 < x0) return m;
+  const int n = x1 - x0 + 1;
+  double dxs[2 * 37 + 1], mask[2 * 37 + 1];  // per column: offset from mx, mask weight
+  for (int k = 0; k < n; ++k) {
+    dxs[k] = (x0 + k) - mx;
+    mask[k] = ex[x0 + k - cx + r];
+  }
+  auto addRow = [&](int y, double rw, double rx, double rxx) {
+    const double wy = ey[y - cy + r], dy = y - my;
+    m.s0 += rw * wy;
+    m.sxx += rxx * wy;
+    m.syy += rw * wy * dy * dy;
+    m.sxy += rx * wy * dy;
+  };
+  int y = y0;
+#if CV_SIMD128_64F
+  // Rows y .. y + 2 P - 1: row y + 2 p + l in lane l of vector p.
+  auto rowGroup = [&](auto pairs) {
+    constexpr int P = decltype(pairs)::value;
+    const cv::v_float64x2 vlevel = cv::v_setall_f64(level);
+    const float* rows[2 * P];
+    for (int j = 0; j < 2 * P; ++j) rows[j] = img.ptr<float>(y + j) + x0;
+    cv::v_float64x2 rw[P], rx[P], rxx[P];
+    for (int p = 0; p < P; ++p) rw[p] = rx[p] = rxx[p] = cv::v_setzero_f64();
+    for (int k = 0; k < n; ++k) {
+      const cv::v_float64x2 dx = cv::v_setall_f64(dxs[k]), mk = cv::v_setall_f64(mask[k]);
+      for (int p = 0; p < P; ++p) {
+        const cv::v_float64x2 w = (cv::v_float64x2(rows[2 * p][k], rows[2 * p + 1][k]) - vlevel) * mk;
+        const cv::v_float64x2 wdx = w * dx;
+        rw[p] = rw[p] + w;
+        rx[p] = rx[p] + wdx;
+        rxx[p] = rxx[p] + wdx * dx;
+      }
+    }
+    for (int p = 0; p < P; ++p) {
+      double lw[2], lx[2], lxx[2];
+      cv::v_store(lw, rw[p]);
+      cv::v_store(lx, rx[p]);
+      cv::v_store(lxx, rxx[p]);
+      addRow(y + 2 * p, lw[0], lx[0], lxx[0]);
+      addRow(y + 2 * p + 1, lw[1], lx[1], lxx[1]);
+    }
+    y += 2 * P;
+  };
+  // Four rows at a time keep six independent additions in flight, then a pair.
+  while (y + 3 <= y1) rowGroup(std::integral_constant<int, 2>{});
+  if (y + 1 <= y1) rowGroup(std::integral_constant<int, 1>{});
+#endif
+  for (; y <= y1; ++y) {
+    const float* row = img.ptr<float>(y) + x0;
+    double rw = 0, rx = 0, rxx = 0;
+    for (int k = 0; k < n; ++k) {
+      const double w = (row[k] - level) * mask[k], wdx = w * dxs[k];
+      rw += w;
+      rx += wdx;
+      rxx += wdx * dxs[k];
+    }
+    addRow(y, rw, rx, rxx);
+  }
+  return m;
+}
+
 constexpr double kFocusSignificance = 3;  ///< standard errors of a sigma beyond the focus limit
 constexpr double kFocusRoundness = 0.6;   ///< largest eccentricity of a spot judged blurred (principal axes 0.8:1)
 constexpr double kFocusDim = 0.5;         ///< a wide elongated spot is blurred when its peak is below this x the in-focus median
@@ -118,36 +198,28 @@ void measureSpot(const cv::Mat& zero_mean, const cv::Mat& frame, double sigma0, 
   int r = 0;
   bool ok = false;
   float ex[2 * 37 + 1], ey[2 * 37 + 1];
-  int level_r = -1;  // the window radius the background level below was taken for
+  // The background level per window radius it was taken for: the ring depends on r only,
+  // and the iterations mostly keep r or return to an earlier one.
+  std::array<std::pair<int, double>, kMomentIterations> levels;
+  int n_levels = 0;
   double level = 0;
   for (int it = 0; it < kMomentIterations; ++it) {
     r = std::max(2, static_cast<int>(std::ceil(3 * m)));
     // The local background: the median of a ring just outside the window (robust to a
     // neighbour or two in it), taken off the signal before the moments.
-    if (r != level_r) {  // the ring depends on r only: the iterations mostly keep it
+    const auto known = std::find_if(levels.begin(), levels.begin() + n_levels, [r](const auto& e) { return e.first == r; });
+    if (known != levels.begin() + n_levels) {
+      level = known->second;
+    } else {
       const double bg = ringMedian(zero_mean, cx, cy, r + 1, r + 3);
       level = std::isnan(bg) ? 0.0 : bg;
-      level_r = r;
+      levels[n_levels++] = {r, level};
     }
     const double a = 1 / (2 * m * m);
     gaussianRow(ex, 2 * r + 1, cx - r, d.x, a);
     gaussianRow(ey, 2 * r + 1, cy - r, d.y, a);
-    double s0 = 0, sxx = 0, syy = 0, sxy = 0;
-    for (int y = std::max(0, cy - r); y <= std::min(zero_mean.rows - 1, cy + r); ++y) {
-      const float* row = zero_mean.ptr<float>(y);
-      const double wy = ey[y - cy + r], dy = y - d.y;
-      double rw = 0, rx = 0, rxx = 0;
-      for (int x = std::max(0, cx - r); x <= std::min(zero_mean.cols - 1, cx + r); ++x) {
-        const double w = (row[x] - level) * ex[x - cx + r], dx = x - d.x;
-        rw += w;
-        rx += w * dx;
-        rxx += w * dx * dx;
-      }
-      s0 += rw * wy;
-      sxx += rxx * wy;
-      syy += rw * wy * dy * dy;
-      sxy += rx * wy * dy;
-    }
+    const WindowMoments mom = windowMoments(zero_mean, cx, cy, r, d.x, d.y, level, ex, ey);
+    const double s0 = mom.s0, sxx = mom.sxx, syy = mom.syy, sxy = mom.sxy;
     if (!(s0 > 0)) break;
     const Sym2 v{sxx / s0, sxy / s0, syy / s0};
     const auto ev = v.eigen();

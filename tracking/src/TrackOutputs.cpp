@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <vector>
@@ -76,10 +77,12 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
     files.push_back(name);
   };
   std::string det = "frame,t_s,x_px,y_px,x_um,y_um,area_px2,mass,peak\n";
+  // Formatted straight into the file's text (no string per row).
+  auto det_out = std::back_inserter(det);
   for (std::size_t k = 0; k < run.detections.size(); ++k)
     for (const auto& d : run.detections[k])
-      det += fmt::format("{},{:.6g},{:.4f},{:.4f},{:.4f},{:.4f},{:.1f},{:.4g},{:.4g}\n", run.frame_index[k], run.frame_index[k] / c.fps, d.x, d.y,
-                         d.x * c.pixel_size * 1e6, d.y * c.pixel_size * 1e6, d.area, d.mass, d.peak);
+      fmt::format_to(det_out, "{},{:.6g},{:.4f},{:.4f},{:.4f},{:.4f},{:.1f},{:.4g},{:.4g}\n", run.frame_index[k], run.frame_index[k] / c.fps, d.x, d.y,
+                     d.x * c.pixel_size * 1e6, d.y * c.pixel_size * 1e6, d.area, d.mass, d.peak);
   put("detections.csv", det);
   const auto png = [&](const std::string& name, const cv::Mat& m) {
     const auto t = temporaryPathFor(dir / name);
