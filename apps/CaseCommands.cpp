@@ -153,8 +153,13 @@ void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
   val->add_option("--out", val_opts->out, "Output folder")->capture_default_str();
   val->add_option("--cases", val_opts->cases,
                   "Folder of case files (default: the cases/ of mmval's data folder: $MMVAL_DATA_DIR, the installed share/mmval, or the source tree)");
-  val->add_option("--tag", val_opts->tag, "Run the cases carrying this tag in case.tags ('all' for every case)")->capture_default_str();
-  val->add_flag("--full", val_opts->full, "Also run the cases tagged 'full' (resolution ladders, full-length scenes)");
+  val->add_option("--tag", val_opts->tag,
+                  "Run the cases carrying this tag in case.tags ('all' for every case); cases also tagged 'full' only with --full "
+                  "(e.g. --tag paper: the paper's scenes at validation length; --tag paper --full: with the full-length ones)")
+      ->capture_default_str();
+  val->add_flag("--full", val_opts->full,
+                "Also run the cases tagged 'full' (resolution ladders, full-length scenes): with the default tag every case tagged 'full', "
+                "with --tag T those tagged both T and 'full'");
   val->add_flag("--resume", val_opts->resume,
                 "Keep complete runs already in OUT whose case file is unchanged (same hash) and resume interrupted ones from their checkpoints");
   val->add_flag("--quiet", val_opts->quiet, "No progress output");
@@ -162,8 +167,8 @@ void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
     validate::ValidationOptions options;
     options.out = val_opts->out;
     options.cases = val_opts->cases;
-    options.tags = {val_opts->tag};
-    if (val_opts->full) options.tags.push_back("full");
+    options.tag = val_opts->tag;
+    options.full = val_opts->full;
     options.resume = val_opts->resume;
     options.quiet = val_opts->quiet;
     const validate::ValidationResult r = validate::runValidation(options, registry);

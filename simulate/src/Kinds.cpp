@@ -210,6 +210,7 @@ CaseKind channelKind() {
 
 void registerFluidKinds(CaseKindRegistry& registry) {
   registry.add(channelKind());
+  registry.add(chipGeneratorKind());
   registry.add(periodicArrayKind());
   registry.add(cylinderChannelKind());
   registry.add(imagePermeabilityKind());

@@ -171,6 +171,7 @@ const std::map<std::string, KindSources>& sources() {
   static const std::map<std::string, KindSources> s = {
       {"channel", {{{"simulate/src/Kinds.cpp", "", ""}}}},
       {"periodic-array", {{{"simulate/src/KindsPorous.cpp", "CaseKind periodicArrayKind()", "CaseKind imagePermeabilityKind()"}}}},
+      {"chip-generator", {{{"simulate/src/KindsChip.cpp", "", ""}}}},
       {"cylinder-channel", {{{"simulate/src/KindsCylinder.cpp", "", ""}, {"simulate/src/KindsCylinderUnsteady.cpp", "", ""}}}},
       {"image-permeability",
        {{{"simulate/src/KindsPorous.cpp", "", "CaseKind periodicArrayKind()"}, {"simulate/src/KindsPorous.cpp", "CaseKind imagePermeabilityKind()", ""}}}},

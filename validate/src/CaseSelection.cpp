@@ -11,21 +11,44 @@ namespace fs = std::filesystem;
 
 namespace mmval::validate {
 
-std::vector<fs::path> casesTagged(const fs::path& dir, const std::vector<std::string>& wanted, const CaseKindRegistry& registry) {
+namespace {
+bool has(const std::vector<std::string>& tags, const std::string& tag) { return std::find(tags.begin(), tags.end(), tag) != tags.end(); }
+
+std::vector<fs::path> caseFiles(const fs::path& dir) {
   if (!fs::is_directory(dir)) throw InputError({dir.string(), 0, 0, {}}, "cases folder not found", dir.string(), "a folder of *.toml case files (--cases)");
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(dir))
     if (e.path().extension() == ".toml") files.push_back(e.path());
   std::sort(files.begin(), files.end());
+  return files;
+}
+}  // namespace
+
+bool caseSelected(const std::vector<std::string>& case_tags, const std::string& tag, bool full) {
+  if (tag == "all") return true;
+  const bool is_full = has(case_tags, "full");
+  if (tag == "default") return has(case_tags, "default") || (full && is_full);
+  if (tag == "full") return is_full;
+  return has(case_tags, tag) && (full || !is_full);
+}
+
+bool fullOnlyTag(const fs::path& dir, const std::string& tag, const CaseKindRegistry& registry) {
+  for (const auto& f : caseFiles(dir)) {
+    const Case c = Case::load(f, registry);
+    const auto& tags = c.strings("case.tags");
+    if (has(tags, tag) && has(tags, "full")) return true;
+  }
+  return false;
+}
+
+std::vector<fs::path> casesTagged(const fs::path& dir, const std::string& tag, bool full, const CaseKindRegistry& registry) {
+  const std::vector<fs::path> files = caseFiles(dir);
   // Comparisons read other cases' outputs, so they run after everything else.
   std::vector<fs::path> out, last;
   std::map<std::string, fs::path> by_name;  // run folders are named after the case: one case per name
   for (const auto& f : files) {
     const Case c = Case::load(f, registry);
-    const auto& tags = c.strings("case.tags");
-    const bool chosen = std::any_of(wanted.begin(), wanted.end(), [&](const std::string& tag) {
-      return tag == "all" || std::find(tags.begin(), tags.end(), tag) != tags.end();
-    });
+    const bool chosen = caseSelected(c.strings("case.tags"), tag, full);
     if (!chosen) continue;
     const auto [it, fresh] = by_name.emplace(c.name(), f);
     if (!fresh)

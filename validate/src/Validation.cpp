@@ -60,10 +60,13 @@ ValidationResult runValidation(const ValidationOptions& options, const CaseKindR
   const fs::path& out = result.out;
   requireOwnedFolder(out);
   const fs::path cases_dir = casesFolder(options.cases);
-  const auto files = casesTagged(cases_dir, options.tags, registry);
-  if (files.empty())
-    throw InputError({cases_dir.string(), 0, 0, "case.tags"}, "no case carries the tag '" + (options.tags.empty() ? std::string() : options.tags.front()) + "'",
-                     {}, "at least one case to run");
+  const auto files = casesTagged(cases_dir, options.tag, options.full, registry);
+  if (files.empty()) {
+    if (!options.full && fullOnlyTag(cases_dir, options.tag, registry))
+      throw InputError({"(command line)", 0, 0, "--tag"}, "every case tagged '" + options.tag + "' is also tagged 'full' (run with --full)", options.tag,
+                       "--tag " + options.tag + " --full, or a tag that cases without 'full' carry");
+    throw InputError({cases_dir.string(), 0, 0, "case.tags"}, "no case carries the tag '" + options.tag + "'", {}, "at least one case to run");
+  }
   std::fprintf(stderr, "validate: %zu case(s) from %s\n", files.size(), cases_dir.string().c_str());
   fs::create_directories(out / "runs");
   const FolderLock lock(out, out.string());

@@ -22,5 +22,7 @@ CaseKind channelKind();
 CaseKind periodicArrayKind();
 CaseKind cylinderChannelKind();
 CaseKind imagePermeabilityKind();
+/// The micromodel generator as a case kind (KindsChip.cpp): `mmval chip` run from a case file.
+CaseKind chipGeneratorKind();
 
 }  // namespace mmval::simulate

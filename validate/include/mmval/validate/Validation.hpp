@@ -19,7 +19,8 @@ namespace mmval::validate {
 struct ValidationOptions {
   std::string out = "out/validate";  ///< as given (--out); normalised by runValidation
   std::string cases;              ///< cases folder; empty: casesFolder's search (CaseSelection.hpp)
-  std::vector<std::string> tags;  ///< a case runs when its case.tags holds one of these ("all": every case)
+  std::string tag = "default";    ///< --tag: which cases run (caseSelected, CaseSelection.hpp)
+  bool full = false;              ///< --full: also the cases tagged "full" of that selection
   bool resume = false;            ///< keep complete runs of unchanged cases (same hash), resume interrupted ones
   bool quiet = false;             ///< no per-run progress output (the per-case lines on stderr stay)
 };
