@@ -179,16 +179,21 @@ TEST(Report, PaperTablesPermeabilityAndRetentionFromTheRunsPresent) {
   fakeRun(dir / "runs" / "st", "st", "cylinder-channel", nlohmann::json::array({typedInfo("c_D", "c_D", "", "confined-channel-cylinder", 5.58)}), {{"Re", 20.0}});
   fakeRun(dir / "runs" / "chip", "chip", "image-permeability",
           nlohmann::json::array({info("permeability", 2.7, "D"), info("porosity_total", 0.61, "1"), info("porosity_connected", 0.6, "1")}));
+  // A generated chip: its column carries the converged k with its GCI and says it was built to the measured values.
+  fakeRun(dir / "runs" / "gen", "gen", "chip-generator",
+          nlohmann::json::array({info("permeability_depth_averaged_extrapolated", 2.387, "D"), info("permeability_depth_averaged_gci", 0.019, "1"),
+                                 info("porosity_connected", 0.58, "1")}));
   const ReportInput input = collect({dir});
-  ASSERT_EQ(input.summary.results.size(), 6u);
+  ASSERT_EQ(input.summary.results.size(), 7u);
   writeReport(input, dir / "report");
   const std::string md = slurp(dir / "report" / "report.md");
   // Table 1: the paper's columns at Re 20 (2.2, 2.04, 2.06, 2.16, 2.13), Dennis & Chang 2.045, ours and OpenFOAM.
   EXPECT_THAT(md, ::testing::HasSubstr("| 20 | 2.2 | 2.04 | 2.06 | 2.16 | 2.13 | 2.045 | 2.1 | -1.4 % | 2.237 | +5.0 % |"));
   EXPECT_THAT(md, ::testing::HasSubstr("| 100 | 1.4 | 1.39 | 1.3 | 1.32 | 1.38 | - | not run | - | not run | - |"));
   // Table 2: measured 2.5 D / 0.58, paper model 2.65 D / 0.62, ours.
-  EXPECT_THAT(md, ::testing::HasSubstr("| permeability (D) | 2.5 | 2.65 | 2.7 |"));
-  EXPECT_THAT(md, ::testing::HasSubstr("| porosity | 0.58 | 0.62 | 0.61 (0.6) |"));
+  EXPECT_THAT(md, ::testing::HasSubstr("| permeability (D) | 2.5 | 2.65 | 2.7 | 2.387 (GCI 1.9 %) |"));
+  EXPECT_THAT(md, ::testing::HasSubstr("| porosity | 0.58 | 0.62 | 0.61 (0.6) | 0.58 |"));
+  EXPECT_THAT(md, ::testing::HasSubstr("ours: gen (generated to the measured values)"));
   // Table 3 case III: 20 % reduction against the paper's 23.2 %.
   EXPECT_THAT(md, ::testing::HasSubstr("| fines-case-III | III | 100 | 0.8000 | 20.00 % | 23.2 % | -3.20 points |"));
   const auto metrics = nlohmann::json::parse(slurp(dir / "report" / "metrics.json"));
