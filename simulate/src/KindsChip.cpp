@@ -148,14 +148,10 @@ CaseKind chipGeneratorKind() {
   k.metrics = chipGeneratorMetrics;
   k.run = [](const Case& c, const RunContext& ctx) {
     const ChipSpec spec = specOf(c);
-    try {
-      validateChipSpec(spec);  // before anything is generated
-    } catch (const InputError& e) {
-      rethrowAtKey(c, e);
-    }
     const bool quiet = ctx.quiet;
     ChipResult r;
     try {
+      validateChipSpec(spec);  // before anything is generated
       r = generateChip(spec, [quiet](const std::string& line) {
         if (!quiet && PetscSession::rank() == 0) std::fprintf(stderr, "%s\n", line.c_str());
       });

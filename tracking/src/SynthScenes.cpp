@@ -58,9 +58,15 @@ void applySharedSettings(const SynthSharedSettings& s, DiscSceneOptions& o) { ap
 
 namespace {
 
-/// Files written into the staging folder, as paths in the committed folder.
-void rebase(std::vector<std::string>& files, const StagedDirectory& staged) {
-  for (std::string& f : files) f = (staged.finalPath() / std::filesystem::path(f).lexically_relative(staged.path())).string();
+/// Runs `write` into a staging folder for `out`, commits it, and returns its result with the
+/// file paths of `files` moved from the staging folder to the committed one.
+template <class Result, class Write>
+Result writeStaged(const std::filesystem::path& out, Write&& write, std::vector<std::string> Result::*files) {
+  StagedDirectory staged(out);
+  Result r = write(staged.path());
+  staged.commit();
+  for (std::string& f : r.*files) f = (staged.finalPath() / std::filesystem::path(f).lexically_relative(staged.path())).string();
+  return r;
 }
 
 /// The pore image as grains (CV_8U, 255 = grain), checked against the memory limit before it is decoded.
@@ -96,11 +102,7 @@ SynthResult writeFlowScene(FlowSceneSettings s, const std::filesystem::path& out
       throw InputError({s.geometry.string(), 0, 0, "--geometry"}, e.what(), {}, "an image with a connected pore path from the left to the right edge");
     }
   }
-  StagedDirectory staged(out);
-  SynthResult r = writeSyntheticVideo(o, staged.path());
-  staged.commit();
-  rebase(r.frames, staged);
-  return r;
+  return writeStaged(out, [&o](const std::filesystem::path& dir) { return writeSyntheticVideo(o, dir); }, &SynthResult::frames);
 }
 
 namespace {
@@ -131,11 +133,7 @@ void checkSlab(const SlabSceneSettings& settings) {
 
 BrownianSlabResult writeSlabScene(const SlabSceneSettings& settings, const std::filesystem::path& out) {
   checkSlab(settings);
-  StagedDirectory staged(out);
-  BrownianSlabResult r = writeBrownianSlabVideo(settings.slab, staged.path());
-  staged.commit();
-  rebase(r.files, staged);
-  return r;
+  return writeStaged(out, [&settings](const std::filesystem::path& dir) { return writeBrownianSlabVideo(settings.slab, dir); }, &BrownianSlabResult::files);
 }
 
 RingSceneResult writeRingSceneFolder(const RingSceneOptions& r, const std::filesystem::path& out) {
@@ -143,11 +141,7 @@ RingSceneResult writeRingSceneFolder(const RingSceneOptions& r, const std::files
   requireOptionValue("--diffusion-px2", r.diffusion_px2, 0, false, 1e4, "a diffusion coefficient in px^2 per frame, finite and >= 0");
   requireOptionValue("--illumination-gradient", r.illumination_gradient, -0.89, false, 0.89, "a fraction between -0.89 and 0.89");
   try {
-    StagedDirectory staged(out);
-    RingSceneResult result = writeRingScene(r, staged.path());
-    staged.commit();
-    rebase(result.files, staged);
-    return result;
+    return writeStaged(out, [&r](const std::filesystem::path& dir) { return writeRingScene(r, dir); }, &RingSceneResult::files);
   } catch (const std::invalid_argument& e) {
     throw InputError({}, e.what(), {}, "fewer or smaller rings (--particles, --ring-radius-px) or a larger frame (--width, --height)");
   }
@@ -155,11 +149,7 @@ RingSceneResult writeRingSceneFolder(const RingSceneOptions& r, const std::files
 
 DiscSceneResult writeDiscSceneFolder(const DiscSceneOptions& d, const std::filesystem::path& out) {
   try {
-    StagedDirectory staged(out);
-    DiscSceneResult result = writeDiscScene(d, staged.path());
-    staged.commit();
-    rebase(result.files, staged);
-    return result;
+    return writeStaged(out, [&d](const std::filesystem::path& dir) { return writeDiscScene(d, dir); }, &DiscSceneResult::files);
   } catch (const std::invalid_argument& e) {
     throw InputError({}, e.what(), {}, "fewer discs (--particles) or a larger frame (--width, --height)");
   }
