@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "../ResultJson.hpp"
 #include "RunMmval.hpp"
 #include "../../apps/SweepCommand.hpp"
 #include "mmval/core/Error.hpp"
@@ -21,17 +22,8 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-nlohmann::json readJson(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
-
-double metricOf(const nlohmann::json& result, const std::string& name) {
-  for (const auto& m : result.at("metrics"))
-    if (m.at("name") == name) return m.at("value").get<double>();
-  ADD_FAILURE() << "no metric " << name;
-  return std::nan("");
-}
+using mmval::test::metricOf;
+using mmval::test::readJson;
 
 const std::string kChannel = std::string(MMVAL_SOURCE_DIR) + "/cases/particles-channel.toml";
 // A small channel scene (about 0.5 s a run): 40 fines, 4 s.

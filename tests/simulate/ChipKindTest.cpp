@@ -11,6 +11,7 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Run.hpp"
 
+#include "../ResultJson.hpp"
 #include "../TestScratch.hpp"
 #include "FluidRegistry.hpp"
 
@@ -27,17 +28,8 @@ std::string tinyChip(const std::string& geometry = "min_throat_px = 2\n") {
          "[target]\nporosity = 0.65\n[grains]\nmean_diameter = \"40 um\"\n[numerics]\ntile = \"0.2 mm\"\ncells_per_pixel = 1\nladder = [0.5, 1, 2]\n";
 }
 
-nlohmann::json readJson(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
-
-double metricOf(const nlohmann::json& result, const std::string& name) {
-  for (const auto& m : result.at("metrics"))
-    if (m.at("name") == name) return m.at("value").get<double>();
-  ADD_FAILURE() << "no metric " << name;
-  return std::nan("");
-}
+using mmval::test::metricOf;
+using mmval::test::readJson;
 
 }  // namespace
 
