@@ -17,6 +17,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "PipelineDetail.hpp"
+#include "TrackerTuning.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/tracking/Background.hpp"
 #include "mmval/tracking/LargeDiscs.hpp"
@@ -28,6 +29,401 @@ namespace mmval::tracking {
 using namespace detail;
 
 namespace {
+
+constexpr const PipelineTuning& kTune = kPipelineTuning;
+
+/// Wall time of runTracker's stages (TrackRun::stage_seconds) and of the whole run.
+class StageClock {
+ public:
+  StageClock() : m_start(std::chrono::steady_clock::now()), m_lap(m_start) {}
+  void lap(TrackRun& run, const char* stage) {
+    const auto now = std::chrono::steady_clock::now();
+    run.stage_seconds.emplace_back(stage, std::chrono::duration<double>(now - m_lap).count());
+    m_lap = now;
+  }
+  double total() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count(); }
+
+ private:
+  std::chrono::steady_clock::time_point m_start, m_lap;
+};
+
+// ---- Stage 1: which frames the decisions sample -----------------------------------------
+
+/// What the configuration decides before any frame is read.
+struct FramePlan {
+  int threads = 1;                 ///< workers decoding and detecting frames
+  bool large_discs = false;        ///< discs found whole by their rims on the frame itself (LargeDiscs.hpp)
+  bool background_wanted = false;  ///< a temporal background may be subtracted: its frames are sampled
+  bool sample_polarity = false;    ///< the polarity and ring guesses sample frames
+};
+
+FramePlan planFrames(const TrackConfig& c) {
+  FramePlan p;
+  // threads 0: every core (the decoding and detection of frames are independent).
+  p.threads = c.threads > 0 ? c.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  // A disc-centroid size of kMinDiscRadiusPx or more (--diameter 41 and up): large discs,
+  // found whole by their rims (LargeDiscs.hpp) on the frame itself, radii 0.7-1.3 x it. That
+  // path needs no background, ring or polarity guess, so none of their frames is sampled.
+  p.large_discs = c.detect.refinement == Refinement::disc && c.detect.refine_radius >= kMinDiscRadiusPx;
+  p.background_wanted = !p.large_discs && c.detect.subtract_background && c.detect.background_mode != BackgroundMode::none;
+  p.sample_polarity = !p.large_discs && (c.detect.polarity == Polarity::automatic || c.detect.polarity == Polarity::ring);
+  return p;
+}
+
+/// Every frame is decoded once: the samplers read only the frames they keep, in one
+/// forward pass (videos), into the source's cache, which the main pass reads.
+void prefetchSamples(FrameSource& source, const TrackConfig& c, const FramePlan& plan) {
+  std::vector<int> sampled;
+  if (plan.background_wanted) {
+    sampled = samplePositions(source.count(), c.detect.background_samples);
+    if (c.background_window > 0)
+      for (const auto& block : rollingSamplePositions(source.count(), c.background_window, std::min(c.background_window, c.detect.background_samples)))
+        sampled.insert(sampled.end(), block.begin(), block.end());
+  }
+  if (plan.sample_polarity) {
+    const std::vector<int> more = samplePositions(source.count(), kTune.polarity_samples);
+    sampled.insert(sampled.end(), more.begin(), more.end());
+  }
+  source.prefetch(sampled, plan.threads);
+}
+
+// ---- Stage 2: the temporal background ---------------------------------------------------
+
+struct SampledBackground {
+  std::vector<cv::Mat> frames;  ///< the median's frames, kept for the background decision (read once)
+  cv::Mat median;               ///< their per-pixel quantile (c.background_quantile)
+  RollingBackground rolling;    ///< per block of c.background_window frames, when set
+};
+
+SampledBackground sampleBackground(FrameSource& source, const TrackConfig& c, const FramePlan& plan) {
+  SampledBackground b;
+  if (!plan.background_wanted) return b;
+  b.frames = sampleFrames(source, c.detect.background_samples);
+  b.median = quantileOfFrames(b.frames, c.background_quantile);
+  if (c.background_window > 0)
+    b.rolling = rollingBackground(source, c.background_window, std::min(c.background_window, c.detect.background_samples), c.background_quantile);
+  return b;
+}
+
+/// Brownian steps are uncorrelated: linked without prediction when the motion is known
+/// to be Brownian; with "auto" the tracks decide after linking (chooseMotion).
+LinkOptions linkOptions(const TrackConfig& c) {
+  LinkOptions o = c.link;
+  if (c.analysis.motion == MotionModel::brownian && o.predict == Prediction::automatic) o.predict = Prediction::none;
+  return o;
+}
+
+// ---- Stages 3-5: polarity and background decisions ---------------------------------------
+
+/// What each frame's detection is given: the polarity and the options with what the
+/// video decides (ring filter, spatial high-pass).
+struct DetectionSetup {
+  Polarity polarity = Polarity::automatic;
+  std::string reason;  ///< why this polarity (TrackRun::polarity_reason)
+  DetectOptions options;
+};
+
+/// detect.polarity as set, or guessed from `frames` (spread over the video, not the first
+/// alone: the first frame of a scene can hold no moving particle yet, only the absence of
+/// deposits that arrive later); ring colloids get their matched filter.
+DetectionSetup choosePolarity(const TrackConfig& c, const FramePlan& plan, const RingGuess& ring, const std::vector<cv::Mat>& frames, const cv::Mat& median) {
+  DetectionSetup s;
+  s.options = c.detect;
+  s.polarity = c.detect.polarity;
+  if (plan.large_discs) {
+    s.polarity = Polarity::bright;
+    s.reason = fmt::format("large discs: detect.refinement = \"disc\" with detect.refine_radius = {} px (>= {} px, e.g. --diameter {}): "
+                           "each disc found once, at the centre of a circle fitted to its bright rim, radii {:.0f}-{:.0f} px",
+                           c.detect.refine_radius, kMinDiscRadiusPx, 2 * c.detect.refine_radius + 1, kTune.disc_radius_low * c.detect.refine_radius,
+                           kTune.disc_radius_high * c.detect.refine_radius);
+  } else if (s.polarity == Polarity::automatic) {
+    if (ring.rings) {
+      s.polarity = Polarity::ring;
+      s.reason = ring.reason;
+    } else {
+      s.polarity = guessPolarity(frames, median);
+      s.reason = fmt::format("{}; the side (darker or brighter than the background) with more moving foreground", ring.reason);
+    }
+  } else {
+    s.reason = fmt::format("detect.polarity = \"{}\"", polarityName(s.polarity));
+  }
+  if (s.polarity == Polarity::ring) {
+    s.options.ring_radius_px = ring.rings ? ring.radius_px : static_cast<double>(c.detect.refine_radius);
+    s.options.ring_kernel = ringKernel(ring.rings ? ring.profile : std::vector<float>{}, s.options.ring_radius_px);
+  }
+  return s;
+}
+
+/// detect.background: as set, or decided from `frames`, those sampled for the median.
+BackgroundDecision chooseBackground(const std::vector<cv::Mat>& frames, const TrackConfig& c, Polarity polarity, const DetectOptions& options, const cv::Mat& median) {
+  BackgroundDecision d;
+  d.requested = c.detect.subtract_background ? backgroundModeName(c.detect.background_mode) : "none";
+  if (!c.detect.subtract_background || c.detect.background_mode == BackgroundMode::none) {
+    d.subtract = false;
+    d.reason = c.detect.subtract_background ? "detect.background = \"none\"" : "detect.subtract_background = false";
+    return d;
+  }
+  if (c.detect.background_mode == BackgroundMode::median) {
+    d.reason = "detect.background = \"median\"";
+    return d;
+  }
+  if (c.detect.polarity == Polarity::automatic && polarity != Polarity::ring) {
+    // The polarity guess leans on the median, which is what is in question: judged on the
+    // side that shows more spots against a spatial high-pass (the particles).
+    d = decideBackground(frames, median, Polarity::automatic, options);
+  } else {
+    d = decideBackground(frames, median, polarity, options);
+  }
+  d.requested = "auto";
+  return d;
+}
+
+/// Whether the temporal background is subtracted (large discs: never), and what follows
+/// when it is not: the median and the rolling background are dropped from `background`,
+/// a guessed polarity is judged within each frame instead, and a spatial high-pass evens
+/// the illumination. The sampled frames are released.
+BackgroundDecision settleBackground(const TrackConfig& c, const FramePlan& plan, const std::vector<cv::Mat>& polarity_frames, SampledBackground& background,
+                                    DetectionSetup& setup) {
+  BackgroundDecision d;
+  if (plan.large_discs) {
+    d.requested = c.detect.subtract_background ? backgroundModeName(c.detect.background_mode) : "none";
+    d.subtract = false;
+    d.reason = "large discs are detected on the frame itself (a still disc is its own median)";
+  } else {
+    d = chooseBackground(background.frames, c, setup.polarity, setup.options, background.median);
+  }
+  background.frames.clear();
+  if (!d.subtract) {
+    background.median.release();
+    background.rolling = RollingBackground{};
+    // Without a temporal background the polarity is judged within each frame (a temporal
+    // median of still particles is the particles, and the foreground against it noise).
+    if (c.detect.polarity == Polarity::automatic && setup.polarity != Polarity::ring && !plan.large_discs) {
+      setup.polarity = guessPolaritySpatial(polarity_frames);
+      setup.reason += fmt::format("; with no background subtracted: {} (more band-passed excess on that side)", polarityName(setup.polarity));
+    }
+    // Decided from the video: a spatial high-pass of the particle's radius (trackpy's band
+    // pass) evens the illumination instead.
+    if (plan.background_wanted && setup.options.local_background == 0 && setup.polarity != Polarity::ring)
+      setup.options.local_background = std::max(2, setup.options.refine_radius);
+  }
+  return d;
+}
+
+// ---- Stage 6: detection over the frames, linked in order ---------------------------------
+
+/// What the pass over the frames leaves beside the linked detections, for the joins of
+/// stuck and deposited particles: the stuck-particle candidates (spots of the median
+/// background), per candidate the frames it is missing from (there the frame is brighter,
+/// for dark polarity, than the background by about the spot's amplitude), and about a
+/// dozen frames spread over the video kept whole (where a track ends, they tell whether a
+/// particle of the background was missing before and there after).
+struct StuckEvidence {
+  std::vector<Detection> stuck;
+  std::vector<std::vector<int>> absent;
+  std::map<int, cv::Mat> references;
+};
+
+/// One frame's work, callable from any thread once prepare() has seen the first frame:
+/// its detections, and the absence test of the stuck candidates.
+class FrameDetector {
+ public:
+  FrameDetector(const TrackConfig& c, const FramePlan& plan, const cv::Mat& background, const RollingBackground& rolling, DetectionSetup& setup,
+                int frame_count)
+      : m_c(c),
+        m_plan(plan),
+        m_background(background),
+        m_rolling(rolling),
+        m_setup(setup),
+        m_reference_stride(frame_count > 0 ? std::max(1, frame_count / kTune.reference_spacing) : kTune.reference_stride_unknown),
+        m_stuck_ready(!(c.detect.find_stuck && !background.empty())) {}
+
+  /// Fixes what the first frame decides: a polarity still open, and the stuck candidates.
+  void prepare(const cv::Mat& first) {
+    if (m_setup.polarity == Polarity::automatic) m_setup.polarity = guessPolarity(first, m_background);
+    if (!m_stuck_ready) {
+      m_evidence.stuck = detectStuck(m_background, m_setup.polarity, m_setup.options);
+      m_evidence.absent.assign(m_evidence.stuck.size(), {});
+      m_stuck_ready = true;
+    }
+  }
+
+  std::vector<Detection> operator()(const cv::Mat& f, int frame_number) {
+    if (m_c.detect.find_stuck && !m_background.empty() && frame_number % m_reference_stride == 0) {
+      const std::lock_guard<std::mutex> lock(m_reference_mutex);
+      if (m_evidence.references.size() < kTune.max_references) m_evidence.references[frame_number] = f.clone();
+    }
+    if (!m_evidence.stuck.empty()) {
+      std::vector<std::size_t> missing;
+      // Dark particles: (background - frame), ~0 while the particle is there, about minus
+      // its amplitude once it has gone.
+      const double sign = m_setup.polarity == Polarity::dark ? -1.0 : 1.0;
+      for (std::size_t i = 0; i < m_evidence.stuck.size(); ++i) {
+        const Detection& s = m_evidence.stuck[i];
+        if (spotDifference(f, m_background, s.x, s.y, sign) < -kTune.missing_fraction * s.peak) missing.push_back(i);
+      }
+      const std::lock_guard<std::mutex> lock(m_absent_mutex);
+      for (std::size_t i : missing) m_evidence.absent[i].push_back(frame_number);
+    }
+    if (m_plan.large_discs)
+      return detectDiscs(f, kTune.disc_radius_low * m_setup.options.refine_radius, kTune.disc_radius_high * m_setup.options.refine_radius);
+    return detect(f, m_rolling.backgrounds.empty() ? m_background : m_rolling.at(frame_number), m_setup.polarity, m_setup.options);
+  }
+
+  StuckEvidence take() { return std::move(m_evidence); }
+
+ private:
+  const TrackConfig& m_c;
+  const FramePlan& m_plan;
+  const cv::Mat& m_background;
+  const RollingBackground& m_rolling;
+  DetectionSetup& m_setup;
+  const int m_reference_stride;
+  bool m_stuck_ready;
+  StuckEvidence m_evidence;
+  std::mutex m_reference_mutex, m_absent_mutex;
+};
+
+/// Takes each frame's detections in frame order: linked, and kept (run.detections,
+/// run.frame_index).
+class InOrderLinker {
+ public:
+  InOrderLinker(TrackLinker& linker, TrackRun& run, Progress& progress) : m_linker(linker), m_run(run), m_progress(progress) {}
+  void operator()(int index, std::vector<Detection>&& found) {
+    m_linker.push(index, found);
+    m_run.detections.push_back(std::move(found));
+    m_run.frame_index.push_back(index);
+    m_progress.advance();
+  }
+
+ private:
+  TrackLinker& m_linker;
+  TrackRun& m_run;
+  Progress& m_progress;
+};
+
+/// OpenCV's own thread pool held to `threads` while it lives, restored after: while our
+/// workers each detect a frame, each worker's OpenCV calls (blur, subtract) would
+/// otherwise fan out over every core again (oversubscription on a machine with few cores).
+class OpenCvThreads {
+ public:
+  explicit OpenCvThreads(int threads) : m_before(cv::getNumThreads()) { cv::setNumThreads(threads); }
+  ~OpenCvThreads() { cv::setNumThreads(m_before); }
+  OpenCvThreads(const OpenCvThreads&) = delete;
+  OpenCvThreads& operator=(const OpenCvThreads&) = delete;
+
+ private:
+  int m_before;
+};
+
+/// Image files: `threads` workers each read (decode) and detect whole frames, taking the
+/// next frame number from a shared counter; this thread links them in order as they
+/// complete. The first frame, `frame` (`index`), already read, fixes polarity, size and
+/// 16-bit range.
+void detectFilesInParallel(FrameSource& source, int threads, const cv::Mat& frame, int index, FrameDetector& detector, InOrderLinker& link) {
+  detector.prepare(frame);
+  const int n = source.count();
+  std::vector<std::vector<Detection>> found(static_cast<std::size_t>(n));
+  std::vector<int> frame_of(static_cast<std::size_t>(n), 0);
+  std::vector<char> done(static_cast<std::size_t>(n), 0);
+  std::vector<std::exception_ptr> failed(static_cast<std::size_t>(n));
+  std::mutex m;
+  std::condition_variable ready;
+  std::atomic<int> next_pos{1};
+  std::atomic<bool> stop{false};
+  found[0] = detector(frame, index);
+  frame_of[0] = index;
+  done[0] = 1;
+  auto worker = [&] {
+    cv::Mat f;
+    for (int pos; !stop && (pos = next_pos++) < n;) {
+      std::exception_ptr error;
+      std::vector<Detection> d;
+      int at = 0;
+      try {
+        source.readAt(pos, f, at);
+        d = detector(f, at);
+      } catch (...) {
+        error = std::current_exception();
+      }
+      {
+        const std::lock_guard<std::mutex> lock(m);
+        found[pos] = std::move(d);
+        frame_of[pos] = at;
+        failed[pos] = error;
+        done[pos] = 1;
+      }
+      ready.notify_all();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
+  std::exception_ptr error;
+  for (int pos = 0; pos < n && !error; ++pos) {
+    std::unique_lock<std::mutex> lock(m);
+    ready.wait(lock, [&] { return done[pos] != 0; });
+    if (failed[pos]) {
+      error = failed[pos];
+      break;
+    }
+    std::vector<Detection> d = std::move(found[pos]);
+    lock.unlock();
+    link(frame_of[pos], std::move(d));
+  }
+  stop = true;
+  for (auto& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+}
+
+/// In order (videos, TIFF stacks, one thread): batches of 2 x threads frames are read
+/// here, detected in parallel, then linked in frame order.
+void detectInOrder(FrameSource& source, int threads, FrameDetector& detector, InOrderLinker& link) {
+  std::vector<cv::Mat> batch(static_cast<std::size_t>(2 * threads));
+  std::vector<int> batch_index(batch.size());
+  std::vector<std::vector<Detection>> found(batch.size());
+  for (bool more = true; more;) {
+    std::size_t n = 0;
+    while (n < batch.size() && (more = source.next(batch[n], batch_index[n]))) ++n;
+    if (n == 0) break;
+    detector.prepare(batch[0]);
+    auto work = [&](std::size_t first) {
+      for (std::size_t k = first; k < n; k += static_cast<std::size_t>(threads)) found[k] = detector(batch[k], batch_index[k]);
+    };
+    if (threads == 1) {
+      work(0);
+    } else {
+      std::vector<std::thread> pool;
+      for (int t = 1; t < threads; ++t) pool.emplace_back(work, static_cast<std::size_t>(t));
+      work(0);
+      for (auto& t : pool) t.join();
+    }
+    for (std::size_t k = 0; k < n; ++k) link(batch_index[k], std::move(found[k]));
+  }
+}
+
+/// Detects every frame and links the detections in frame order (into `linker`,
+/// run.detections, run.frame_index); returns the evidence for the stuck-particle joins.
+/// setup.polarity is final afterwards.
+StuckEvidence detectFrames(FrameSource& source, const TrackConfig& c, const FramePlan& plan, const cv::Mat& background, const RollingBackground& rolling,
+                           DetectionSetup& setup, TrackLinker& linker, Progress& progress, TrackRun& run) {
+  FrameDetector detector(c, plan, background, rolling, setup, source.count());
+  InOrderLinker link(linker, run, progress);
+  cv::Mat frame;
+  int index = 0;
+  // One OpenCV thread per worker of ours (the workers are the parallelism); one worker
+  // keeps OpenCV's pool.
+  std::optional<OpenCvThreads> opencv_threads;
+  if (plan.threads > 1) opencv_threads.emplace(1);
+  if (plan.threads > 1 && source.randomAccess() && source.next(frame, index))
+    detectFilesInParallel(source, plan.threads, frame, index, detector, link);
+  else
+    detectInOrder(source, plan.threads, detector, link);
+  progress.finish();
+  opencv_threads.reset();
+  return detector.take();
+}
+
+// ---- Stage 7: motion model, stuck and deposited particles --------------------------------
 
 /// analysis.motion as set, or decided from the linked tracks when "auto"; Brownian with
 /// link.predict automatic links the stored detections again without prediction (a
@@ -54,475 +450,255 @@ MotionDecision chooseMotion(const TrackConfig& c, std::vector<LinkedPoint>& link
   return m;
 }
 
-/// OpenCV's own thread pool held to `threads` while it lives, restored after: while our
-/// workers each detect a frame, each worker's OpenCV calls (blur, subtract) would
-/// otherwise fan out over every core again (oversubscription on a machine with few cores).
-class OpenCvThreads {
- public:
-  explicit OpenCvThreads(int threads) : m_before(cv::getNumThreads()) { cv::setNumThreads(threads); }
-  ~OpenCvThreads() { cv::setNumThreads(m_before); }
-  OpenCvThreads(const OpenCvThreads&) = delete;
-  OpenCvThreads& operator=(const OpenCvThreads&) = delete;
-
- private:
-  int m_before;
-};
-
-/// Frames the polarity and ring guesses sample, spread over the video.
-constexpr int kPolaritySamples = 24;
-/// Large discs: radii searched, as multiples of detect.refine_radius (the real discs video
-/// has radii ~40-60 px, +-20 % about its middle; 0.7-1.3 also allows a size given roughly).
-constexpr double kDiscRadiusLow = 0.7, kDiscRadiusHigh = 1.3;
-
-/// detect.background: as set, or decided from `frames`, those sampled for the median.
-BackgroundDecision chooseBackground(const std::vector<cv::Mat>& frames, const TrackConfig& c, Polarity polarity, const DetectOptions& options, const cv::Mat& median) {
-  BackgroundDecision d;
-  d.requested = c.detect.subtract_background ? backgroundModeName(c.detect.background_mode) : "none";
-  if (!c.detect.subtract_background || c.detect.background_mode == BackgroundMode::none) {
-    d.subtract = false;
-    d.reason = c.detect.subtract_background ? "detect.background = \"none\"" : "detect.subtract_background = false";
-    return d;
+/// The linked points as tracks (px and m), with each spot's quality columns.
+std::vector<TrackPoint> trackPoints(const TrackConfig& c, const std::vector<LinkedPoint>& linked) {
+  std::vector<TrackPoint> points;
+  for (const auto& p : linked) {
+    points.push_back(trackPoint(c, p.frame, p.particle, p.x, p.y));
+    points.back().quality = p.detection.quality;  // the spot's quality columns of tracks.csv
   }
-  if (c.detect.background_mode == BackgroundMode::median) {
-    d.reason = "detect.background = \"median\"";
-    return d;
-  }
-  if (c.detect.polarity == Polarity::automatic && polarity != Polarity::ring) {
-    // The polarity guess leans on the median, which is what is in question: judged on the
-    // side that shows more spots against a spatial high-pass (the particles).
-    const BackgroundDecision dark = decideBackground(frames, median, Polarity::dark, options);
-    const BackgroundDecision bright = decideBackground(frames, median, Polarity::bright, options);
-    d = dark.spots_per_frame >= bright.spots_per_frame ? dark : bright;
-  } else {
-    d = decideBackground(frames, median, polarity, options);
-  }
-  d.requested = "auto";
-  return d;
+  return points;
 }
 
-}  // namespace
+/// Median blob area and peak of the moving detections (0 when there are none): what a
+/// particle looks like, against which the spots of the median background are judged.
+struct TypicalSpot {
+  double area = 0, peak = 0;
+};
 
-TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
-  const auto t0 = std::chrono::steady_clock::now();
-  TrackRun run;
-  auto lap_start = t0;
-  auto lap = [&](const char* stage) {
-    const auto now = std::chrono::steady_clock::now();
-    run.stage_seconds.emplace_back(stage, std::chrono::duration<double>(now - lap_start).count());
-    lap_start = now;
-  };
-  RollingBackground rolling;
-  // threads 0: every core (the decoding and detection of frames are independent).
-  const int threads = c.threads > 0 ? c.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  // A disc-centroid size of kMinDiscRadiusPx or more (--diameter 41 and up): large discs,
-  // found whole by their rims (LargeDiscs.hpp) on the frame itself, radii 0.7-1.3 x it. That
-  // path needs no background, ring or polarity guess, so none of their frames is sampled.
-  const bool large_discs = c.detect.refinement == Refinement::disc && c.detect.refine_radius >= kMinDiscRadiusPx;
-  const bool background_wanted = !large_discs && c.detect.subtract_background && c.detect.background_mode != BackgroundMode::none;
-  const bool sample_polarity = !large_discs && (c.detect.polarity == Polarity::automatic || c.detect.polarity == Polarity::ring);
-  {
-    // Every frame is decoded once: the samplers below read only the frames they keep,
-    // in one forward pass (videos), into the source's cache, which the main pass reads.
-    std::vector<int> sampled;
-    if (background_wanted) {
-      sampled = samplePositions(source.count(), c.detect.background_samples);
-      if (c.background_window > 0)
-        for (const auto& block : rollingSamplePositions(source.count(), c.background_window, std::min(c.background_window, c.detect.background_samples)))
-          sampled.insert(sampled.end(), block.begin(), block.end());
+TypicalSpot typicalSpot(const std::vector<std::vector<Detection>>& detections) {
+  std::vector<double> areas, peaks;
+  for (const auto& frame : detections)
+    for (const auto& m : frame) {
+      areas.push_back(m.area);
+      peaks.push_back(m.peak);
     }
-    if (sample_polarity) {
-      const std::vector<int> more = samplePositions(source.count(), kPolaritySamples);
-      sampled.insert(sampled.end(), more.begin(), more.end());
-    }
-    source.prefetch(sampled, threads);
+  TypicalSpot t;
+  if (!areas.empty()) {
+    std::nth_element(areas.begin(), areas.begin() + areas.size() / 2, areas.end());
+    t.area = areas[areas.size() / 2];
+    std::nth_element(peaks.begin(), peaks.begin() + peaks.size() / 2, peaks.end());
+    t.peak = peaks[peaks.size() / 2];
   }
-  lap("sampling");
-  // The frames of the median, kept for the background decision below (read once).
-  std::vector<cv::Mat> background_frames;
-  if (background_wanted) {
-    background_frames = sampleFrames(source, c.detect.background_samples);
-    run.background = quantileOfFrames(background_frames, c.background_quantile);
-    if (c.background_window > 0)
-      rolling = rollingBackground(source, c.background_window, std::min(c.background_window, c.detect.background_samples), c.background_quantile);
-  }
-  lap("background");
-  // Brownian steps are uncorrelated: linked without prediction when the motion is known
-  // to be Brownian; with "auto" the tracks decide after linking (below).
-  LinkOptions link_options = c.link;
-  if (c.analysis.motion == MotionModel::brownian && link_options.predict == Prediction::automatic) link_options.predict = Prediction::none;
-  TrackLinker linker(link_options);
-  Progress progress("tracking", static_cast<std::size_t>(std::max(0, source.count())), quiet);
-  DetectOptions options = c.detect;  // with what the video decides: ring filter, spatial high-pass
-  const Polarity polarity_in = c.detect.polarity;
-  Polarity polarity = polarity_in;
-  const std::vector<cv::Mat> polarity_frames = sample_polarity ? sampleFrames(source, kPolaritySamples) : std::vector<cv::Mat>{};
-  if (sample_polarity) run.ring = guessRings(polarity_frames);
-  lap("rings");
-  if (large_discs) {
-    polarity = Polarity::bright;
-    run.polarity_reason = fmt::format("large discs: detect.refinement = \"disc\" with detect.refine_radius = {} px (>= {} px, e.g. --diameter {}): "
-                                      "each disc found once, at the centre of a circle fitted to its bright rim, radii {:.0f}-{:.0f} px",
-                                      c.detect.refine_radius, kMinDiscRadiusPx, 2 * c.detect.refine_radius + 1, kDiscRadiusLow * c.detect.refine_radius,
-                                      kDiscRadiusHigh * c.detect.refine_radius);
-  } else if (polarity == Polarity::automatic) {
-    // From frames spread over the video, not the first alone: the first frame of a scene can
-    // hold no moving particle yet, only the absence of deposits that arrive later.
-    if (run.ring.rings) {
-      polarity = Polarity::ring;
-      run.polarity_reason = run.ring.reason;
-    } else {
-      polarity = guessPolarity(polarity_frames, run.background);
-      run.polarity_reason = fmt::format("{}; the side (darker or brighter than the background) with more moving foreground", run.ring.reason);
-    }
-  } else {
-    run.polarity_reason = fmt::format("detect.polarity = \"{}\"", polarityName(polarity));
-  }
-  if (polarity == Polarity::ring) {
-    options.ring_radius_px = run.ring.rings ? run.ring.radius_px : static_cast<double>(c.detect.refine_radius);
-    options.ring_kernel = ringKernel(run.ring.rings ? run.ring.profile : std::vector<float>{}, options.ring_radius_px);
-  }
-  lap("polarity");
-  if (large_discs) {
-    run.background_decision.requested = c.detect.subtract_background ? backgroundModeName(c.detect.background_mode) : "none";
-    run.background_decision.subtract = false;
-    run.background_decision.reason = "large discs are detected on the frame itself (a still disc is its own median)";
-  } else {
-    run.background_decision = chooseBackground(background_frames, c, polarity, options, run.background);
-  }
-  background_frames.clear();
-  if (!run.background_decision.subtract) {
-    run.background.release();
-    rolling = RollingBackground{};
-    // Without a temporal background the polarity is judged within each frame (a temporal
-    // median of still particles is the particles, and the foreground against it noise).
-    if (polarity_in == Polarity::automatic && polarity != Polarity::ring && !large_discs) {
-      polarity = guessPolaritySpatial(polarity_frames);
-      run.polarity_reason += fmt::format("; with no background subtracted: {} (more band-passed excess on that side)", polarityName(polarity));
-    }
-    // Decided from the video: a spatial high-pass of the particle's radius (trackpy's band
-    // pass) evens the illumination instead.
-    if (background_wanted && options.local_background == 0 && polarity != Polarity::ring) options.local_background = std::max(2, options.refine_radius);
-  }
-  lap("decisions");
-  // Stuck-particle candidates (spots of the median background) and, per candidate, the
-  // frames in which the spot is missing from the frame: there the frame is brighter (dark
-  // polarity) than the background by about the spot's amplitude.
-  std::vector<Detection> stuck;
-  // About a dozen frames spread over the video, kept whole: where a track ends, they tell
-  // whether a particle of the background was missing before and there after.
-  std::map<int, cv::Mat> references;
-  std::mutex reference_mutex;
-  const int reference_stride = source.count() > 0 ? std::max(1, source.count() / 12) : 25;
-  std::vector<std::vector<int>> absent;  // per candidate: the frames it is missing from
-  std::mutex absent_mutex;
-  bool stuck_ready = !(c.detect.find_stuck && !run.background.empty());
-  auto prepare = [&](const cv::Mat& first) {
-    if (polarity == Polarity::automatic) polarity = guessPolarity(first, run.background);
-    if (!stuck_ready) {
-      stuck = detectStuck(run.background, polarity, options);
-      absent.assign(stuck.size(), {});
-      stuck_ready = true;
-    }
-  };
-  // One frame's work (any thread): detections, and the absence test of the stuck candidates.
-  auto process = [&](const cv::Mat& f, int frame_number) {
-    if (c.detect.find_stuck && !run.background.empty() && frame_number % reference_stride == 0) {
-      const std::lock_guard<std::mutex> lock(reference_mutex);
-      if (references.size() < 24) references[frame_number] = f.clone();
-    }
-    if (!stuck.empty()) {
-      std::vector<std::size_t> missing;
-      // Least-squares amplitude of a spot of sigma 1.5 px at the candidate in
-      // (background - frame) for dark particles: ~0 while the particle is there, about
-      // minus its amplitude once it has gone.
-      const double sign = polarity == Polarity::dark ? -1.0 : 1.0;
-      for (std::size_t i = 0; i < stuck.size(); ++i) {
-        const int cx = static_cast<int>(std::lround(stuck[i].x)), cy = static_cast<int>(std::lround(stuck[i].y));
-        double sg = 0, sgg = 0;
-        for (int y = std::max(0, cy - 4); y <= std::min(f.rows - 1, cy + 4); ++y)
-          for (int x = std::max(0, cx - 4); x <= std::min(f.cols - 1, cx + 4); ++x) {
-            const double g = std::exp(-((x - stuck[i].x) * (x - stuck[i].x) + (y - stuck[i].y) * (y - stuck[i].y)) / (2 * 1.5 * 1.5));
-            sg += g * sign * (f.at<float>(y, x) - run.background.at<float>(y, x));
-            sgg += g * g;
-          }
-        if (sgg > 0 && sg / sgg < -0.5 * stuck[i].peak) missing.push_back(i);
+  return t;
+}
+
+struct StuckCandidate {
+  const Detection* d;
+  bool all_along;    ///< missing from at most a tenth of the frames: stuck from the start
+  int arrival = -1;  ///< deposited: first frame of the best absent-then-present split, -1: none
+};
+
+/// The spots of the median background that are particles at rest: stuck all along, or
+/// arrived and deposited (missing from the frames before their arrival and present in
+/// all after). Stuck particles look like the moving ones (`typical`: blob area within a
+/// factor 2, peak at least half). `frames`: the processed frame numbers, sorted;
+/// evidence.absent's lists are sorted in place.
+std::vector<StuckCandidate> stuckCandidates(StuckEvidence& evidence, const TypicalSpot& typical, const std::vector<int>& frames) {
+  const int n = static_cast<int>(frames.size());
+  const int tolerance = n / kTune.absence_error_divisor;  // frames the absence test may get wrong
+  std::vector<StuckCandidate> candidates;
+  for (std::size_t i = 0; i < evidence.stuck.size(); ++i) {
+    const Detection& d = evidence.stuck[i];
+    if (typical.area > 0 &&
+        (d.area < typical.area / kTune.stuck_area_ratio || d.area > kTune.stuck_area_ratio * typical.area || d.peak < kTune.stuck_peak_fraction * typical.peak))
+      continue;
+    std::vector<int>& a = evidence.absent[i];
+    std::sort(a.begin(), a.end());
+    // Step fit: missing before frames[k], present from it on. Mismatches at split k:
+    // present frames before k plus absent frames from k = k - 2 (absent before k) + |a|.
+    int best_k = 0, best_err = static_cast<int>(a.size());
+    std::size_t before = 0;
+    for (int k = 1; k <= n; ++k) {
+      while (before < a.size() && a[before] <= frames[k - 1]) ++before;
+      const int err = k - 2 * static_cast<int>(before) + static_cast<int>(a.size());
+      if (err < best_err) {
+        best_err = err;
+        best_k = k;
       }
-      const std::lock_guard<std::mutex> lock(absent_mutex);
-      for (std::size_t i : missing) absent[i].push_back(frame_number);
     }
-    if (large_discs) return detectDiscs(f, kDiscRadiusLow * options.refine_radius, kDiscRadiusHigh * options.refine_radius);
-    return detect(f, rolling.backgrounds.empty() ? run.background : rolling.at(frame_number), polarity, options);
-  };
-  auto link = [&](int index, std::vector<Detection>&& found) {
-    linker.push(index, found);
-    run.detections.push_back(std::move(found));
-    run.frame_index.push_back(index);
-    progress.advance();
-  };
-  cv::Mat frame;
-  int index = 0;
-  // One OpenCV thread per worker of ours (the workers are the parallelism); one worker
-  // keeps OpenCV's pool.
-  std::optional<OpenCvThreads> opencv_threads;
-  if (threads > 1) opencv_threads.emplace(1);
-  if (threads > 1 && source.randomAccess() && source.next(frame, index)) {
-    // Image files: `threads` workers each read (decode) and detect whole frames, taking
-    // the next frame number from a shared counter; this thread links them in order as
-    // they complete. The first frame, read here, fixes polarity, size and 16-bit range.
-    prepare(frame);
-    const int n = source.count();
-    std::vector<std::vector<Detection>> found(static_cast<std::size_t>(n));
-    std::vector<int> frame_of(static_cast<std::size_t>(n), 0);
-    std::vector<char> done(static_cast<std::size_t>(n), 0);
-    std::vector<std::exception_ptr> failed(static_cast<std::size_t>(n));
-    std::mutex m;
-    std::condition_variable ready;
-    std::atomic<int> next_pos{1};
-    std::atomic<bool> stop{false};
-    found[0] = process(frame, index);
-    frame_of[0] = index;
-    done[0] = 1;
-    auto worker = [&] {
-      cv::Mat f;
-      for (int pos; !stop && (pos = next_pos++) < n;) {
-        std::exception_ptr error;
-        std::vector<Detection> d;
-        int at = 0;
-        try {
-          source.readAt(pos, f, at);
-          d = process(f, at);
-        } catch (...) {
-          error = std::current_exception();
-        }
-        {
-          const std::lock_guard<std::mutex> lock(m);
-          found[pos] = std::move(d);
-          frame_of[pos] = at;
-          failed[pos] = error;
-          done[pos] = 1;
-        }
-        ready.notify_all();
-      }
-    };
-    std::vector<std::thread> pool;
-    for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
-    std::exception_ptr error;
-    for (int pos = 0; pos < n && !error; ++pos) {
-      std::unique_lock<std::mutex> lock(m);
-      ready.wait(lock, [&] { return done[pos] != 0; });
-      if (failed[pos]) {
-        error = failed[pos];
-        break;
-      }
-      std::vector<Detection> d = std::move(found[pos]);
-      lock.unlock();
-      link(frame_of[pos], std::move(d));
-    }
-    stop = true;
-    for (auto& t : pool) t.join();
-    if (error) std::rethrow_exception(error);
-  } else {
-    // In order (videos, TIFF stacks, one thread): batches of 2 x threads frames are read
-    // here, detected in parallel, then linked in frame order.
-    std::vector<cv::Mat> batch(static_cast<std::size_t>(2 * threads));
-    std::vector<int> batch_index(batch.size());
-    std::vector<std::vector<Detection>> found(batch.size());
-    for (bool more = true; more;) {
-      std::size_t n = 0;
-      while (n < batch.size() && (more = source.next(batch[n], batch_index[n]))) ++n;
-      if (n == 0) break;
-      prepare(batch[0]);
-      auto work = [&](std::size_t first) {
-        for (std::size_t k = first; k < n; k += static_cast<std::size_t>(threads)) found[k] = process(batch[k], batch_index[k]);
-      };
-      if (threads == 1) {
-        work(0);
-      } else {
-        std::vector<std::thread> pool;
-        for (int t = 1; t < threads; ++t) pool.emplace_back(work, static_cast<std::size_t>(t));
-        work(0);
-        for (auto& t : pool) t.join();
-      }
-      for (std::size_t k = 0; k < n; ++k) link(batch_index[k], std::move(found[k]));
-    }
+    StuckCandidate cand{&d, static_cast<int>(a.size()) <= tolerance, -1};
+    if (best_k > 0 && best_k < n && best_err <= tolerance) cand.arrival = frames[best_k];
+    // A particle that only lingers (stationary for most, not all, of the video) also
+    // shows in the median; it is missing from the frames where it was elsewhere.
+    if (cand.all_along || cand.arrival >= 0) candidates.push_back(cand);
   }
-  progress.finish();
-  opencv_threads.reset();
-  lap("frames");
-  run.polarity = polarity;
-  run.link = linker.stats();
-  auto point = [&](std::int64_t frame, std::int64_t particle, double x, double y) { return trackPoint(c, frame, particle, x, y); };
+  return candidates;
+}
+
+/// Deposited candidates joined to the track that brought them.
+struct DepositJoins {
+  std::vector<char> joined;                                         ///< per candidate
+  std::map<std::int64_t, std::pair<std::size_t, int>> deposit_of;  ///< track -> (candidate, arrival)
+};
+
+/// Each deposited candidate is joined to the track whose last point lies a few pixels
+/// from its resting place within a few frames of its arrival there (the cheapest first,
+/// each track and candidate once): that track continues there at rest to the end
+/// (appended to `rest`, labelled deposited).
+DepositJoins joinDeposits(const TrackConfig& c, const std::vector<StuckCandidate>& candidates, const std::vector<TrackPoint>& points, const std::vector<int>& frames,
+                          std::vector<TrackPoint>& rest, int& joined_count) {
+  std::map<std::int64_t, const TrackPoint*> last;
+  for (const auto& p : points) {
+    auto& l = last[p.particle];
+    if (l == nullptr || p.frame > l->frame) l = &p;
+  }
+  const double gate_px = joinGatePx(c);
+  const int gate_frames = joinGateFrames(c);
+  struct Join {
+    double cost;
+    std::size_t candidate;
+    const TrackPoint* end;
+  };
+  std::vector<Join> joins;
+  std::vector<const TrackPoint*> ends;
+  CellGrid end_grid(gate_px);
+  for (const auto& [id, end] : last) {
+    end_grid.add(ends.size(), end->x_px, end->y_px);
+    ends.push_back(end);
+  }
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    if (candidates[k].arrival < 0) continue;
+    end_grid.near(candidates[k].d->x, candidates[k].d->y, [&](std::size_t e) {
+      const TrackPoint* end = ends[e];
+      const double dist = std::hypot(end->x_px - candidates[k].d->x, end->y_px - candidates[k].d->y);
+      const auto lag = std::abs(end->frame + 1 - candidates[k].arrival);
+      if (dist <= gate_px && lag <= gate_frames) joins.push_back({dist / gate_px + static_cast<double>(lag) / gate_frames, k, end});
+    });
+  }
+  std::sort(joins.begin(), joins.end(), [](const Join& a, const Join& b) { return a.cost < b.cost; });
+  DepositJoins out;
+  out.joined.assign(candidates.size(), 0);
+  std::map<std::int64_t, char> used;
+  for (const Join& j : joins) {
+    if (out.joined[j.candidate] || used[j.end->particle]) continue;
+    out.joined[j.candidate] = used[j.end->particle] = 1;
+    const Detection& d = *candidates[j.candidate].d;
+    restUntilTheEnd(c, *j.end, d.x, d.y, frames, rest);
+    out.deposit_of[j.end->particle] = {j.candidate, candidates[j.candidate].arrival};
+    ++joined_count;
+  }
+  return out;
+}
+
+/// A particle half merged into the median background (at rest for about half the video)
+/// still leaves faint detections at its resting place after it arrived: they are the
+/// deposited particle, labelled so on its own track, and other tracks made only of them
+/// are duplicates of it and dropped. The joined track's labelled points must be its
+/// trailing ones: a label followed by an unlabelled point (it moved again) is removed.
+void labelDeposits(const TrackConfig& c, const std::vector<StuckCandidate>& candidates, const DepositJoins& joins, std::vector<TrackPoint>& points) {
+  const auto& deposit_of = joins.deposit_of;
+  if (deposit_of.empty()) return;
+  const double near = restingRadiusPx(c);
+  std::vector<std::pair<std::int64_t, std::pair<std::size_t, int>>> deposits(deposit_of.begin(), deposit_of.end());
+  CellGrid deposit_grid(near);
+  for (std::size_t k = 0; k < deposits.size(); ++k)
+    deposit_grid.add(k, candidates[deposits[k].second.first].d->x, candidates[deposits[k].second.first].d->y);
+  std::map<std::int64_t, char> duplicate;  // 1 while every point so far sits at a deposit after its arrival
+  for (auto& p : points) {
+    bool at_deposit = false;
+    deposit_grid.near(p.x_px, p.y_px, [&](std::size_t k) {
+      const auto& [track, ca] = deposits[k];
+      const Detection& d = *candidates[ca.first].d;
+      if (p.frame < ca.second || std::hypot(p.x_px - d.x, p.y_px - d.y) > near) return;
+      at_deposit = true;
+      if (track == p.particle) p.state = "deposited";
+    });
+    const auto it = duplicate.find(p.particle);
+    const char keep = deposit_of.count(p.particle) == 0 && at_deposit ? 1 : 0;
+    duplicate[p.particle] = it == duplicate.end() ? keep : static_cast<char>(it->second & keep);
+  }
+  std::erase_if(points, [&](const TrackPoint& p) { return duplicate[p.particle] != 0; });
+  std::map<std::int64_t, std::int64_t> last_unlabelled;
+  for (const auto& p : points)
+    if (deposit_of.count(p.particle) && p.state != "deposited") last_unlabelled[p.particle] = std::max(last_unlabelled[p.particle], p.frame);
+  for (auto& p : points)
+    if (deposit_of.count(p.particle) && p.state == "deposited" && last_unlabelled.count(p.particle) && p.frame < last_unlabelled[p.particle]) p.state.clear();
+}
+
+/// Particles at rest for most of the video are part of the median background: found
+/// there (evidence.stuck), each is either stuck all along (an immobile track of its own,
+/// left out as the paper does), or a particle that arrived and deposited: its moving track
+/// ends where it merged into the background, so it is joined to the track that ends there
+/// then and continues, at rest, to the end. Arrivals no track brought are left out
+/// (run.deposits_unjoined). Adds to run.tracks; returns the moving detections' typical spot.
+TypicalSpot joinStuckParticles(const TrackConfig& c, StuckEvidence& evidence, std::int64_t next_id, TrackRun& run) {
+  const TypicalSpot typical = typicalSpot(run.detections);
+  std::vector<int> frames = run.frame_index;
+  std::sort(frames.begin(), frames.end());
+  const std::vector<StuckCandidate> candidates = stuckCandidates(evidence, typical, frames);
+  std::vector<TrackPoint> rest;
+  const DepositJoins joins = joinDeposits(c, candidates, run.tracks.points, frames, rest, run.deposits_joined);
+  labelDeposits(c, candidates, joins, run.tracks.points);
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    if (joins.joined[k]) continue;
+    if (!candidates[k].all_along) {
+      ++run.deposits_unjoined;  // arrived, but no track brought it: left out
+      continue;
+    }
+    for (int f : frames) rest.push_back(trackPoint(c, f, next_id, candidates[k].d->x, candidates[k].d->y));
+    ++next_id;
+    ++run.stuck_found;
+  }
+  run.tracks.points.insert(run.tracks.points.end(), rest.begin(), rest.end());
+  return typical;
+}
+
+/// The tracks from the linker: motion model (run.motion), and in flow mode the stuck and
+/// deposited particles (detect.find_stuck), tracks that stop labelled deposited from where
+/// they stopped (so their resting positions stay out of velocity statistics), and the
+/// joins by reference frames and onto clusters.
+void buildTracks(const TrackConfig& c, const TrackLinker& linker, StuckEvidence& evidence, TrackRun& run) {
   std::vector<LinkedPoint> linked = linker.points();
   run.motion = chooseMotion(c, linked, run);
   const bool flow = run.motion.model == MotionModel::flow;
   std::int64_t next_id = 0;
   for (const auto& p : linked) next_id = std::max(next_id, p.particle + 1);
-  for (const auto& p : linked) {
-    run.tracks.points.push_back(point(p.frame, p.particle, p.x, p.y));
-    run.tracks.points.back().quality = p.detection.quality;  // the spot's quality columns of tracks.csv
-  }
+  run.tracks.points = trackPoints(c, linked);
   double typical_peak = 0;  // median peak of the moving detections
-  if (flow && c.detect.find_stuck && !run.background.empty() && !run.frame_index.empty()) {
-    // Particles at rest for most of the video are part of the median background: found
-    // there, each is either stuck all along (immobile, left out as the paper does), or a
-    // particle that arrived and deposited: missing from the frames before its arrival and
-    // present in all after. Its moving track ends where it merged into the background, so
-    // it is joined to the track that ends there then and continues, at rest, to the end.
-    // Stuck particles look like the moving ones: keep background spots whose blob area
-    // is within a factor 2 of the median area of the moving detections.
-    // ... and whose peak is at least half the moving ones' median peak (grain edges leave
-    // faint round residues in the hat).
-    std::vector<double> areas, peaks;
-    for (const auto& frame : run.detections)
-      for (const auto& m : frame) {
-        areas.push_back(m.area);
-        peaks.push_back(m.peak);
-      }
-    double typical = 0;
-    if (!areas.empty()) {
-      std::nth_element(areas.begin(), areas.begin() + areas.size() / 2, areas.end());
-      typical = areas[areas.size() / 2];
-      std::nth_element(peaks.begin(), peaks.begin() + peaks.size() / 2, peaks.end());
-      typical_peak = peaks[peaks.size() / 2];
-    }
-    std::vector<int> frames = run.frame_index;
-    std::sort(frames.begin(), frames.end());
-    const int n = static_cast<int>(frames.size());
-    const int tolerance = n / 10;  // frames the absence test may get wrong
-    struct Candidate {
-      const Detection* d;
-      bool all_along;   // missing from at most a tenth of the frames: stuck from the start
-      int arrival = -1; // deposited: first frame of the best absent-then-present split, -1: none
-    };
-    std::vector<Candidate> candidates;
-    for (std::size_t i = 0; i < stuck.size(); ++i) {
-      const Detection& d = stuck[i];
-      if (typical > 0 && (d.area < 0.5 * typical || d.area > 2.0 * typical || d.peak < 0.5 * typical_peak)) continue;
-      std::vector<int>& a = absent[i];
-      std::sort(a.begin(), a.end());
-      // Step fit: missing before frames[k], present from it on. Mismatches at split k:
-      // present frames before k plus absent frames from k = k - 2 (absent before k) + |a|.
-      int best_k = 0, best_err = static_cast<int>(a.size());
-      std::size_t before = 0;
-      for (int k = 1; k <= n; ++k) {
-        while (before < a.size() && a[before] <= frames[k - 1]) ++before;
-        const int err = k - 2 * static_cast<int>(before) + static_cast<int>(a.size());
-        if (err < best_err) {
-          best_err = err;
-          best_k = k;
-        }
-      }
-      Candidate cand{&d, static_cast<int>(a.size()) <= tolerance, -1};
-      if (best_k > 0 && best_k < n && best_err <= tolerance) cand.arrival = frames[best_k];
-      // A particle that only lingers (stationary for most, not all, of the video) also
-      // shows in the median; it is missing from the frames where it was elsewhere.
-      if (cand.all_along || cand.arrival >= 0) candidates.push_back(cand);
-    }
-    // Track ends that can be joined: the track's last point, a few pixels from the
-    // particle's resting place, within a few frames of its arrival there.
-    std::map<std::int64_t, const TrackPoint*> last;
-    for (const auto& p : run.tracks.points) {
-      auto& l = last[p.particle];
-      if (l == nullptr || p.frame > l->frame) l = &p;
-    }
-    const double gate_px = std::max(3.0, c.link.search_radius);
-    const int gate_frames = std::max(10, 3 * (c.link.memory + 1));
-    struct Join {
-      double cost;
-      std::size_t candidate;
-      const TrackPoint* end;
-    };
-    std::vector<Join> joins;
-    std::vector<const TrackPoint*> ends;
-    CellGrid end_grid(gate_px);
-    for (const auto& [id, end] : last) {
-      end_grid.add(ends.size(), end->x_px, end->y_px);
-      ends.push_back(end);
-    }
-    for (std::size_t k = 0; k < candidates.size(); ++k) {
-      if (candidates[k].arrival < 0) continue;
-      end_grid.near(candidates[k].d->x, candidates[k].d->y, [&](std::size_t e) {
-        const TrackPoint* end = ends[e];
-        const double dist = std::hypot(end->x_px - candidates[k].d->x, end->y_px - candidates[k].d->y);
-        const auto lag = std::abs(end->frame + 1 - candidates[k].arrival);
-        if (dist <= gate_px && lag <= gate_frames) joins.push_back({dist / gate_px + static_cast<double>(lag) / gate_frames, k, end});
-      });
-    }
-    std::sort(joins.begin(), joins.end(), [](const Join& a, const Join& b) { return a.cost < b.cost; });
-    std::vector<char> joined(candidates.size(), 0);
-    std::map<std::int64_t, char> used;
-    std::vector<TrackPoint> rest;
-    // A particle half merged into the median background (at rest for about half the
-    // video) still leaves faint detections at its resting place after it arrived: they
-    // are the deposited particle, labelled so on its own track, and other tracks made
-    // only of them are duplicates of it and dropped.
-    const double near = std::max(1.0, static_cast<double>(c.detect.refine_radius));
-    std::map<std::int64_t, std::pair<std::size_t, int>> deposit_of;  // track -> (candidate, arrival)
-    for (const Join& j : joins) {
-      if (joined[j.candidate] || used[j.end->particle]) continue;
-      joined[j.candidate] = used[j.end->particle] = 1;
-      const Detection& d = *candidates[j.candidate].d;
-      restUntilTheEnd(c, *j.end, d.x, d.y, frames, rest);
-      deposit_of[j.end->particle] = {j.candidate, candidates[j.candidate].arrival};
-      ++run.deposits_joined;
-    }
-    if (!deposit_of.empty()) {
-      std::vector<std::pair<std::int64_t, std::pair<std::size_t, int>>> deposits(deposit_of.begin(), deposit_of.end());
-      CellGrid deposit_grid(near);
-      for (std::size_t k = 0; k < deposits.size(); ++k)
-        deposit_grid.add(k, candidates[deposits[k].second.first].d->x, candidates[deposits[k].second.first].d->y);
-      std::map<std::int64_t, char> duplicate;  // 1 while every point so far sits at a deposit after its arrival
-      for (auto& p : run.tracks.points) {
-        bool at_deposit = false;
-        deposit_grid.near(p.x_px, p.y_px, [&](std::size_t k) {
-          const auto& [track, ca] = deposits[k];
-          const Detection& d = *candidates[ca.first].d;
-          if (p.frame < ca.second || std::hypot(p.x_px - d.x, p.y_px - d.y) > near) return;
-          at_deposit = true;
-          if (track == p.particle) p.state = "deposited";
-        });
-        const auto it = duplicate.find(p.particle);
-        const char keep = deposit_of.count(p.particle) == 0 && at_deposit ? 1 : 0;
-        duplicate[p.particle] = it == duplicate.end() ? keep : static_cast<char>(it->second & keep);
-      }
-      std::erase_if(run.tracks.points, [&](const TrackPoint& p) { return duplicate[p.particle] != 0; });
-      // The joined track's own labelled points must be its trailing ones: a label followed
-      // by an unlabelled point (it moved again) is removed.
-      std::map<std::int64_t, std::int64_t> last_unlabelled;
-      for (const auto& p : run.tracks.points)
-        if (deposit_of.count(p.particle) && p.state != "deposited") last_unlabelled[p.particle] = std::max(last_unlabelled[p.particle], p.frame);
-      for (auto& p : run.tracks.points)
-        if (deposit_of.count(p.particle) && p.state == "deposited" && last_unlabelled.count(p.particle) && p.frame < last_unlabelled[p.particle])
-          p.state.clear();
-    }
-    for (std::size_t k = 0; k < candidates.size(); ++k) {
-      if (joined[k]) continue;
-      if (!candidates[k].all_along) {
-        ++run.deposits_unjoined;  // arrived, but no track brought it: left out
-        continue;
-      }
-      for (int f : frames) rest.push_back(point(f, next_id, candidates[k].d->x, candidates[k].d->y));
-      ++next_id;
-      ++run.stuck_found;
-    }
-    run.tracks.points.insert(run.tracks.points.end(), rest.begin(), rest.end());
-  }
+  if (flow && c.detect.find_stuck && !run.background.empty() && !run.frame_index.empty()) typical_peak = joinStuckParticles(c, evidence, next_id, run).peak;
   sortTracks(run.tracks.points);
   if (flow) {
-    // Particles seen to stop (at rest over the final window) are labelled deposited from
-    // where they stopped, so their resting positions stay out of velocity statistics.
     markDeposits(run.tracks, c.analysis);
-    if (!references.empty() && typical_peak > 0) {
-      joinByReference(run, c, references, polarity, typical_peak);
+    if (!evidence.references.empty() && typical_peak > 0) {
+      joinByReference(run, c, evidence.references, run.polarity, typical_peak);
       markDeposits(run.tracks, c.analysis);
     }
     joinClusterArrivals(run, c);
   }
-  lap("joins");
+}
+
+}  // namespace
+
+TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
+  StageClock clock;
+  TrackRun run;
+  const FramePlan plan = planFrames(c);
+  prefetchSamples(source, c, plan);
+  clock.lap(run, "sampling");
+  SampledBackground background = sampleBackground(source, c, plan);
+  clock.lap(run, "background");
+  TrackLinker linker(linkOptions(c));
+  Progress progress("tracking", static_cast<std::size_t>(std::max(0, source.count())), quiet);
+  const std::vector<cv::Mat> polarity_frames = plan.sample_polarity ? sampleFrames(source, kTune.polarity_samples) : std::vector<cv::Mat>{};
+  if (plan.sample_polarity) run.ring = guessRings(polarity_frames);
+  clock.lap(run, "rings");
+  DetectionSetup setup = choosePolarity(c, plan, run.ring, polarity_frames, background.median);
+  clock.lap(run, "polarity");
+  run.background_decision = settleBackground(c, plan, polarity_frames, background, setup);
+  run.background = std::move(background.median);
+  clock.lap(run, "decisions");
+  StuckEvidence evidence = detectFrames(source, c, plan, run.background, background.rolling, setup, linker, progress, run);
+  clock.lap(run, "frames");
+  run.polarity = setup.polarity;
+  run.polarity_reason = setup.reason;
+  run.link = linker.stats();
+  buildTracks(c, linker, evidence, run);
+  clock.lap(run, "joins");
   run.smoothed_points = smoothTracks(run.tracks, c.smooth_frames, c.pixel_size).points;
-  if (!flow) run.brownian = analyseBrownian(run.tracks, c.analysis.brownian);
-  lap("analysis");
-  run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (run.motion.model != MotionModel::flow) run.brownian = analyseBrownian(run.tracks, c.analysis.brownian);
+  clock.lap(run, "analysis");
+  run.seconds = clock.total();
   return run;
 }
 

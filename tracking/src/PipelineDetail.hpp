@@ -1,14 +1,17 @@
 // Pieces of the tracker shared by runTracker (Pipeline.cpp) and the joins of
-// deposited particles to the tracks that brought them (PipelineJoins.cpp).
+// deposited particles to the tracks that brought them (PipelineJoins.cpp); their
+// numbers are PipelineTuning's (TrackerTuning.hpp).
 #pragma once
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <unordered_map>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "TrackerTuning.hpp"
 #include "mmval/tracking/Pipeline.hpp"
 
 namespace mmval::tracking::detail {
@@ -70,6 +73,33 @@ inline void sortTracks(std::vector<TrackPoint>& pts) {
   std::stable_sort(pts.begin(), pts.end(), [](const TrackPoint& a, const TrackPoint& b) {
     return a.particle != b.particle ? a.particle < b.particle : a.frame < b.frame;
   });
+}
+
+/// Joining a track end to a resting place: at most this far from it (px) ...
+inline double joinGatePx(const TrackConfig& c) { return std::max(kPipelineTuning.join_gate_min_px, c.link.search_radius); }
+/// ... and at most this many frames from the particle's arrival there.
+inline int joinGateFrames(const TrackConfig& c) {
+  return std::max(kPipelineTuning.join_gate_min_frames, kPipelineTuning.join_gate_memory_factor * (c.link.memory + 1));
+}
+/// A point this close to a resting place (px) is at it.
+inline double restingRadiusPx(const TrackConfig& c) { return std::max(kPipelineTuning.resting_min_px, static_cast<double>(c.detect.refine_radius)); }
+
+/// Least-squares amplitude of a spot (sigma PipelineTuning::spot_sigma_px) at (x, y) in
+/// sign x (frame - background) over the window of half-width spot_window_px: ~0 where
+/// frame and background agree, about minus a particle's depth where the background holds
+/// a particle the frame does not. NaN when the window misses the frame.
+inline double spotDifference(const cv::Mat& f, const cv::Mat& background, double x, double y, double sign) {
+  constexpr double sigma = kPipelineTuning.spot_sigma_px;
+  constexpr int half = kPipelineTuning.spot_window_px;
+  const int cx = static_cast<int>(std::lround(x)), cy = static_cast<int>(std::lround(y));
+  double sg = 0, sgg = 0;
+  for (int yy = std::max(0, cy - half); yy <= std::min(f.rows - 1, cy + half); ++yy)
+    for (int xx = std::max(0, cx - half); xx <= std::min(f.cols - 1, cx + half); ++xx) {
+      const double g = std::exp(-((xx - x) * (xx - x) + (yy - y) * (yy - y)) / (2 * sigma * sigma));
+      sg += g * sign * (f.at<float>(yy, xx) - background.at<float>(yy, xx));
+      sgg += g * g;
+    }
+  return sgg > 0 ? sg / sgg : std::numeric_limits<double>::quiet_NaN();
 }
 
 /// Appends `end`'s particle at rest at (x, y) in every frame after `end`, labelled deposited.

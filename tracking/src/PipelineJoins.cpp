@@ -7,33 +7,14 @@
 
 namespace mmval::tracking::detail {
 
-namespace {
-
-/// Least-squares amplitude of a spot (sigma 1.5 px) at (x, y) in sign x (frame - background):
-/// ~0 where frame and background agree, about minus a particle's depth where the
-/// background holds a particle the frame does not.
-double spotDifference(const cv::Mat& f, const cv::Mat& background, double x, double y, double sign) {
-  const int cx = static_cast<int>(std::lround(x)), cy = static_cast<int>(std::lround(y));
-  double sg = 0, sgg = 0;
-  for (int yy = std::max(0, cy - 4); yy <= std::min(f.rows - 1, cy + 4); ++yy)
-    for (int xx = std::max(0, cx - 4); xx <= std::min(f.cols - 1, cx + 4); ++xx) {
-      const double g = std::exp(-((xx - x) * (xx - x) + (yy - y) * (yy - y)) / (2 * 1.5 * 1.5));
-      sg += g * sign * (f.at<float>(yy, xx) - background.at<float>(yy, xx));
-      sgg += g * g;
-    }
-  return sgg > 0 ? sg / sgg : 0.0;
-}
-
-}  // namespace
-
 void joinByReference(TrackRun& run, const TrackConfig& c, const std::map<int, cv::Mat>& refs, Polarity polarity, double typical_peak) {
   auto& pts = run.tracks.points;
   if (pts.empty() || run.frame_index.empty()) return;
   const int last_frame = *std::max_element(run.frame_index.begin(), run.frame_index.end());
-  const double gate_px = std::max(3.0, c.link.search_radius);
-  const int gate_frames = std::max(10, 3 * (c.link.memory + 1));
+  const double gate_px = joinGatePx(c);
+  const int gate_frames = joinGateFrames(c);
   const double sign = polarity == Polarity::bright ? 1.0 : -1.0;
-  const double margin = std::max(1.0, static_cast<double>(c.detect.refine_radius));
+  const double margin = restingRadiusPx(c);
   const std::vector<Span> spans = trackSpans(pts);
   CellGrid starts(gate_px);
   for (std::size_t k = 0; k < spans.size(); ++k) starts.add(k, pts[spans[k].first].x_px, pts[spans[k].first].y_px);
@@ -61,13 +42,14 @@ void joinByReference(TrackRun& run, const TrackConfig& c, const std::map<int, cv
       for (const auto& [f, img] : refs) {
         if (f < e.frame - 1) {
           ++before;
-          missing_before += spotDifference(img, run.background, q.x, q.y, sign) < -0.5 * typical_peak ? 1 : 0;
+          missing_before += spotDifference(img, run.background, q.x, q.y, sign) < -kPipelineTuning.missing_fraction * typical_peak ? 1 : 0;
         } else if (f > e.frame + 1) {
           ++after;
-          missing_after += spotDifference(img, run.background, q.x, q.y, sign) < -0.5 * typical_peak ? 1 : 0;
+          missing_after += spotDifference(img, run.background, q.x, q.y, sign) < -kPipelineTuning.missing_fraction * typical_peak ? 1 : 0;
         }
       }
-      if (before == 0 || after == 0 || missing_before * 4 < before * 3 || missing_after * 4 > after) continue;
+      if (before == 0 || after == 0 || missing_before * 4 < before * kPipelineTuning.missing_before_quarters ||
+          missing_after * 4 > after * kPipelineTuning.missing_after_quarters) continue;
       restUntilTheEnd(c, e, q.x, q.y, frames, added);
       ++run.deposits_by_reference;
       break;
@@ -81,9 +63,9 @@ void joinClusterArrivals(TrackRun& run, const TrackConfig& c) {
   auto& pts = run.tracks.points;
   if (pts.empty() || run.frame_index.empty()) return;
   const int last_frame = *std::max_element(run.frame_index.begin(), run.frame_index.end());
-  const double near = std::max(1.0, static_cast<double>(c.detect.refine_radius));
-  const double gate_px = std::max(3.0, c.link.search_radius);
-  const int gate_frames = std::max(10, 3 * (c.link.memory + 1));
+  const double near = restingRadiusPx(c);
+  const double gate_px = joinGatePx(c);
+  const int gate_frames = joinGateFrames(c);
   const std::vector<Span> spans = trackSpans(pts);
   struct Site {
     double x, y;

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "DetectionGrid.hpp"
+#include "TrackerTuning.hpp"
 
 namespace mmval::tracking::detail {
 
@@ -92,196 +93,89 @@ void maskedSums(const cv::Mat& img, int cx, int cy, int r, const float* ex, cons
   }
 }
 
-/// Joint refinement of spots that overlap (a Gauss-Seidel least-squares fit of a sum of
-/// Gaussian spots of sigma `sm`): each spot's Gaussian-masked centroid and amplitude are
-/// taken on the signal minus its neighbours' current models, sweep after sweep. A lone
-/// spot's masked centroid already is its least-squares position (Thompson, Larson & Webb
-/// 2002); next to a neighbour it is pulled towards it by up to a pixel, which this removes.
-/// Then spots hidden beside a brighter one (closer than the seeds' separation) are looked
-/// for in the residual, pairs merged into one elongated blob are split when two spots fit
-/// significantly better than one, and fits that merged are dropped.
-/// The residual (signal minus every spot's model) is kept as an image and updated spot by
-/// spot, with separable Gaussian tables, so a sweep costs O(spots x window).
-void deblend(const cv::Mat& zero_mean, double sm, double blur, double level, int sep, double noise, std::vector<Detection>& dets) {
-  if (dets.empty()) return;
+namespace {
+
+constexpr const DeblendTuning& kTune = kDeblendTuning;
+constexpr int kMaxWindow = DeblendTuning::max_window;
+
+/// The windows and Gaussian constants of a joint fit of spots of sigma `sm` in a frame of
+/// `width` x `height` px smoothed by `blur` (px).
+struct FitGeometry {
   // The signal is smoothed: a spot of sigma `sm` appears in it with sigma `sg`. The joint
   // fit models spots with sigma `sm` (measured on the SNR 4 scenes, this narrower model
   // localises close pairs better than the true shape); the split test judges with `sg`.
-  const double sg = std::sqrt(sm * sm + blur * blur);
-  const int r = std::max(2, static_cast<int>(std::ceil(3 * sg)));
-  const int n = 2 * r + 1;
-  // Spots farther apart than 4.6 sigma bias each other's masked centroid by < 0.02 px.
-  const double reach = std::max(3.0, 4.6 * sm);
-  const double inv2s2 = 1.0 / (2 * sm * sm), inv2g2 = 1.0 / (2 * sg * sg);
-  const double c2s2 = std::exp(-2 * inv2s2), c2g2 = std::exp(-2 * inv2g2);
-  const double omega = 1.0 / (1.0 - sm * sm / (2 * sm * sm + blur * blur));  // see refineCentre
-  const int W = zero_mean.cols, H = zero_mean.rows;
-  struct Spot {
-    int cx = 0, cy = 0;  // window centre (pixel)
-    double a = 0;        // amplitude
-    std::array<float, 32> ex{}, ey{};  // sigma sm: the centroid's mask and the joint fit's model
-  };
-  if (n > 32) return;
-  std::vector<Spot> spots(dets.size());
-  thread_local cv::Mat R, residual;  // per-thread buffers: no frame-sized allocation per call
-  zero_mean.copyTo(R);
-  // Only the joint fit's tables (sigma sm) follow the spot as it moves; the split test's
-  // (sigma sg) are built where it needs them (shapeRows).
-  auto tables = [&](const Detection& d, Spot& s) {
-    s.cx = static_cast<int>(std::lround(d.x));
-    s.cy = static_cast<int>(std::lround(d.y));
-    gaussianRow(s.ex.data(), n, s.cx - r, d.x, inv2s2, c2s2);
-    gaussianRow(s.ey.data(), n, s.cy - r, d.y, inv2s2, c2s2);
-  };
-  // Adds `sign` x the spot's model to R.
-  auto render = [&](const Spot& s, float sign) {
-    const float a = static_cast<float>(s.a) * sign;
-    if (s.cx - r >= 0 && s.cx - r + kLanes <= W && n <= kLanes) {
-      // 16 columns at a time (4 vectors); the model is 0 beyond the window's n.
-      float mx[kLanes] = {};
-      std::copy(s.ex.begin(), s.ex.begin() + n, mx);
-      const cv::v_float32x4 m0 = cv::v_load(mx), m1 = cv::v_load(mx + 4), m2 = cv::v_load(mx + 8), m3 = cv::v_load(mx + 12);
-      for (int y = std::max(0, s.cy - r); y <= std::min(H - 1, s.cy + r); ++y) {
-        float* row = R.ptr<float>(y) + (s.cx - r);
-        const cv::v_float32x4 ay = cv::v_setall_f32(a * s.ey[y - s.cy + r]);
-        cv::v_store(row, cv::v_muladd(ay, m0, cv::v_load(row)));
-        cv::v_store(row + 4, cv::v_muladd(ay, m1, cv::v_load(row + 4)));
-        cv::v_store(row + 8, cv::v_muladd(ay, m2, cv::v_load(row + 8)));
-        cv::v_store(row + 12, cv::v_muladd(ay, m3, cv::v_load(row + 12)));
-      }
-      return;
-    }
-    const int x0 = std::max(0, s.cx - r), x1 = std::min(W - 1, s.cx + r);
-    const float* mx = s.ex.data() + (x0 - s.cx + r);
-    for (int y = std::max(0, s.cy - r); y <= std::min(H - 1, s.cy + r); ++y) {
-      float* row = R.ptr<float>(y) + x0;
-      const float ay = a * s.ey[y - s.cy + r];
-      for (int k = 0; k <= x1 - x0; ++k) row[k] += ay * mx[k];
-    }
-  };
-  // Least-squares amplitude on R (own model already added back); the model is separable,
-  // so its sum of squares is the product of its rows'.
-  auto amplitude = [&](const Spot& s) {
-    if (s.cx - r >= 0 && s.cx - r + kLanes <= W && n <= kLanes) {
-      // Per-column sums over the rows (vectorised lanes), then over the columns.
-      float mx[kLanes] = {}, lane[kLanes] = {};
-      double sxx = 0, syy = 0, sd = 0;
-      for (int k = 0; k < n; ++k) {
-        mx[k] = s.ex[k];
-        sxx += static_cast<double>(mx[k]) * mx[k];
-      }
-      for (int y = std::max(0, s.cy - r); y <= std::min(H - 1, s.cy + r); ++y) {
-        const float* row = R.ptr<float>(y) + (s.cx - r);
-        const float gy = s.ey[y - s.cy + r];
-        for (int k = 0; k < kLanes; ++k) lane[k] += row[k] * mx[k] * gy;
-        syy += static_cast<double>(gy) * gy;
-      }
-      for (int k = 0; k < n; ++k) sd += lane[k];
-      const double sgg = sxx * syy;
-      return sgg > 0 ? sd / sgg : 0.0;
-    }
-    const int x0 = std::max(0, s.cx - r), x1 = std::min(W - 1, s.cx + r);
-    const float* mx = s.ex.data() + (x0 - s.cx + r);
-    double sd = 0, sxx = 0, syy = 0;
-    for (int k = 0; k <= x1 - x0; ++k) sxx += static_cast<double>(mx[k]) * mx[k];
-    for (int y = std::max(0, s.cy - r); y <= std::min(H - 1, s.cy + r); ++y) {
-      const float* row = R.ptr<float>(y) + x0;
-      float rs = 0;
-      for (int k = 0; k <= x1 - x0; ++k) rs += row[k] * mx[k];
-      const double gy = s.ey[y - s.cy + r];
-      sd += rs * gy;
-      syy += gy * gy;
-    }
-    const double sgg = sxx * syy;
-    return sgg > 0 ? sd / sgg : 0.0;
-  };
-  // Refits spot i on R + its own model; leaves R with the new model subtracted.
-  auto refit = [&](std::size_t i) {
-    Detection& d = dets[i];
-    Spot& s = spots[i];
-    render(s, 1.0f);
-    double moved = 0;
-    for (int it = 0; it < 6; ++it) {
-      double sw = 0, sx = 0, sy = 0;
-      maskedSums(R, s.cx, s.cy, r, s.ex.data(), s.ey.data(), sw, sx, sy);
-      if (sw <= 0) break;
-      const double nx = d.x + omega * (s.cx + sx / sw - d.x), ny = d.y + omega * (s.cy + sy / sw - d.y), step = std::sqrt((nx - d.x) * (nx - d.x) + (ny - d.y) * (ny - d.y));
-      if (step > 2.0) break;  // lost to a neighbour: keep the last estimate
-      moved = std::max(moved, step);
-      d.x = nx;
-      d.y = ny;
-      tables(d, s);
-      if (step < 1e-3) break;
-    }
-    s.a = amplitude(s);
-    render(s, -1.0f);
-    return moved;
-  };
-  // Neighbour lists (spots closer than `reach`) in compressed rows: spot i's are
-  // list[first[i]] .. list[first[i + 1] - 1], found through a grid of cell `reach`; O(N).
-  struct Neighbours {
-    std::vector<int> first, list;
-    bool none(std::size_t i) const { return first[i] == first[i + 1]; }
-  };
-  auto neighbours = [&]() {
-    const DetectionGrid grid(dets, reach);
-    Neighbours nb;
-    nb.first.assign(dets.size() + 1, 0);
-    for (std::size_t i = 0; i < dets.size(); ++i) {
-      grid.near(dets[i].x, dets[i].y, reach, [&](int j, double dist) {
-        if (j != static_cast<int>(i) && dist < reach) nb.list.push_back(j);
-      });
-      nb.first[i + 1] = static_cast<int>(nb.list.size());
-    }
-    return nb;
-  };
-  // Gauss-Seidel sweeps over the spots that have neighbours, in index order, until none
-  // moves by 5e-3 px (at most 8 sweeps). (Refitting only the spots whose neighbourhood
-  // still moves was measured: close pairs converge slowly, so it changes their positions
-  // by up to ~0.05 px and, through the linker, the SNR 4 scenes' scores.)
-  auto sweep = [&](const Neighbours& nb) {
-    for (int pass = 0; pass < 8; ++pass) {
-      double moved = 0;
-      for (std::size_t i = 0; i < dets.size(); ++i)
-        if (!nb.none(i)) moved = std::max(moved, refit(i));
-      if (moved < 5e-3) break;
-    }
-  };
-  for (std::size_t i = 0; i < dets.size(); ++i) {
-    tables(dets[i], spots[i]);
-    spots[i].a = amplitude(spots[i]);
+  FitGeometry(double sm_px, double blur_px, int width, int height)
+      : sm(sm_px),
+        blur(blur_px),
+        sg(std::sqrt(sm * sm + blur * blur)),
+        r(std::max(kTune.window_min_px, static_cast<int>(std::ceil(kTune.window_sigmas * sg)))),
+        n(2 * r + 1),
+        reach(std::max(kTune.neighbour_min_px, kTune.neighbour_sigmas * sm)),
+        inv2s2(1.0 / (2 * sm * sm)),
+        inv2g2(1.0 / (2 * sg * sg)),
+        c2s2(std::exp(-2 * inv2s2)),
+        c2g2(std::exp(-2 * inv2g2)),
+        omega(1.0 / (1.0 - sm * sm / (2 * sm * sm + blur * blur))),
+        gain(sm * sm / (sm * sm + blur * blur)),
+        W(width),
+        H(height) {}
+  double sm, blur;
+  double sg;            ///< a spot's sigma in the smoothed signal, px
+  int r, n;             ///< the fit window's half-width and width, px
+  double reach;         ///< neighbours: spots closer than this, px
+  double inv2s2, inv2g2;  ///< 1 / (2 sigma^2) of the model (sm) and of the shape (sg)
+  double c2s2, c2g2;      ///< exp(-2 inv2s2), exp(-2 inv2g2) (gaussianRow)
+  double omega;         ///< over-relaxation of the masked centroid (see refineCentre)
+  double gain;          ///< smoothed peak / spot amplitude
+  int W, H;
+};
+
+struct Spot {
+  int cx = 0, cy = 0;  // window centre (pixel)
+  double a = 0;        // amplitude
+  std::array<float, kMaxWindow> ex{}, ey{};  // sigma sm: the centroid's mask and the joint fit's model
+};
+
+/// Neighbour lists (spots closer than FitGeometry::reach) in compressed rows: spot i's are
+/// list[first[i]] .. list[first[i + 1] - 1].
+struct Neighbours {
+  std::vector<int> first, list;
+  bool none(std::size_t i) const { return first[i] == first[i + 1]; }
+};
+
+/// Per-thread buffers: no frame-sized allocation per call.
+cv::Mat& residualBuffer() {
+  thread_local cv::Mat R;
+  return R;
+}
+
+/// The residual smoothed as the seeds were, over windows only: the kernel is
+/// GaussianBlur's for float images (4 sigma each side), borders reflected as its default
+/// does (BORDER_REFLECT_101).
+class WindowSmoother {
+ public:
+  WindowSmoother(const cv::Mat& R, double blur)
+      : m_R(R),
+        m_kr(blur > 0 ? (cvRound(blur * 8 + 1) | 1) / 2 : 0),
+        m_kernel_mat(cv::getGaussianKernel(2 * m_kr + 1, blur > 0 ? blur : 1, CV_32F)),
+        m_kernel(m_kernel_mat.ptr<float>()),
+        m_out(outBuffer()),
+        m_rows(rowsBuffer()) {
+    m_out.create(R.size(), CV_32F);
   }
-  Neighbours nb = neighbours();
-  // Lone spots keep their masked-centroid positions; their models leave the residual first.
-  for (std::size_t i = 0; i < dets.size(); ++i)
-    if (nb.none(i)) render(spots[i], -1.0f);
-  for (std::size_t i = 0; i < dets.size(); ++i)
-    if (!nb.none(i)) render(spots[i], -1.0f);
-  sweep(nb);
-  // Residual, smoothed as the seeds were: a maximum above the seeds' level within `sep`
-  // of a spot is a particle the separation hid.
-  // Only the windows searched are smoothed, and only where the residual could pass the
-  // test at all: a Gaussian average never exceeds the largest value it averages, and
-  // after the fit the residual is mostly noise below the seeds' level.
-  // The kernel is GaussianBlur's for float images (4 sigma each side), borders reflected
-  // as its default does (BORDER_REFLECT_101).
-  const int kr = blur > 0 ? (cvRound(blur * 8 + 1) | 1) / 2 : 0;
-  cv::Mat kernel_mat = cv::getGaussianKernel(2 * kr + 1, blur > 0 ? blur : 1, CV_32F);
-  const float* kernel = kernel_mat.ptr<float>();
-  residual.create(R.size(), CV_32F);
-  thread_local std::vector<float> rows;
-  auto reflect = [](int p, int size) {
-    if (size == 1) return 0;
-    while (p < 0 || p >= size) p = p < 0 ? -p : 2 * size - 2 - p;
-    return p;
-  };
-  // Smoothed residual over [xa, xb] x [ya, yb] (in the frame) into `residual`.
-  auto smoothWindow = [&](int xa, int xb, int ya, int yb) {
+  /// Half-width of the kernel, px (0: no smoothing).
+  int radius() const { return m_kr; }
+  /// The smoothed residual over [xa, xb] x [ya, yb] (in the frame); R itself when there
+  /// is no smoothing.
+  const cv::Mat& smooth(int xa, int xb, int ya, int yb) {
+    if (m_kr == 0) return m_R;
+    const int kr = m_kr, W = m_R.cols, H = m_R.rows;
+    const float* kernel = m_kernel;
     const int w = xb - xa + 1;
-    rows.assign(static_cast<std::size_t>(w) * (yb - ya + 1 + 2 * kr), 0.0f);
+    m_rows.assign(static_cast<std::size_t>(w) * (yb - ya + 1 + 2 * kr), 0.0f);
     for (int yy = ya - kr; yy <= yb + kr; ++yy) {
-      const float* src = R.ptr<float>(reflect(yy, H));
-      float* dst = rows.data() + static_cast<std::size_t>(yy - ya + kr) * w;
+      const float* src = m_R.ptr<float>(reflect(yy, H));
+      float* dst = m_rows.data() + static_cast<std::size_t>(yy - ya + kr) * w;
       for (int x = xa; x <= xb; ++x) {
         float t = 0;
         if (x - kr >= 0 && x + kr < W)
@@ -292,25 +186,257 @@ void deblend(const cv::Mat& zero_mean, double sm, double blur, double level, int
       }
     }
     for (int y = ya; y <= yb; ++y) {
-      float* out = residual.ptr<float>(y) + xa;
+      float* out = m_out.ptr<float>(y) + xa;
       for (int x = 0; x < w; ++x) {
         float t = 0;
-        for (int j = 0; j <= 2 * kr; ++j) t += kernel[j] * rows[static_cast<std::size_t>(y - ya + j) * w + x];
+        for (int j = 0; j <= 2 * kr; ++j) t += kernel[j] * m_rows[static_cast<std::size_t>(y - ya + j) * w + x];
         out[x] = t;
       }
     }
-  };
-  const double gain = sm * sm / (sm * sm + blur * blur);  // smoothed peak / spot amplitude
+    return m_out;
+  }
+
+ private:
+  static int reflect(int p, int size) {
+    if (size == 1) return 0;
+    while (p < 0 || p >= size) p = p < 0 ? -p : 2 * size - 2 - p;
+    return p;
+  }
+  static cv::Mat& outBuffer() {
+    thread_local cv::Mat residual;
+    return residual;
+  }
+  static std::vector<float>& rowsBuffer() {
+    thread_local std::vector<float> rows;
+    return rows;
+  }
+  const cv::Mat& m_R;
+  int m_kr;
+  cv::Mat m_kernel_mat;
+  const float* m_kernel;
+  cv::Mat& m_out;
+  std::vector<float>& m_rows;
+};
+
+/// Second moments of a spot's data (residual plus its own model) under the square root of
+/// its mask (separable too), about its centre: weight, xx, yy, xy.
+struct BlobMoments {
+  double sw = 0, sxx = 0, syy = 0, sxy = 0;
+};
+
+/// A spot's rows over the window of half-width r around (cx, cy): its narrow model
+/// (sigma sm, the fit's tables) and its shape (sigma sg, from its position), 0 where the
+/// spot's own window does not reach.
+struct Rows {
+  double nx[kMaxWindow], ny[kMaxWindow], gx[kMaxWindow], gy[kMaxWindow];
+};
+
+/// The joint fit of one frame's spots: the residual (signal minus every spot's model) is
+/// kept as an image (R) and updated spot by spot with separable Gaussian tables, so a
+/// sweep costs O(spots x window). Each stage of deblend is one public member.
+class JointFit {
+ public:
+  /// Residual set-up: R = `zero_mean`, and every spot's tables at its seed position with
+  /// its least-squares amplitude (the models are not yet subtracted).
+  JointFit(const cv::Mat& zero_mean, const FitGeometry& g, std::vector<Detection>& dets)
+      : m_g(g), m_dets(dets), m_spots(dets.size()), m_R(residualBuffer()) {
+    zero_mean.copyTo(m_R);
+    for (std::size_t i = 0; i < m_dets.size(); ++i) {
+      tables(m_dets[i], m_spots[i]);
+      m_spots[i].a = amplitude(m_spots[i]);
+    }
+  }
+
+  /// Joint fit: lone spots keep their masked-centroid positions, their models leave the
+  /// residual first; then Gauss-Seidel sweeps over the spots that have neighbours.
+  void fitJointly() {
+    m_nb = neighbours();
+    for (std::size_t i = 0; i < m_dets.size(); ++i)
+      if (m_nb.none(i)) render(m_spots[i], -1.0f);
+    for (std::size_t i = 0; i < m_dets.size(); ++i)
+      if (!m_nb.none(i)) render(m_spots[i], -1.0f);
+    sweep();
+  }
+
+  /// New neighbour lists (spots were added) and sweeps again.
+  void refitAll() {
+    m_nb = neighbours();
+    sweep();
+  }
+
+  bool addHiddenSpots(double level, int sep);
+  bool splitMergedPairs(double level, double noise);
+  void dropMerged(std::size_t before, double level);
+
+ private:
+  void tables(const Detection& d, Spot& s) const;
+  void render(const Spot& s, float sign);
+  double amplitude(const Spot& s) const;
+  double refit(std::size_t i);
+  Neighbours neighbours() const;
+  void sweep();
+  BlobMoments blobMoments(std::size_t i) const;
+  void shapeRows(const Detection& d, const Spot& s, int cx, int cy, Rows& w) const;
+  double shapedRss(int cx, int cy, std::size_t ia, const std::size_t* ib, double noise, double& energy) const;
+
+  const FitGeometry& m_g;
+  std::vector<Detection>& m_dets;
+  std::vector<Spot> m_spots;
+  cv::Mat& m_R;
+  Neighbours m_nb;
+};
+
+// Only the joint fit's tables (sigma sm) follow the spot as it moves; the split test's
+// (sigma sg) are built where it needs them (shapeRows).
+void JointFit::tables(const Detection& d, Spot& s) const {
+  const int r = m_g.r, n = m_g.n;
+  s.cx = static_cast<int>(std::lround(d.x));
+  s.cy = static_cast<int>(std::lround(d.y));
+  gaussianRow(s.ex.data(), n, s.cx - r, d.x, m_g.inv2s2, m_g.c2s2);
+  gaussianRow(s.ey.data(), n, s.cy - r, d.y, m_g.inv2s2, m_g.c2s2);
+}
+
+// Adds `sign` x the spot's model to R.
+void JointFit::render(const Spot& s, float sign) {
+  const int r = m_g.r, n = m_g.n, W = m_g.W, H = m_g.H;
+  cv::Mat& R = m_R;
+  const float a = static_cast<float>(s.a) * sign;
+  if (s.cx - r >= 0 && s.cx - r + kLanes <= W && n <= kLanes) {
+    // 16 columns at a time (4 vectors); the model is 0 beyond the window's n.
+    float mx[kLanes] = {};
+    std::copy(s.ex.begin(), s.ex.begin() + n, mx);
+    const cv::v_float32x4 m0 = cv::v_load(mx), m1 = cv::v_load(mx + 4), m2 = cv::v_load(mx + 8), m3 = cv::v_load(mx + 12);
+    for (int y = std::max(0, s.cy - r); y <= std::min(H - 1, s.cy + r); ++y) {
+      float* row = R.ptr<float>(y) + (s.cx - r);
+      const cv::v_float32x4 ay = cv::v_setall_f32(a * s.ey[y - s.cy + r]);
+      cv::v_store(row, cv::v_muladd(ay, m0, cv::v_load(row)));
+      cv::v_store(row + 4, cv::v_muladd(ay, m1, cv::v_load(row + 4)));
+      cv::v_store(row + 8, cv::v_muladd(ay, m2, cv::v_load(row + 8)));
+      cv::v_store(row + 12, cv::v_muladd(ay, m3, cv::v_load(row + 12)));
+    }
+    return;
+  }
+  const int x0 = std::max(0, s.cx - r), x1 = std::min(W - 1, s.cx + r);
+  const float* mx = s.ex.data() + (x0 - s.cx + r);
+  for (int y = std::max(0, s.cy - r); y <= std::min(H - 1, s.cy + r); ++y) {
+    float* row = R.ptr<float>(y) + x0;
+    const float ay = a * s.ey[y - s.cy + r];
+    for (int k = 0; k <= x1 - x0; ++k) row[k] += ay * mx[k];
+  }
+}
+
+// Least-squares amplitude on R (own model already added back); the model is separable,
+// so its sum of squares is the product of its rows'.
+double JointFit::amplitude(const Spot& s) const {
+  const int r = m_g.r, n = m_g.n, W = m_g.W, H = m_g.H;
+  const cv::Mat& R = m_R;
+  if (s.cx - r >= 0 && s.cx - r + kLanes <= W && n <= kLanes) {
+    // Per-column sums over the rows (vectorised lanes), then over the columns.
+    float mx[kLanes] = {}, lane[kLanes] = {};
+    double sxx = 0, syy = 0, sd = 0;
+    for (int k = 0; k < n; ++k) {
+      mx[k] = s.ex[k];
+      sxx += static_cast<double>(mx[k]) * mx[k];
+    }
+    for (int y = std::max(0, s.cy - r); y <= std::min(H - 1, s.cy + r); ++y) {
+      const float* row = R.ptr<float>(y) + (s.cx - r);
+      const float gy = s.ey[y - s.cy + r];
+      for (int k = 0; k < kLanes; ++k) lane[k] += row[k] * mx[k] * gy;
+      syy += static_cast<double>(gy) * gy;
+    }
+    for (int k = 0; k < n; ++k) sd += lane[k];
+    const double sgg = sxx * syy;
+    return sgg > 0 ? sd / sgg : 0.0;
+  }
+  const int x0 = std::max(0, s.cx - r), x1 = std::min(W - 1, s.cx + r);
+  const float* mx = s.ex.data() + (x0 - s.cx + r);
+  double sd = 0, sxx = 0, syy = 0;
+  for (int k = 0; k <= x1 - x0; ++k) sxx += static_cast<double>(mx[k]) * mx[k];
+  for (int y = std::max(0, s.cy - r); y <= std::min(H - 1, s.cy + r); ++y) {
+    const float* row = R.ptr<float>(y) + x0;
+    float rs = 0;
+    for (int k = 0; k <= x1 - x0; ++k) rs += row[k] * mx[k];
+    const double gy = s.ey[y - s.cy + r];
+    sd += rs * gy;
+    syy += gy * gy;
+  }
+  const double sgg = sxx * syy;
+  return sgg > 0 ? sd / sgg : 0.0;
+}
+
+// Refits spot i on R + its own model; leaves R with the new model subtracted. Returns the
+// largest step, px.
+double JointFit::refit(std::size_t i) {
+  Detection& d = m_dets[i];
+  Spot& s = m_spots[i];
+  const double omega = m_g.omega;
+  render(s, 1.0f);
+  double moved = 0;
+  for (int it = 0; it < kTune.refit_iterations; ++it) {
+    double sw = 0, sx = 0, sy = 0;
+    maskedSums(m_R, s.cx, s.cy, m_g.r, s.ex.data(), s.ey.data(), sw, sx, sy);
+    if (sw <= 0) break;
+    const double nx = d.x + omega * (s.cx + sx / sw - d.x), ny = d.y + omega * (s.cy + sy / sw - d.y), step = std::sqrt((nx - d.x) * (nx - d.x) + (ny - d.y) * (ny - d.y));
+    if (step > kTune.refit_lost_px) break;  // lost to a neighbour: keep the last estimate
+    moved = std::max(moved, step);
+    d.x = nx;
+    d.y = ny;
+    tables(d, s);
+    if (step < kTune.refit_converged_px) break;
+  }
+  s.a = amplitude(s);
+  render(s, -1.0f);
+  return moved;
+}
+
+// Found through a grid of cell `reach`; O(N).
+Neighbours JointFit::neighbours() const {
+  const double reach = m_g.reach;
+  const DetectionGrid grid(m_dets, reach);
+  Neighbours nb;
+  nb.first.assign(m_dets.size() + 1, 0);
+  for (std::size_t i = 0; i < m_dets.size(); ++i) {
+    grid.near(m_dets[i].x, m_dets[i].y, reach, [&](int j, double dist) {
+      if (j != static_cast<int>(i) && dist < reach) nb.list.push_back(j);
+    });
+    nb.first[i + 1] = static_cast<int>(nb.list.size());
+  }
+  return nb;
+}
+
+// Gauss-Seidel sweeps over the spots that have neighbours, in index order, until none
+// moves by sweep_converged_px (at most sweep_passes sweeps).
+void JointFit::sweep() {
+  for (int pass = 0; pass < kTune.sweep_passes; ++pass) {
+    double moved = 0;
+    for (std::size_t i = 0; i < m_dets.size(); ++i)
+      if (!m_nb.none(i)) moved = std::max(moved, refit(i));
+    if (moved < kTune.sweep_converged_px) break;
+  }
+}
+
+// Residual, smoothed as the seeds were: a maximum above the seeds' level within `sep`
+// of a spot is a particle the separation hid. Only the windows searched are smoothed, and
+// only where the residual could pass the test at all: a Gaussian average never exceeds
+// the largest value it averages, and after the fit the residual is mostly noise below the
+// seeds' level. The new spots' models leave the residual once the search is over (it
+// smooths R as it was). Returns whether any spot was added.
+bool JointFit::addHiddenSpots(double level, int sep) {
+  const int W = m_g.W, H = m_g.H;
+  const double gain = m_g.gain;
+  const cv::Mat& R = m_R;
+  std::vector<Detection>& dets = m_dets;
+  WindowSmoother smoother(R, m_g.blur);
+  const int kr = smoother.radius();
   const std::size_t before = dets.size();
   // The spots found so far, one grid for the whole search: a new one is taken when it lies
-  // within kTakenPx of one of them.
-  constexpr double kTakenPx = 2;
-  GrowingGrid found(W, H, kTakenPx);
+  // within taken_px of one of them.
+  const double taken_px = kTune.taken_px;
+  GrowingGrid found(W, H, taken_px);
   for (std::size_t i = 0; i < before; ++i) {
-    const int cx = spots[i].cx, cy = spots[i].cy;
-    // Above the seeds' level and above what a slightly wrong spot model leaves behind
-    // at high SNR (a sigma off by 10 % leaves ~10 % of the amplitude).
-    float best = static_cast<float>(std::max(level, 0.3 * spots[i].a * gain));
+    const int cx = m_spots[i].cx, cy = m_spots[i].cy;
+    // Above the seeds' level and above what a slightly wrong spot model leaves behind.
+    float best = static_cast<float>(std::max(level, kTune.residual_fraction * m_spots[i].a * gain));
     const int xa = std::max(1, cx - sep) - 1, xb = std::min(W - 2, cx + sep) + 1;
     const int ya = std::max(1, cy - sep) - 1, yb = std::min(H - 2, cy + sep) + 1;
     if (xa > xb || ya > yb) continue;
@@ -327,8 +453,7 @@ void deblend(const cv::Mat& zero_mean, double sm, double blur, double level, int
       top = std::max(top, cv::v_reduce_max(top4));
       if (top < best - 1e-5f * std::abs(best)) continue;  // (the kernel sums to 1 within float rounding)
     }
-    if (kr > 0) smoothWindow(xa, xb, ya, yb);
-    const cv::Mat& smoothed = kr > 0 ? residual : R;
+    const cv::Mat& smoothed = smoother.smooth(xa, xb, ya, yb);
     int bx = -1, by = -1;
     for (int y = std::max(1, cy - sep); y <= std::min(H - 2, cy + sep); ++y) {
       const float* row = smoothed.ptr<float>(y);
@@ -348,7 +473,7 @@ void deblend(const cv::Mat& zero_mean, double sm, double blur, double level, int
     }
     if (bx < 0) continue;
     bool taken = false;
-    found.near(bx, by, kTakenPx + 0.5, [&](int j, double) { taken = taken || std::hypot(dets[j].x - bx, dets[j].y - by) < kTakenPx; });
+    found.near(bx, by, taken_px + 0.5, [&](int j, double) { taken = taken || std::hypot(dets[j].x - bx, dets[j].y - by) < taken_px; });
     if (taken) continue;
     Detection d = dets[i];
     d.x = bx;
@@ -358,260 +483,292 @@ void deblend(const cv::Mat& zero_mean, double sm, double blur, double level, int
     Spot s;
     tables(d, s);
     s.a = best / gain;
-    spots.push_back(s);
+    m_spots.push_back(s);
   }
-  // Their models leave the residual once the search is over (it smooths R as it was).
-  for (std::size_t i = before; i < dets.size(); ++i) render(spots[i], -1.0f);
-  if (dets.size() > before) {
-    nb = neighbours();
-    sweep(nb);
+  for (std::size_t i = before; i < dets.size(); ++i) render(m_spots[i], -1.0f);
+  return dets.size() > before;
+}
+
+// Principal axis of the spot's data (residual plus its own model) under the mask, whose
+// square root is separable too. The window lies inside the frame.
+BlobMoments JointFit::blobMoments(std::size_t i) const {
+  const int r = m_g.r, n = m_g.n, W = m_g.W;
+  const cv::Mat& R = m_R;
+  const Spot& s = m_spots[i];
+  const Detection& det = m_dets[i];
+  const int cx = s.cx, cy = s.cy;
+  double sw = 0, sxx = 0, syy = 0, sxy = 0;
+  float qx[kMaxWindow], qy[kMaxWindow], dxs[kMaxWindow];
+  for (int k = 0; k < n; ++k) {
+    qx[k] = std::sqrt(s.ex[k]);
+    qy[k] = std::sqrt(s.ey[k]);
+    dxs[k] = static_cast<float>(cx - r + k - det.x);
   }
-  // Two particles closer than the blur resolves make one elongated blob: try two spots
-  // where one fits worse than the noise allows, and keep them when two spots explain the
-  // data significantly better than one.
-  // The test compares models of the spot's true shape in the smoothed signal (sigma sg),
-  // one spot at the single fit's centre against two at the pair fit's centres, amplitudes
-  // by least squares (the centres are not refitted with sg: that could only lower the
-  // two spots' residual, so the test errs towards one spot). The joint fit's own model (sigma sm, narrower) is no null model: a
-  // lone spot leaves ~5 % of its energy to it as a ring, which two narrow spots ~2 px apart
-  // fit better than one, so at high SNR every spot would split.
-  // Two spots must gain more than both
-  // - what noise alone gives them (rules at low SNR): a likelihood-ratio test with three
-  //   more parameters on the smoothed noise, which is correlated over the blur: a smooth
-  //   model direction sees kappa = 4 pi b^2 s^2 / (s^2 + b^2) times the pixel variance
-  //   (white noise blurred by b, projected on a Gaussian of sigma s; 9.2 for b = 1,
-  //   s = 1.66). kSplit = 7 kappa (chi2(3) > 7 has probability 0.07, and kappa
-  //   overstates the correlation the position directions see by ~25 %): measured on the
-  //   clean SNR 10 sweep scenes, no lone spot's noise gains more than ~60 pixel variances;
-  //   10 kappa already loses enough true pairs to break the SNR 4 scene's RMSE target;
-  // - kFrac of the spot's energy (rules at high SNR): what a lone spot whose shape differs
-  //   a little from the model leaves (its sigma is estimated to ~5 %, Poisson noise is
-  //   stronger on the spot), which grows with SNR^2 where noise thresholds do not. Measured
-  //   on the SNR 10 scenes: lone spots gain 0.25 % of their energy typically, < 2 % always;
-  //   true pairs ~2 px apart 2-10 %.
-  if (noise > 0) {
-    const double kappa = std::max(1.0, 4 * M_PI * blur * blur * sg * sg / (sg * sg + blur * blur));
-    const double kSplit = 7 * kappa;
-    constexpr double kFrac = 0.025;
-    constexpr double kElongation = 1.1;
-    const double npix = static_cast<double>(n) * n;
-    // A spot's rows over the window of half-width r around (cx, cy): its narrow model
-    // (sigma sm, the fit's tables) and its shape (sigma sg, from its position), 0 where the
-    // spot's own window does not reach.
-    struct Rows {
-      double nx[32], ny[32], gx[32], gy[32];
-    };
-    auto shapeRows = [&](const Detection& d, const Spot& s, int cx, int cy, Rows& w) {
-      double gx[32], gy[32];
-      gaussianRow(gx, n, s.cx - r, d.x, inv2g2, c2g2);
-      gaussianRow(gy, n, s.cy - r, d.y, inv2g2, c2g2);
-      for (int k = 0; k < n; ++k) {
-        const int ox = cx - r + k - s.cx, oy = cy - r + k - s.cy;
-        const bool inx = std::abs(ox) <= r, iny = std::abs(oy) <= r;
-        w.nx[k] = inx ? static_cast<double>(s.ex[ox + r]) : 0.0;
-        w.gx[k] = inx ? static_cast<double>(static_cast<float>(gx[ox + r])) : 0.0;
-        w.ny[k] = iny ? static_cast<double>(s.ey[oy + r]) : 0.0;
-        w.gy[k] = iny ? static_cast<double>(static_cast<float>(gy[oy + r])) : 0.0;
-      }
-    };
-    // Residual sum of squares (in pixel variances) over the window around (cx, cy) of the
-    // data (R plus the narrow models of `fitted`) against spots of sigma sg at the centres
-    // of `fitted`, amplitudes by least squares; `energy` gets their sum of squares.
-    // The window lies inside the frame (the caller keeps 2 r from the edges).
-    Rows wa, wb;
-    auto shapedRss = [&](int cx, int cy, std::size_t ia, const std::size_t* ib, double& energy) {
-      const Spot& a = spots[ia];
-      shapeRows(dets[ia], a, cx, cy, wa);
-      if (ib) shapeRows(dets[*ib], spots[*ib], cx, cy, wb);
-      double vv = 0, va = 0, vb = 0, aa = 0, bb = 0, ab = 0;
-      double ax2 = 0, bx2 = 0, abx = 0;
-      for (int k = 0; k < n; ++k) {
-        ax2 += wa.gx[k] * wa.gx[k];
-        if (ib) {
-          bx2 += wb.gx[k] * wb.gx[k];
-          abx += wa.gx[k] * wb.gx[k];
-        }
-      }
-      for (int k = 0; k < n; ++k) {
-        const float* row = R.ptr<float>(cy - r + k) + (cx - r);
-        const double an = a.a * wa.ny[k], ag = wa.gy[k];
-        double rvv = 0, rva = 0, rvb = 0;
-        if (!ib) {
-          for (int x = 0; x < n; ++x) {
-            const double v = row[x] + an * wa.nx[x];
-            rvv += v * v;
-            rva += v * wa.gx[x];
-          }
-        } else {
-          const double bn = spots[*ib].a * wb.ny[k];
-          for (int x = 0; x < n; ++x) {
-            const double v = row[x] + an * wa.nx[x] + bn * wb.nx[x];
-            rvv += v * v;
-            rva += v * wa.gx[x];
-            rvb += v * wb.gx[x];
-          }
-          vb += rvb * wb.gy[k];
-          bb += bx2 * wb.gy[k] * wb.gy[k];
-          ab += abx * ag * wb.gy[k];
-        }
-        vv += rvv;
-        va += rva * ag;
-        aa += ax2 * ag * ag;
-      }
-      double explained = 0;
-      if (!ib) {
-        explained = aa > 0 ? va * va / aa : 0;
-      } else {
-        const double det = aa * bb - ab * ab;
-        if (det > 1e-12 * aa * bb) explained = (bb * va * va - 2 * ab * va * vb + aa * vb * vb) / det;
-      }
-      energy = explained / (noise * noise);
-      return (vv - explained) / (noise * noise);
-    };
-    const std::size_t n0 = dets.size();
-    bool split_any = false;
-    cv::Mat saved;
-    for (std::size_t i = 0; i < n0; ++i) {
-      const int cx = spots[i].cx, cy = spots[i].cy;
-      if (cx < 2 * r || cy < 2 * r || cx >= W - 2 * r || cy >= H - 2 * r) continue;
-      // Only elongated blobs: the principal variances of a round spot are equal, two spots
-      // 2.3 px apart make them differ by ~50 %. Principal axis of the spot's data (residual
-      // plus its own model) under the mask, whose square root is separable too. Measured
-      // on the SNR 4 scenes (seeds 31, 7, 11) and the 600-particle throughput scene, no
-      // accepted split was less elongated than 1.14 while round spots at high SNR are mostly
-      // below 1.1: a 10 % margin skips most of the pair fits that would fail, and no split.
-      // Taken before the residual test below, which costs as much and rejects fewer.
-      double sw = 0, sxx = 0, syy = 0, sxy = 0;
-      const Spot& s = spots[i];
-      float qx[32], qy[32], dxs[32];
-      for (int k = 0; k < n; ++k) {
-        qx[k] = std::sqrt(s.ex[k]);
-        qy[k] = std::sqrt(s.ey[k]);
-        dxs[k] = static_cast<float>(cx - r + k - dets[i].x);
-      }
-      if (cx - r + kLanes <= W && n <= kLanes) {
-        // Per-column sums over the rows (4 vectors of 4 lanes), then over the columns.
-        float mx[kLanes] = {}, wx[kLanes] = {}, lw[kLanes], lwy[kLanes], lwyy[kLanes];
-        for (int k = 0; k < n; ++k) {
-          mx[k] = s.ex[k];
-          wx[k] = qx[k];
-        }
-        cv::v_float32x4 vm[4], vq[4], aw[4], awy[4], awyy[4];
-        for (int v = 0; v < 4; ++v) {
-          vm[v] = cv::v_load(mx + 4 * v);
-          vq[v] = cv::v_load(wx + 4 * v);
-          aw[v] = awy[v] = awyy[v] = cv::v_setzero_f32();
-        }
-        const cv::v_float32x4 zero = cv::v_setzero_f32();
-        for (int y = cy - r; y <= cy + r; ++y) {
-          const float* row = R.ptr<float>(y) + (cx - r);
-          const float dy = static_cast<float>(y - dets[i].y);
-          const float q = qy[y - cy + r];
-          const cv::v_float32x4 ay = cv::v_setall_f32(static_cast<float>(s.a) * s.ey[y - cy + r]), vq0 = cv::v_setall_f32(q),
-                                vq1 = cv::v_setall_f32(q * dy), vq2 = cv::v_setall_f32(q * dy * dy);
-          for (int v = 0; v < 4; ++v) {
-            const cv::v_float32x4 w = cv::v_max(zero, cv::v_muladd(ay, vm[v], cv::v_load(row + 4 * v))) * vq[v];
-            aw[v] = cv::v_muladd(w, vq0, aw[v]);
-            awy[v] = cv::v_muladd(w, vq1, awy[v]);
-            awyy[v] = cv::v_muladd(w, vq2, awyy[v]);
-          }
-        }
-        for (int v = 0; v < 4; ++v) {
-          cv::v_store(lw + 4 * v, aw[v]);
-          cv::v_store(lwy + 4 * v, awy[v]);
-          cv::v_store(lwyy + 4 * v, awyy[v]);
-        }
-        for (int k = 0; k < n; ++k) {
-          sw += lw[k];
-          sxx += static_cast<double>(lw[k]) * dxs[k] * dxs[k];
-          sxy += static_cast<double>(lwy[k]) * dxs[k];
-          syy += lwyy[k];
-        }
-      } else {
-        for (int y = cy - r; y <= cy + r; ++y) {
-          const float* row = R.ptr<float>(y) + (cx - r);
-          const double dy = y - dets[i].y;
-          const float ay = static_cast<float>(s.a) * s.ey[y - cy + r];
-          float rw = 0, rx = 0, rxx = 0;
-          for (int k = 0; k < n; ++k) {
-            const float w = std::max(0.0f, row[k] + ay * s.ex[k]) * qx[k];
-            rw += w;
-            rx += w * dxs[k];
-            rxx += w * dxs[k] * dxs[k];
-          }
-          const double q = qy[y - cy + r];
-          sw += rw * q;
-          sxx += rxx * q;
-          syy += rw * q * dy * dy;
-          sxy += rx * q * dy;
-        }
-      }
-      if (sw <= 0) continue;
-      const double tr = sxx + syy, disc = std::sqrt(std::max(0.0, 0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy));
-      if (tr / 2 - disc <= 0 || (tr / 2 + disc) / (tr / 2 - disc) < kElongation) continue;
-      double energy = 0;
-      const double r1 = shapedRss(cx, cy, i, nullptr, energy);
-      const double threshold = std::max(kSplit, kFrac * energy);
-      // Cheap screen: two spots cannot gain more than the excess over a good fit (about
-      // half the window's pixel variances at least remain).
-      if (r1 < 0.5 * npix + threshold) continue;
-      const double theta = 0.5 * std::atan2(2 * sxy, sxx - syy);
-      const cv::Rect box(cx - 2 * r, cy - 2 * r, 4 * r + 1, 4 * r + 1);
-      R(box).copyTo(saved);
-      const Detection keep = dets[i];
-      const Spot keep_spot = spots[i];
-      render(spots[i], 1.0f);
-      const double half = 1.2;  // start 2.4 px apart along the axis
-      Detection other = keep;
-      dets[i].x = keep.x + half * std::cos(theta);
-      dets[i].y = keep.y + half * std::sin(theta);
-      other.x = keep.x - half * std::cos(theta);
-      other.y = keep.y - half * std::sin(theta);
-      dets.push_back(other);
-      spots.emplace_back();
-      const std::size_t k = dets.size() - 1;
-      tables(dets[i], spots[i]);
-      tables(dets[k], spots[k]);
-      spots[i].a = spots[k].a = 0.5 * keep_spot.a;
-      render(spots[i], -1.0f);
-      render(spots[k], -1.0f);
-      for (int pass = 0; pass < 8; ++pass)
-        if (std::max(refit(i), refit(k)) < 5e-3) break;
-      double pair_energy = 0;
-      const double r2 = shapedRss(cx, cy, i, &k, pair_energy);
-      const double apart = std::hypot(dets[i].x - dets[k].x, dets[i].y - dets[k].y);
-      if (r1 - r2 > threshold && apart > 1.2 && std::min(spots[i].a, spots[k].a) * gain >= level &&
-          std::abs(spots[i].cx - cx) <= r && std::abs(spots[k].cx - cx) <= r && std::abs(spots[i].cy - cy) <= r && std::abs(spots[k].cy - cy) <= r) {
-        split_any = true;
-        continue;
-      }
-      saved.copyTo(R(box));
-      dets[i] = keep;
-      spots[i] = keep_spot;
-      dets.pop_back();
-      spots.pop_back();
+  if (cx - r + kLanes <= W && n <= kLanes) {
+    // Per-column sums over the rows (4 vectors of 4 lanes), then over the columns.
+    float mx[kLanes] = {}, wx[kLanes] = {}, lw[kLanes], lwy[kLanes], lwyy[kLanes];
+    for (int k = 0; k < n; ++k) {
+      mx[k] = s.ex[k];
+      wx[k] = qx[k];
     }
-    if (split_any) {
-      nb = neighbours();
-      sweep(nb);
+    cv::v_float32x4 vm[4], vq[4], aw[4], awy[4], awyy[4];
+    for (int v = 0; v < 4; ++v) {
+      vm[v] = cv::v_load(mx + 4 * v);
+      vq[v] = cv::v_load(wx + 4 * v);
+      aw[v] = awy[v] = awyy[v] = cv::v_setzero_f32();
+    }
+    const cv::v_float32x4 zero = cv::v_setzero_f32();
+    for (int y = cy - r; y <= cy + r; ++y) {
+      const float* row = R.ptr<float>(y) + (cx - r);
+      const float dy = static_cast<float>(y - det.y);
+      const float q = qy[y - cy + r];
+      const cv::v_float32x4 ay = cv::v_setall_f32(static_cast<float>(s.a) * s.ey[y - cy + r]), vq0 = cv::v_setall_f32(q),
+                            vq1 = cv::v_setall_f32(q * dy), vq2 = cv::v_setall_f32(q * dy * dy);
+      for (int v = 0; v < 4; ++v) {
+        const cv::v_float32x4 w = cv::v_max(zero, cv::v_muladd(ay, vm[v], cv::v_load(row + 4 * v))) * vq[v];
+        aw[v] = cv::v_muladd(w, vq0, aw[v]);
+        awy[v] = cv::v_muladd(w, vq1, awy[v]);
+        awyy[v] = cv::v_muladd(w, vq2, awyy[v]);
+      }
+    }
+    for (int v = 0; v < 4; ++v) {
+      cv::v_store(lw + 4 * v, aw[v]);
+      cv::v_store(lwy + 4 * v, awy[v]);
+      cv::v_store(lwyy + 4 * v, awyy[v]);
+    }
+    for (int k = 0; k < n; ++k) {
+      sw += lw[k];
+      sxx += static_cast<double>(lw[k]) * dxs[k] * dxs[k];
+      sxy += static_cast<double>(lwy[k]) * dxs[k];
+      syy += lwyy[k];
+    }
+  } else {
+    for (int y = cy - r; y <= cy + r; ++y) {
+      const float* row = R.ptr<float>(y) + (cx - r);
+      const double dy = y - det.y;
+      const float ay = static_cast<float>(s.a) * s.ey[y - cy + r];
+      float rw = 0, rx = 0, rxx = 0;
+      for (int k = 0; k < n; ++k) {
+        const float w = std::max(0.0f, row[k] + ay * s.ex[k]) * qx[k];
+        rw += w;
+        rx += w * dxs[k];
+        rxx += w * dxs[k] * dxs[k];
+      }
+      const double q = qy[y - cy + r];
+      sw += rw * q;
+      sxx += rxx * q;
+      syy += rw * q * dy * dy;
+      sxy += rx * q * dy;
     }
   }
-  if (dets.size() == before) return;
-  // Two fits on one particle end up together (or a new one with a faint amplitude):
-  // keep the brighter.
+  return {sw, sxx, syy, sxy};
+}
+
+void JointFit::shapeRows(const Detection& d, const Spot& s, int cx, int cy, Rows& w) const {
+  const int r = m_g.r, n = m_g.n;
+  double gx[kMaxWindow], gy[kMaxWindow];
+  gaussianRow(gx, n, s.cx - r, d.x, m_g.inv2g2, m_g.c2g2);
+  gaussianRow(gy, n, s.cy - r, d.y, m_g.inv2g2, m_g.c2g2);
+  for (int k = 0; k < n; ++k) {
+    const int ox = cx - r + k - s.cx, oy = cy - r + k - s.cy;
+    const bool inx = std::abs(ox) <= r, iny = std::abs(oy) <= r;
+    w.nx[k] = inx ? static_cast<double>(s.ex[ox + r]) : 0.0;
+    w.gx[k] = inx ? static_cast<double>(static_cast<float>(gx[ox + r])) : 0.0;
+    w.ny[k] = iny ? static_cast<double>(s.ey[oy + r]) : 0.0;
+    w.gy[k] = iny ? static_cast<double>(static_cast<float>(gy[oy + r])) : 0.0;
+  }
+}
+
+// Residual sum of squares (in pixel variances, `noise` the pixel std) over the window
+// around (cx, cy) of the data (R plus the narrow models of `fitted`) against spots of sigma
+// sg at the centres of `fitted` (ia, and *ib unless null), amplitudes by least squares;
+// `energy` gets their sum of squares. The window lies inside the frame (the caller keeps
+// 2 r from the edges).
+double JointFit::shapedRss(int cx, int cy, std::size_t ia, const std::size_t* ib, double noise, double& energy) const {
+  const int r = m_g.r, n = m_g.n;
+  const Spot& a = m_spots[ia];
+  Rows wa, wb;
+  shapeRows(m_dets[ia], a, cx, cy, wa);
+  if (ib) shapeRows(m_dets[*ib], m_spots[*ib], cx, cy, wb);
+  double vv = 0, va = 0, vb = 0, aa = 0, bb = 0, ab = 0;
+  double ax2 = 0, bx2 = 0, abx = 0;
+  for (int k = 0; k < n; ++k) {
+    ax2 += wa.gx[k] * wa.gx[k];
+    if (ib) {
+      bx2 += wb.gx[k] * wb.gx[k];
+      abx += wa.gx[k] * wb.gx[k];
+    }
+  }
+  for (int k = 0; k < n; ++k) {
+    const float* row = m_R.ptr<float>(cy - r + k) + (cx - r);
+    const double an = a.a * wa.ny[k], ag = wa.gy[k];
+    double rvv = 0, rva = 0, rvb = 0;
+    if (!ib) {
+      for (int x = 0; x < n; ++x) {
+        const double v = row[x] + an * wa.nx[x];
+        rvv += v * v;
+        rva += v * wa.gx[x];
+      }
+    } else {
+      const double bn = m_spots[*ib].a * wb.ny[k];
+      for (int x = 0; x < n; ++x) {
+        const double v = row[x] + an * wa.nx[x] + bn * wb.nx[x];
+        rvv += v * v;
+        rva += v * wa.gx[x];
+        rvb += v * wb.gx[x];
+      }
+      vb += rvb * wb.gy[k];
+      bb += bx2 * wb.gy[k] * wb.gy[k];
+      ab += abx * ag * wb.gy[k];
+    }
+    vv += rvv;
+    va += rva * ag;
+    aa += ax2 * ag * ag;
+  }
+  double explained = 0;
+  if (!ib) {
+    explained = aa > 0 ? va * va / aa : 0;
+  } else {
+    const double det = aa * bb - ab * ab;
+    if (det > 1e-12 * aa * bb) explained = (bb * va * va - 2 * ab * va * vb + aa * vb * vb) / det;
+  }
+  energy = explained / (noise * noise);
+  return (vv - explained) / (noise * noise);
+}
+
+// Two particles closer than the blur resolves make one elongated blob: try two spots
+// where one fits worse than the noise allows, and keep them when two spots explain the
+// data significantly better than one.
+// The test compares models of the spot's true shape in the smoothed signal (sigma sg),
+// one spot at the single fit's centre against two at the pair fit's centres, amplitudes
+// by least squares (the centres are not refitted with sg: that could only lower the
+// two spots' residual, so the test errs towards one spot). The joint fit's own model
+// (sigma sm, narrower) is no null model: a lone spot leaves ~5 % of its energy to it as a
+// ring, which two narrow spots ~2 px apart fit better than one, so at high SNR every spot
+// would split.
+// Two spots must gain more than both
+// - what noise alone gives them (rules at low SNR): a likelihood-ratio test with three
+//   more parameters on the smoothed noise, which is correlated over the blur: a smooth
+//   model direction sees kappa = 4 pi b^2 s^2 / (s^2 + b^2) times the pixel variance
+//   (white noise blurred by b, projected on a Gaussian of sigma s; 9.2 for b = 1,
+//   s = 1.66). split_kappas = 7 (chi2(3) > 7 has probability 0.07, and kappa overstates
+//   the correlation the position directions see by ~25 %): measured on the clean SNR 10
+//   sweep scenes, no lone spot's noise gains more than ~60 pixel variances; 10 kappa
+//   already loses enough true pairs to break the SNR 4 scene's RMSE target;
+// - split_energy_fraction of the spot's energy (rules at high SNR): what a lone spot whose
+//   shape differs a little from the model leaves (its sigma is estimated to ~5 %, Poisson
+//   noise is stronger on the spot), which grows with SNR^2 where noise thresholds do not.
+//   Measured on the SNR 10 scenes: lone spots gain 0.25 % of their energy typically,
+//   < 2 % always; true pairs ~2 px apart 2-10 %.
+// Returns whether any spot was split (the pairs' models are in the residual).
+bool JointFit::splitMergedPairs(double level, double noise) {
+  const int r = m_g.r, n = m_g.n, W = m_g.W, H = m_g.H;
+  const double blur = m_g.blur, sg = m_g.sg, gain = m_g.gain;
+  std::vector<Detection>& dets = m_dets;
+  std::vector<Spot>& spots = m_spots;
+  const double kappa = std::max(1.0, 4 * M_PI * blur * blur * sg * sg / (sg * sg + blur * blur));
+  const double split = kTune.split_kappas * kappa;
+  const double npix = static_cast<double>(n) * n;
+  const std::size_t n0 = dets.size();
+  bool split_any = false;
+  cv::Mat saved;
+  for (std::size_t i = 0; i < n0; ++i) {
+    const int cx = spots[i].cx, cy = spots[i].cy;
+    if (cx < 2 * r || cy < 2 * r || cx >= W - 2 * r || cy >= H - 2 * r) continue;
+    // Only elongated blobs: the principal variances of a round spot are equal, two spots
+    // 2.3 px apart make them differ by ~50 %. Measured on the SNR 4 scenes (seeds 31, 7,
+    // 11) and the 600-particle throughput scene, no accepted split was less elongated than
+    // 1.14 while round spots at high SNR are mostly below 1.1: a 10 % margin skips most of
+    // the pair fits that would fail, and no split. Taken before the residual test below,
+    // which costs as much and rejects fewer.
+    const BlobMoments m = blobMoments(i);
+    if (m.sw <= 0) continue;
+    const double tr = m.sxx + m.syy, disc = std::sqrt(std::max(0.0, 0.25 * (m.sxx - m.syy) * (m.sxx - m.syy) + m.sxy * m.sxy));
+    if (tr / 2 - disc <= 0 || (tr / 2 + disc) / (tr / 2 - disc) < kTune.split_elongation) continue;
+    double energy = 0;
+    const double r1 = shapedRss(cx, cy, i, nullptr, noise, energy);
+    const double threshold = std::max(split, kTune.split_energy_fraction * energy);
+    // Cheap screen: two spots cannot gain more than the excess over a good fit.
+    if (r1 < kTune.screen_window_share * npix + threshold) continue;
+    const double theta = 0.5 * std::atan2(2 * m.sxy, m.sxx - m.syy);
+    const cv::Rect box(cx - 2 * r, cy - 2 * r, 4 * r + 1, 4 * r + 1);
+    m_R(box).copyTo(saved);
+    const Detection keep = dets[i];
+    const Spot keep_spot = spots[i];
+    render(spots[i], 1.0f);
+    const double half = kTune.split_half_px;
+    Detection other = keep;
+    dets[i].x = keep.x + half * std::cos(theta);
+    dets[i].y = keep.y + half * std::sin(theta);
+    other.x = keep.x - half * std::cos(theta);
+    other.y = keep.y - half * std::sin(theta);
+    dets.push_back(other);
+    spots.emplace_back();
+    const std::size_t k = dets.size() - 1;
+    tables(dets[i], spots[i]);
+    tables(dets[k], spots[k]);
+    spots[i].a = spots[k].a = 0.5 * keep_spot.a;
+    render(spots[i], -1.0f);
+    render(spots[k], -1.0f);
+    // Refitted in a fixed order, the new spot first: as two arguments of one std::max the
+    // order would be the compiler's (GCC and clang differ, and so would the positions).
+    for (int pass = 0; pass < kTune.sweep_passes; ++pass) {
+      const double moved_k = refit(k);
+      const double moved_i = refit(i);
+      if (std::max(moved_i, moved_k) < kTune.sweep_converged_px) break;
+    }
+    double pair_energy = 0;
+    const double r2 = shapedRss(cx, cy, i, &k, noise, pair_energy);
+    const double apart = std::hypot(dets[i].x - dets[k].x, dets[i].y - dets[k].y);
+    if (r1 - r2 > threshold && apart > kTune.split_min_apart_px && std::min(spots[i].a, spots[k].a) * gain >= level &&
+        std::abs(spots[i].cx - cx) <= r && std::abs(spots[k].cx - cx) <= r && std::abs(spots[i].cy - cy) <= r && std::abs(spots[k].cy - cy) <= r) {
+      split_any = true;
+      continue;
+    }
+    saved.copyTo(m_R(box));
+    dets[i] = keep;
+    spots[i] = keep_spot;
+    dets.pop_back();
+    spots.pop_back();
+  }
+  return split_any;
+}
+
+// Two fits on one particle end up together (or a new one, index >= `before`, with a
+// faint amplitude): keep the brighter.
+void JointFit::dropMerged(std::size_t before, double level) {
+  std::vector<Detection>& dets = m_dets;
+  const double gain = m_g.gain;
   std::vector<char> drop(dets.size(), 0);
   for (std::size_t i = 0; i < dets.size(); ++i) {
-    if (nb.none(i)) continue;
-    if (i >= before && spots[i].a * gain < level) drop[i] = 1;
-    for (int q = nb.first[i]; q < nb.first[i + 1]; ++q) {
-      const int j = nb.list[q];
-      if (!drop[j] && !drop[i] && std::hypot(dets[j].x - dets[i].x, dets[j].y - dets[i].y) < 1.0) drop[spots[i].a < spots[j].a ? i : j] = 1;
+    if (m_nb.none(i)) continue;
+    if (i >= before && m_spots[i].a * gain < level) drop[i] = 1;
+    for (int q = m_nb.first[i]; q < m_nb.first[i + 1]; ++q) {
+      const int j = m_nb.list[q];
+      if (!drop[j] && !drop[i] && std::hypot(dets[j].x - dets[i].x, dets[j].y - dets[i].y) < kTune.merged_px) drop[m_spots[i].a < m_spots[j].a ? i : j] = 1;
     }
   }
   std::size_t kept = 0;
   for (std::size_t i = 0; i < dets.size(); ++i)
     if (!drop[i]) dets[kept++] = dets[i];
   dets.resize(kept);
+}
+
+}  // namespace
+
+/// The stages: residual set-up, joint fit sweeps, hidden-spot search, split test, merge
+/// removal (SpotFit.hpp states the contract; TrackerTuning.hpp holds the numbers).
+void deblend(const cv::Mat& zero_mean, double sm, double blur, double level, int sep, double noise, std::vector<Detection>& dets) {
+  if (dets.empty()) return;
+  const FitGeometry g(sm, blur, zero_mean.cols, zero_mean.rows);
+  if (g.n > kMaxWindow) return;
+  JointFit fit(zero_mean, g, dets);
+  fit.fitJointly();
+  const std::size_t before = dets.size();
+  if (fit.addHiddenSpots(level, sep)) fit.refitAll();
+  if (noise > 0 && fit.splitMergedPairs(level, noise)) fit.refitAll();
+  if (dets.size() == before) return;
+  fit.dropMerged(before, level);
 }
 
 }  // namespace mmval::tracking::detail

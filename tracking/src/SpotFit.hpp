@@ -50,6 +50,8 @@ void maskedSums(const cv::Mat& img, int cx, int cy, int r, const float* ex, cons
 /// `zero_mean`: the smoothed, unclipped signal; `sm`: the spots' sigma (px); `blur`: the
 /// smoothing's sigma (px); `level`: the seeds' threshold on the smoothed signal; `sep`: the
 /// seeds' separation (px); `noise`: the robust std of `zero_mean` (0: no split test).
+/// Its stages and their numbers (window, reach, convergence, split test): DeblendTuning
+/// (TrackerTuning.hpp).
 void deblend(const cv::Mat& zero_mean, double sm, double blur, double level, int sep, double noise, std::vector<Detection>& dets);
 
 // Per-detection quality (SpotQuality.cpp).

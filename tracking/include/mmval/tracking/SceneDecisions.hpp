@@ -76,7 +76,8 @@ constexpr double kStaticShareLimit = 0.5;
 /// Round spots (eccentricity <= 0.8: grain edges are elongated) are found with `options`
 /// (polarity `polarity`) on up to 8 frames and on `median` against a spatial high-pass (a
 /// boxcar of refine_radius) instead of the median; "the same place" is within
-/// max(1.5, refine_radius / 4) px.
+/// max(1.5, refine_radius / 4) px. Polarity automatic: dark and bright are both tried in
+/// one pass over the frames; the side with more spots per frame decides (dark on a tie).
 BackgroundDecision decideBackground(const std::vector<cv::Mat>& frames, const cv::Mat& median, Polarity polarity, const DetectOptions& options);
 
 /// Dark or bright particles of a video whose particles barely move (no temporal
