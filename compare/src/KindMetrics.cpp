@@ -18,7 +18,9 @@ void compareTracksMetrics(Schema& s) {
   s.metric("experiment_steps_in_grains", "1", "With a geometry mask: share of experiment steps inside grains (large: poor alignment)");
   s.metric("speed_wasserstein1", "um/s", "Wasserstein-1 distance between the speed distributions");
   s.metric("speed_ks_statistic", "1", "Two-sample Kolmogorov-Smirnov D of the speeds");
-  s.metric("speed_ks_p_value", "1", "Asymptotic p-value of the Kolmogorov-Smirnov D");
+  s.metric("speed_ks_p_value", "1", "Asymptotic p-value of the Kolmogorov-Smirnov D over per-frame steps taken as independent (too small: steps of a track are correlated)");
+  s.metric("track_speed_ks_statistic", "1", "Two-sample Kolmogorov-Smirnov D of the per-track mean speeds (one value per moving track)");
+  s.metric("track_speed_ks_p_value", "1", "Asymptotic p-value of the per-track D: tracks are independent samples, so it can be read as a p-value");
   s.metric("registration_dx", "um", "With registration: fitted shift of the frame in the mask frame, x");
   s.metric("registration_dy", "um", "With registration: fitted shift, y (image rows, down)");
   s.metric("registration_rotation", "deg", "With registration: fitted rotation, counter-clockwise in image axes");

@@ -63,6 +63,7 @@ void registerCompareKinds(CaseKindRegistry& registry) {
     o.dispersion_tolerance = c.quantity("tolerances.dispersion");
     o.retention_tolerance = c.quantity("tolerances.retention");
     o.iou_minimum = c.quantity("tolerances.streamline_iou");
+    if (c.has("inputs.experiment_run")) o.reference_name = "tracks of run " + c.text("inputs.experiment_run");
     const double px = c.quantity("inputs.pixel_size");
     SceneSpec spec;
     if (c.has("geometry.mask")) {

@@ -59,8 +59,12 @@ std::string metricNote(const nlohmann::json& m, const nlohmann::json& details) {
     return "Computed over every per-frame step" + steps +
            " as if the steps were independent. Steps along one track are strongly correlated, so the effective sample is closer to the number of tracks: "
            "the asymptotic p-value is far smaller than a correlation-respecting test would give and does not measure how different the distributions are. "
-           "Read D (the largest gap between the two cumulative distributions) as the effect size, and the per-region speeds.";
+           "Read D (the largest gap between the two cumulative distributions) as the effect size; track_speed_ks_p_value, over one mean speed per track, "
+           "is the test that respects the correlation.";
   }
+  if (name == "track_speed_ks_p_value")
+    return m.value("reason", std::string()) + ". Tracks of different particles are taken as independent; a particle the tracker lost and found again "
+                                              "counts twice, which makes the p-value somewhat too small.";
   return m.value("reason", std::string());
 }
 
@@ -200,9 +204,9 @@ void writePages(const ReportInput& input, const Parts& parts, const fs::path& ou
     for (const auto& e : entries) failing_cases += e.status() == "FAIL";
     std::string html = pageHead("mmval validation summary", "");
     html += provenanceHtml(prov);
-    html += fmt::format("<p>{} case(s), <b>{} failing</b>, total wall time {:.1f} s. Machine-readable: <a href=\"metrics.json\">metrics.json</a>, "
+    html += fmt::format("<p>{} case(s), <b>{} failing</b>, {}. Machine-readable: <a href=\"metrics.json\">metrics.json</a>, "
                         "<a href=\"report.md\">report.md</a>. The paper's tables and the figures across cases: <a href=\"paper.html\">paper.html</a>.</p>\n",
-                        entries.size(), failing_cases, input.summary.total_wall_seconds);
+                        entries.size(), failing_cases, htmlEscape(input.summary.wallTimeText()));
     html += "<table id=\"cases\"><tr><th>result</th><th class=\"l\">case</th><th class=\"l\">kind</th><th>judged metrics passed</th><th class=\"l\">failing metrics</th>"
             "<th>wall time (s)</th><th class=\"l\">what it checks</th></tr>\n";
     for (const auto& e : entries) {

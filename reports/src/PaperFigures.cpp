@@ -21,7 +21,7 @@ PermeabilityFigure permeabilityFigure(const ReportInput& input, const fs::path& 
   nlohmann::json& extra_metrics = out.metrics;
   {
     Plot p{"Normalised permeability against time", "t (s)", "k / k0", false, false, {}, 720, 440};
-    Series paper{"paper, Table 3 cases (end of injection)", {}, {}, "points pt 9 ps 1.6"};
+    Series paper{"paper, Table 3 cases (end of injection)", {}, {}, "points pt 13 ps 1.6"};  // filled diamonds, as the labels
     for (const auto& r : input.summary.results) {
       if (!r.contains("run_dir")) continue;
       const fs::path file = fs::path(r["run_dir"].get<std::string>()) / "permeability.csv";
@@ -58,6 +58,7 @@ PermeabilityFigure permeabilityFigure(const ReportInput& input, const fs::path& 
       if (ref) m["source"] = "reference-data/fines-cases-table3.toml, case " + roman;
       extra_metrics.push_back(m);
     }
+    out.paper_points = static_cast<int>(paper.x.size());
     if (!paper.x.empty()) p.series.push_back(paper);
     if (!p.series.empty()) out.plot = p;
   }

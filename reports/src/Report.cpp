@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <functional>
 #include <map>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -121,14 +122,27 @@ std::string diffMetricFiles(const fs::path& before, const fs::path& after) {
 std::string diffMetrics(const nlohmann::json& a, const nlohmann::json& b) {
   checkMetricsListShape(a, "(first metrics document)");
   checkMetricsListShape(b, "(second metrics document)");
-  // compare's metrics.json and result.json name no case per metric.
-  auto keyOf = [](const nlohmann::json& m) { return m.value("case", std::string()) + "/" + m["name"].get<std::string>(); };
+  // compare's metrics.json and result.json name no case per metric. A case run by mmval and by
+  // its OpenFOAM peer has its metrics twice under one case name: those keys also name the solver.
+  auto keysOf = [](const nlohmann::json& doc) {
+    std::map<std::string, int> count;
+    auto plain = [](const nlohmann::json& m) { return m.value("case", std::string()) + "/" + m["name"].get<std::string>(); };
+    for (const auto& m : doc["metrics"]) ++count[plain(m)];
+    std::vector<std::string> keys;
+    for (const auto& m : doc["metrics"]) {
+      const std::string solver = m.contains("solver") && m["solver"].is_string() ? m["solver"].get<std::string>() : std::string();
+      keys.push_back(count[plain(m)] > 1 && !solver.empty() ? m.value("case", std::string()) + " [" + solver + "]/" + m["name"].get<std::string>() : plain(m));
+    }
+    return keys;
+  };
+  const std::vector<std::string> keys_a = keysOf(a), keys_b = keysOf(b);
   std::map<std::string, nlohmann::json> before;
-  for (const auto& m : a["metrics"]) before[keyOf(m)] = m;
+  for (std::size_t i = 0; i < keys_a.size(); ++i) before[keys_a[i]] = a["metrics"][i];
   std::string out = "| case/metric | before | after | change | tolerance | before result | after result |\n|---|---|---|---|---|---|---|\n";
   int n = 0;
-  for (const auto& m : b["metrics"]) {
-    const std::string key = keyOf(m);
+  for (std::size_t i = 0; i < keys_b.size(); ++i) {
+    const nlohmann::json& m = b["metrics"][i];
+    const std::string& key = keys_b[i];
     auto it = before.find(key);
     auto result = [](const nlohmann::json& x) { return x["pass"].is_null() ? std::string("info") : (x["pass"].get<bool>() ? "pass" : "FAIL"); };
     if (it == before.end()) {

@@ -165,7 +165,9 @@ void dragFigure(const ReportInput& input, const fs::path& reference_dir, FigureS
   for (auto& entry : by_label) p.series.push_back(entry.second);
   if (p.series.empty() || by_label.begin()->second.x.size() + by_label.rbegin()->second.x.size() < 2) return;
   sink.addPlot("cd-vs-re",
-               "Drag coefficient against Re of the paper's Table 1 set-up: our runs (filled) and the references their acceptance entries name (open)." +
+               "Drag coefficient against Re of the paper's Table 1 set-up (one cylinder in unbounded flow): our runs (filled) and the references (open): "
+               "the columns of the paper's Table 1 ([66]-[69]: the models of the references the paper quotes, as Table 1's note says) and those the runs' "
+               "acceptance entries name." +
                    (left_out.empty() ? std::string()
                                      : " Not on these axes (other set-ups, e.g. confined channels whose walls raise C_d): " +
                                            fmt::format("{}", fmt::join(left_out, ", ")) + "; see their case pages."),

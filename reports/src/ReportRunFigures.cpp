@@ -48,30 +48,42 @@ void comparisonFigure(const ComparisonInput& c, const ComparisonNames& names, co
                   c.dir / "registration.png", owner);
 }
 
-/// The file behind a run's image, its label and (speed fields) a colour bar.
+/// A run's image: what it shows, the file behind it, its label and (speed fields) a colour bar.
 struct ImageData {
-  std::string data, label, bar;
+  std::string caption, data, label, bar;
 };
+
+/// What the images the runs write show (simulate's field pictures, the tracker's pictures).
+std::string imageCaption(const std::string& file_name) {
+  if (file_name == "streamlines.png") return "tracks drawn over the background image, one colour per track";
+  if (file_name == "velocity_overlay.png") return "per-frame steps drawn where they are, coloured by speed (colour bar in the image, um/s)";
+  if (file_name == "speed_map.png") return "mean speed of the steps in each bin of the view, coloured by speed (colour bar in the image, um/s; grey: no step)";
+  return {};
+}
 
 ImageData imageData(const fs::path& run_dir, const std::string& name, const fs::path& out) {
   ImageData d;
   const fs::path p = run_dir / name;
-  const fs::path vtr = run_dir / "fields.vtr";
   const std::string file_name = fs::path(name).filename().string();
-  // Speed fields: a colour bar from 0 to the largest cell speed of the run's fields.vtr
-  // (simulate scales them so).
+  d.caption = imageCaption(file_name);
+  // Speed fields: a colour bar from 0 to the largest cell speed simulate scaled the picture to:
+  // that of fields.vtr for the plane pictures, that of the middle cell layer of fields-3d.vtr
+  // for the 3D solve's mid-depth picture.
   if (file_name == "speed.png" || (file_name.rfind("fields", 0) == 0 && file_name.find("speed") != std::string::npos)) {
-    const bool plane = name.find("middepth") != std::string::npos;
-    const double vmax = plane ? std::nan("") : maxSpeedOfVtr(vtr);
-    d.bar = colourBarHtml(0.0, vmax, "m/s", plane ? "speed |u| on the mid-depth plane (range of the plane)" : "speed |u|");
+    const bool mid_depth = file_name.find("middepth") != std::string::npos;
+    const fs::path vtr = run_dir / (mid_depth ? "fields-3d.vtr" : "fields.vtr");
+    const double vmax = mid_depth ? maxSpeedOnMidDepthPlane(vtr) : maxSpeedOfVtr(vtr);
+    d.bar = colourBarHtml(0.0, vmax, "m/s", mid_depth ? "speed |u| on the mid-depth plane" : "speed |u|");
+    d.caption = mid_depth ? "speed on the mid-depth plane of the 3D Stokes solve, viridis from 0 to the plane's largest cell speed"
+                          : "speed field, viridis from 0 to the largest cell speed";
     if (fs::exists(vtr)) {
       d.data = relativeLink(vtr, out);
-      d.label = "fields (.vtr)";
+      d.label = mid_depth ? "fields-3d (.vtr)" : "fields (.vtr)";
     }
   }
   // Tracking images: the CSV they are drawn from sits beside them.
-  const char* csv = file_name == "speed_map.png" ? "velocities.csv" : "tracks.csv";
-  if (d.data.empty() && fs::exists(p.parent_path() / csv)) {
+  const char* csv = file_name == "streamlines.png" ? "tracks.csv" : "velocities.csv";
+  if (d.data.empty() && !d.caption.empty() && fs::exists(p.parent_path() / csv)) {
     d.data = relativeLink(p.parent_path() / csv, out);
     d.label = std::string(csv) + " (CSV)";
   }
@@ -89,7 +101,10 @@ PaperFigureResults paperFigures(const ReportInput& input, const fs::path& refere
   const PermeabilityFigure permeability = permeabilityFigure(input, reference_dir);
   if (permeability.plot)
     sink.addPlot("permeability-time",
-                 "Normalised permeability k/k0 against time of every run that wrote permeability.csv; filled diamonds with labels: the paper's Table 3 reductions.",
+                 "Normalised permeability k/k0 against time of every run that wrote permeability.csv" +
+                     std::string(permeability.paper_points > 0
+                                     ? "; filled diamonds with labels: the paper's Table 3 reductions of the runs that reproduce a Table 3 case."
+                                     : "; no run reproduces a case of the paper's Table 3 (analysis.table3_case), so none of its reductions is drawn."),
                  *permeability.plot);
   for (const auto& m : permeability.metrics) results.metrics.push_back(m);
   results.reduction_rows = permeability.rows;
@@ -128,7 +143,7 @@ void runImages(const ReportInput& input, FigureSink& sink) {
       const fs::path p = run_dir / name;
       if (!fs::exists(p)) continue;
       ImageData d = imageData(run_dir, name, sink.out());
-      const std::string caption = name + (d.bar.empty() ? std::string() : " (speed field, viridis from 0 to the largest cell speed)");
+      const std::string caption = name + (d.caption.empty() ? std::string() : " (" + d.caption + ")");
       sink.addImage(case_name + "-" + fs::path(name).stem().string(), caption, p, case_name, std::move(d.data), std::move(d.label), std::move(d.bar));
     }
   }

@@ -68,6 +68,13 @@ std::vector<std::string> alignmentNotes(const ReportInput& input) {
                                 c.name, a.value("method", ""), a["dx_px"].get<double>(), a.value("dx_um", 0.0), a["dy_px"].get<double>(), a.value("dy_um", 0.0),
                                 a["rotation_deg"].get<double>(), a.value("scale", 1.0), a["ecc_correlation"].get<double>(), a["rms_residual"].get<double>(),
                                 100 * a.value("overlap_fraction", 0.0)));
+    else if (a.is_object() && a.contains("method") && a["method"].is_string()) {
+      // The method in words, then its parameters as "key value".
+      std::string line = c.name + ": " + a["method"].get<std::string>();
+      for (const auto& [key, value] : a.items())
+        if (key != "method") line += ", " + key + " " + (value.is_number() ? fmt::format("{:.6g}", value.get<double>()) : value.is_string() ? value.get<std::string>() : value.dump());
+      out.push_back(line);
+    }
     else
       out.push_back(c.name + ": " + a.dump());
   }

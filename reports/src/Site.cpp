@@ -1,5 +1,6 @@
 #include "mmval/reports/Site.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -162,6 +163,31 @@ double maxSpeedOfVtr(const fs::path& vtr) {
     best = std::max(best, std::sqrt(sum));
   }
   return best;
+}
+
+double maxSpeedOnMidDepthPlane(const fs::path& vtr) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (!fs::exists(vtr)) return nan;
+  try {
+    const std::size_t nx = mmval::vtk::readArray(vtr, "x").size() - 1, ny = mmval::vtk::readArray(vtr, "y").size() - 1,
+                      nz = mmval::vtk::readArray(vtr, "z").size() - 1;
+    int comps = 3;
+    const std::vector<double> u = mmval::vtk::readArray(vtr, "U", &comps);
+    const std::vector<double> solid = mmval::vtk::readArray(vtr, "solid");
+    const auto n = static_cast<std::size_t>(comps);
+    if (nz < 2 || comps < 1 || u.size() != nx * ny * nz * n || solid.size() != nx * ny * nz) return nan;
+    const std::size_t k = nz / 2;
+    double best = 0;
+    for (std::size_t cell = k * nx * ny; cell < (k + 1) * nx * ny; ++cell) {
+      if (solid[cell] >= 0.5) continue;
+      double sum = 0;
+      for (std::size_t c = 0; c < n; ++c) sum += u[cell * n + c] * u[cell * n + c];
+      best = std::max(best, std::sqrt(sum));
+    }
+    return best;
+  } catch (const std::exception&) {
+    return nan;
+  }
 }
 
 std::string plotCsv(const Plot& plot) {

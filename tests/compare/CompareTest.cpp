@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <vector>
 
 #include "mmval/compare/Compare.hpp"
 #include "mmval/tracking/Statistics.hpp"
@@ -139,6 +140,68 @@ TEST(Compare, ShiftedSpeedDistributionGivesTheShiftAsWasserstein) {
   EXPECT_NEAR(c.ks_statistic, 0.15, 1e-12);
   EXPECT_NEAR(metricNamed(c, "mean_speed").value, 17.5, 1e-6);
   EXPECT_NEAR(metricNamed(c, "mean_speed").reference->value, 14.5, 1e-6);
+}
+
+/// Exact two-sided two-sample KS p-value P(D >= d) under the null for samples of m and n
+/// without ties: one minus the share of the C(m + n, m) orderings whose lattice path keeps
+/// |i/m - j/n| < d (Hodges 1958, Ark. Mat. 3, 469), an independent check of the asymptotic formula.
+double exactKsPValue(int m, int n, double d) {
+  std::vector<std::vector<double>> paths(m + 1, std::vector<double>(n + 1, 0.0));
+  for (int i = 0; i <= m; ++i)
+    for (int j = 0; j <= n; ++j) {
+      if (std::abs(double(i) * n - double(j) * m) >= d * m * n - 1e-9) continue;
+      paths[i][j] = (i == 0 && j == 0) ? 1.0 : (i > 0 ? paths[i - 1][j] : 0.0) + (j > 0 ? paths[i][j - 1] : 0.0);
+    }
+  double total = 1;  // C(m + n, m)
+  for (int k = 1; k <= m; ++k) total = total * (n + k) / k;
+  return 1 - paths[m][n] / total;
+}
+
+TEST(Compare, PerTrackKsCountsTracksNotCorrelatedSteps) {
+  // Track speeds 5..24 um/s against 15..34 um/s, 19 steps a track: D = 10/20 = 0.5 both per
+  // step and per track. Per step the asymptotic p-value takes 380 + 380 steps as independent
+  // (n_e = 190): about 1.9e-42. Per track it has 20 + 20 samples (n_e = 10):
+  // Q_KS((sqrt(10) + 0.12 + 0.11 / sqrt(10)) 0.5) = 0.00816, against the exact
+  // permutation p-value 0.0123 of D = 0.5 at m = n = 20.
+  const Comparison c = compareTracks(constantSpeeds(20, 5), constantSpeeds(20, 15), CompareOptions{});
+  EXPECT_EQ(c.track_samples_experiment, 20);
+  EXPECT_EQ(c.track_samples_simulation, 20);
+  EXPECT_NEAR(metricNamed(c, "track_speed_ks_statistic").value, 0.5, 1e-12);
+  EXPECT_NEAR(c.ks_statistic, 0.5, 1e-12);
+  const double lambda = (std::sqrt(10.0) + 0.12 + 0.11 / std::sqrt(10.0)) * 0.5;
+  double q = 0;
+  for (int j = 1; j <= 100; ++j) q += 2 * ((j % 2) ? 1.0 : -1.0) * std::exp(-2.0 * j * j * lambda * lambda);
+  const MetricResult& track_p = metricNamed(c, "track_speed_ks_p_value");
+  EXPECT_NEAR(track_p.value, q, 1e-12 * q);
+  EXPECT_NEAR(q, 0.00816168, 1e-7);
+  // The asymptotic value is within a factor 2 of the exact one at 20 samples a side (Stephens' correction).
+  const double exact = exactKsPValue(20, 20, 0.5);
+  EXPECT_NEAR(exact, 0.0122986, 1e-6);
+  EXPECT_GT(track_p.value, exact / 2);
+  EXPECT_LT(track_p.value, exact * 2);
+  // The per-step p-value is some forty orders of magnitude smaller for the same D.
+  EXPECT_LT(metricNamed(c, "speed_ks_p_value").value, 1e-40);
+  EXPECT_THAT(track_p.reason, ::testing::HasSubstr("20 and 20 moving tracks"));
+  EXPECT_THAT(metricNamed(c, "speed_ks_p_value").reason, ::testing::HasSubstr("380 and 380 per-frame steps"));
+}
+
+TEST(Compare, ReferenceTracksAreNamedByWhatTheyAre) {
+  // A user's file is "experiment tracks"; tracks of another run (a tracked rendering of a
+  // simulation in validate's pipeline check) are named by that run, not called an experiment.
+  const Comparison user = compareTracks(constantSpeeds(20, 5), constantSpeeds(20, 8), CompareOptions{});
+  ASSERT_TRUE(metricNamed(user, "mean_speed").reference.has_value());
+  EXPECT_EQ(metricNamed(user, "mean_speed").reference->source, "experiment tracks");
+  CompareOptions o;
+  o.reference_name = "tracks of run tracking-rendered-micromodel";
+  const Comparison run = compareTracks(constantSpeeds(20, 5), constantSpeeds(20, 8), o);
+  for (const char* name : {"mean_speed", "median_speed", "sigma_x", "sigma_y", "retention_fraction"}) {
+    ASSERT_TRUE(metricNamed(run, name).reference.has_value()) << name;
+    EXPECT_EQ(metricNamed(run, name).reference->source, "tracks of run tracking-rendered-micromodel") << name;
+  }
+  // Same numbers either way: 14.5 um/s reference, 17.5 um/s candidate.
+  EXPECT_NEAR(metricNamed(run, "mean_speed").reference->value, 14.5, 1e-6);
+  EXPECT_NEAR(metricNamed(run, "mean_speed").value, 17.5, 1e-6);
+  for (const auto& m : run.metrics) EXPECT_THAT(m.reason, ::testing::Not(::testing::HasSubstr("experiment"))) << m.name;
 }
 
 TEST(Compare, KnownRetentionIsReportedExactly) {

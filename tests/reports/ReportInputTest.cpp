@@ -187,5 +187,23 @@ TEST(Diff, CompareMetricsWithoutCaseAreDiffed) {
   EXPECT_EQ(diffMetricFiles(a, a), "No metric changed beyond its tolerance.\n");
 }
 
+TEST(Diff, OwnAndPeerRunsOfOneCaseAreDiffedSolverBySolver) {
+  // validate runs a peer-tagged case twice under one case name: mmval's solver and OpenFOAM
+  // (k 1.93672e-10 and 1.94086e-10 m2 for square-array-phi020, 0.21 % apart). Unchanged
+  // runs must diff to nothing, not to one solver against the other.
+  auto doc = [](double ours, double peer) {
+    nlohmann::json a = metric("permeability", ours, "0.1 %", true), b = metric("permeability", peer, "0.1 %", true);
+    a["case"] = b["case"] = "square-array-phi020";
+    a["solver"] = "mmval simulate";
+    b["solver"] = "openfoam v1912";
+    return nlohmann::json{{"schema", "mmval-metrics/1"}, {"metrics", {a, b}}};
+  };
+  EXPECT_EQ(diffMetrics(doc(1.93672, 1.94086), doc(1.93672, 1.94086)), "No metric changed beyond its tolerance.\n");
+  // The peer's value moves by 1 %, beyond its 0.1 %: only the peer's row, named by its solver.
+  const std::string table = diffMetrics(doc(1.93672, 1.94086), doc(1.93672, 1.94086 * 1.01));
+  EXPECT_THAT(table, HasSubstr("| square-array-phi020 [openfoam v1912]/permeability | 1.94086 | 1.96027 | +1 % | 0.1 % | pass | pass |"));
+  EXPECT_THAT(table, ::testing::Not(HasSubstr("mmval simulate")));
+}
+
 }  // namespace
 }  // namespace mmval::reports

@@ -5,6 +5,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -12,6 +13,7 @@
 
 #include <fmt/format.h>
 
+#include "mmval/core/VtkWriter.hpp"
 #include "mmval/reports/Plot.hpp"
 #include "mmval/reports/Report.hpp"
 #include "mmval/reports/Site.hpp"
@@ -224,6 +226,52 @@ TEST_F(ReportSite, EveryPlotHasItsCsvAndTheDragPlotKeepsToOneSetUp) {
   EXPECT_THAT(csv, Not(HasSubstr("5.58")));
   EXPECT_THAT(slurp(report() / "paper.html"), HasSubstr("Not on these axes (other set-ups, e.g. confined channels whose walls raise C_d): st-2d1"));
   EXPECT_THAT(slurp(report() / "paper.html"), HasSubstr("[data: <a href=\"figures/cd-vs-re.csv\">CSV</a>]"));
+}
+
+/// A 2 x 1 x 3 cell binary .vtr as simulate writes fields-3d.vtr: in the middle layer (k = 1) a
+/// fluid cell at |U| = 2 m/s (0, 1.2, 1.6) and a solid cell whose U (9 m/s) is left out; the
+/// layers above and below at 7 m/s.
+void fakeVtr3d(const fs::path& file) {
+  vtk::RectilinearGrid g;
+  g.x = {0, 1e-6, 2e-6};
+  g.y = {0, 1e-6};
+  g.z = {0, 1e-6, 2e-6, 3e-6};
+  const std::vector<double> u = {7, 0, 0, 0, 7, 0,  0, 1.2, 1.6, 9, 0, 0,  0, 0, 7, 7, 0, 0};
+  g.cell_data = {vtk::Array::float64("U", "m/s", 3, u), vtk::Array::float32("solid", "1", 1, {0, 0, 0, 1, 0, 0}),
+                 vtk::Array::float64("p", "Pa", 1, {0, 0, 0, 0, 0, 0})};
+  vtk::writeVtr(file, g);
+}
+
+TEST(FieldImages, MidDepthPictureCarriesTheColourBarOfItsPlane) {
+  const fs::path root = mmval::test::scratch("report-mid-depth");
+  fs::remove_all(root);
+  fakeRun(root, "chip3d", "image-permeability", nlohmann::json::array({metric("permeability", 2.0, "D")}), nlohmann::json::object(),
+          nlohmann::json::array({"fields-3d.vtr", "fields-3d-middepth-speed.png", "tracks/speed_map.png", "tracks/streamlines.png"}));
+  const fs::path run = root / "runs" / "chip3d";
+  fakeVtr3d(run / "fields-3d.vtr");
+  EXPECT_NEAR(maxSpeedOnMidDepthPlane(run / "fields-3d.vtr"), 2.0, 1e-12);
+  EXPECT_TRUE(std::isnan(maxSpeedOnMidDepthPlane(run / "no-such.vtr")));
+  fakePng(run / "fields-3d-middepth-speed.png");
+  fs::create_directories(run / "tracks");
+  fakePng(run / "tracks" / "speed_map.png");
+  fakePng(run / "tracks" / "streamlines.png");
+  std::ofstream(run / "tracks" / "velocities.csv") << "particle,t_s,x_um,y_um,vx_um_per_s,vy_um_per_s,speed_um_per_s\n";
+  std::ofstream(run / "tracks" / "tracks.csv") << "frame,particle,x_um,y_um,t_s\n";
+  writeReport(collect({root}), root / "report");
+  const std::string html = slurp(root / "report" / "cases" / "chip3d.html");
+  // The bar runs from 0 to the plane's 2 m/s (not the 7 m/s of the other layers, nor "not recorded").
+  EXPECT_THAT(html, HasSubstr("speed |u| on the mid-depth plane (m/s)"));
+  EXPECT_THAT(html, HasSubstr("<span>2 m/s</span>"));
+  EXPECT_THAT(html, HasSubstr("<span>1 m/s</span>"));
+  EXPECT_THAT(html, Not(HasSubstr("not recorded</span>")));
+  EXPECT_THAT(html, HasSubstr("[data: <a href=\"../../runs/chip3d/fields-3d.vtr\">fields-3d (.vtr)</a>]"));
+  EXPECT_THAT(html, HasSubstr("mid-depth plane of the 3D Stokes solve"));
+  // The tracker's pictures say what they show and link the CSV they are drawn from.
+  EXPECT_THAT(html, HasSubstr("tracks/speed_map.png (mean speed of the steps in each bin"));
+  EXPECT_THAT(html, HasSubstr("[data: <a href=\"../../runs/chip3d/tracks/velocities.csv\">velocities.csv (CSV)</a>]"));
+  EXPECT_THAT(html, HasSubstr("tracks/streamlines.png (tracks drawn over the background image"));
+  EXPECT_THAT(html, HasSubstr("[data: <a href=\"../../runs/chip3d/tracks/tracks.csv\">tracks.csv (CSV)</a>]"));
+  EXPECT_TRUE(brokenLinks(root / "report").empty()) << ::testing::PrintToString(brokenLinks(root / "report"));
 }
 
 TEST(BrokenLinks, FindsMissingFilesAndAnchors) {

@@ -212,7 +212,30 @@ TEST(Report, PaperTablesPermeabilityAndRetentionFromTheRunsPresent) {
     EXPECT_TRUE(fs::exists(dir / "report" / "figures" / "permeability-time.svg"));
     EXPECT_TRUE(fs::exists(dir / "report" / "figures" / "retention-time.svg"));
     EXPECT_THAT(slurp(dir / "report" / "figures" / "permeability-time.svg"), ::testing::HasSubstr("case III: -23.2 %"));
+    // The caption promises the diamonds it draws: the paper's point of case III at (100 s, 1 - 0.232).
+    EXPECT_THAT(slurp(dir / "report" / "paper.html"), ::testing::HasSubstr("filled diamonds with labels: the paper's Table 3 reductions"));
+    EXPECT_THAT(slurp(dir / "report" / "figures" / "permeability-time.csv"), ::testing::HasSubstr("\"paper, Table 3 cases (end of injection)\",100,0.768"));
   }
+}
+
+TEST(Report, PermeabilityCaptionPromisesNoDiamondsWhenNoneIsDrawn) {
+  // One run with permeability.csv and no Table 3 case: no paper point, and the caption says why.
+  const fs::path dir = fs::path(MMVAL_BINARY_DIR) / "test-output" / "report-no-diamonds";
+  fs::remove_all(dir);
+  fakeRun(dir / "runs" / "chip", "chip", "particles-resolved", nlohmann::json::array());
+  {
+    std::ofstream f(dir / "runs" / "chip" / "permeability.csv");
+    f << tables::permeabilityHeader();
+    for (int i = 0; i <= 4; ++i) f << tables::formatRow(tables::PermeabilityRow{i, 1.0 * i, 4e-12 * (1 - 0.1 * i), 1 - 0.1 * i, 1e3, i, i});
+  }
+  writeReport(collect({dir}), dir / "report");
+  if (!gnuplotAvailable()) GTEST_SKIP() << "no gnuplot";
+  const std::string paper = slurp(dir / "report" / "paper.html");
+  EXPECT_THAT(paper, ::testing::Not(::testing::HasSubstr("diamonds")));
+  EXPECT_THAT(paper, ::testing::HasSubstr("no run reproduces a case of the paper's Table 3 (analysis.table3_case), so none of its reductions is drawn"));
+  const std::string csv = slurp(dir / "report" / "figures" / "permeability-time.csv");
+  EXPECT_THAT(csv, ::testing::HasSubstr("\"chip\",4,0.6"));
+  EXPECT_THAT(csv, ::testing::Not(::testing::HasSubstr("paper, Table 3")));
 }
 
 TEST(PaperSetup, DecidedByTheReferenceSetupFieldNotByTheMetricName) {
@@ -321,9 +344,12 @@ TEST(Report, NoTablesWithoutTheirRuns) {
   fs::remove_all(dir);
   compare::CompareOptions o;
   o.tracks.time_bins = 5;
+  o.alignment = {{"method", "imaged window given"}, {"origin_x_um", 12.5}};
   compare::writeComparison(compare::compareTracks(drift(20e-6), drift(20e-6), o), dir / "compare" / "same");
   writeReport(collect({dir}), dir / "report");
   const std::string md = slurp(dir / "report" / "report.md");
+  // The alignment in words, not as JSON.
+  EXPECT_THAT(md, ::testing::HasSubstr("- same: imaged window given, origin_x_um 12.5\n"));
   EXPECT_THAT(md, ::testing::Not(::testing::HasSubstr("Table 1")));
   EXPECT_THAT(md, ::testing::Not(::testing::HasSubstr("Table 2")));
   EXPECT_THAT(md, ::testing::Not(::testing::HasSubstr("permeability-time")));
@@ -353,6 +379,19 @@ TEST(Summary, UnjudgedReferenceIsShownAsInfoAndDoesNotFail) {
   EXPECT_THAT(md, ::testing::HasSubstr("-0.485 %"));  // the distance to the interval is still shown
   EXPECT_THAT(md, ::testing::HasSubstr("| none | info |"));
   EXPECT_THAT(md, ::testing::HasSubstr("| 0.3 % | pass |"));
+}
+
+TEST(Summary, WallTimeIsTheRunsOwnAndTheSessionsWhenTheyDiffer) {
+  // Two runs of 300 s and 70.5 s; a resumed validation that re-ran nothing took 5.9 s.
+  Summary s;
+  for (double wall : {300.0, 70.5}) s.results.push_back({{"cost", {{"wall_seconds", wall}}}});
+  EXPECT_NEAR(s.runsWallSeconds(), 370.5, 1e-12);
+  s.total_wall_seconds = 5.9;
+  EXPECT_EQ(s.wallTimeText(), "total wall time 370.5 s (the runs' own times added up); this session took 5.9 s (runs kept from an earlier session "
+                              "count with their own time, or the session did more than run them)");
+  // A session that ran them all takes a little longer than its runs (loading, the report): within 2 %, one number.
+  s.total_wall_seconds = 374.0;
+  EXPECT_EQ(s.wallTimeText(), "total wall time 370.5 s (the runs' own times added up)");
 }
 
 }  // namespace

@@ -32,6 +32,10 @@ struct CompareOptions {
   const RegionMap* regions = nullptr;
   /// How the experiment was put in the simulation frame (recorded in metrics.json).
   nlohmann::json alignment;
+  /// What the reference tracks are, as the metrics' source names them: "experiment tracks"
+  /// for a user's file; compare-tracks names a run of the same validation instead
+  /// ("tracks of run NAME"), which may be a tracked rendering of a simulation, not footage.
+  std::string reference_name = "experiment tracks";
 };
 
 /// Retained fraction against time: particles retained by t (their final
@@ -42,7 +46,12 @@ struct RetentionSeries {
 
 struct Comparison {
   TrackStats experiment, simulation;
-  double wasserstein = 0, ks_statistic = 0, ks_p_value = 1;
+  double wasserstein = 0, ks_statistic = 0, ks_p_value = 1;  ///< over every per-frame step (steps of one track are correlated)
+  /// Kolmogorov-Smirnov over one mean speed per moving track (mobile or deposited):
+  /// tracks of different particles are independent samples, so this p-value means
+  /// what a p-value says, unlike the per-step one. `track_samples_*`: tracks per side.
+  double track_ks_statistic = 0, track_ks_p_value = 1;
+  int track_samples_experiment = 0, track_samples_simulation = 0;
   double iou = 0;
   cv::Mat occupancy_experiment, occupancy_simulation;
   RetentionSeries retention_experiment, retention_simulation;

@@ -23,6 +23,8 @@ struct PermeabilityFigure {
   std::vector<std::vector<std::string>> rows;
   /// "permeability_reduction" (%) per run, the paper's value as reference when known
   nlohmann::json metrics = nlohmann::json::array();
+  /// Runs whose Table 3 reduction is drawn (filled diamonds with labels); the caption says so only when > 0.
+  int paper_points = 0;
 };
 
 /// Reads <run_dir>/permeability.csv in the schema of mmval/core/OutputTables.hpp

@@ -49,6 +49,10 @@ std::string colourBarHtml(double lo, double hi, const std::string& unit, const s
 /// Largest cell speed |U| of an mmval .vtr (binary or ASCII, CellData "U"); NaN when
 /// the file is missing, unreadable or has no "U" (the colour bar then says "not recorded").
 double maxSpeedOfVtr(const std::filesystem::path& vtr);
+/// Largest cell speed |U| over the fluid cells (solid < 0.5) of the middle cell layer
+/// k = nz / 2 of a 3D mmval .vtr (fields-3d.vtr): the range simulate scales its
+/// mid-depth speed picture to. NaN when the file is missing or unreadable, or not 3D.
+double maxSpeedOnMidDepthPlane(const std::filesystem::path& vtr);
 
 /// The data behind a plot as CSV: one row per point, columns series, x, y
 /// (with the plot's axis labels in a comment line first).

@@ -11,7 +11,7 @@ namespace mmval::reports {
 /// Builds the summary from the result.json documents of several runs.
 struct Summary {
   std::vector<nlohmann::json> results;  ///< parsed result.json documents
-  double total_wall_seconds = 0.0;
+  double total_wall_seconds = 0.0;  ///< s, the session that produced the summary (validate: its elapsed time)
 
   /// {"cases": [...], "metrics": [{case, name, value, unit, reference, error, tolerance, pass}], "all_pass"}
   nlohmann::json metricsJson() const;
@@ -21,6 +21,11 @@ struct Summary {
   /// Plain-text table for the terminal.
   std::string text() const;
   int failures() const;
+  /// s, the runs' own wall times (result.json cost.wall_seconds) added up.
+  double runsWallSeconds() const;
+  /// "total wall time X s" over the runs; when the session's time differs (runs kept by
+  /// `validate --resume` ran in an earlier session), that time too, so neither is mistaken for the other.
+  std::string wallTimeText() const;
 };
 
 /// Text for HTML: & < > and " as entities.
