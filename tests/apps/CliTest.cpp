@@ -262,4 +262,40 @@ TEST(Cli, RenderedTrajectoriesAreTrackedAndComparedThroughRunNames) {
   EXPECT_THAT(b.output, HasSubstr("nothing"));
 }
 
+TEST(Cli, ResumeRunsAgainACaseWhoseInputRunWasRunAgain) {
+  // A rendered-tracking case reads the trajectories of a micromodel run of the same validation.
+  // When --resume runs the micromodel again (its case changed), the kept tracking run would
+  // describe the old trajectories: it must be run again too; unchanged, both are kept.
+  const fs::path d = scratch("resume-inputs");
+  fs::create_directories(d / "cases");
+  writeMask(d / "cases" / "mask.pgm", 60, 40, [](int x, int y) { return std::hypot(x + 0.5 - 30, y + 0.5 - 20) < 8; });
+  const auto writeScene = [&](int seed) {
+    std::ofstream(d / "cases" / "mm.toml")
+        << "[case]\nname = \"mm\"\nkind = \"particles-micromodel\"\ntags = [\"default\"]\n"
+           "[geometry]\nmask = \"mask.pgm\"\npixel_size = \"10 um\"\ndepth = \"20 um\"\n"
+           "[flow]\ndarcy_velocity = \"0.5 mm/s\"\n[particles]\ndiameter = \"5 um\"\ncount = 20\ninjection_time = \"0.5 s\"\n"
+           "[run]\nduration = \"1 s\"\noutput_interval = \"0.05 s\"\nseed = "
+        << seed << "\n";
+  };
+  writeScene(1);
+  std::ofstream(d / "cases" / "tr.toml") << "[case]\nname = \"tr\"\nkind = \"tracking-rendered\"\ntags = [\"default\"]\n"
+                                            "[inputs]\ntrajectories_run = \"mm\"\n[geometry]\nmask = \"mask.pgm\"\npixel_size = \"10 um\"\n";
+  const std::string args = "validate --quiet --cases " + (d / "cases").string() + " --out " + (d / "out").string();
+  const Outcome first = mmval(args);
+  ASSERT_NE(first.status, 4) << first.output;
+  ASSERT_TRUE(fs::exists(d / "out" / "runs" / "tr" / "result.json")) << first.output;
+
+  const Outcome same = mmval(args + " --resume");
+  EXPECT_NE(same.status, 4) << same.output;
+  EXPECT_THAT(same.output, HasSubstr("kept the complete earlier run in " + (d / "out" / "runs" / "tr").string())) << same.output;
+  EXPECT_THAT(same.output, ::testing::Not(HasSubstr("run again"))) << same.output;
+
+  writeScene(2);
+  const Outcome changed = mmval(args + " --resume");
+  EXPECT_NE(changed.status, 4) << changed.output;
+  EXPECT_THAT(changed.output, HasSubstr("run again: its input run mm was run again")) << changed.output;
+  EXPECT_THAT(changed.output, ::testing::Not(HasSubstr("kept the complete earlier run in " + (d / "out" / "runs" / "tr").string())))
+      << changed.output;
+}
+
 }  // namespace

@@ -4,6 +4,9 @@
 #include <chrono>
 #include <cstdio>
 #include <optional>
+#include <set>
+#include <string>
+#include <vector>
 
 #include "mmval/core/DetailFields.hpp"
 #include "mmval/core/AtomicFile.hpp"
@@ -26,12 +29,33 @@ bool tagged(const Case& c, const std::string& tag) {
   return std::find(tags.begin(), tags.end(), tag) != tags.end();
 }
 
-/// mmval's run of one case: the complete earlier run when resuming and the case is unchanged, else a new run.
-nlohmann::json ownRun(const Case& c, const CaseKindRegistry& registry, const fs::path& run_dir, const ValidationOptions& options) {
-  if (std::optional<nlohmann::json> done = options.resume ? earlierRun(c, run_dir) : std::nullopt) {
+/// The runs of this validation a case reads its input from: the values of its `inputs.*_run` keys.
+std::vector<std::string> inputRuns(const Case& c) {
+  std::vector<std::string> runs;
+  for (const KeyDecl& k : c.schema().keys())
+    if (k.key.rfind("inputs.", 0) == 0 && k.key.size() > 4 && k.key.compare(k.key.size() - 4, 4, "_run") == 0 && c.has(k.key))
+      runs.push_back(c.text(k.key));
+  return runs;
+}
+
+/// mmval's run of one case: the complete earlier run when resuming, the case is unchanged and
+/// no run it reads from was run again in this validation (`rerun`); else a new run.
+nlohmann::json ownRun(const Case& c, const CaseKindRegistry& registry, const fs::path& run_dir, const ValidationOptions& options,
+                      std::set<std::string>& rerun) {
+  std::optional<nlohmann::json> done = options.resume ? earlierRun(c, run_dir) : std::nullopt;
+  if (done) {
+    for (const std::string& input : inputRuns(c))
+      if (rerun.count(input) != 0) {
+        std::fprintf(stderr, "      run again: its input run %s was run again\n", input.c_str());
+        done.reset();
+        break;
+      }
+  }
+  if (done) {
     std::fprintf(stderr, "      kept the complete earlier run in %s (same case hash)\n", run_dir.string().c_str());
     return *done;
   }
+  rerun.insert(c.name());
   // --resume also lets a runner pick up its own checkpoints in the staged folder.
   return runCase(c, registry, run_dir, {options.quiet, options.resume}).result;
 }
@@ -72,10 +96,11 @@ ValidationResult runValidation(const ValidationOptions& options, const CaseKindR
   const FolderLock lock(out, out.string());
   writeOutputMarker(out);
   reports::Summary& summary = result.summary;
+  std::set<std::string> rerun;  // cases run anew in this validation (not kept from an earlier one)
   for (std::size_t i = 0; i < files.size(); ++i) {
     const Case c = Case::load(files[i], registry);
     std::fprintf(stderr, "[%zu/%zu] %s (%s)\n", i + 1, files.size(), c.name().c_str(), c.kind().c_str());
-    summary.results.push_back(ownRun(c, registry, out / "runs" / c.name(), options));
+    summary.results.push_back(ownRun(c, registry, out / "runs" / c.name(), options, rerun));
     if (tagged(c, "peer")) summary.results.push_back(peerRun(c, out / "runs" / (c.name() + "-openfoam"), options));
     summary.total_wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     writeSummary(out, summary);  // partial summaries survive an interrupted validation
