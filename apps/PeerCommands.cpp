@@ -21,6 +21,7 @@ struct PeerCli {
   std::string file, out;
   int np = 1;
   std::vector<int> levels;
+  std::string mesher = "direct";
   bool quiet = false;
 };
 
@@ -73,6 +74,10 @@ void registerPeerCommands(CLI::App& app, const CaseKindRegistry& registry) {
   of->add_option("--out", o->out, "Output folder: result.json and the OpenFOAM case(s)")->required();
   of->add_option("--np", o->np, "MPI ranks (decomposePar + mpirun)")->capture_default_str()->check(CLI::Range(1, 64));
   of->add_option("--levels", o->levels, "Resolution ladder (cells around the cylinder; periodic arrays: cells along the unit-cell side), overrides numerics.levels")->delimiter(',');
+  of->add_option("--mesher", o->mesher,
+                 "image-permeability with the smooth boundary: direct (mmval meshes the image and snaps the wall vertices to the boundary; default) or snappy (snappyHexMesh on the boundary's STL)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"direct", "snappy"}));
   of->add_flag("--quiet", o->quiet, "No progress output");
   of->callback([o, &registry] {
     const Case c = Case::load(o->file, registry);
@@ -84,6 +89,7 @@ void registerPeerCommands(CLI::App& app, const CaseKindRegistry& registry) {
     }
     openfoam::PeerRunOptions options;
     options.ranks = o->np;
+    options.snappy_image_mesh = o->mesher == "snappy";
     if (!o->levels.empty()) options.levels = o->levels;
     const RunSummary s = runCaseWith(
         c, [&](const Case& cc, const RunContext& ctx) { return openfoam::runPeer(cc, ctx, options); }, o->out, {o->quiet, false});

@@ -1,6 +1,7 @@
 #include "mmval/openfoam/ImageGeometry.hpp"
 
 #include <algorithm>
+#include <memory>
 #include <cmath>
 #include <stdexcept>
 #include <unordered_map>
@@ -12,6 +13,7 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ImageHeader.hpp"
 #include "mmval/core/Resources.hpp"
+#include "mmval/openfoam/DirectMesh.hpp"
 #include "mmval/simulate/Geometry.hpp"
 
 namespace mmval::openfoam {
@@ -255,6 +257,11 @@ std::vector<Polygon> smoothGrainPolygons(const MaskGeometry& g, double sigma_px,
   const simulate::SmoothMaskShape f = smoothField(g, sigma_px);
   IsoLines lines(g, f, samples_per_pixel);
   return lines.outlines();
+}
+
+LevelFunction smoothLevel(const MaskGeometry& g, double sigma_px) {
+  auto f = std::make_shared<const simulate::SmoothMaskShape>(smoothField(g, sigma_px));
+  return [f](double x, double y) { return f->level(x, y); };
 }
 
 double smoothPoreFraction(const MaskGeometry& g, double sigma_px, int samples_per_pixel) {

@@ -115,8 +115,21 @@ void warn(nlohmann::json& warnings, const std::string& name, const std::string& 
 /// pore fraction by more than kMeshPorosityTolerance.
 void addImageMeshRow(const Scene& s, const Result& r, const std::string& sub, nlohmann::json& row, nlohmann::json& warnings,
                      const std::string& name, bool quiet) {
-  row["snappy_seconds"] = r.snappy_seconds;
-  row["surface_level"] = s.surface_level;
+  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  row["mesher"] = s.direct_mesh ? "direct" : "snappyHexMesh";
+  if (s.direct_mesh) {
+    const MesherReport& m = r.mesher;
+    row["mesher_seconds"] = m.seconds;
+    row["mesher_vertices"] = {{"wall", m.wall_vertices}, {"snapped", m.snapped}, {"pulled_back", m.pulled_back}, {"pinned", m.pinned}};
+    row["mesher_max_move_cells"] = m.max_move_cells;
+    row["mesher_min_cell_area_ratio"] = m.min_cell_area_ratio;
+    row["mesher_dropped_disconnected_cells"] = m.dropped_disconnected;
+  } else {
+    row["snappy_seconds"] = r.snappy_seconds;
+    row["surface_level"] = s.surface_level;
+  }
+  row["max_non_orthogonality_deg"] = num(r.max_non_orthogonality);
+  row["max_skewness"] = num(r.max_skewness);
   row["porosity_mesh"] = r.porosity_mesh;
   row["porosity_boundary"] = r.porosity_boundary;
   row["porosity_mask"] = r.porosity_connected;
@@ -126,8 +139,9 @@ void addImageMeshRow(const Scene& s, const Result& r, const std::string& sub, nl
   if (std::abs(miss) > kMeshPorosityTolerance)
     warn(warnings, name,
          fmt::format("the mesh in {} has pore fraction {:.4f}, {:+.2f} % from the {} boundary's {:.4f} (more than {:.1f} %): "
-                     "snappyHexMesh did not hold the grains; refine (numerics.cells_per_pixel_levels) or check log.snappyHexMesh",
-                     sub, r.porosity_mesh, 100 * miss, s.smooth_boundary ? "smooth" : "pixel", r.porosity_boundary, 100 * kMeshPorosityTolerance),
+                     "{}; refine (numerics.cells_per_pixel_levels)",
+                     sub, r.porosity_mesh, 100 * miss, s.smooth_boundary ? "smooth" : "pixel", r.porosity_boundary, 100 * kMeshPorosityTolerance,
+                     s.direct_mesh ? "the mesher's grid misses grains or throats under a cell" : "snappyHexMesh did not hold the grains (see log.snappyHexMesh)"),
          quiet);
 }
 
@@ -214,6 +228,10 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
   const Installation inst = options.runner ? Installation{true, "(test runner)", {}, {}} : detect();
   if (!inst.available) throw InputError({c.file().string(), 0, 0, "case.kind"}, "cannot run this case: " + inst.reason, {}, "OpenFOAM v1912 installed");
   Scene scene = peerScene(c);
+  if (scene.kind == Scene::Kind::image && scene.smooth_boundary && !options.snappy_image_mesh) {
+    scene.direct_mesh = true;
+    scene.surface_level = 0;
+  }
   std::vector<int> levels;
   if (options.levels) {
     levels = *options.levels;
@@ -301,7 +319,10 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
   out.details["ladder"] = ladder;
   out.details["cells"] = last.cells;
   if (image) {
-    out.details["boundary"] = scene.smooth_boundary
+    out.details["boundary"] = scene.direct_mesh
+                                  ? fmt::format("smooth (1/2 level of the mask smoothed by a Gaussian of {:g} px, as mmval's; mmval's direct mesher: "
+                                                "Cartesian cells at cells_per_pixel, wall vertices moved onto the level)", scene.smoothing_px)
+                              : scene.smooth_boundary
                                   ? fmt::format("smooth (1/2 level of the mask smoothed by a Gaussian of {:g} px, as mmval's; snapped, surface level {} "
                                                 "with {} cells per band)", scene.smoothing_px, scene.surface_level, scene.cells_between_levels)
                                   : std::string("pixels (outlines of the mask's grain pixels)");

@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 
 #include "mmval/core/AtomicFile.hpp"
+#include "mmval/openfoam/DirectMesh.hpp"
 #include "mmval/openfoam/FoamFile.hpp"
 #include "mmval/openfoam/ImageGeometry.hpp"
 
@@ -182,6 +183,42 @@ std::string extrudeMeshDict(double thickness) {
                      thickness);
 }
 
+/// The snappyHexMesh route of an image scene (Scene::direct_mesh false): the grains' STL, the
+/// snappyHexMeshDict and, when the grains are refined, the extrudeMeshDict that makes the refined
+/// mesh one cell deep again. The background blockMeshDict is the caller's.
+void writeSnappyImageCase(const Scene& s, const MaskGeometry& g, const fs::path& dir) {
+  const double cell = imageBackground(s, g.fluid.cols, g.fluid.rows, g.width()).cell;  // one background cell thick
+  if (s.surface_level > 0) put(dir / "system" / "extrudeMeshDict", extrudeMeshDict(cell));
+  fs::create_directories(dir / "constant" / "triSurface");
+  // The walls run beyond the mesh's front and back so every cut lies inside the surface.
+  put(dir / "constant" / "triSurface" / "grains.stl",
+      s.smooth_boundary ? extrudedStl(smoothGrainPolygons(g, s.smoothing_px), -cell, 2 * cell) : grainStl(g, -cell, 2 * cell));
+  put(dir / "system" / "snappyHexMeshDict",
+      foamHeader("dictionary", "snappyHexMeshDict", "system") +
+          fmt::format(
+              "castellatedMesh true;\nsnap true;\naddLayers false;\n\n"
+              "geometry\n{{\n    grains.stl {{ type triSurfaceMesh; name grains; }}\n}}\n\n"
+              "castellatedMeshControls\n{{\n    maxLocalCells 5000000;\n    maxGlobalCells 20000000;\n    minRefinementCells 0;\n"
+              "    maxLoadUnbalance 0.1;\n    nCellsBetweenLevels {};\n    features ();\n"
+              "    refinementSurfaces\n    {{\n        grains {{ level ({} {}); patchInfo {{ type wall; }} }}\n    }}\n"
+              "    resolveFeatureAngle 30;\n    refinementRegions {{}}\n    locationInMesh {};\n    allowFreeStandingZoneFaces true;\n}}\n\n"
+              "snapControls\n{{\n    nSmoothPatch 3;\n    tolerance 2.0;\n    nSolveIter 30;\n    nRelaxIter 5;\n    nFeatureSnapIter {};\n"
+              "    implicitFeatureSnap false;\n    explicitFeatureSnap false;\n}}\n\n"
+              "addLayersControls\n{{\n    relativeSizes true;\n    layers {{}}\n    expansionRatio 1.0;\n    finalLayerThickness 0.3;\n"
+              "    minThickness 0.1;\n    nGrow 0;\n    featureAngle 60;\n    nRelaxIter 3;\n    nSmoothSurfaceNormals 1;\n"
+              "    nSmoothNormals 3;\n    nSmoothThickness 10;\n    maxFaceThicknessRatio 0.5;\n    maxThicknessToMedialRatio 0.3;\n"
+              "    minMedialAxisAngle 90;\n    nBufferCellsNoExtrude 0;\n    nLayerIter 50;\n}}\n\n"
+              // Micrometre cells: the default volume and area guards are for metre-sized meshes.
+              "meshQualityControls\n{{\n    maxNonOrtho 65;\n    maxBoundarySkewness 20;\n    maxInternalSkewness 4;\n    maxConcave 80;\n"
+              "    minVol -1e30;\n    minTetQuality -1e30;\n    minArea -1;\n    minTwist 0.02;\n    minDeterminant 0.001;\n"
+              "    minFaceWeight 0.05;\n    minVolRatio 0.01;\n    minTriangleTwist -1;\n    nSmoothScale 4;\n    errorReduction 0.75;\n"
+              "    relaxed {{ maxNonOrtho 75; }}\n}}\n\nmergeTolerance 1e-6;\n",
+              std::max(1, s.cells_between_levels), s.surface_level, s.surface_level, vec(g.inside.x, g.inside.y, 0.5 * cell),
+              // The smooth outline has no sharp features to snap to: two morph iterations leave the
+              // meshed volume as five do (to 1e-6 on a 60 px disc packing at 4 cells per pixel) in 2/3 of the time.
+              s.smooth_boundary ? 2 : 5));
+}
+
 }  // namespace
 
 ImageBackground imageBackground(const Scene& s, int image_cols, int image_rows, double image_width) {
@@ -193,7 +230,12 @@ ImageBackground imageBackground(const Scene& s, int image_cols, int image_rows, 
   return bg;
 }
 
-long long writeCase(const Scene& s, const fs::path& dir, int ranks) {
+double imageMeshThickness(const Scene& s, int image_cols, int image_rows, double image_width) {
+  if (s.direct_mesh) return image_width / std::max(4, static_cast<int>(std::lround(image_cols * s.cells_per_pixel)));
+  return imageBackground(s, image_cols, image_rows, image_width).cell;
+}
+
+long long writeCase(const Scene& s, const fs::path& dir, int ranks, MesherReport* mesher) {
   fs::create_directories(dir / "system");
   fs::create_directories(dir / "constant");
   fs::create_directories(dir / "0");
@@ -202,6 +244,7 @@ long long writeCase(const Scene& s, const fs::path& dir, int ranks) {
   std::string u_file = foamHeader("volVectorField", "U", "0") + "dimensions [0 1 -1 0 0 0 0];\ninternalField uniform (0 0 0);\n\n";
   std::string p_file = foamHeader("volScalarField", "p", "0") + "dimensions [0 2 -2 0 0 0 0];\ninternalField uniform 0;\n\n";
   bool reference_pressure = false;
+  long long direct_cells = -1;  // image scenes meshed here (Scene::direct_mesh)
 
   switch (s.kind) {
     case Scene::Kind::cylinder_channel: {
@@ -262,39 +305,20 @@ long long writeCase(const Scene& s, const fs::path& dir, int ranks) {
     }
     case Scene::Kind::image: {
       const MaskGeometry g = loadMask(s.mask, s.pixel, s.grain_dark);
-      const ImageBackground bg = imageBackground(s, g.fluid.cols, g.fluid.rows, g.width());
-      const double cell = bg.cell;  // one background cell thick
-      mesh = channelMesh(g.width(), g.height(), cell, bg.nx, bg.ny, "symmetry");
-      splitFrontAndBack(mesh);
-      if (s.surface_level > 0) put(dir / "system" / "extrudeMeshDict", extrudeMeshDict(cell));
-      fs::create_directories(dir / "constant" / "triSurface");
-      // The walls run beyond the mesh's front and back so every cut lies inside the surface.
-      put(dir / "constant" / "triSurface" / "grains.stl",
-          s.smooth_boundary ? extrudedStl(smoothGrainPolygons(g, s.smoothing_px), -cell, 2 * cell) : grainStl(g, -cell, 2 * cell));
-      put(dir / "system" / "snappyHexMeshDict",
-          foamHeader("dictionary", "snappyHexMeshDict", "system") +
-              fmt::format(
-                  "castellatedMesh true;\nsnap true;\naddLayers false;\n\n"
-                  "geometry\n{{\n    grains.stl {{ type triSurfaceMesh; name grains; }}\n}}\n\n"
-                  "castellatedMeshControls\n{{\n    maxLocalCells 5000000;\n    maxGlobalCells 20000000;\n    minRefinementCells 0;\n"
-                  "    maxLoadUnbalance 0.1;\n    nCellsBetweenLevels {};\n    features ();\n"
-                  "    refinementSurfaces\n    {{\n        grains {{ level ({} {}); patchInfo {{ type wall; }} }}\n    }}\n"
-                  "    resolveFeatureAngle 30;\n    refinementRegions {{}}\n    locationInMesh {};\n    allowFreeStandingZoneFaces true;\n}}\n\n"
-                  "snapControls\n{{\n    nSmoothPatch 3;\n    tolerance 2.0;\n    nSolveIter 30;\n    nRelaxIter 5;\n    nFeatureSnapIter {};\n"
-                  "    implicitFeatureSnap false;\n    explicitFeatureSnap false;\n}}\n\n"
-                  "addLayersControls\n{{\n    relativeSizes true;\n    layers {{}}\n    expansionRatio 1.0;\n    finalLayerThickness 0.3;\n"
-                  "    minThickness 0.1;\n    nGrow 0;\n    featureAngle 60;\n    nRelaxIter 3;\n    nSmoothSurfaceNormals 1;\n"
-                  "    nSmoothNormals 3;\n    nSmoothThickness 10;\n    maxFaceThicknessRatio 0.5;\n    maxThicknessToMedialRatio 0.3;\n"
-                  "    minMedialAxisAngle 90;\n    nBufferCellsNoExtrude 0;\n    nLayerIter 50;\n}}\n\n"
-                  // Micrometre cells: the default volume and area guards are for metre-sized meshes.
-                  "meshQualityControls\n{{\n    maxNonOrtho 65;\n    maxBoundarySkewness 20;\n    maxInternalSkewness 4;\n    maxConcave 80;\n"
-                  "    minVol -1e30;\n    minTetQuality -1e30;\n    minArea -1;\n    minTwist 0.02;\n    minDeterminant 0.001;\n"
-                  "    minFaceWeight 0.05;\n    minVolRatio 0.01;\n    minTriangleTwist -1;\n    nSmoothScale 4;\n    errorReduction 0.75;\n"
-                  "    relaxed {{ maxNonOrtho 75; }}\n}}\n\nmergeTolerance 1e-6;\n",
-                  std::max(1, s.cells_between_levels), s.surface_level, s.surface_level, vec(g.inside.x, g.inside.y, 0.5 * cell),
-                  // The smooth outline has no sharp features to snap to: two morph iterations leave the
-                  // meshed volume as five do (to 1e-6 on a 60 px disc packing at 4 cells per pixel) in 2/3 of the time.
-                  s.smooth_boundary ? 2 : 5));
+      if (s.direct_mesh) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const DirectMesh2D m = directImageMesh(g, s.smoothing_px, s.cells_per_pixel);
+        const PolyMesh poly = extrude(m, m.dx(), "symmetry");
+        fs::remove_all(dir / "constant" / "polyMesh");
+        writePolyMesh(poly, dir);
+        direct_cells = poly.cells;
+        if (mesher != nullptr) {
+          *mesher = MesherReport{true, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), m.wall_vertices, m.snapped,
+                                 m.pulled_back, m.pinned, m.dropped_disconnected, m.max_move_cells, m.minCellAreaRatio()};
+        }
+      } else {
+        writeSnappyImageCase(s, g, dir);
+      }
       functions += "    flowRate\n    {\n        type surfaceFieldValue;\n        libs (\"libfieldFunctionObjects.so\");\n"
                    "        writeControl timeStep;\n        writeInterval 1;\n        log false;\n        writeFields false;\n"
                    "        regionType patch;\n        name outlet;\n        operation sum;\n        fields (phi);\n    }\n";
@@ -304,6 +328,11 @@ long long writeCase(const Scene& s, const fs::path& dir, int ranks) {
       p_file += boundaryField({{"inlet", fmt::format("        type fixedValue;\n        value uniform {:.12g};\n", s.pressure_drop)},
                                {"outlet", "        type fixedValue;\n        value uniform 0;\n"},
                                {"walls", "        type symmetry;\n"}, {"grains", kZeroGradient}, {"back", kEmpty}, {"front", kEmpty}});
+      if (!s.direct_mesh) {
+        const ImageBackground bg = imageBackground(s, g.fluid.cols, g.fluid.rows, g.width());
+        mesh = channelMesh(g.width(), g.height(), bg.cell, bg.nx, bg.ny, "symmetry");
+        splitFrontAndBack(mesh);
+      }
       break;
     }
     case Scene::Kind::channel: {
@@ -322,7 +351,7 @@ long long writeCase(const Scene& s, const fs::path& dir, int ranks) {
       break;
     }
   }
-  put(dir / "system" / "blockMeshDict", mesh.text());
+  if (direct_cells < 0) put(dir / "system" / "blockMeshDict", mesh.text());
   put(dir / "system" / "controlDict", controlDict(s, s.unsteady ? "pimpleFoam" : "simpleFoam", functions));
   put(dir / "system" / "fvSchemes", fvSchemes(s));
   put(dir / "system" / "fvSolution", fvSolution(s, reference_pressure));
@@ -336,9 +365,10 @@ long long writeCase(const Scene& s, const fs::path& dir, int ranks) {
   put(dir / "Allrun",
       fmt::format("#!/bin/sh\n# Reruns this case by hand (written by mmval); ./Allclean undoes it.\ncd \"$(dirname \"$0\")\"\n"
                   "export WM_PROJECT_DIR=${{WM_PROJECT_DIR:-/usr/share/openfoam}}\n"
-                  "blockMesh > log.blockMesh 2>&1 || exit 1\n{}"
+                  "{}{}"
                   "checkMesh > log.checkMesh 2>&1 || exit 1\n{}",
-                  s.kind == Scene::Kind::image ? std::string("snappyHexMesh -overwrite > log.snappyHexMesh 2>&1 || exit 1\n") +
+                  direct_cells >= 0 ? "# constant/polyMesh was written by mmval's own mesher (directImageMesh)\n" : "blockMesh > log.blockMesh 2>&1 || exit 1\n",
+                  s.kind == Scene::Kind::image && direct_cells < 0 ? std::string("snappyHexMesh -overwrite > log.snappyHexMesh 2>&1 || exit 1\n") +
                                                      (s.surface_level > 0 ? "extrudeMesh > log.extrudeMesh 2>&1 || exit 1\n" : "")
                                                : std::string(),
                   ranks > 1 ? fmt::format("decomposePar -force > log.decomposePar 2>&1 || exit 1\n"
@@ -349,13 +379,13 @@ long long writeCase(const Scene& s, const fs::path& dir, int ranks) {
   // Allclean removes what Allrun and the solver wrote (meshes, time folders other than 0,
   // processor folders, logs, postProcessing); the files mmval wrote stay.
   put(dir / "Allclean",
-      "#!/bin/sh\n# Removes what ./Allrun wrote, back to the case as mmval wrote it.\ncd \"$(dirname \"$0\")\"\n"
-      "rm -rf constant/polyMesh postProcessing processor[0-9]* log.*\n"
+      std::string("#!/bin/sh\n# Removes what ./Allrun wrote, back to the case as mmval wrote it.\ncd \"$(dirname \"$0\")\"\n") +
+          (direct_cells >= 0 ? "rm -rf postProcessing processor[0-9]* log.*\n" : "rm -rf constant/polyMesh postProcessing processor[0-9]* log.*\n") +
       "for d in [0-9]*; do\n  [ -d \"$d\" ] && [ \"$d\" != 0 ] && rm -rf \"$d\"\ndone\nexit 0\n");
   put(dir / "case.foam", "");  // ParaView's OpenFOAM reader opens the case through this (empty) file
   for (const char* script : {"Allrun", "Allclean"})
     fs::permissions(dir / script, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec, fs::perm_options::add);
-  return mesh.cellCount();
+  return direct_cells >= 0 ? direct_cells : mesh.cellCount();
 }
 
 std::string fatalMessage(const std::string& log) {
@@ -521,8 +551,15 @@ Result runCase(const Scene& s, const fs::path& dir, int ranks) {
     r.failure = inst.reason;
     return r;
   }
-  writeCase(s, dir, ranks);
-  return runWrittenCase(s, dir, ranks);
+  MesherReport mesher;
+  writeCase(s, dir, ranks, &mesher);
+  Result r = runWrittenCase(s, dir, ranks);
+  if (mesher.direct) {
+    r.mesher = mesher;
+    r.mesh_seconds += mesher.seconds;
+    r.steps.insert(r.steps.begin(), StepTiming{"mmval directImageMesh", mesher.seconds, 0});
+  }
+  return r;
 }
 
 Result runWrittenCase(const Scene& s, const fs::path& dir, int ranks) {
@@ -540,9 +577,17 @@ Result runWrittenCase(const Scene& s, const fs::path& dir, int ranks) {
     if (t.exit_code != 0) r.failure = fmt::format("{} failed (exit {}): {}", cmd, t.exit_code, fatalMessage(readText(dir / log)));
     return t.exit_code == 0;
   };
-  if (!step("blockMesh", "log.blockMesh")) return r;
-  r.mesh_seconds = r.steps.back().wall_seconds;
-  if (s.kind == Scene::Kind::image) {
+  const bool direct = s.kind == Scene::Kind::image && s.direct_mesh;
+  if (direct) {
+    if (!fs::exists(dir / "constant" / "polyMesh" / "faces")) {
+      r.failure = "no mesh in " + (dir / "constant" / "polyMesh").string() + " (the direct mesher writes it with the case: writeCase)";
+      return r;
+    }
+  } else {
+    if (!step("blockMesh", "log.blockMesh")) return r;
+    r.mesh_seconds = r.steps.back().wall_seconds;
+  }
+  if (s.kind == Scene::Kind::image && !direct) {
     if (!step("snappyHexMesh -overwrite", "log.snappyHexMesh")) return r;
     r.snappy_seconds = r.steps.back().wall_seconds;
     r.mesh_seconds += r.snappy_seconds;
@@ -562,6 +607,9 @@ Result runWrittenCase(const Scene& s, const fs::path& dir, int ranks) {
     static const std::regex cells_re("cells: +([0-9]+)");
     std::smatch m;
     if (std::regex_search(check, m, cells_re)) r.cells = std::stoll(m[1]);
+    static const std::regex ortho_re("non-orthogonality Max: ([-+0-9.eE]+)"), skew_re("Max skewness = ([-+0-9.eE]+)");
+    r.max_non_orthogonality = std::regex_search(check, m, ortho_re) ? std::stod(m[1]) : std::nan("");
+    r.max_skewness = std::regex_search(check, m, skew_re) ? std::stod(m[1]) : std::nan("");
   }
   if (r.ranks > 1) {
     if (!step("decomposePar -force", "log.decomposePar")) return r;
@@ -643,7 +691,7 @@ Result runWrittenCase(const Scene& s, const fs::path& dir, int ranks) {
         r.failure = "no outlet flux written";
         return r;
       }
-      const double cell = imageBackground(s, g.fluid.cols, g.fluid.rows, g.width()).cell;
+      const double cell = imageMeshThickness(s, g.fluid.cols, g.fluid.rows, g.width());
       static const std::regex vol_re("Total volume = ([-+0-9.eE]+)");
       std::smatch m;
       if (std::regex_search(check, m, vol_re)) r.porosity_mesh = std::stod(m[1]) / (g.width() * g.height() * cell);

@@ -67,6 +67,10 @@ struct Scene {
   /// finer than the background; nCellsBetweenLevels sets the width of each refinement band.
   int surface_level = 0;
   int cells_between_levels = 3;
+  /// Image scenes on the smooth boundary: mmval meshes the image itself (directImageMesh: a
+  /// Cartesian grid at cells_per_pixel, wall vertices moved onto the level) and writes
+  /// constant/polyMesh; no blockMesh or snappyHexMesh runs. The mesh is one cell (dx) thick.
+  bool direct_mesh = false;
   // numerics
   /// Resolution: cells around the cylinder (cylinder channel and periodic array; a periodic-array
   /// case sets it from numerics.cells_per_side, arrayCellsAround), cells across (channel).
@@ -81,6 +85,15 @@ struct StepTiming {
   std::string command;
   double wall_seconds = 0;
   int exit_code = 0;
+};
+
+/// What mmval's own image mesher did for a level (Scene::direct_mesh), for result.json's ladder.
+struct MesherReport {
+  bool direct = false;
+  double seconds = 0;             ///< meshing and writing constant/polyMesh
+  int wall_vertices = 0, snapped = 0, pulled_back = 0, pinned = 0;  ///< DirectMesh2D's counts
+  int dropped_disconnected = 0;
+  double max_move_cells = 0, min_cell_area_ratio = 0;
 };
 
 struct Result {
@@ -104,6 +117,9 @@ struct Result {
   /// volume / (image area x mesh thickness), checkMesh's "Total volume") is judged.
   double porosity_boundary = 0;
   double snappy_seconds = 0;  ///< image: snappyHexMesh's own wall time (within mesh_seconds)
+  MesherReport mesher;        ///< image on the direct mesher (its seconds are within mesh_seconds)
+  /// checkMesh's "Mesh non-orthogonality Max" (degrees) and "Max skewness"; NaN when not reported.
+  double max_non_orthogonality = 0, max_skewness = 0;
   std::optional<double> c_d_mean;  ///< unsteady: mean over the second half
   std::optional<double> c_d, c_l, c_d_max, c_l_max, strouhal, dp, flow_rate, permeability, drag_per_length, f_star;
 };
@@ -116,10 +132,16 @@ struct ImageBackground {
 };
 ImageBackground imageBackground(const Scene& s, int image_cols, int image_rows, double image_width);
 
-/// Writes the case into `dir` (which is created); returns the cell count.
-long long writeCase(const Scene& scene, const std::filesystem::path& dir, int ranks = 1);
+/// The thickness (m) of an image scene's one-cell-deep mesh: the direct mesher's cell size along x
+/// (image width / round(cols x cells_per_pixel), at least 4 cells), else imageBackground's cell.
+double imageMeshThickness(const Scene& s, int image_cols, int image_rows, double image_width);
 
-/// Runs blockMesh (+ decomposePar) and the solver in `dir`, then reads the results.
+/// Writes the case into `dir` (which is created); returns the cell count. An image scene with
+/// direct_mesh gets its constant/polyMesh here, and `mesher` (if given) what the mesher did.
+long long writeCase(const Scene& scene, const std::filesystem::path& dir, int ranks = 1, MesherReport* mesher = nullptr);
+
+/// Runs blockMesh (+ decomposePar) and the solver in `dir`, then reads the results; an image scene
+/// with direct_mesh is meshed by writeCase instead, and that time counts as meshing.
 Result runCase(const Scene& scene, const std::filesystem::path& dir, int ranks = 1);
 
 /// Runs a case already written into `dir` (possibly edited by hand).
