@@ -42,6 +42,8 @@ foreach(f IN LISTS mmval_case_files)
   endif()
 endforeach()
 install(FILES ${mmval_installed_cases} DESTINATION ${MMVAL_INSTALL_DATADIR}/cases)
+# Inputs the cases read beside them (generated masks, with their README).
+install(DIRECTORY ${CMAKE_SOURCE_DIR}/cases/data DESTINATION ${MMVAL_INSTALL_DATADIR}/cases)
 list(LENGTH mmval_installed_cases n_in)
 list(LENGTH mmval_skipped_cases n_out)
 message(STATUS "mmval install: ${n_in} example cases; ${n_out} left out (they read data outside the repository)")

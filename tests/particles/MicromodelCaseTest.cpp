@@ -229,6 +229,45 @@ TEST(MicromodelBadInputCase, InletBlockedForTheParticleSizeIsAClearError) {
   EXPECT_EQ(metric(s, "count_balance_error"), 0.0);
 }
 
+TEST(MicromodelCase, CrowdedInletPlacesEveryFineOrSaysWhy) {
+  // The inlet is a single 15 um gap (3 px) in a grain column, so the strip takes
+  // only a few 5 um particles a frame, and 400 are due within 0.2 s. Nothing
+  // sticks, so the gap never clogs: the ones that wait are placed frame after
+  // frame. Over 3 s every one is placed (not_placed = 0, injected = scheduled,
+  // injected = retained + left + inside). Stopped at 0.2 s, the rest is counted
+  // apart (not_placed = never_injected > 0) and details.not_placed says why.
+  const fs::path file = testDir() / "gap.pgm";
+  writePgm(file, 40, 30, [](int c, int r) { return c < 4 && (r < 10 || r >= 13); });
+  Fixture fx;
+  Opts o;
+  o.mode = "one-way";
+  o.extra = "[deposition]\ncapture_distance = \"0 um\"\nhamaker = \"0 J\"\nbottom = false\nwalls = false\ndeposited = false\n";
+  const auto text = [&](const std::string& duration) {
+    std::string t = caseText(file, "[run]\nduration = \"" + duration + "\"\noutput_interval = \"0.1 s\"\nseed = 3\ncheckpoint_every = 0\n", o);
+    const std::string key = "sample_fraction";
+    t.insert(t.find(key), "count = 400\ninjection_time = \"0.2 s\"\nengine = \"overdamped\"\n");
+    return t;
+  };
+  const auto all = fx.run(text("3 s"), "crowded-long");
+  EXPECT_EQ(metric(all, "not_placed"), 0.0);
+  EXPECT_EQ(metric(all, "scheduled"), 400.0);
+  EXPECT_EQ(metric(all, "injected"), 400.0);
+  EXPECT_EQ(metric(all, "never_injected"), 0.0);
+  EXPECT_EQ(metric(all, "count_balance_error"), 0.0);
+  EXPECT_EQ(metric(all, "retained") + metric(all, "left") + metric(all, "inside"), 400.0);
+  EXPECT_FALSE(all.result["details"].contains("not_placed"));
+
+  const auto cut = fx.run(text("0.2 s"), "crowded-short");
+  const double waiting = metric(cut, "not_placed");
+  EXPECT_GT(waiting, 0.0);  // the inlet was crowded: 400 cannot enter one gap in two frames
+  EXPECT_EQ(metric(cut, "never_injected"), waiting);
+  EXPECT_EQ(metric(cut, "injected") + waiting, 400.0);
+  EXPECT_EQ(metric(cut, "count_balance_error"), 0.0);
+  ASSERT_TRUE(cut.result["details"].contains("not_placed"));
+  EXPECT_EQ(cut.result["details"]["not_placed"]["count"].get<double>(), waiting);
+  EXPECT_NE(cut.result["details"]["not_placed"]["reason"].get<std::string>().find("inlet strip"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace mmval::particles
 
@@ -288,6 +327,30 @@ void expectInputError(Fixture& fx, const std::string& text, const std::string& k
     EXPECT_NE(w.find(key), std::string::npos) << w;
     EXPECT_NE(w.find(what), std::string::npos) << w;
   }
+}
+
+// coupling.final_resolve: with a threshold no run reaches (the whole pore space),
+// the flow is never solved again and k / k0 stays 1 however much deposited;
+// with the final re-solve the last frame solves once on the deposits and k
+// drops. The last line of permeability.csv carries that k, the metric too.
+TEST(MicromodelTable3, FinalResolveCountsEveryDeposit) {
+  Fixture fx;
+  const auto text = [](bool final_resolve) {
+    std::string t = table3Text("15 um", "0.5 cm/min");
+    t.replace(t.find("resolve_threshold = 1e-3"), 24, std::string("resolve_threshold = 1\nfinal_resolve = ") + (final_resolve ? "true" : "false"));
+    return t;
+  };
+  const auto off = fx.run(text(false), "final-off");
+  const auto on = fx.run(text(true), "final-on");
+  ASSERT_GT(metric(off, "retained"), 0.0);
+  EXPECT_EQ(metric(off, "resolves"), 0.0);
+  EXPECT_NEAR(metric(off, "k_over_k0"), 1.0, 1e-12);
+  EXPECT_EQ(metric(on, "resolves"), 1.0);
+  EXPECT_LT(metric(on, "k_over_k0"), 1.0);
+  EXPECT_EQ(metric(on, "count_balance_error"), 0.0);
+  const auto table = tables::parseTable(readText(testDir() / "final-on" / "permeability.csv"), "permeability.csv");
+  EXPECT_NEAR(table.at("k_over_k0").back(), metric(on, "k_over_k0"), 1e-9);
+  EXPECT_NEAR(table.at("k_over_k0").front(), 1.0, 1e-12);
 }
 
 TEST(MicromodelBadInputCase, BadFilesAndFieldsNameTheKey) {

@@ -41,7 +41,7 @@ void micromodelMetrics(Schema& s) {
   s.metric("represented_particles", "1", "Physical particles the injected ones stand for (injected / particles.sample_fraction)");
   s.metric("not_placed", "1",
            "Particles due by the end of injection (the run's end, or a pump stall) but never placed because the inlet strip stayed full "
-           "(inlet clogging); part of never_injected");
+           "(inlet clogging): retried every frame, never dropped; part of never_injected, and details.not_placed (or the pump stall) says why");
   s.metric("mean_speed", "um/s", "Mean speed of the mobile particles");
   s.metric("k_over_k0", "1", "Final over clean permeability");
   s.metric("permeability_reduction", "%", "1 - k / k0");

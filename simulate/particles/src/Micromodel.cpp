@@ -360,6 +360,21 @@ void reportCounts(const ClassTally& a, double sample, RunOutput& out) {
                            {"inside", n.inside}, {"deposited", n.deposited}, {"left", n.left}};
 }
 
+/// Particles due but never placed (the inlet strip stayed full to the end): they
+/// are retried every frame and never dropped, so at the end they are named with
+/// the reason, in details.not_placed and as one line on stderr. A pump stall says
+/// it itself (reportPump), so nothing is added then.
+void reportNotPlaced(const ClassTally& a, const std::optional<PumpStall>& stall, double t_end, RunOutput& out) {
+  if (a.deferred <= 0 || stall) return;
+  const std::string why = fmt::format(
+      "{} particles due by t = {:g} s found no free place in the inlet strip (grains, deposits or particles still there); they were "
+      "retried every output frame to the end and are counted in never_injected, not in injected. A longer run, a longer "
+      "particles.injection_time or a lower concentration places them",
+      a.deferred, t_end);
+  out.details["not_placed"] = {{"count", a.deferred}, {"reason", why}};
+  std::fprintf(stderr, "mmval: %s\n", why.c_str());
+}
+
 /// Permeability over the run: k/k0, the time to the first 10 % loss, clogging,
 /// closed pixels and the mean aperture loss.
 void reportPermeability(const RunnerState& s, const DepositGrid& deposits, std::int64_t pore_pixels, RunOutput& out) {
@@ -469,12 +484,17 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   // Set when a fluid solve finds that the pump cannot deliver the set rate: injection
   // stops, the frame is written and the run ends (Micromodel.hpp, "The pump").
   std::optional<PumpStall> stall;
+  const bool final_resolve = c.flag("coupling.final_resolve");
   for (std::int64_t k = s.next_frame; k <= run.frames; ++k) {
     const double t = k * run.dt_out;
     ClassParticles ps = transport(classes, k, t);
     if (set.coupling.four_way) {
       deposit(classes, ps, *flow.field(), set.coupling, deposits, s.wall_deposits, s.plate_deposits);
-      stall = resolve(flow, deposits, set.coupling, set.max_pressure, t, classes, ps,
+      // The last frame re-solves on any aperture lost since the last solve (coupling.final_resolve),
+      // before insertion and the frame record, so that the final k and the captures agree with them.
+      Coupling cp = set.coupling;
+      if (final_resolve && k == run.frames && deposits.lostColumns() > s.lost_at_solve) cp.resolve_pixels = 0;
+      stall = resolve(flow, deposits, cp, set.max_pressure, t, classes, ps,
                       {s.resolves, s.solve_seconds, s.lost_at_solve, s.k, s.pressure_drop, s.blocked_at});
     }
     if (!stall) insertDue(classes, *flow.field(), set.schedule, k, t, ps, s.next_id);
@@ -490,6 +510,7 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   const double t_end = static_cast<double>(s.next_frame - 1) * run.dt_out;  // the last frame written
   setDetail(out.details, DetailField::end_time_s, t_end);
   reportPump(s, stall, set.max_pressure, set.flow.viscosity * set.flow.darcy_velocity * set.geo.width, tally.scheduled, tally.n.injected, out);
+  reportNotPlaced(tally, stall, t_end, out);
   if (!run.window.empty()) reportWindow(s, run.window, t_end, out);
   out.metrics["mean_speed"] = s.speed_n ? s.speed_sum / s.speed_n : 0.0;
   out.units["mean_speed"] = "um/s";

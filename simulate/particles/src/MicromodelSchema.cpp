@@ -78,6 +78,10 @@ void declareMicromodel(Schema& s) {
          "Re-solve the flow when the aperture lost since the last solve, summed over pore pixels in whole columns (a closed "
          "pixel counts 1, a layer t thick t / depth), reaches this fraction of the pore pixels")
       .def(1e-3).min(0.0).max(1.0);
+  s.boolean("coupling.final_resolve",
+            "Solve the flow once more at the last frame when any aperture was lost since the last re-solve, so that the final "
+            "k / k0 (permeability_reduction) includes every deposit and not only those up to the last threshold crossing")
+      .def(false);
   s.boolean("coupling.parcel_weighting", "A deposit's volume is that of the 1 / sample_fraction particles it stands for").def(true);
   s.real("numerics.cells_per_pixel", "Fluid grid cells per image pixel").def(0.5).min(0.05).max(4);
   s.choice("numerics.resolve", {"warm", "direct"},
