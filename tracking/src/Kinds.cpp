@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <stdexcept>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -25,20 +28,38 @@ void requireExposureWithinFrame(const Case& c, const TrackConfig& cfg) {
                      fmt::format("at most {:g} s (1 / frame rate)", 1.0 / cfg.fps));
 }
 
-/// analysis.motion, link.predict and the Brownian analysis keys.
+Linker parseLinker(const std::string& s) { return s == "paper" ? Linker::paper : Linker::global; }
+
+Prediction parsePrediction(const std::string& s) {
+  return s == "none" ? Prediction::none : s == "velocity" ? Prediction::velocity : s == "neighbours" ? Prediction::neighbours : Prediction::automatic;
+}
+
+/// The choice that `parse` reads as `value`: a choice key's default named by the same
+/// parser that reads the case, so that the struct's enum default is the only one.
+template <class Enum, class Parse>
+std::string choiceOf(const std::vector<std::string>& choices, Enum value, Parse parse) {
+  for (const std::string& name : choices)
+    if (parse(name) == value) return name;
+  throw std::logic_error("the option struct's default is none of the schema's choices");
+}
+
+/// analysis.motion, link.predict and the Brownian analysis keys, their defaults those of
+/// the option structs.
 void declareMotionKeys(Schema& s) {
-  const TrackOptions defaults;
+  const TrackConfig config_defaults{};
+  const TrackOptions& defaults = config_defaults.analysis;
+  const std::vector<std::string> predictions = {"auto", "none", "velocity", "neighbours"};
   s.choice("analysis.motion", {"auto", "flow", "brownian"},
            "How tracks are analysed: flow (particles carried by a flow: velocities, dispersion, retention, deposits, speed maps) or brownian "
            "(diffusing: ensemble drift removed, MSD fitted with a localisation-error and motion-blur term for D and its exponent, per-track D "
            "by the covariance-based estimator, immobile by a statistical test); auto decides from the tracks (directed or carried steps: "
            "flow) and says why in summary.json")
       .def(motionModelName(defaults.motion));
-  s.choice("link.predict", {"auto", "none", "velocity", "neighbours"},
+  s.choice("link.predict", predictions,
            "Where a track is looked for in the next frame: where it was (none), one step along its own smoothed velocity (velocity), or "
            "also, for a track too new to have one, along its neighbours' within link.neighbour_radius (neighbours); auto: none for Brownian "
            "motion, otherwise velocity (neighbours when link.neighbour_radius > 0)")
-      .def("auto");
+      .def(choiceOf(predictions, config_defaults.link.predict, parsePrediction));
   s.quantity("analysis.exposure", "s",
              "Brownian: camera exposure per frame (motion blur, at most the frame interval); 0: instantaneous. D does not depend on it; with 0 "
              "the blur reads as a smaller localisation error")
@@ -77,96 +98,110 @@ void addSceneDecisions(const TrackRun& run, nlohmann::json& summary) {
 }
 
 void declareTrackerKeys(Schema& s) {
+  // The option structs hold the defaults; each key's default is taken from them.
+  const TrackConfig defaults{};
+  const DetectOptions& detect = defaults.detect;
+  const LinkOptions& link = defaults.link;
+  const std::vector<std::string> thresholds = {"otsu", "manual", "adaptive"};
+  const std::vector<std::string> morphologies = {"none", "erode", "dilate", "open", "close"};
+  const std::vector<std::string> refinements = {"intensity", "disc", "moments"};
+  const std::vector<std::string> seed_methods = {"contours", "peaks"};
+  const std::vector<std::string> linkers = {"global", "paper"};
   s.choice("detect.background", {"auto", "median", "none"},
            "Static background: the temporal median of sampled frames subtracted (median: grains, stuck particles, uneven illumination "
            "vanish), not (none), or auto: not when more than half of the round spots of sampled frames sit on spots of the median (the "
            "particles barely move, so the median is the particles), nor for ring colloids when no spot of the median recurs in 3/4 of "
            "the frames (nothing static; the median would hold ghosts of slow rings); otherwise subtracted. When auto decides against it a spatial "
            "high-pass of refine_radius evens the illumination. summary.json \"background\" says which, with its numbers and why")
-      .def(backgroundModeName(DetectOptions{}.background_mode));
+      .def(backgroundModeName(detect.background_mode));
   s.boolean("detect.subtract_background", "Older switch of the background: true is detect.background = \"median\", false \"none\" (wins over it)")
       .optional();
   s.choice("detect.polarity", {"auto", "dark", "bright", "ring"},
            "Particles darker or brighter than the background, or ring-shaped brightfield colloids (bright centre inside a dark ring, "
            "detected at the centre by a matched filter of their measured profile); auto recognises rings first, then takes the side of "
            "the moving foreground. summary.json \"detection\" says which and why")
-      .def("auto");
-  s.real("detect.blur_sigma", "Gaussian blur, px (0: none)").def(1.0).min(0).max(20);
-  s.choice("detect.threshold", {"otsu", "manual", "adaptive"}, "Threshold method").def("otsu");
-  s.real("detect.threshold_value", "Manual threshold, fraction of full scale of the background-removed signal").def(0.08).min(0).max(1);
-  s.choice("detect.morphology", {"none", "erode", "dilate", "open", "close"}, "Morphological operation after the threshold").def("open");
-  s.integer("detect.kernel", "Morphology kernel, px (odd)").def(3).min(1).max(51);
-  s.integer("detect.iterations", "Morphology iterations").def(1).min(0).max(20);
-  s.real("detect.min_area", "Smallest blob, px^2").def(3).min(0);
-  s.real("detect.max_area", "Largest blob, px^2").def(2000).min(1);
-  s.real("detect.min_circularity", "Smallest 4 pi A / P^2").def(0.2).min(0).max(1);
-  s.choice("detect.refinement", {"intensity", "disc", "moments"},
+      .def(polarityName(detect.polarity));
+  s.real("detect.blur_sigma", "Gaussian blur, px (0: none)").def(detect.blur_sigma).min(0).max(20);
+  s.choice("detect.threshold", thresholds, "Threshold method").def(choiceOf(thresholds, detect.threshold, parseThreshold));
+  s.real("detect.threshold_value", "Manual threshold, fraction of full scale of the background-removed signal").def(detect.threshold_value).min(0).max(1);
+  s.choice("detect.morphology", morphologies, "Morphological operation after the threshold")
+      .def(choiceOf(morphologies, detect.morphology, parseMorphology));
+  s.integer("detect.kernel", "Morphology kernel, px (odd)").def(detect.kernel).min(1).max(51);
+  s.integer("detect.iterations", "Morphology iterations").def(detect.iterations).min(0).max(20);
+  s.real("detect.min_area", "Smallest blob, px^2").def(detect.min_area).min(0);
+  s.real("detect.max_area", "Largest blob, px^2").def(detect.max_area).min(1);
+  s.real("detect.min_circularity", "Smallest 4 pi A / P^2").def(detect.min_circularity).min(0).max(1);
+  s.choice("detect.refinement", refinements,
            "Centroid: intensity-weighted under a Gaussian mask re-centred each iteration (intensity), over a flat disc of refine_radius "
-           "(disc, Crocker & Grier), or the contour's moments").def("intensity");
-  s.choice("detect.method", {"contours", "peaks"},
+           "(disc, Crocker & Grier), or the contour's moments")
+      .def(choiceOf(refinements, detect.refinement, parseRefinement));
+  s.choice("detect.method", seed_methods,
            "Seeds: contours of the thresholded signal (the paper), or local maxima of the band-passed signal (splits touching particles)")
-      .def("peaks");
-  s.integer("detect.local_background", "Half-width of a boxcar local mean subtracted from the signal, px (0: none; ~ particle diameter)").def(0).min(0).max(200);
-  s.integer("detect.refine_radius", "Radius of the centroid window and of the mass, px").def(4).min(1).max(50);
-  s.integer("detect.separation", "peaks: smallest distance between two maxima, px (0: refine_radius)").def(0).min(0).max(100);
-  s.real("detect.refine_sigma", "Sigma of the Gaussian mask of the intensity centroid, px (0: from the spots' size)").def(0).min(0).max(20);
-  s.real("detect.min_mass", "Smallest integrated signal within refine_radius, fraction of full scale x px^2 (0: no filter)").def(0).min(0);
-  s.real("detect.min_snr", "Smallest peak over the frame's robust noise floor (0: no filter)").def(5).min(0);
+      .def(choiceOf(seed_methods, detect.method, parseSeedMethod));
+  s.integer("detect.local_background", "Half-width of a boxcar local mean subtracted from the signal, px (0: none; ~ particle diameter)").def(detect.local_background).min(0).max(200);
+  s.integer("detect.refine_radius", "Radius of the centroid window and of the mass, px").def(detect.refine_radius).min(1).max(50);
+  s.integer("detect.separation", "peaks: smallest distance between two maxima, px (0: refine_radius)").def(detect.separation).min(0).max(100);
+  s.real("detect.refine_sigma", "Sigma of the Gaussian mask of the intensity centroid, px (0: from the spots' size)").def(detect.refine_sigma).min(0).max(20);
+  s.real("detect.min_mass", "Smallest integrated signal within refine_radius, fraction of full scale x px^2 (0: no filter)").def(detect.min_mass).min(0);
+  s.real("detect.min_snr", "Smallest peak over the frame's robust noise floor (0: no filter)").def(detect.min_snr).min(0);
   s.real("detect.max_size_ratio",
          "Focus filter: drop spots whose measured sigma exceeds this multiple of the frame's modal (in-focus) sigma; blurred, "
          "out-of-focus particles are localised worse (0: off; docs/trackpy-mapping.md)")
-      .def(DetectOptions{}.max_size_ratio)
+      .def(detect.max_size_ratio)
       .min(0)
       .max(100);
   s.real("detect.min_mass_relative",
          "Smallest mass over the frame's brightest band-passed value, px^2: trackpy's minmass / 255 for 8-bit frames (/ 65535 for 16-bit), "
          "which trackpy sums on the band-passed frame rescaled to fill the integer range (0: no filter)")
-      .def(DetectOptions{}.min_mass_relative)
+      .def(detect.min_mass_relative)
       .min(0);
   s.real("detect.min_percentile", "peaks: maxima must exceed this percentile of the band-passed frame's pixels (trackpy's percentile; 0: off)")
-      .def(DetectOptions{}.min_percentile)
+      .def(detect.min_percentile)
       .min(0)
       .max(100);
   s.boolean("detect.deblend",
             "peaks + intensity: fit overlapping spots jointly, look for spots hidden beside brighter ones, split blobs two spots fit "
-            "significantly better than one").def(true);
+            "significantly better than one")
+      .def(detect.deblend);
   s.boolean("detect.find_stuck",
             "Find particles at rest in the median background (black/top-hat spots the size of moving ones): stuck all video long "
             "(immobile), or arrived and deposited (joined to the track that brought them, which continues at rest to the end)")
-      .def(false);
+      .def(detect.find_stuck);
   s.real("detect.background_quantile",
          "Per-pixel quantile of the sampled frames that is the static background (0.5: median; higher for dark particles that cover a pixel "
          "often, lower for bright ones)")
-      .def(0.5)
+      .def(defaults.background_quantile)
       .min(0)
       .max(1);
   s.integer("detect.background_window",
             "Rolling background: frames per block, each with its own background, blended between blocks (long videos that drift); 0: one for "
             "the whole video")
-      .def(0)
+      .def(defaults.background_window)
       .min(0);
-  s.integer("detect.threads", "Frames decoded and detected in parallel (linking stays in frame order; results do not depend on it); 0: every core").def(0).min(0).max(256);
-  s.choice("link.method", {"global", "paper"}, "Linker: optimal assignment with gap closing, or the paper's distance + angle rule").def("global");
-  s.real("link.search_radius", "Search radius, px per frame").def(8).min(0.1);
-  s.integer("link.memory", "Frames a particle may be missed (gap closing)").def(2).min(0).max(100);
-  s.real("link.velocity_smoothing", "Weight of the previous velocity in the prediction's exponential filter (0: last step only)").def(0.7).min(0).max(0.95);
+  s.integer("detect.threads", "Frames decoded and detected in parallel (linking stays in frame order; results do not depend on it); 0: every core").def(defaults.threads).min(0).max(256);
+  s.choice("link.method", linkers, "Linker: optimal assignment with gap closing, or the paper's distance + angle rule")
+      .def(choiceOf(linkers, link.method, parseLinker));
+  s.real("link.search_radius", "Search radius, px per frame").def(link.search_radius).min(0.1);
+  s.integer("link.memory", "Frames a particle may be missed (gap closing)").def(link.memory).min(0).max(100);
+  s.real("link.velocity_smoothing", "Weight of the previous velocity in the prediction's exponential filter (0: last step only)").def(link.velocity_smoothing).min(0).max(0.95);
   s.real("link.neighbour_radius",
          "px: a track too new to have a velocity predicts with the mean velocity of the tracks within this distance (particles in a "
          "pore flow follow nearby streamlines); 0: no prediction before its second point")
-      .def(0)
+      .def(link.neighbour_radius)
       .min(0);
   s.integer("link.smooth_frames",
             "Half-width, frames, of a quadratic fit along each moving track that refines its positions (localisation error "
             "x 0.70 at 2, x 0.58 at 3); for particles carried by a flow, not for Brownian motion (0: positions as detected)")
-      .def(0)
+      .def(defaults.smooth_frames)
       .min(0)
       .max(10);
-  s.quantity("analysis.immobile_distance", "um", "Flow: particles that never move farther are immobile (left out of velocities)").def("2 um").nonNegative();
+  s.quantity("analysis.immobile_distance", "um", "Flow: particles that never move farther are immobile (left out of velocities)")
+      .def(defaults.analysis.immobile_distance).nonNegative();
   s.quantity("analysis.stuck_distance", "um",
              "Moving less than this (plus what the track's own localisation noise explains) over the final window counts as deposited")
-      .def("1 um")
+      .def(defaults.analysis.stuck_distance)
       .nonNegative();
-  s.quantity("analysis.stuck_window", "s", "That final window").def("2 s").positive();
+  s.quantity("analysis.stuck_window", "s", "That final window").def(defaults.analysis.stuck_window).positive();
   declareMotionKeys(s);
 }
 
@@ -202,14 +237,12 @@ TrackConfig trackerConfig(const Case& c) {
   if (t.threads == 0) t.threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));  // reported as used
   t.background_quantile = c.real("detect.background_quantile");
   t.background_window = static_cast<int>(c.integer("detect.background_window"));
-  t.link.method = c.text("link.method") == "paper" ? Linker::paper : Linker::global;
+  t.link.method = parseLinker(c.text("link.method"));
   t.link.search_radius = c.real("link.search_radius");
   t.link.memory = static_cast<int>(c.integer("link.memory"));
   t.link.velocity_smoothing = c.real("link.velocity_smoothing");
   t.link.neighbour_radius = c.real("link.neighbour_radius");
-  const std::string& predict = c.text("link.predict");
-  t.link.predict = predict == "none" ? Prediction::none : predict == "velocity" ? Prediction::velocity
-                 : predict == "neighbours" ? Prediction::neighbours : Prediction::automatic;
+  t.link.predict = parsePrediction(c.text("link.predict"));
   if (t.link.predict == Prediction::neighbours && !(t.link.neighbour_radius > 0))
     throw InputError(c.where("link.predict"), "prediction from the neighbours needs a neighbour radius", "neighbours with link.neighbour_radius = 0",
                      "link.neighbour_radius > 0 px (a few particle spacings), or link.predict = \"velocity\"");
@@ -321,12 +354,13 @@ void registerTrackingKinds(CaseKindRegistry& registry) {
   video.name = "tracking-video";
   video.summary = "Track particles in a microscope video (or image folder / TIFF stack): tracks, velocities, dispersion, retention, streamlines";
   video.declare = [](Schema& s) {
+    const FrameRange range;
     s.string("inputs.video", "Video file, image folder, glob or multi-page TIFF (relative to the case file)").optional();
     s.quantity("inputs.pixel_size", "um", "Pixel size").optional().positive();
     s.quantity("inputs.frame_rate", "Hz", "Frames per second").optional().positive();
     s.integerList("inputs.roi", "Region of interest [x, y, width, height], px").optional();
-    s.integer("inputs.first_frame", "First frame to use").def(0).min(0);
-    s.integer("inputs.last_frame", "Last frame to use (-1: to the end)").def(-1).min(-1);
+    s.integer("inputs.first_frame", "First frame to use").def(range.first).min(0);
+    s.integer("inputs.last_frame", "Last frame to use (-1: to the end)").def(range.last).min(-1);
     s.path("inputs.truth", "Ground-truth tracks CSV (shared schema) to score against").optional();
     s.real("score.gate", "Gate of the scores, px").def(5).min(0.1);
     declareTrackerKeys(s);
@@ -338,25 +372,26 @@ void registerTrackingKinds(CaseKindRegistry& registry) {
   k.name = "tracking-synthetic";
   k.summary = "Track a synthetic micromodel video with known ground truth and score the tracks (Chenouard et al. 2014)";
   k.declare = [](Schema& s) {
-    s.integer("synth.width", "Frame width, px").def(320).min(32).max(8192);
-    s.integer("synth.height", "Frame height, px").def(240).min(32).max(8192);
-    s.integer("synth.frames", "Number of frames").def(60).min(3).max(100000);
-    s.quantity("synth.frame_rate", "Hz", "Frames per second").def("10 Hz").positive();
-    s.quantity("synth.pixel_size", "um", "Pixel size").def("1 um").positive();
-    s.integer("synth.particles", "Moving particles in view").def(40).min(0).max(100000);
-    s.integer("synth.immobile", "Particles stuck from the start").def(4).min(0).max(100000);
-    s.quantity("synth.deposit_fraction", "1", "Share of moving particles that stop during the video").def(0.15).fraction();
-    s.integer("synth.grains", "Grains in view").def(10).min(0).max(1000);
-    s.real("synth.grain_radius", "Grain radius, px").def(14).min(2);
-    s.real("synth.speed", "Mean flow speed, px per frame").def(3).min(0);
-    s.real("synth.spot_sigma", "Particle spot sigma, px").def(1.3).min(0.3);
-    s.real("synth.noise", "Camera noise, fraction of full scale").def(0.015).min(0).max(0.5);
-    s.real("synth.snr", "Spot amplitude over the noise std (0: use synth.noise)").def(0).min(0);
-    s.real("synth.photons", "Photons at full scale for Poisson shot noise (0: none)").def(0).min(0);
-    s.real("synth.illumination_gradient", "Brightness falls by this fraction from the left to the right edge").def(0).min(-0.9).max(0.9);
-    s.real("synth.brownian_d", "Brownian diffusion coefficient, px^2 per frame").def(0).min(0);
-    s.real("synth.defocus", "Spot sigma spread: [1, 1 + defocus] x spot_sigma at constant brightness").def(0).min(0).max(5);
-    s.integer("synth.seed", "Random seed").def(1).min(0);
+    const SynthOptions o;
+    s.integer("synth.width", "Frame width, px").def(o.width).min(32).max(8192);
+    s.integer("synth.height", "Frame height, px").def(o.height).min(32).max(8192);
+    s.integer("synth.frames", "Number of frames").def(o.frames).min(3).max(100000);
+    s.quantity("synth.frame_rate", "Hz", "Frames per second").def(o.fps).positive();
+    s.quantity("synth.pixel_size", "um", "Pixel size").def(o.pixel_size).positive();
+    s.integer("synth.particles", "Moving particles in view").def(o.particles).min(0).max(100000);
+    s.integer("synth.immobile", "Particles stuck from the start").def(o.immobile).min(0).max(100000);
+    s.quantity("synth.deposit_fraction", "1", "Share of moving particles that stop during the video").def(o.deposit_fraction).fraction();
+    s.integer("synth.grains", "Grains in view").def(o.grains).min(0).max(1000);
+    s.real("synth.grain_radius", "Grain radius, px").def(o.grain_radius).min(2);
+    s.real("synth.speed", "Mean flow speed, px per frame").def(o.speed).min(0);
+    s.real("synth.spot_sigma", "Particle spot sigma, px").def(o.spot_sigma).min(0.3);
+    s.real("synth.noise", "Camera noise, fraction of full scale").def(o.noise).min(0).max(0.5);
+    s.real("synth.snr", "Spot amplitude over the noise std (0: use synth.noise)").def(o.snr).min(0);
+    s.real("synth.photons", "Photons at full scale for Poisson shot noise (0: none)").def(o.photons).min(0);
+    s.real("synth.illumination_gradient", "Brightness falls by this fraction from the left to the right edge").def(o.illumination_gradient).min(-0.9).max(0.9);
+    s.real("synth.brownian_d", "Brownian diffusion coefficient, px^2 per frame").def(o.brownian_d).min(0);
+    s.real("synth.defocus", "Spot sigma spread: [1, 1 + defocus] x spot_sigma at constant brightness").def(o.defocus).min(0).max(5);
+    s.integer("synth.seed", "Random seed").def(static_cast<std::int64_t>(o.seed)).min(0);
     s.real("score.gate", "Gate of the scores, px (5 in the tracking challenge)").def(5).min(0.1);
     declareTrackerKeys(s);
   };
