@@ -331,6 +331,13 @@ TEST(MicromodelPump, RunThatNeverStallsIsUnchanged) {
   EXPECT_EQ(metric(a, "inside"), 11.0);
   EXPECT_EQ(metric(a, "scheduled"), 72.0);
   EXPECT_EQ(metric(a, "never_injected"), 0.0);
+  // Both particle-count readings, by hand: the suspension brings C Q (H / W) t real particles to this
+  // 200 um wide strip of the 10 mm chip: 2.9e13 m^-3 x (5e-9 / 60) m^3/s x (200e-6 / 10e-3) x 3 s = 145;
+  // a 0.5 sample of them is simulated.
+  const auto& count = a.result["details"]["particle_count"];
+  EXPECT_NEAR(count["real_particles_delivered"].get<double>(), 145.0, 1e-9 * 145.0);
+  EXPECT_NEAR(count["simulated"].get<double>(), 72.5, 1e-9 * 72.5);
+  EXPECT_EQ(count["sample_fraction"].get<double>(), 0.5);
   EXPECT_FALSE(a.result["details"].contains("pump_stall"));
   EXPECT_FALSE(hasMetric(a, "pump_stall_time"));
   // A limit the run never reaches changes nothing, byte for byte.

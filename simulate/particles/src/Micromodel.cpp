@@ -438,6 +438,15 @@ void reportScene(const MicromodelSetup& set, const ClassTally& a, const RunnerSt
   out.details["interstitial_velocity_m_s"] = porosity > 0 ? u_darcy / porosity : u_darcy;
   out.details["injection_rate_per_s"] = set.schedule.rate_per_s;
   out.details["parcel_weight"] = cp.weight;
+  // How many particles the scene stands for, in two readings: those simulated (the schedule over the
+  // injection time) and the real particles of the suspension they sample (simulated / sample_fraction).
+  // The paper's validation experiment states both a concentration and "about 6000" injected, which differ
+  // by ~500x; a case chooses its reading through particles.sample_fraction and says so in its header.
+  const double simulated = set.schedule.rate_per_s * set.schedule.injection_time;
+  out.details["particle_count"] = {{"simulated", simulated},
+                                   {"sample_fraction", set.sample},
+                                   {"real_particles_delivered", set.sample > 0 ? simulated / set.sample : simulated},
+                                   {"injection_time_s", set.schedule.injection_time}};
   setDetail(out.details, DetailField::coupling,
             {{"mode", cp.four_way ? "four-way" : "one-way"},
              {"resolve_threshold_pixels", cp.resolve_pixels},
