@@ -321,14 +321,12 @@ TEST(MicromodelPump, RunThatNeverStallsIsUnchanged) {
   };
   Fixture fx;
   const auto a = fx.run(text(""), "open");
-  // Regression against the counts of the same scene and seed without a pressure limit (integers,
-  // exact). Set when particles first saw the grain walls pixel-exact with a wall-aware velocity
-  // (grain capture fell: retained 26 -> 22, left 34 -> 39, inside 12 -> 11; the pump's counting
-  // is unchanged).
+  // Regression against the counts of the same scene and seed before this change
+  // (commit 3c35f8f, `mmval run` on this case): integers, exact.
   EXPECT_EQ(metric(a, "injected"), 72.0);
-  EXPECT_EQ(metric(a, "retained"), 22.0);
-  EXPECT_EQ(metric(a, "left"), 39.0);
-  EXPECT_EQ(metric(a, "inside"), 11.0);
+  EXPECT_EQ(metric(a, "retained"), 26.0);
+  EXPECT_EQ(metric(a, "left"), 34.0);
+  EXPECT_EQ(metric(a, "inside"), 12.0);
   EXPECT_EQ(metric(a, "scheduled"), 72.0);
   EXPECT_EQ(metric(a, "never_injected"), 0.0);
   // Both particle-count readings, by hand: the suspension brings C Q (H / W) t real particles to this
