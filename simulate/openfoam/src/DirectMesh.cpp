@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <deque>
 #include <optional>
 #include <stdexcept>
 
@@ -11,6 +10,7 @@
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/openfoam/FoamFile.hpp"
 #include "mmval/openfoam/ImageGeometry.hpp"
+#include "mmval/simulate/PoreSpace.hpp"
 
 namespace mmval::openfoam {
 
@@ -37,42 +37,23 @@ double cross(const Vertex2& o, const Vertex2& a, const Vertex2& b) { return (a.x
 /// Cells of the grid with fluid at the centre, joined through faces to both the inlet and the
 /// outlet column: -1 for the others, else 1.
 std::vector<int> connectedFluid(const LevelFunction& level, int nx, int ny, double dx, double dy, int& disconnected) {
-  std::vector<char> fluid(static_cast<std::size_t>(nx) * ny);
+  // Rows are y, columns x, inlet column 0: the pore-space analysis of the image kinds, on the cells.
+  simulate::BoolArray solid(ny, nx);
   for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) fluid[static_cast<std::size_t>(j) * nx + i] = level((i + 0.5) * dx, (j + 0.5) * dy) <= 0;
-  auto flood = [&](int column) {
-    std::vector<char> seen(fluid.size(), 0);
-    std::deque<int> queue;
-    for (int j = 0; j < ny; ++j) {
-      const int c = j * nx + column;
-      if (fluid[c]) {
-        seen[c] = 1;
-        queue.push_back(c);
-      }
-    }
-    while (!queue.empty()) {
-      const int c = queue.front();
-      queue.pop_front();
-      const int i = c % nx, j = c / nx;
-      const int next[4][2] = {{i - 1, j}, {i + 1, j}, {i, j - 1}, {i, j + 1}};
-      for (const auto& n : next) {
-        if (n[0] < 0 || n[0] >= nx || n[1] < 0 || n[1] >= ny) continue;
-        const int m = n[1] * nx + n[0];
-        if (fluid[m] && !seen[m]) {
-          seen[m] = 1;
-          queue.push_back(m);
-        }
-      }
-    }
-    return seen;
-  };
-  const std::vector<char> from_inlet = flood(0), from_outlet = flood(nx - 1);
-  std::vector<int> out(fluid.size(), -1);
-  disconnected = 0;
-  for (std::size_t c = 0; c < fluid.size(); ++c) {
-    if (fluid[c] && from_inlet[c] && from_outlet[c]) out[c] = 1;
-    else if (fluid[c]) ++disconnected;
+    for (int i = 0; i < nx; ++i) solid(j, i) = !(level((i + 0.5) * dx, (j + 0.5) * dy) <= 0);
+  std::vector<int> out(static_cast<std::size_t>(nx) * ny, -1);
+  simulate::BoolArray kept = simulate::BoolArray::Constant(ny, nx, true);
+  try {
+    kept = simulate::analysePoreSpace(solid).solid_connected;
+  } catch (const simulate::NoFlowPath&) {
+    // No cell joins inlet and outlet: every fluid cell is disconnected.
   }
+  disconnected = 0;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      if (!kept(j, i)) out[static_cast<std::size_t>(j) * nx + i] = 1;
+      else if (!solid(j, i)) ++disconnected;
+    }
   return out;
 }
 
