@@ -205,7 +205,9 @@ TEST(WarmResolve, DISABLED_BenchmarkPore2Chip) {
     std::printf("re-solve %2d: warm %.2f s (%d its, %s), direct %.2f s, k/k_direct - 1 = %.2g, velocity deviation %.2g\n", step, w.seconds,
                 w.iterations, w.factorised ? "factorised" : "kept", f.seconds, w.permeability / f.permeability - 1, velocityDeviation(warm, direct));
     EXPECT_NEAR(w.permeability, f.permeability, kAgree * f.permeability);
-    if (o.warm_max_iterations == 0) EXPECT_TRUE(sameBits(warm, w, direct, f));
+    if (o.warm_max_iterations == 0) {
+      EXPECT_TRUE(sameBits(warm, w, direct, f));
+    }
   }
   std::printf("total: warm %.1f s, direct %.1f s\n", warm_s, direct_s);
 }
