@@ -1,12 +1,15 @@
 // The VTK XML writer (core/VtkWriter.hpp): files written, then read back both
 // by the library's own reader and by a decoding written here from the format's
-// definition (UInt64 byte count, then the raw little-endian values at the
-// array's offset after the '_' of <AppendedData>), so that a mistake shared by
+// definition (at the array's offset after the '_' of <AppendedData>: the UInt64
+// zlib header of vtkZLibDataCompressor, then the blocks, inflated here with
+// libdeflate into little-endian values), so that a mistake shared by
 // writer and reader does not pass. Values are compared bit for bit: a binary
 // round trip loses nothing (Float32 arrays: to the float the double rounds to).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <libdeflate.h>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -51,10 +54,27 @@ std::vector<T> appended(const std::string& text, const std::string& name, std::s
   EXPECT_TRUE(std::regex_search(tag, m, std::regex("offset=\"([0-9]+)\"")));
   const std::size_t offset = std::stoull(m[1]);
   const std::size_t start = text.find('_', text.find("<AppendedData encoding=\"raw\">")) + 1 + offset;
-  std::uint64_t bytes = 0;
-  std::memcpy(&bytes, text.data() + start, 8);
-  std::vector<T> v(bytes / sizeof(T));
-  std::memcpy(v.data(), text.data() + start + 8, bytes);
+  auto word = [&](std::size_t k) {
+    std::uint64_t w = 0;
+    std::memcpy(&w, text.data() + start + 8 * k, 8);
+    return w;
+  };
+  const std::uint64_t blocks = word(0), block = word(1), partial = word(2);
+  std::string bytes;
+  std::size_t at = start + 8 * (3 + blocks);
+  libdeflate_decompressor* inflater = libdeflate_alloc_decompressor();
+  for (std::uint64_t b = 0; b < blocks; ++b) {
+    const std::size_t want = b + 1 == blocks && partial != 0 ? partial : block;
+    std::string out(want, '\0');
+    std::size_t got = 0;
+    EXPECT_EQ(libdeflate_zlib_decompress(inflater, text.data() + at, word(3 + b), out.data(), want, &got), LIBDEFLATE_SUCCESS) << name;
+    EXPECT_EQ(got, want) << name;
+    bytes += out;
+    at += word(3 + b);
+  }
+  libdeflate_free_decompressor(inflater);
+  std::vector<T> v(bytes.size() / sizeof(T));
+  std::memcpy(v.data(), bytes.data(), bytes.size());
   return v;
 }
 
@@ -79,7 +99,7 @@ TEST(VtkWriter, RectilinearGridRoundTripsItsValuesCoordinatesUnitsAndTime) {
   vtk::writeVtr(f, g, 0.125);
 
   const std::string text = slurp(f);
-  EXPECT_THAT(text, HasSubstr("<VTKFile type=\"RectilinearGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">"));
+  EXPECT_THAT(text, HasSubstr("<VTKFile type=\"RectilinearGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\" compressor=\"vtkZLibDataCompressor\">"));
   EXPECT_THAT(text, HasSubstr("WholeExtent=\"0 3 0 2 0 0\""));
   EXPECT_THAT(tagOf(text, "U"), HasSubstr("type=\"Float64\""));
   EXPECT_THAT(tagOf(text, "U"), HasSubstr("NumberOfComponents=\"3\""));
@@ -202,4 +222,41 @@ TEST(VtkWriter, ParticleSeriesWritesOneSnapshotPerFrameWithItsTime) {
   const auto capped = vtk::writeParticleSeries(folder("series-capped"), "particles", tr,
                                                [](const TrackPoint& q) { return std::array<double, 3>{q.x, q.y, 0.0}; }, 2);
   EXPECT_THAT(capped, ::testing::ElementsAre("particles/particles-00000.vtp", "particles/particles-00002.vtp", "particles.pvd"));
+}
+
+// An array larger than one zlib block (32768 bytes) and not a whole number of
+// blocks: 5 full blocks and a partial one, read back bit for bit by both
+// decoders; a grain mask (long runs of one value, as every solid array is)
+// shrinks at least tenfold (zlib stores a run in a few bytes per 258 repeats).
+TEST(VtkWriter, LargeArraysSpanSeveralZlibBlocksAndMasksCompress) {
+  const fs::path f = folder("blocks") / "big.vtr";
+  const int nx = 300, ny = 70;  // 21000 cells: 168000 bytes of Float64 = 5 blocks + 4160 bytes
+  vtk::RectilinearGrid g;
+  for (int i = 0; i <= nx; ++i) g.x.push_back(1e-6 * i);
+  for (int j = 0; j <= ny; ++j) g.y.push_back(1e-6 * j);
+  g.z = {0.0};
+  std::vector<double> p;
+  std::vector<std::uint8_t> solid;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      p.push_back(std::sin(0.01 * i) * std::exp(-0.003 * j * i) + 1e-9 * (i * 7919 % 104729));  // no structure zlib can exploit in the low bits
+      solid.push_back(static_cast<std::uint8_t>((i / 25 + j / 20) % 2));
+    }
+  g.cell_data = {vtk::Array::float64("p", "Pa", 1, p), vtk::Array::uint8("solid", "1", solid)};
+  vtk::writeVtr(f, g);
+  const std::string text = slurp(f);
+  EXPECT_EQ(appended<double>(text, "p"), p);
+  EXPECT_EQ(vtk::readArray(f, "p"), p);
+  EXPECT_EQ(appended<std::uint8_t>(text, "solid"), solid);
+
+  vtk::RectilinearGrid mask = g;  // 300 x 700 cells: the mask's bytes outweigh the coordinates' 8 KB
+  mask.y.clear();
+  std::vector<std::uint8_t> grains;
+  for (int j = 0; j <= 10 * ny; ++j) mask.y.push_back(1e-6 * j);
+  for (int j = 0; j < 10 * ny; ++j)
+    for (int i = 0; i < nx; ++i) grains.push_back(static_cast<std::uint8_t>((i / 25 + j / 20) % 2));
+  mask.cell_data = {vtk::Array::uint8("solid", "1", grains)};
+  vtk::writeVtr(f, mask);
+  EXPECT_LT(fs::file_size(f), grains.size() / 10) << "a 210000-cell mask in " << fs::file_size(f) << " bytes";
+  EXPECT_EQ(vtk::readArray(f, "solid").size(), grains.size());
 }

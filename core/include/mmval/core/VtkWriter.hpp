@@ -3,9 +3,11 @@
 // particles and tracks, and .pvd collections for time series.
 //
 // Format (VTK's "VTK File Formats" document, XML section): binary appended raw
-// data (<AppendedData encoding="raw">), each block a UInt64 byte count
-// (header_type="UInt64") followed by little-endian values, uncompressed (zlib
-// is not a dependency of core). Every file carries field data:
+// data (<AppendedData encoding="raw">), little-endian values compressed with
+// zlib as VTK's vtkZLibDataCompressor stores them (compressor attribute on
+// <VTKFile>, header_type="UInt64": a header of block count, block size,
+// partial last-block size and each block's compressed size, then the zlib
+// streams; libdeflate compresses). Every file carries field data:
 //   TimeValue  Float64, one tuple: the time of the dataset, s (the array name
 //              VTK's own writers use for a dataset's time)
 //   units      String, one tuple per array: "<array name> [<unit>]", plus
@@ -97,7 +99,7 @@ std::vector<std::string> writeParticleSeries(const std::filesystem::path& dir, c
                                              const std::function<std::array<double, 3>(const TrackPoint&)>& position, int max_frames = 500);
 
 /// Reads back one array of a VTK XML file mmval wrote (appended raw with UInt64
-/// headers, or ascii), found by Name anywhere in the file (data, coordinates or
+/// headers, zlib-compressed or not, or ascii), found by Name anywhere in the file (data, coordinates or
 /// field data), as doubles; `components` receives NumberOfComponents. For
 /// readers of mmval's own outputs (the report) and for tests; not a general
 /// VTK reader. Throws std::runtime_error naming the file when the array is
