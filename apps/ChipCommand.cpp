@@ -88,7 +88,9 @@ void registerChipCommand(CLI::App& app) {
   cmd->add_option("--out", c->out, "Output folder")->required();
   cmd->add_option("--length-mm", s.length_mm, "Chip length along the flow (x)")->capture_default_str();
   cmd->add_option("--width-mm", s.width_mm, "Chip width across the flow (y)")->capture_default_str();
-  cmd->add_option("--pixel-um", s.pixel_um, "Pixel size")->capture_default_str();
+  // --pixel-size-um as in track, synth and compare; --pixel-um is the older spelling, hidden from --help.
+  CLI::Option* pixel = cmd->add_option("--pixel-size-um", s.pixel_um, "Pixel size")->capture_default_str();
+  CLI::Option* older_pixel = cmd->add_option("--pixel-um", s.pixel_um)->group("");
   cmd->add_option("--depth-um", c->depth,
                   "Channel depth h in um (Hele-Shaw friction 12 mu u / h^2), or 'fit': the depth that gives --permeability-D with the grain scale set by "
                   "--mean-throat-um (both required)")
@@ -116,7 +118,9 @@ void registerChipCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--seed", s.seed, "Random seed (same seed and options: the same chip.png, byte for byte)")->capture_default_str();
   cmd->add_flag("--quiet", c->quiet, "No progress lines on stderr");
-  cmd->callback([c] {
+  cmd->callback([c, pixel, older_pixel] {
+    if (pixel->count() > 0 && older_pixel->count() > 0) throw CLI::ExcludesError("--pixel-size-um", "--pixel-um");
+    if (older_pixel->count() > 0) std::fprintf(stderr, "mmval: note: --pixel-um is an older spelling; use --pixel-size-um\n");
     c->spec.smooth_boundary = c->boundary == "smooth";
     c->spec.solve_on_tile = c->solve_on == "tile";
     c->spec.fit_depth = c->depth == "fit";

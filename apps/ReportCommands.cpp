@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <memory>
+#include <string>
 
 #include <fmt/format.h>
 
@@ -29,7 +30,8 @@ struct CompareCli {
   int time_bins = 20;
   std::string mask, register_frame, grains = "dark";
   double mask_pixel_size_um = 0, frame_pixel_size_um = 0, min_correlation = 0.6, throat_width_um = 0;
-  bool y_down = false;
+  bool y_up = true;
+  bool y_down_older_flag = false;  ///< --mask-y-down, the older spelling of --y-up false
   std::vector<double> window_origin_um;
   double window_rotation_deg = 0, window_pixel_size_um = 0;
 };
@@ -59,7 +61,7 @@ compare::SceneSpec sceneSpecOf(const CompareCli& c) {
   spec.mask = c.mask;
   spec.mask_pixel_size = c.mask_pixel_size_um * kMetresPerMicrometre;
   spec.grains_dark = c.grains == "dark";
-  spec.y_up = !c.y_down;
+  spec.y_up = c.y_up;
   spec.register_frame = c.register_frame;
   spec.frame_pixel_size = c.frame_pixel_size_um * kMetresPerMicrometre;
   spec.registration.min_correlation = c.min_correlation;
@@ -72,6 +74,11 @@ compare::SceneSpec sceneSpecOf(const CompareCli& c) {
                                              c.window_rotation_deg * kRadiansPerDegree, c.window_pixel_size_um * kMetresPerMicrometre};
   }
   return spec;
+}
+
+/// One line on stderr for an option spelled the older way: it still works, and this says what to write instead.
+void noteOlderSpelling(const std::string& given, const std::string& use) {
+  std::fprintf(stderr, "mmval: note: %s is an older spelling; use %s\n", given.c_str(), use.c_str());
 }
 
 void printComparison(const compare::Comparison& result, const std::string& out) {
@@ -151,10 +158,18 @@ void registerReportCommands(CLI::App& app) {
   cmp->add_option("--time-bins", c->time_bins, "Bins of the time series")->capture_default_str();
   cmp->add_option("--mask,--register-mask", c->mask, "Geometry mask the simulation was built from: per-region speeds, and the target of --register-frame");
   cmp->add_option("--mask-pixel-size-um", c->mask_pixel_size_um, "Size of one mask pixel");
-  cmp->add_option("--mask-grains", c->grains, "Grains are the dark or bright pixels of the mask (\"light\" is an older spelling of \"bright\")")
-      ->check(CLI::IsMember({"dark", "bright", "light"}))
-      ->capture_default_str();
-  cmp->add_flag("--mask-y-down", c->y_down, "Simulation y runs down the image from its upper-left corner (default: up from the lower-left, as mmval's solver)");
+  // The mask options speak the case's words (compare-tracks' geometry.grains and geometry.y_up, synth's
+  // --grain-pixels); the older spellings stay accepted, hidden from --help, and say what replaces them.
+  const CLI::Validator grain_choice(
+      [](const std::string& v) { return v == "dark" || v == "bright" || v == "light" ? std::string() : "expected dark or bright, got " + v; }, "{dark,bright}");
+  CLI::Option* grains =
+      cmp->add_option("--grain-pixels", c->grains, "Which pixels of the mask are grains (as geometry.grains in a compare-tracks case)")->check(grain_choice)->capture_default_str();
+  CLI::Option* older_grains = cmp->add_option("--mask-grains", c->grains)->check(grain_choice)->group("");
+  CLI::Option* y_up = cmp->add_option("--y-up", c->y_up,
+                                      "true: simulation y runs up the image from its lower-left corner, as mmval's solver reads masks; false: down from the "
+                                      "upper-left corner (as geometry.y_up in a compare-tracks case)")
+                          ->default_str("true");
+  CLI::Option* older_y = cmp->add_flag("--mask-y-down", c->y_down_older_flag)->group("");
   cmp->add_option("--register-frame", c->register_frame, "First video frame or the tracker's background image: registered to the mask (OpenCV ECC) to put the experiment in the simulation frame");
   cmp->add_option("--frame-pixel-size-um", c->frame_pixel_size_um, "Camera pixel size (default: from the experiment tracks)");
   cmp->add_option("--min-correlation", c->min_correlation, "Smallest ECC correlation accepted")->capture_default_str();
@@ -162,7 +177,20 @@ void registerReportCommands(CLI::App& app) {
   cmp->add_option("--window-rotation-deg", c->window_rotation_deg, "Imaged window's rotation, counter-clockwise")->capture_default_str();
   cmp->add_option("--window-pixel-size-um", c->window_pixel_size_um, "Imaged window's camera pixel size");
   cmp->add_option("--throat-width-um", c->throat_width_um, "Pore width at or below which pore space is throat (0: median inscribed diameter)")->capture_default_str();
-  cmp->callback([c] { runCompare(*c); });
+  cmp->callback([c, grains, older_grains, y_up, older_y] {
+    if (grains->count() > 0 && older_grains->count() > 0) throw CLI::ExcludesError("--grain-pixels", "--mask-grains");
+    if (y_up->count() > 0 && older_y->count() > 0) throw CLI::ExcludesError("--y-up", "--mask-y-down");
+    if (older_grains->count() > 0 || c->grains == "light") {
+      const std::string given = fmt::format("--{} {}", older_grains->count() > 0 ? "mask-grains" : "grain-pixels", c->grains);
+      if (c->grains == "light") c->grains = "bright";
+      noteOlderSpelling(given, "--grain-pixels " + c->grains);
+    }
+    if (older_y->count() > 0) {
+      noteOlderSpelling("--mask-y-down", "--y-up false");
+      c->y_up = !c->y_down_older_flag;
+    }
+    runCompare(*c);
+  });
 
   auto r = std::make_shared<ReportCli>();
   CLI::App* rep = app.add_subcommand("report", "Build the HTML/Markdown report from run and compare folders, or diff two metrics.json");

@@ -208,7 +208,7 @@ void registerTrackCommands(CLI::App& app, const CaseKindRegistry& registry) {
   synth->add_option("--seed", sy->o.seed, "Random seed")->capture_default_str();
   sy->flow_only.push_back(synth->add_option("--geometry", sy->geometry, "Binary pore image: grains from it, particles carried by its Stokes flow (mmval's solver)"));
   sy->flow_only.push_back(
-      synth->add_option("--grain-pixels", sy->grains, "Which pixels of --geometry are grains")->check(CLI::IsMember({"dark", "bright"}))->capture_default_str());
+      synth->add_option("--grain-pixels", sy->grains, "Which pixels of --geometry are grains (as geometry.grains in a case)")->check(CLI::IsMember({"dark", "bright"}))->capture_default_str());
   sy->snr_opt = synth->add_option("--snr", sy->snr, "Signal-to-noise ratio (spot amplitude / noise std); overrides --noise");
   sy->flow_only.push_back(sy->snr_opt);
   addSlabOptions(synth, *sy);

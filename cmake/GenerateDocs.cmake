@@ -103,7 +103,10 @@ Folder holding reference\\-data/ and cases/; without it mmval looks in ../share/
 Literature and experiment values with their sources.
 .TP
 .I <prefix>/share/mmval/cases
-Example case files (those that need data outside the repository are not installed; see NOT-INSTALLED.txt there).
+Example case files (those whose data outside the repository this build did not find are not installed; see NOT-INSTALLED.txt there).
+.TP
+.I <prefix>/share/mmval/shared\\-data
+Shared data sets that installed cases read (e.g. the Pore2Chip mask), each with its PROVENANCE.md and licence.
 ")
 file(WRITE "${MAN}" "${man}")
 

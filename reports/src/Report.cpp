@@ -64,7 +64,7 @@ ReportInput collect(const std::vector<fs::path>& dirs) {
       const auto j = readJsonFile(d / "metrics.json");
       if (isComparison(j)) {
         checkCompareShape(j, d / "metrics.json");
-        input.comparisons.push_back({d.filename().string(), d, j});
+        input.comparisons.push_back({d.filename().string(), d, j, fs::exists(d / "result.json")});
         found = true;
       }
     }

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/Units.hpp"
 #include "mmval/reports/Site.hpp"
 #include "mmval/reports/Summary.hpp"
 #include "ReportStages.hpp"
@@ -81,15 +82,40 @@ std::vector<std::string> alignmentNotes(const ReportInput& input) {
   return out;
 }
 
+namespace {
+
+/// A metric row of the report's metrics.json with the fields every row has (docs/outputs.md,
+/// "metrics.json"): result.json's metric fields plus `case` and `solver`. Rows the report
+/// derives itself, and rows of files written before `metric`, `label` and `dimension`
+/// existed, get them here: the name as the metric, no label, the unit's SI dimension.
+nlohmann::json uniformRow(nlohmann::json m, const std::string& case_name) {
+  m["case"] = case_name;
+  if (!m.contains("solver")) m["solver"] = "mmval";  // comparisons and the report's own figures
+  if (!m.contains("metric")) m["metric"] = m["name"];
+  if (!m.contains("label")) m["label"] = "";
+  if (!m.contains("dimension")) {
+    try {
+      m["dimension"] = parseUnit(m.value("unit", "")).dim.siString();
+    } catch (const UnitError&) {
+      m["dimension"] = nullptr;  // free-text unit, as MetricResult::toJson writes it
+    }
+  }
+  return m;
+}
+
+}  // namespace
+
 void writeMetricsJson(const ReportInput& input, const Parts& parts, const nlohmann::json& extra_metrics, const fs::path& out) {
   nlohmann::json metrics = input.summary.metricsJson();
-  for (const auto& c : input.comparisons)
-    for (auto m : c.metrics["metrics"]) {
-      m["case"] = "compare:" + c.name;
-      metrics["metrics"].push_back(m);
+  for (auto& m : metrics["metrics"]) m = uniformRow(m, m["case"].get<std::string>());
+  for (const auto& c : input.comparisons) {
+    if (c.also_run) continue;  // a compare-tracks run: its rows came with its result.json above
+    for (const auto& m : c.metrics["metrics"]) {
+      metrics["metrics"].push_back(uniformRow(m, "compare:" + c.name));
       if (m["pass"].is_boolean() && !m["pass"].get<bool>()) metrics["all_pass"] = false;
     }
-  for (const auto& m : extra_metrics) metrics["metrics"].push_back(m);
+  }
+  for (const auto& m : extra_metrics) metrics["metrics"].push_back(uniformRow(m, m.value("case", std::string())));
   metrics["tables"] = nlohmann::json::array();
   for (const auto& t : parts.tables) metrics["tables"].push_back({{"id", t.id}, {"title", t.title}, {"header", t.header}, {"rows", t.rows}});
   for (const auto& c : input.comparisons) {

@@ -175,7 +175,7 @@ double tuneOnTile(const ChipSpec& s, int cols, int rows, ChipResult& r, const st
       throw InputError(opt(by_k ? "--permeability-D" : "--mean-throat-um"),
                        fmt::format("the target needs grains smaller than {:.3g} um ({:.3g} px), the smallest that keep --min-throat-px between "
                                    "grains at this porosity; the smallest gives {:.4g}", d_min, d_min / s.pixel_um, v),
-                       fmt::format("{:g}", target), "a larger target, a smaller --pixel-um or a smaller --min-throat-px");
+                       fmt::format("{:g}", target), "a larger target, a smaller --pixel-size-um or a smaller --min-throat-px");
     if (xn > std::log(d_max) + 1e-9 && x >= std::log(d_max) - 1e-9)
       throw InputError(opt(by_k ? "--permeability-D" : "--mean-throat-um"),
                        fmt::format("the target needs grains larger than {:.4g} um, the largest that fit the tile (the largest gives {:.4g})", d_max, v),
@@ -199,7 +199,7 @@ void validateChipSpec(const ChipSpec& s) {
   need(s.porosity_tolerance >= 1e-4 && s.porosity_tolerance <= 0.05, "--porosity-tolerance", s.porosity_tolerance, "an absolute tolerance in [1e-4, 0.05]");
   need(s.length_mm > 0 && s.length_mm <= 1000, "--length-mm", s.length_mm, "a chip length in mm, > 0");
   need(s.width_mm > 0 && s.width_mm <= 1000, "--width-mm", s.width_mm, "a chip width in mm, > 0");
-  need(s.pixel_um > 0 && s.pixel_um <= 1000, "--pixel-um", s.pixel_um, "a pixel size in um, > 0");
+  need(s.pixel_um > 0 && s.pixel_um <= 1000, "--pixel-size-um", s.pixel_um, "a pixel size in um, > 0");
   need(s.fit_depth || (s.depth_um > 0 && s.depth_um <= 1e4), "--depth-um", s.depth_um, "a channel depth in um, > 0");
   need(s.grain_cv >= 0 && s.grain_cv <= 1, "--grain-cv", s.grain_cv, "a coefficient of variation in [0, 1]");
   need(s.min_throat_px >= 2 && s.min_throat_px <= 100, "--min-throat-px", s.min_throat_px,
@@ -218,7 +218,7 @@ void validateChipSpec(const ChipSpec& s) {
   need(s.port_um >= 0 && s.port_um * 4e-3 < s.length_mm, "--port-um", s.port_um, "inlet / outlet columns >= 0 um (0: one mean grain), under a quarter of the length");
   need(s.cells_per_pixel >= 0.25 && s.cells_per_pixel <= 8, "--cells-per-pixel", s.cells_per_pixel, "cells per pixel in [0.25, 8]");
   const double pixels = s.length_mm * 1e3 / s.pixel_um * s.width_mm * 1e3 / s.pixel_um;
-  need(pixels <= kMaxChipPixels, "--pixel-um", s.pixel_um, fmt::format("a pixel size that keeps the mask under {:g} pixels (got {:.3g})", kMaxChipPixels, pixels));
+  need(pixels <= kMaxChipPixels, "--pixel-size-um", s.pixel_um, fmt::format("a pixel size that keeps the mask under {:g} pixels (got {:.3g})", kMaxChipPixels, pixels));
   if (s.permeability_D > 0) {
     const double lim = hsLimitDarcy(s);
     need(s.permeability_D < lim, "--permeability-D", s.permeability_D,
@@ -233,7 +233,7 @@ void validateChipSpec(const ChipSpec& s) {
     const double bytes = detail::kStartupBytes + detail::kDirectBytesPerCell * side_cols * side_rows * finest * finest;
     need(bytes <= defaultMaxMemoryBytes(), "--ladder", finest,
          fmt::format("a finest level whose direct solve fits in memory: {:.3g} cells need ~{:.1f} GB, {:.1f} GB available (coarser levels, a larger "
-                     "--pixel-um, or --solve-on tile)", side_cols * side_rows * finest * finest, bytes / 1e9, defaultMaxMemoryBytes() / 1e9));
+                     "--pixel-size-um, or --solve-on tile)", side_cols * side_rows * finest * finest, bytes / 1e9, defaultMaxMemoryBytes() / 1e9));
   }
   bool has_level = false;
   for (std::size_t i = 0; i < s.ladder.size(); ++i) {

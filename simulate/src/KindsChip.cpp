@@ -28,7 +28,7 @@ const std::map<std::string, std::string, std::less<>>& keyOfOption() {
   static const std::map<std::string, std::string, std::less<>> m = {
       {"--length-mm", "geometry.length"},
       {"--width-mm", "geometry.width"},
-      {"--pixel-um", "geometry.pixel_size"},
+      {"--pixel-size-um", "geometry.pixel_size"},
       {"--depth-um", "geometry.depth"},
       {"--min-throat-px", "geometry.min_throat_px"},
       {"--porosity", "target.porosity"},

@@ -1,9 +1,10 @@
 // `cmake --install` into a prefix under the build folder, then the installed
 // mmval used as someone without the source tree would: from a folder outside
-// it, finding its reference data and example cases in PREFIX/share/mmval.
-// Kept to seconds: the installed mmval validates one cheap default case
-// (plane Poiseuille, exact solution) and checks every installed case file; the
-// whole `validate --tag default` (minutes) is measured by hand, not here.
+// it, finding its reference data, example cases and the shared data sets those
+// cases read in PREFIX/share/mmval. Kept to seconds: the installed mmval
+// validates one cheap default case (plane Poiseuille, exact solution), runs one
+// coarse Pore2Chip case on the installed mask and checks every installed case
+// file; the whole `validate --tag default` (minutes) is measured by hand, not here.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -15,6 +16,8 @@
 #include <string>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "../TestScratch.hpp"
 #include "RunMmval.hpp"
@@ -42,6 +45,15 @@ Outcome shell(const std::string& cmd) {
   const int raw = pclose(pipe);
   o.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
   return o;
+}
+
+/// True when the configure step found shared data set `set` and installs it
+/// (MMVAL_INSTALLED_SHARED_SETS: the set names, comma-separated).
+bool sharedSetInstalled(const std::string& set) {
+  std::stringstream list(MMVAL_INSTALLED_SHARED_SETS);
+  for (std::string s; std::getline(list, s, ',');)
+    if (s == set) return true;
+  return false;
 }
 
 /// Installs the build tree into a fresh prefix for this test.
@@ -77,7 +89,7 @@ TEST(Install, PrefixHoldsTheCommandDataCasesManPageAndCompletion) {
   // Every source case is either installed or listed as left out, never both;
   // the installed ones read nothing outside the installation.
   const std::string left_out = readFile(share / "cases" / "NOT-INSTALLED.txt");
-  int installed_count = 0, listed = 0;
+  int installed_count = 0;
   for (const auto& e : fs::directory_iterator(fs::path(MMVAL_SOURCE_DIR) / "cases")) {
     if (e.path().extension() != ".toml") continue;
     const std::string name = e.path().filename().string();
@@ -85,16 +97,22 @@ TEST(Install, PrefixHoldsTheCommandDataCasesManPageAndCompletion) {
     const bool in_list = left_out.find("\n" + name + ": ") != std::string::npos;
     EXPECT_NE(there, in_list) << name;
     installed_count += there;
-    listed += in_list;
     if (there) {
-      EXPECT_THAT(readFile(share / "cases" / name), Not(HasSubstr("../../"))) << name;
+      const std::string text = readFile(share / "cases" / name);
+      EXPECT_THAT(text, Not(HasSubstr("../../"))) << name;
+      // Paths into the installed shared data name files that were installed.
+      const std::regex shared_path("\"(\\.\\./shared-data/[^\"]+)\"");
+      for (auto it = std::sregex_iterator(text.begin(), text.end(), shared_path); it != std::sregex_iterator(); ++it)
+        EXPECT_TRUE(fs::is_regular_file(share / "cases" / (*it)[1].str())) << name << ": " << (*it)[1].str();
     }
     if (in_list) {
       EXPECT_THAT(readFile(e.path()), HasSubstr("../../")) << name;
     }
   }
   EXPECT_GT(installed_count, 10);
-  EXPECT_THAT(left_out, HasSubstr("fluid-pore2chip.toml: "));
+  // The Pore2Chip cases are installed exactly when their data set is.
+  EXPECT_EQ(fs::exists(share / "cases" / "fluid-pore2chip.toml"), sharedSetInstalled("pore2chip"));
+  EXPECT_EQ(left_out.find("\nfluid-pore2chip.toml: ") != std::string::npos, !sharedSetInstalled("pore2chip"));
 
   const std::string man = readFile(p / "share" / "man" / "man1" / "mmval.1");
   EXPECT_THAT(man, HasSubstr(".TH MMVAL 1"));
@@ -163,6 +181,78 @@ TEST(Install, InstalledMmvalValidatesFromAFolderOutsideTheSourceTree) {
   EXPECT_THAT(wrong.output, HasSubstr("MMVAL_DATA_DIR"));
   const Outcome via_env = installed(p, work, "validate --tag no-such-tag --out out-env", "MMVAL_DATA_DIR=" + std::string(MMVAL_SOURCE_DIR));
   EXPECT_THAT(via_env.output, HasSubstr(std::string(MMVAL_SOURCE_DIR) + "/cases"));
+  fs::remove_all(work);
+}
+
+// A case that reads the Pore2Chip mask ("../../shared/data/pore2chip/..." in
+// the checkout) is installed with the data set and runs from the installed copy
+// alone: the mask it reads is the installed one, pixel for pixel.
+TEST(Install, CasesReadingSharedDataRunFromTheInstalledCopy) {
+  if (!sharedSetInstalled("pore2chip"))
+    GTEST_SKIP() << "the shared data folder (../shared/data beside the checkout, MMVAL_SHARED_DATA_DIR) was absent at "
+                    "configure time, so the Pore2Chip cases are not installed";
+  const fs::path p = installFresh("shared-data");
+  const fs::path share = fs::weakly_canonical(p / "share" / "mmval");
+  const fs::path set = share / "shared-data" / "pore2chip";
+  const fs::path mask = set / "grain_network.png";
+  ASSERT_TRUE(fs::is_regular_file(mask));
+  EXPECT_THAT(readFile(set / "PROVENANCE.md"), HasSubstr("Pore2Chip"));
+  EXPECT_TRUE(fs::is_regular_file(set / "LICENSE.md"));
+
+  const fs::path installed_case = share / "cases" / "fluid-pore2chip.toml";
+  const std::string text = readFile(installed_case);
+  EXPECT_THAT(text, HasSubstr("mask = \"../shared-data/pore2chip/grain_network.png\""));
+  EXPECT_THAT(text, Not(HasSubstr("shared/data")));
+  EXPECT_THAT(readFile(share / "cases" / "NOT-INSTALLED.txt"), Not(HasSubstr("fluid-pore2chip.toml")));
+
+  const fs::path work = outsideFolder("installed-shared-data");
+  const Outcome check = installed(p, work, "case-check \"" + installed_case.string() + "\"");
+  EXPECT_EQ(check.status, 0) << check.output;
+  EXPECT_THAT(check.output, HasSubstr(": ok (kind image-permeability"));
+
+  // case-check does not open the mask; a coarse run (one depth-averaged solve at a
+  // quarter cell per pixel, about 1 s) does.
+  const Outcome run = installed(p, work, "run \"" + installed_case.string() +
+                                             "\" --out out --quiet --set numerics.cells_per_pixel=0.25 --set numerics.depth_model=depth-averaged");
+  ASSERT_EQ(run.status, 0) << run.output;
+  std::ifstream in(work / "out" / "result.json");
+  ASSERT_TRUE(in) << run.output;
+  const nlohmann::json r = nlohmann::json::parse(in);
+
+  // Independent reference: the pore pixels of the installed mask counted here
+  // (grains dark, so pore = grey level above mid-scale).
+  const cv::Mat img = cv::imread(mask.string(), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(img.empty()) << mask;
+  const double pore_fraction = static_cast<double>(cv::countNonZero(img > 127)) / static_cast<double>(img.total());
+  EXPECT_EQ(r["details"]["image_pixels"], nlohmann::json::array({img.cols, img.rows})) << r["details"].dump(2);
+  double porosity = -1;
+  for (const auto& m : r["metrics"])
+    if (m["name"] == "porosity_total") porosity = m["value"].get<double>();
+  // One pixel of 500 x 500 is 4e-6 of porosity: 2e-6 holds the two counts to the
+  // same pixel while leaving room for the written value's round-off.
+  EXPECT_NEAR(porosity, pore_fraction, 2e-6) << r["metrics"].dump(2);
+  fs::remove_all(work);
+}
+
+// The installed CMake package: a program outside the tree (tests/apps/package-consumer)
+// finds mmval::core with find_package, builds, and uses it: the darcy converts to
+// 2.5 x 9.869233e-13 m^2 (API definition), a tracks CSV and a VTK array read back
+// what was written. The program's exit status carries those checks.
+TEST(Install, CorePackageBuildsAProgramOutsideTheTree) {
+  const fs::path prefix = installFresh("package");
+  for (const char* f : {"lib/cmake/mmval/mmvalConfig.cmake", "lib/cmake/mmval/mmvalTargets.cmake", "include/mmval/core/Units.hpp",
+                        "include/mmval/core/BuildInfo.hpp"})
+    EXPECT_TRUE(fs::exists(prefix / f)) << f;
+  const fs::path work = outsideFolder("install-package-consumer");
+  const std::string cmake = std::string("\"") + MMVAL_CMAKE_COMMAND + "\"";
+  const Outcome configure = shell(cmake + " -S \"" + (fs::path(MMVAL_SOURCE_DIR) / "tests/apps/package-consumer").string() + "\" -B \"" +
+                                  (work / "build").string() + "\" -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH=\"" + prefix.string() + "\"");
+  ASSERT_EQ(configure.status, 0) << configure.output;
+  const Outcome build = shell(cmake + " --build \"" + (work / "build").string() + "\"");
+  ASSERT_EQ(build.status, 0) << build.output;
+  const Outcome run = shell("\"" + (work / "build" / "consumer").string() + "\" \"" + work.string() + "\"");
+  EXPECT_EQ(run.status, 0) << run.output;
+  EXPECT_THAT(run.output, HasSubstr("k 2.46731e-12 m2, particle 7"));
   fs::remove_all(work);
 }
 

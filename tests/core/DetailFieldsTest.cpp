@@ -143,7 +143,7 @@ TEST(DetailFields, SetDetailWritesTheDeclaredKeyAndRefusesAnotherType) {
 }
 
 TEST(DetailFields, OneTypePerKeyWhateverTheKind) {
-  // Keys that kinds once wrote in different types (issue 27) now have one declaration each:
+  // Keys that several kinds write have one declaration each (one type whatever the kind):
   // the forms that are no longer allowed are refused at the writer.
   json d = json::object();
   EXPECT_THROW(setDetail(d, F::coupling, "resolved immersed boundary: 16 cells per diameter"), std::logic_error);  // particles-resolved's old string

@@ -49,7 +49,7 @@ std::string fileBytes(const fs::path& p) {
 
 nlohmann::json readJson(const fs::path& p) { return nlohmann::json::parse(std::ifstream(p)); }
 
-const std::string kSmallCli = "chip --length-mm 0.5 --width-mm 0.5 --pixel-um 2.5 --mean-grain-um 25 --ladder 1 --quiet";
+const std::string kSmallCli = "chip --length-mm 0.5 --width-mm 0.5 --pixel-size-um 2.5 --mean-grain-um 25 --ladder 1 --quiet";
 
 }  // namespace
 
@@ -244,7 +244,7 @@ void expectRefused(const std::string& folder, const std::vector<BadFit>& cases) 
   EXPECT_FALSE(fs::exists(d / "out"));
 }
 
-const std::string kSmallFitCli = "chip --quiet --length-mm 0.4 --width-mm 0.4 --pixel-um 2.5 --tile-mm 0.4 --mean-grain-um 25 --ladder 1 --depth-um fit";
+const std::string kSmallFitCli = "chip --quiet --length-mm 0.4 --width-mm 0.4 --pixel-size-um 2.5 --tile-mm 0.4 --mean-grain-um 25 --ladder 1 --depth-um fit";
 
 }  // namespace
 

@@ -154,7 +154,7 @@ TEST(ChipPacking, WindowPorosityCountsEachWindowsPixels) {
   EXPECT_EQ(windowPorosity(solid, discs, s, 25).count, 0);
 }
 
-// The reason for the uniform start (issue 26): tiles of one chip must have the same k, so the
+// The reason for the uniform start: tiles of one chip must have the same k, so the
 // porosity of windows of 10 mean diameters must scatter far less than Poisson placement's. Two
 // independent references at the same spec, seed and grains: the binomial SD of independently
 // placed grains (ChipWindowPorosity::poisson_sd), and the former Poisson start after the same

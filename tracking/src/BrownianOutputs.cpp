@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
+#include "MsdTable.hpp"
 #include "mmval/tracking/Statistics.hpp"
 
 namespace mmval::tracking::detail {
@@ -105,11 +106,9 @@ nlohmann::json writeBrownianOutputs(const TrackRun& run, const TrackConfig& c, c
     out.text("dispersion.csv", disp);
   }
   const MsdFit& f = b.msd;
-  std::string msd = "lag_s,msd_um2,samples,se_um2,fit_um2\n";
-  for (std::size_t i = 0; i < f.lag.size(); ++i)
-    msd += fmt::format("{:.6g},{:.6g},{},{},{}\n", f.lag[i], f.msd[i] * kUm2, f.samples[i], csvNumber(f.msd_se[i] * kUm2),
-                       csvNumber(f.fitAt(f.lag[i]) * kUm2));
-  out.text("msd.csv", msd);
+  std::vector<MsdRow> msd;
+  for (std::size_t i = 0; i < f.lag.size(); ++i) msd.push_back({f.lag[i], f.msd[i], f.samples[i], f.msd_se[i], f.fitAt(f.lag[i])});
+  out.text("msd.csv", msdTable(msd));
   std::string vh = "lag_s,dx_um,density_per_um,gaussian_per_um\n";
   for (const auto& v : b.van_hove)
     for (std::size_t i = 0; i < v.centre.size(); ++i)

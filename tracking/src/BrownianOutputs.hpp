@@ -3,7 +3,7 @@
 //   track_diffusion.csv      particle, points, steps, D_um2_per_s, D_se_um2_per_s, sigma2_um2, z_zero, z_free, state
 //   dispersion.csv           frame, t_s, count, mean_x_um, mean_y_um, sigma_x_um, sigma_y_um, drift_x_um, drift_y_um
 //                            (count, means and sigmas over the drift-corrected mobile tracks)
-//   msd.csv                  lag_s, msd_um2, samples, se_um2, fit_um2 (drift-corrected, mobile tracks of at least
+//   msd.csv                  MsdTable.hpp's schema (drift-corrected, mobile tracks of at least
 //                            analysis.brownian_min_points; fit: 4 D t + offset, over every lag)
 //   van_hove.csv             lag_s, dx_um, density_per_um, gaussian_per_um (x and y pooled)
 //   diffusion_histogram.csv  D_low_um2_per_s, D_high_um2_per_s, tracks (per-track CVE D of mobile tracks)

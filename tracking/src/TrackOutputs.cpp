@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "BrownianOutputs.hpp"
+#include "MsdTable.hpp"
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/OutputTables.hpp"
 #include "mmval/core/VtkWriter.hpp"
@@ -203,9 +204,14 @@ TrackStats writeFlowOutputs(const TrackRun& run, const TrackConfig& c, const std
                         f.sigma_x * 1e6, f.sigma_y * 1e6, dx * 1e6, dy * 1e6);
   }
   put("dispersion.csv", disp);
-  std::string msd = "lag_s,msd_um2,samples\n";
-  for (std::size_t i = 0; i < s.msd.lag.size(); ++i) msd += fmt::format("{:.6g},{:.6g},{}\n", s.msd.lag[i], s.msd.msd[i] * 1e12, s.msd.samples[i]);
-  put("msd.csv", msd);
+  // msd.csv (MsdTable.hpp): no standard error in flow mode; the fit is the power law
+  // MSD = 4 D t^alpha behind summary.json's msd_exponent (none without two positive lags).
+  std::vector<detail::MsdRow> msd;
+  const bool power_fit = s.msd.d_power > 0;
+  for (std::size_t i = 0; i < s.msd.lag.size(); ++i)
+    msd.push_back({s.msd.lag[i], s.msd.msd[i], s.msd.samples[i], std::numeric_limits<double>::quiet_NaN(),
+                   power_fit ? 4.0 * s.msd.d_power * std::pow(s.msd.lag[i], s.msd.alpha) : std::numeric_limits<double>::quiet_NaN()});
+  put("msd.csv", detail::msdTable(msd));
   std::string speed = "t_s,mean_speed_um_per_s,median_speed_um_per_s,sigma_x_um,sigma_y_um,steps\n";
   for (std::size_t i = 0; i < s.series.t.size(); ++i)
     speed += fmt::format("{:.6g},{:.5g},{:.5g},{:.5g},{:.5g},{}\n", s.series.t[i], s.series.mean_speed[i] * 1e6, s.series.median_speed[i] * 1e6,

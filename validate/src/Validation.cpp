@@ -103,13 +103,25 @@ ValidationResult runValidation(const ValidationOptions& options, const CaseKindR
     summary.results.push_back(ownRun(c, registry, out / "runs" / c.name(), options, rerun));
     if (tagged(c, "peer")) summary.results.push_back(peerRun(c, out / "runs" / (c.name() + "-openfoam"), options));
     summary.total_wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    writeSummary(out, summary);  // partial summaries survive an interrupted validation
+    // Partial summaries survive an interrupted validation. After the last case the report
+    // below writes metrics.json and index.html (the same document with the comparisons and
+    // tables added), so only index.md, which the report does not write, comes from here.
+    if (i + 1 < files.size())
+      writeSummary(out, summary);
+    else
+      writeFileAtomic(out / "index.md", summary.markdown());
     writeOutputMarker(out);
   }
-  // The full report over every run folder.
-  reports::ReportInput input = reports::collect({out});
-  input.summary.total_wall_seconds = summary.total_wall_seconds;
-  result.figures = reports::writeReport(input, out);
+  // The full report over every run folder; should it fail, the summary of every case still
+  // stands in metrics.json and index.html.
+  try {
+    reports::ReportInput input = reports::collect({out});
+    input.summary.total_wall_seconds = summary.total_wall_seconds;
+    result.figures = reports::writeReport(input, out);
+  } catch (...) {
+    writeSummary(out, summary);
+    throw;
+  }
   writeOutputMarker(out);
   result.cases = files.size();
   return result;

@@ -85,8 +85,10 @@ RunOutput runResolved(const Case& c, const RunContext& ctx) {
   const auto t0 = std::chrono::steady_clock::now();
   Transport tr = transport(c, ctx, setup.stepping, sc, fluid, scales);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  writeResolvedFiles(ctx.out_dir, tr, sc, fluid, c.quantity("output.pixel_size"));
-  return resolvedResult(setup, tr, sc, fluid, dp0, wall);
+  const std::vector<std::string> files = writeResolvedFiles(ctx.out_dir, tr, sc, fluid, c.quantity("output.pixel_size"));
+  RunOutput out = resolvedResult(setup, tr, sc, fluid, dp0, wall);
+  out.files = files;
+  return out;
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "ResolvedStages.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -13,6 +14,7 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/OutputTables.hpp"
 #include "mmval/core/Progress.hpp"
+#include "mmval/core/VtkWriter.hpp"
 #include "mmval/simulate/FieldOutput.hpp"
 
 namespace mmval::particles::resolved {
@@ -285,25 +287,34 @@ Transport transport(const Case& c, const RunContext& ctx, const Stepping& steppi
   return tr;
 }
 
-void writeResolvedFiles(const std::filesystem::path& dir, Transport& tr, const Scene& sc, const sim::ResolvedStokes& fluid, double pixel_size_m) {
+std::vector<std::string> writeResolvedFiles(const std::filesystem::path& dir, Transport& tr, const Scene& sc, const sim::ResolvedStokes& fluid,
+                                            double pixel_size_m) {
   auto& points = tr.trajectories.points;
   std::sort(points.begin(), points.end(), [](const TrackPoint& p, const TrackPoint& q) {
     return p.particle != q.particle ? p.particle < q.particle : p.frame < q.frame;
   });
+  std::vector<std::string> files = {"trajectories.csv", "retention.csv", "speed.png", "fields.vtr"};
   writeTracksCsv(dir / "trajectories.csv", tr.trajectories, pixel_size_m);
   writeFileAtomic(dir / "retention.csv", tr.retention_csv);
-  if (sc.U > 0) writeFileAtomic(dir / "permeability.csv", tr.permeability_csv);  // a closed box has no flow through it
+  if (sc.U > 0) {  // a closed box has no flow through it
+    writeFileAtomic(dir / "permeability.csv", tr.permeability_csv);
+    files.push_back("permeability.csv");
+  }
   std::vector<std::vector<Eigen::Vector2d>> paths(sc.disks.size());
   for (const auto& tp : points) paths[static_cast<std::size_t>(tp.particle)].emplace_back(tp.x, tp.y);
   sim::writeSpeedPng(fluid, dir / "speed.png", 1200, paths);
   sim::writeVtr(fluid, dir / "fields.vtr");
+  // The particles as a .vtp series (docs/outputs.md): the disks' centres in the fluid grid's frame,
+  // the plane z = 0 of fields.vtr; their height (mid-depth of a Hele-Shaw chip) is the z array.
+  const std::vector<std::string> series = vtk::writeParticleSeries(dir, "particles", tr.trajectories,
+                                                                   [](const TrackPoint& q) { return std::array<double, 3>{q.x, q.y, 0.0}; });
+  if (!series.empty()) files.push_back(series.back());
   std::filesystem::remove(dir / "checkpoint.json");  // complete: nothing to resume
+  return files;
 }
 
 RunOutput resolvedResult(const Setup& setup, const Transport& tr, const Scene& sc, const sim::ResolvedStokes& fluid, double dp0_pa, double wall_s) {
   RunOutput out;
-  out.files = {"trajectories.csv", "retention.csv", "speed.png", "fields.vtr"};
-  if (sc.U > 0) out.files.push_back("permeability.csv");
   setDetail(out.details, DetailField::resumed_from_frame, tr.resumed_from);
   // First particle's velocity at the end: the terminal velocity of a settling scene.
   const bool first_mobile = sc.disks[0].state == State::mobile;

@@ -5,7 +5,8 @@
 //   transport           frames 1..n: move -> contacts and attachment -> re-solve,
 //                       recording trajectories, retention and permeability rows
 //                       (resumes from and writes checkpoint.json)
-//   writeResolvedFiles  trajectories.csv, retention.csv, permeability.csv, speed.png, fields.vtr
+//   writeResolvedFiles  trajectories.csv, retention.csv, permeability.csv, speed.png, fields.vtr,
+//                       particles.pvd with a particles/particles-NNNNN.vtp snapshot per frame
 //   resolvedResult      metrics (deposition, k/k0, Faxen ratio) and details
 #pragma once
 #include <cstdint>
@@ -83,9 +84,11 @@ void advanceTo(double t_next, const Stepping& stepping, Transport& tr, Scene& sc
 Transport transport(const Case& c, const RunContext& ctx, const Stepping& stepping, Scene& sc, simulate::ResolvedStokes& fluid,
                     const FrameScales& scales);
 
-/// Writes the run's files into `dir` (trajectories sorted by particle, then frame) and removes
-/// the checkpoint. `pixel_size_m` > 0 adds pixel columns to trajectories.csv.
-void writeResolvedFiles(const std::filesystem::path& dir, Transport& tr, const Scene& sc, const simulate::ResolvedStokes& fluid,
+/// Writes the run's files into `dir` (trajectories sorted by particle, then frame; the particles
+/// as a .vtp series in the frame of fields.vtr) and removes the checkpoint. `pixel_size_m` > 0 adds
+/// pixel columns to trajectories.csv. Returns the files for the result, relative to `dir`
+/// (particles.pvd stands for its snapshots).
+std::vector<std::string> writeResolvedFiles(const std::filesystem::path& dir, Transport& tr, const Scene& sc, const simulate::ResolvedStokes& fluid,
                         double pixel_size_m);
 
 /// Metrics and details of the finished run.

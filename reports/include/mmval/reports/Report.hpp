@@ -20,6 +20,7 @@ struct ComparisonInput {
   std::string name;
   std::filesystem::path dir;
   nlohmann::json metrics;  ///< its metrics.json
+  bool also_run = false;   ///< the folder is also a run (a compare-tracks case): its metrics are the run's
 };
 
 struct ReportInput {
