@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "mmval/core/MaskRule.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ImageHeader.hpp"
 #include "mmval/core/Resources.hpp"
@@ -334,8 +335,8 @@ cv::Mat readPoreMask(const std::filesystem::path& file, bool grains_dark) {
   double lo, hi;
   cv::minMaxLoc(g, &lo, &hi);
   if (hi - lo < 1e-6) throw InputError({file.string(), 0, 0, {}}, "the mask has a single grey level", {}, "pores and grains in two grey levels");
-  cv::Mat pore;
-  cv::compare(g, 0.5 * (lo + hi), pore, grains_dark ? cv::CMP_GT : cv::CMP_LT);
+  cv::Mat pore;  // mmval's mask rule (core/MaskRule.hpp) on the normalised grey: pore is not grain
+  cv::compare(g, maskSplit(lo, hi, 1.0), pore, grains_dark ? cv::CMP_GT : cv::CMP_LE);
   return pore;
 }
 

@@ -8,6 +8,8 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "mmval/core/MaskRule.hpp"
+
 namespace mmval::simulate {
 
 double Shape::distanceAlong(double x, double y, int axis, int sign, double max_distance) const {
@@ -198,12 +200,11 @@ Eigen::Vector2d SmoothMaskShape::centre(int) const { return {m_ox + 0.5 * width(
 Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic> readMask(const std::filesystem::path& file, bool grains_dark) {
   const cv::Mat img = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
   if (img.empty()) throw std::runtime_error("cannot read image '" + file.string() + "' (missing, or not an image OpenCV can decode)");
+  const cv::Mat grey = img.isContinuous() ? img : img.clone();
+  const double split = maskSplit(grey.ptr<std::uint8_t>(), grey.total());
   Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic> m(img.rows, img.cols);
   for (int r = 0; r < img.rows; ++r)
-    for (int c = 0; c < img.cols; ++c) {
-      const bool dark = img.at<unsigned char>(r, c) < 128;
-      m(r, c) = grains_dark ? dark : !dark;
-    }
+    for (int c = 0; c < img.cols; ++c) m(r, c) = isGrain(grey.at<std::uint8_t>(r, c), split, grains_dark);
   return m;
 }
 

@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "InputLimits.hpp"
+#include "mmval/core/MaskRule.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ImageHeader.hpp"
 #include "mmval/core/Run.hpp"
@@ -64,7 +65,9 @@ void registerRenderedKind(CaseKindRegistry& registry) {
       img = img(r).clone();
     }
     cv::Mat grains;
-    cv::threshold(img, grains, 127, 255, c.text("geometry.grains") == "dark" ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
+    // mmval's mask rule (core/MaskRule.hpp), as the simulation that wrote the trajectories read it.
+    cv::threshold(img, grains, maskSplit(img.ptr<std::uint8_t>(), img.total()), 255,
+                  c.text("geometry.grains") == "dark" ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
     RenderOptions ro;
     ro.scale = c.real("render.scale");
     ro.spot_sigma = c.real("render.spot_sigma");

@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "mmval/core/MaskRule.hpp"
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ImageHeader.hpp"
@@ -81,7 +82,8 @@ cv::Mat readGrainImage(const std::filesystem::path& geometry, bool dark_grains) 
   const cv::Mat img = cv::imread(geometry.string(), cv::IMREAD_GRAYSCALE);
   if (img.empty()) throw InputError(where, "cannot read the image", {}, "a PNG or TIFF mask");
   cv::Mat grains;
-  cv::threshold(img, grains, 127, 255, dark_grains ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);
+  cv::threshold(img, grains, maskSplit(img.ptr<std::uint8_t>(), img.total()), 255,
+                dark_grains ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY);  // mmval's mask rule (core/MaskRule.hpp)
   return grains;
 }
 

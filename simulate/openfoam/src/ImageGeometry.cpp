@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "mmval/core/MaskRule.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ImageHeader.hpp"
 #include "mmval/core/Resources.hpp"
@@ -25,7 +26,8 @@ MaskGeometry loadMask(const std::filesystem::path& file, double pixel, bool grai
   if (img.empty()) throw InputError({file.string(), 0, 0, "geometry.mask"}, "cannot read the mask image", {}, "a PNG or TIFF image");
   MaskGeometry g;
   g.pixel = pixel;
-  cv::threshold(img, g.fluid, 127, 255, grain_dark ? cv::THRESH_BINARY : cv::THRESH_BINARY_INV);
+  // mmval's mask rule (core/MaskRule.hpp): bright is above the split, fluid the side that is not grain.
+  cv::threshold(img, g.fluid, maskSplit(img.ptr<std::uint8_t>(), img.total()), 255, grain_dark ? cv::THRESH_BINARY : cv::THRESH_BINARY_INV);
   g.porosity_total = static_cast<double>(cv::countNonZero(g.fluid)) / static_cast<double>(img.total());
   cv::Mat labels;
   const int n = cv::connectedComponents(g.fluid, labels, 4, CV_32S);

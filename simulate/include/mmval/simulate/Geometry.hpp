@@ -109,8 +109,9 @@ class SmoothMaskShape final : public Shape {
   double m_pixel, m_ox, m_oy;
 };
 
-/// Reads a grayscale image (PNG, TIFF, ... via OpenCV) and thresholds it at
-/// mid-grey: grains_dark selects which side is solid. Throws std::runtime_error
+/// Reads a grayscale image (PNG, TIFF, ... via OpenCV) and splits it by mmval's
+/// mask rule (core/MaskRule.hpp: halfway between its darkest and brightest grey);
+/// grains_dark selects which side is solid. Throws std::runtime_error
 /// if the file cannot be read (callers wrap it into an InputError).
 Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic> readMask(const std::filesystem::path& file, bool grains_dark);
 

@@ -58,7 +58,7 @@ struct FlowSceneSettings {
   SynthOptions video;            ///< shared settings already applied (applySharedSettings)
   std::optional<double> snr;     ///< spot amplitude / noise std; replaces video.noise
   std::filesystem::path geometry;  ///< pore image (grains and Stokes flow from it); empty: random disc grains, potential flow
-  bool dark_grains = true;       ///< which pixels of `geometry` are grains (thresholded at 127)
+  bool dark_grains = true;       ///< which pixels of `geometry` are grains (split by mmval's mask rule, core/MaskRule.hpp)
 };
 
 /// Writes the flow scene (frames, truth.csv) into `out`. `solve_flow` is used, and then
