@@ -14,7 +14,7 @@
 
 #include "../ResultJson.hpp"
 #include "RunMmval.hpp"
-#include "../../apps/SweepCommand.hpp"
+#include "mmval/validate/Sweep.hpp"
 #include "mmval/core/Error.hpp"
 
 namespace {
@@ -30,19 +30,19 @@ const std::string kChannel = std::string(MMVAL_SOURCE_DIR) + "/cases/particles-c
 const std::string kSmall = " --set particles.count=40 --set 'run.duration=\"4 s\"' --set 'particles.injection_time=\"2 s\"' --quiet";
 
 TEST(SweepAxis, ValuesSplitAtTopLevelCommasOnly) {
-  const auto a = mmval::app::parseSweepAxis(R"(chemistry.ionic_strength="1 mol/m3","10 mol/m3, as written",[1, 2])");
+  const auto a = mmval::validate::parseSweepAxis(R"(chemistry.ionic_strength="1 mol/m3","10 mol/m3, as written",[1, 2])");
   EXPECT_EQ(a.key, "chemistry.ionic_strength");
   ASSERT_EQ(a.values.size(), 3u);
   EXPECT_EQ(a.values[0], "\"1 mol/m3\"");
   EXPECT_EQ(a.values[1], "\"10 mol/m3, as written\"");
   EXPECT_EQ(a.values[2], "[1, 2]");
-  EXPECT_EQ(mmval::app::parseSweepAxis("numerics.cells_per_pixel = 0.5, 1 ,2").values, (std::vector<std::string>{"0.5", "1", "2"}));
+  EXPECT_EQ(mmval::validate::parseSweepAxis("numerics.cells_per_pixel = 0.5, 1 ,2").values, (std::vector<std::string>{"0.5", "1", "2"}));
 }
 
 TEST(SweepAxis, MalformedAxesAreInputErrorsNamingVary) {
   for (const char* bad : {"numerics.cells", "=1,2", "a..b=1", "k=1,,2", "k=\"open,2", "k=[1,2", "k=1,1"}) {
     try {
-      mmval::app::parseSweepAxis(bad);
+      mmval::validate::parseSweepAxis(bad);
       ADD_FAILURE() << bad << " was accepted";
     } catch (const mmval::InputError& e) {
       EXPECT_THAT(std::string(e.what()), HasSubstr("--")) << bad;
@@ -52,14 +52,14 @@ TEST(SweepAxis, MalformedAxesAreInputErrorsNamingVary) {
 
 TEST(SweepStats, MeanDeviationAndStandardErrorOfASample) {
   // {1, 2, 3, 6}: mean 3, sample variance (4 + 1 + 0 + 9) / 3 = 14/3.
-  const auto s = mmval::app::sampleStats({1, 2, std::nan(""), 3, 6});
+  const auto s = mmval::validate::sampleStats({1, 2, std::nan(""), 3, 6});
   EXPECT_EQ(s.n, 4);
   EXPECT_DOUBLE_EQ(s.mean, 3.0);
   EXPECT_NEAR(s.sd, std::sqrt(14.0 / 3.0), 1e-14);
   EXPECT_NEAR(s.se, std::sqrt(14.0 / 3.0) / 2.0, 1e-14);
   EXPECT_DOUBLE_EQ(s.min, 1.0);
   EXPECT_DOUBLE_EQ(s.max, 6.0);
-  EXPECT_EQ(mmval::app::sampleStats({}).n, 0);
+  EXPECT_EQ(mmval::validate::sampleStats({}).n, 0);
 }
 
 TEST(Sweep, StatisticsAreThoseOfItsRunsAndARunIsThePlainRunOfItsSetting) {
