@@ -11,7 +11,11 @@ void compareTracksMetrics(Schema& s) {
   s.metric("median_speed", "um/s", "Median particle speed, simulation against experiment (paper Fig. 15)");
   s.metric("sigma_x", "um", "Time-averaged dispersion along x (paper Eq. 18 / Fig. 16)");
   s.metric("sigma_y", "um", "Time-averaged dispersion along y (paper Eq. 18 / Fig. 16)");
-  s.metric("retention_fraction", "1", "Retained over entered particles");
+  s.metric("retention_fraction", "1",
+           "Particles at rest at the end over particles that entered, by one rule on both files (fragments of a track chained; "
+           "at rest: drift over the final analysis.stuck_window below stuck_distance / stuck_window plus 3 standard errors of the noise)");
+  s.metric("retention_simulation_labelled", "1",
+           "Simulated particles whose trajectory ends on a row labelled deposited (the engine's attachments) over those that entered; not compared");
   s.metric("streamline_iou", "1", "Intersection over union of the occupancy maps (paper Fig. 14)");
   s.metric("speed_pore_bodies", "um/s", "With a geometry mask: mean speed of the steps in pore bodies");
   s.metric("speed_throats", "um/s", "With a geometry mask: mean speed of the steps in pore throats");

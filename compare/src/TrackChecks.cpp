@@ -1,6 +1,8 @@
 #include "mmval/compare/TrackChecks.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 
 #include <fmt/format.h>
 

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mmval/compare/Regions.hpp"
+#include "mmval/compare/Retention.hpp"
 #include "mmval/tracking/TrackMetrics.hpp"
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Tracks.hpp"
@@ -38,8 +39,8 @@ struct CompareOptions {
   std::string reference_name = "experiment tracks";
 };
 
-/// Retained fraction against time: particles retained by t (their final
-/// stationary window began at or before t) over mobile particles seen by t.
+/// Retained fraction against time: particles retained by t (at rest from their
+/// stop time on) over particles that entered by t, counted as countRetention does.
 struct RetentionSeries {
   std::vector<double> t, fraction;  ///< s, 1
 };
@@ -55,6 +56,8 @@ struct Comparison {
   double iou = 0;
   cv::Mat occupancy_experiment, occupancy_simulation;
   RetentionSeries retention_experiment, retention_simulation;
+  /// Retention of each file by the one rule of Retention.hpp (retention_fraction compares their fractions).
+  RetentionCount retention_count_experiment, retention_count_simulation;
   std::optional<RegionSpeeds> regions_experiment, regions_simulation;
   cv::Mat region_picture;  ///< BGR, when regions were classified
   cv::Mat registration_picture;  ///< BGR frame with the registered grain outlines, when registered
@@ -63,9 +66,8 @@ struct Comparison {
   nlohmann::json toJson() const;
 };
 
-/// Retention over time on `times` (s) of the mobile tracks of `stats`.
-RetentionSeries retentionOverTime(const Tracks& tracks, const TrackStats& stats, const TrackOptions& options,
-                                  const std::vector<double>& times);
+/// Retention over time on `times` (s) of one file's count.
+RetentionSeries retentionOverTime(const RetentionCount& count, const std::vector<double>& times);
 
 /// Metrics of `simulation` against `experiment` (the reference). Throws
 /// InputError for degenerate inputs (see TrackChecks.hpp: no rows, single rows,
