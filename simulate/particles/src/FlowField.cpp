@@ -50,9 +50,11 @@ double HeleShawChannel::wallDistance(double, double y) const {
 
 Vec2 HeleShawChannel::wallNormal(double, double y) const { return y < 0.5 * m_width ? Vec2(0, 1) : Vec2(0, -1); }
 
-GriddedFlow::GriddedFlow(int nx, int ny, double x0, double y0, double dx, double dy)
-    : m_nx(nx), m_ny(ny), m_x0(x0), m_y0(y0), m_dx(dx), m_dy(dy) {
+GriddedFlow::GriddedFlow(int nx, int ny, double x0, double y0, double dx, double dy, GridWalls walls, double resolved_m)
+    : m_nx(nx), m_ny(ny), m_x0(x0), m_y0(y0), m_dx(dx), m_dy(dy), m_walls(walls), m_resolved(resolved_m) {
   if (nx < 2 || ny < 2 || !(dx > 0) || !(dy > 0)) throw std::invalid_argument("GriddedFlow: need nx, ny >= 2 and dx, dy > 0");
+  if (!(resolved_m >= 0) || !std::isfinite(resolved_m))
+    throw std::invalid_argument("GriddedFlow: the resolved distance must be finite and >= 0 m, got " + std::to_string(resolved_m));
   const auto n = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny);
   m_ux.assign(n, 0.0);
   m_uy.assign(n, 0.0);
@@ -129,6 +131,36 @@ void GriddedFlow::update(const std::vector<double>& ux, const std::vector<double
     if (m_solid[k]) m_dist[k] = 0.0;
     else m_dist[k] = std::isfinite(d2[k]) ? std::sqrt(d2[k]) - half : 1e300;
   }
+  if (m_walls != GridWalls::nodes) {
+    m_edge.assign(n, 0);
+    m_near.assign(n, 0);
+    const auto at = [&](int i, int j) { return static_cast<std::size_t>(j) * m_nx + i; };
+    const auto fluid = [&](int i, int j) { return i >= 0 && j >= 0 && i < m_nx && j < m_ny && !m_solid[at(i, j)]; };
+    const auto solid = [&](int i, int j) { return i >= 0 && j >= 0 && i < m_nx && j < m_ny && m_solid[at(i, j)]; };
+    for (int j = 0; j < m_ny; ++j)
+      for (int i = 0; i < m_nx; ++i) {
+        if (m_solid[at(i, j)]) {
+          m_edge[at(i, j)] = fluid(i - 1, j) || fluid(i + 1, j) || fluid(i, j - 1) || fluid(i, j + 1);
+          continue;
+        }
+        for (int b = -1; b <= 1; ++b)
+          for (int c = -1; c <= 1; ++c) m_near[at(i, j)] |= solid(i + c, j + b) ? 1 : 0;
+        // No flow through a wall: faces touching a solid cell carry nothing.
+        if (solid(i + 1, j)) m_ux[at(i, j)] = 0.0;
+        if (solid(i, j + 1)) m_uy[at(i, j)] = 0.0;
+      }
+    for (std::size_t k = 0; k < n; ++k)
+      if (m_solid[k]) m_ux[k] = m_uy[k] = 0.0;
+  }
+  m_reach = kExactCells;
+  if (m_walls == GridWalls::brinkman) {
+    // Search far enough that every point up to the deepest place's match distance from a wall
+    // gets its exact distance (the match point and the medial-axis search stand there).
+    double h_max = 0;
+    for (std::size_t k = 0; k < n; ++k)
+      if (!m_solid[k]) h_max = std::max(h_max, m_h[k]);
+    m_reach = std::max(kExactCells, static_cast<int>(std::ceil(matchDistance(h_max) / std::min(m_dx, m_dy))));
+  }
   ++m_version;
 }
 
@@ -140,23 +172,177 @@ double GriddedFlow::bilinear(const std::vector<double>& a, double x, double y) c
   return (1 - s) * (1 - t) * at(i, j) + s * (1 - t) * at(i + 1, j) + (1 - s) * t * at(i, j + 1) + s * t * at(i + 1, j + 1);
 }
 
+int GriddedFlow::nearestNode(double f, int n) const { return std::clamp(static_cast<int>(std::lround(f)), 0, n - 1); }
+
 bool GriddedFlow::isSolid(double x, double y) const {
   const double fx = (x - m_x0) / m_dx, fy = (y - m_y0) / m_dy;
   if (fx < -0.5 || fy < -0.5 || fx > m_nx - 0.5 || fy > m_ny - 0.5) return true;
-  const int i = std::clamp(static_cast<int>(std::lround(fx)), 0, m_nx - 1), j = std::clamp(static_cast<int>(std::lround(fy)), 0, m_ny - 1);
-  return m_solid[static_cast<std::size_t>(j) * m_nx + i] != 0;
+  return m_solid[static_cast<std::size_t>(nearestNode(fy, m_ny)) * m_nx + nearestNode(fx, m_nx)] != 0;
+}
+
+bool GriddedFlow::fluidBilinear(const std::vector<double>& a, double x, double y, double& value) const {
+  const double fx = std::clamp((x - m_x0) / m_dx, 0.0, m_nx - 1.0), fy = std::clamp((y - m_y0) / m_dy, 0.0, m_ny - 1.0);
+  const int i = std::min(static_cast<int>(fx), m_nx - 2), j = std::min(static_cast<int>(fy), m_ny - 2);
+  const double s = fx - i, t = fy - j;
+  const double w[4] = {(1 - s) * (1 - t), s * (1 - t), (1 - s) * t, s * t};
+  const std::size_t k[4] = {static_cast<std::size_t>(j) * m_nx + i, static_cast<std::size_t>(j) * m_nx + i + 1,
+                            static_cast<std::size_t>(j + 1) * m_nx + i, static_cast<std::size_t>(j + 1) * m_nx + i + 1};
+  double sw = 0, sum = 0;
+  for (int c = 0; c < 4; ++c) {
+    if (m_solid[k[c]]) continue;
+    sw += w[c];
+    sum += w[c] * a[k[c]];
+  }
+  if (sw > 0) {
+    value = sum / sw;
+    return true;
+  }
+  // On the edge of the cell that only solid corners span: the nearest node, if fluid.
+  const std::size_t kk = static_cast<std::size_t>(nearestNode((y - m_y0) / m_dy, m_ny)) * m_nx + nearestNode((x - m_x0) / m_dx, m_nx);
+  if (m_solid[kk]) return false;
+  value = a[kk];
+  return true;
+}
+
+bool GriddedFlow::nearestWallPoint(double x, double y, double& d2, Vec2& q) const {
+  const int ic = nearestNode((x - m_x0) / m_dx, m_nx), jc = nearestNode((y - m_y0) / m_dy, m_ny);
+  const double hx = 0.5 * m_dx, hy = 0.5 * m_dy;
+  d2 = std::numeric_limits<double>::infinity();
+  for (int j = std::max(0, jc - m_reach); j <= std::min(m_ny - 1, jc + m_reach); ++j)
+    for (int i = std::max(0, ic - m_reach); i <= std::min(m_nx - 1, ic + m_reach); ++i) {
+      if (!m_edge[static_cast<std::size_t>(j) * m_nx + i]) continue;
+      // Nearest point of the solid cell [xi - hx, xi + hx] x [yj - hy, yj + hy].
+      const double cx = m_x0 + i * m_dx, cy = m_y0 + j * m_dy;
+      const double px = std::clamp(x, cx - hx, cx + hx), py = std::clamp(y, cy - hy, cy + hy);
+      const double e2 = (x - px) * (x - px) + (y - py) * (y - py);
+      if (e2 < d2) {
+        d2 = e2;
+        q = Vec2(px, py);
+      }
+    }
+  // Any solid cell beyond the searched block is at least m_reach cells away.
+  const double reach = m_reach * std::min(m_dx, m_dy);
+  return d2 <= reach * reach;
+}
+
+Vec2 GriddedFlow::faceVelocity(double x, double y) const {
+  // Pollock: x-velocity linear between the cell's x-faces, y-velocity between its y-faces.
+  const int i = nearestNode((x - m_x0) / m_dx, m_nx), j = nearestNode((y - m_y0) / m_dy, m_ny);
+  const std::size_t k = static_cast<std::size_t>(j) * m_nx + i;
+  const double s = std::clamp((x - m_x0) / m_dx - i + 0.5, 0.0, 1.0), t = std::clamp((y - m_y0) / m_dy - j + 0.5, 0.0, 1.0);
+  const double u_left = i > 0 ? m_ux[k - 1] : m_ux[k], v_bottom = j > 0 ? m_uy[k - m_nx] : m_uy[k];
+  return {u_left + s * (m_ux[k] - u_left), v_bottom + t * (m_uy[k] - v_bottom)};
+}
+
+double GriddedFlow::matchDistance(double h) const { return std::max(h / std::sqrt(12.0), m_resolved) + 0.5 * std::min(m_dx, m_dy); }
+
+namespace {
+/// Brinkman slot of half-width D (D = infinity: one wall), layer thickness delta: the velocity
+/// profile g(d) = 1 - cosh((D - d) / delta) / cosh(D / delta) and its integral G(d) from the
+/// wall, written with exponentials of non-positive arguments so that D >> delta is safe.
+struct SlotProfile {
+  double delta, D;
+  double e(double z) const { return std::isfinite(z) ? std::exp(-z / delta) : 0.0; }
+  double g(double d) const { return 1.0 - (e(d) + e(2 * D - d)) / (1.0 + e(2 * D)); }
+  double G(double d) const { return d - delta * ((1.0 - e(2 * D)) - (e(d) - e(2 * D - d))) / (1.0 + e(2 * D)); }
+};
+}  // namespace
+
+Vec2 GriddedFlow::layerVelocity(double x, double y, double d, const Vec2& q) const {
+  const Vec2 n = (Vec2(x, y) - q) / d;
+  const double delta = depth(x, y) / std::sqrt(12.0), d_target = matchDistance(depth(x, y));
+  // The slot's half-width: the largest s <= d_target with q still the nearest wall point of
+  // q + s n (the distance along the ray grows as s until the ray meets the medial axis, and
+  // stays below s after it), by bisection to 1e-3 of a spacing.
+  double D = std::numeric_limits<double>::infinity(), s_match = d_target;
+  const auto qNearest = [&](double s) {
+    double e2 = 0;
+    Vec2 r;
+    const Vec2 p = q + s * n;
+    return !isSolid(p.x(), p.y()) && nearestWallPoint(p.x(), p.y(), e2, r) && std::sqrt(e2) >= s * (1 - 1e-9);
+  };
+  if (!qNearest(d_target)) {
+    double lo = d, hi = d_target;
+    while (hi - lo > 1e-3 * std::min(m_dx, m_dy)) {
+      const double mid = 0.5 * (lo + hi);
+      (qNearest(mid) ? lo : hi) = mid;
+    }
+    D = s_match = lo;
+  }
+  const SlotProfile slot{delta, D};
+  const Vec2 xm = q + s_match * n;
+  const Vec2 base = faceVelocity(xm.x(), xm.y());
+  const double base_n = base.dot(n);
+  // The tangential face velocity at the match point is the mean over its pixel's span along n.
+  const int i = nearestNode((xm.x() - m_x0) / m_dx, m_nx), j = nearestNode((xm.y() - m_y0) / m_dy, m_ny);
+  const double d_c = (Vec2(m_x0 + i * m_dx, m_y0 + j * m_dy) - q).dot(n);
+  // Half a spacing (exact for walls along grid lines; near corners, where n is oblique, an approximation).
+  const double half = 0.5 * std::min(m_dx, m_dy);
+  const double a = std::max(0.0, d_c - half), b = std::isfinite(D) ? std::min(2 * D, d_c + half) : d_c + half;
+  const double g_mean = b > a ? (slot.G(b) - slot.G(a)) / (b - a) : slot.g(s_match);
+  if (!(g_mean > 0)) return {0, 0};
+  return (base - base_n * n) * (slot.g(d) / g_mean) + n * (base_n * slot.G(d) / slot.G(s_match));
 }
 
 Vec2 GriddedFlow::meanVelocity(double x, double y) const {
   if (isSolid(x, y)) return {0, 0};
-  return {bilinear(m_ux, x, y), bilinear(m_uy, x, y)};
+  if (m_walls == GridWalls::nodes) return {bilinear(m_ux, x, y), bilinear(m_uy, x, y)};
+  Vec2 u = faceVelocity(x, y);
+  if (m_walls == GridWalls::brinkman) {
+    // Quick exit far from walls: the node transform reads up to ~half a spacing too far beside
+    // convex corners and its bilinear interpolation up to ~0.7 spacings more.
+    if (bilinear(m_dist, x, y) > matchDistance(depth(x, y)) + 2 * std::max(m_dx, m_dy)) return u;
+    double d2 = 0;
+    Vec2 q;
+    if (!nearestWallPoint(x, y, d2, q)) return u;
+    const double d = std::sqrt(d2);
+    if (!(d > 0)) return {0, 0};
+    return d < matchDistance(depth(x, y)) ? layerVelocity(x, y, d, q) : u;
+  }
+  const int i = nearestNode((x - m_x0) / m_dx, m_nx), j = nearestNode((y - m_y0) / m_dy, m_ny);
+  const std::size_t k = static_cast<std::size_t>(j) * m_nx + i;
+  if (!m_near[k]) return u;
+  // No slip: within one spacing of a wall the normal part (linear in d there) is scaled by
+  // d / (2 l), making it quadratic in d, and within l the tangential part by d / l. Beside a
+  // straight wall this is the no-slip expansion u_t ~ d, u_n ~ d^2 matched to the wall cell's
+  // face values.
+  double d2 = 0;
+  Vec2 q;
+  const double l = 0.5 * std::min(m_dx, m_dy);
+  if (nearestWallPoint(x, y, d2, q) && d2 < 4 * l * l) {
+    const double d = std::sqrt(d2);
+    if (!(d > 0)) return {0, 0};
+    const Vec2 n = (Vec2(x, y) - q) / d;
+    const Vec2 un = u.dot(n) * n;
+    u = un * (0.5 * d / l) + (u - un) * std::min(1.0, d / l);
+  }
+  return u;
 }
 
-double GriddedFlow::depth(double x, double y) const { return bilinear(m_h, x, y); }
+double GriddedFlow::depth(double x, double y) const {
+  if (m_walls == GridWalls::nodes) return bilinear(m_h, x, y);
+  double h = 0;
+  return fluidBilinear(m_h, x, y, h) ? h : bilinear(m_h, x, y);
+}
 
 double GriddedFlow::wallDistance(double x, double y) const {
   if (isSolid(x, y)) return 0.0;
+  if (m_walls != GridWalls::nodes) {
+    double d2 = 0;
+    Vec2 q;
+    if (nearestWallPoint(x, y, d2, q)) return std::sqrt(d2);
+    return std::max(m_reach * std::min(m_dx, m_dy), bilinear(m_dist, x, y));
+  }
   return std::max(0.0, bilinear(m_dist, x, y));
+}
+
+Vec2 GriddedFlow::wallNormal(double x, double y) const {
+  if (m_walls != GridWalls::nodes && !isSolid(x, y)) {
+    double d2 = 0;
+    Vec2 q;
+    if (nearestWallPoint(x, y, d2, q) && d2 > 0) return (Vec2(x, y) - q) / std::sqrt(d2);
+  }
+  return FlowField::wallNormal(x, y);
 }
 
 Bounds2 GriddedFlow::bounds() const {

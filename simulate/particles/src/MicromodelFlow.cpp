@@ -42,7 +42,14 @@ MicromodelFlow::MicromodelFlow(PixelMask grains, MicromodelFlowOptions options) 
   if (!(m_opt.pixel > 0) || !(m_opt.depth > 0) || !(m_opt.viscosity > 0) || !(m_opt.darcy_velocity >= 0) || !(m_opt.cells_per_pixel > 0) ||
       m_opt.warm_max_iterations < 0)
     throw std::invalid_argument("MicromodelFlow: pixel, depth, viscosity, cells_per_pixel must be > 0, the Darcy velocity and the warm-start iterations >= 0");
-  m_field = std::make_shared<GriddedFlow>(cols() + 2, rows() + 2, -0.5 * m_opt.pixel, -0.5 * m_opt.pixel, m_opt.pixel, m_opt.pixel);
+  // Particles see the pixel mask's own edges, the walls the fluid solver cuts against (it takes
+  // the mask as a simulate::MaskShape, not a smoothed boundary): exact distances, whatever the
+  // fluid grid's resolution, on nodes at the pixel centres. Near walls they feel the
+  // Brinkman-Hele-Shaw layer (GridWalls::brinkman) matched to the solved velocity beyond both
+  // the fluid cell and the pixel next to the wall, the first distance the solve resolves.
+  const double resolved = std::max(m_opt.pixel, m_opt.pixel / m_opt.cells_per_pixel);
+  m_field = std::make_shared<GriddedFlow>(cols() + 2, rows() + 2, -0.5 * m_opt.pixel, -0.5 * m_opt.pixel, m_opt.pixel, m_opt.pixel,
+                                          GridWalls::brinkman, resolved);
 }
 
 MicromodelFlow::~MicromodelFlow() = default;
@@ -190,32 +197,57 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
   r.permeability = r.blocked ? 0.0 : m_opt.viscosity * q * W / (H * kPressureDrop);
   r.flux_scale = r.blocked ? 0.0 : m_opt.darcy_velocity * H / q;
   r.pressure_drop = r.blocked ? (m_opt.darcy_velocity > 0 ? std::numeric_limits<double>::infinity() : 0.0) : r.flux_scale * kPressureDrop;
-  const Eigen::ArrayXXd cu = solver.cellVelocity(0), cv = solver.cellVelocity(1);
-  const double dxc = W / nx, dyc = H / ny;
-  const auto interp = [&](const Eigen::ArrayXXd& a, double x, double y) {
-    const double fx = std::clamp(x / dxc - 0.5, 0.0, nx - 1.0), fy = std::clamp(y / dyc - 0.5, 0.0, ny - 1.0);
-    const int i = std::min(static_cast<int>(fx), nx - 2), j = std::min(static_cast<int>(fy), ny - 2);
-    const double s = fx - i, t = fy - j;
-    return (1 - s) * (1 - t) * a(j, i) + s * (1 - t) * a(j, i + 1) + (1 - s) * t * a(j + 1, i) + s * t * a(j + 1, i + 1);
-  };
   const int NX = nc + 2, NY = nr + 2;
   const auto n = static_cast<std::size_t>(NX) * NY;
   m_ux.assign(n, 0.0);
   m_uy.assign(n, 0.0);
   m_h.assign(n, m_opt.depth);
   m_solid.assign(n, 1);
-  for (int j = 0; j < NY; ++j)
+  for (int j = 1; j <= nr; ++j)
     for (int i = 0; i < NX; ++i) {
       const std::size_t k = static_cast<std::size_t>(j) * NX + i;
-      const int jb = j - 1;
-      if (jb < 0 || jb >= nr) continue;  // beyond a side wall
-      const int col = std::clamp(i - 1, 0, nc - 1), row = nr - 1 - jb;
+      const int col = std::clamp(i - 1, 0, nc - 1), row = nr - j;
       if (all(row, col)) continue;
       m_solid[k] = 0;
       if (!aperture.empty()) m_h[k] = aperture[static_cast<std::size_t>(row) * nc + col];
-      const double x = (col + 0.5) * p, y = (jb + 0.5) * p;
-      m_ux[k] = r.flux_scale * interp(cu, x, y);
-      m_uy[k] = r.flux_scale * interp(cv, x, y);
+    }
+  // Pixel-face velocities for the engines' field (GridWalls::brinkman): the mean, over a pixel
+  // face, of the solver's face velocities interpolated as Pollock does within each fluid cell
+  // (linear along the component's own axis, constant across it). That reconstruction is
+  // divergence-free wherever the solver's cells balance, so pixel faces balance too, at every
+  // cells_per_pixel: finer or coarser than the pixels, particles follow the solver's fluxes.
+  const Eigen::ArrayXXd& fu = solver.u();  // ny x (nx + 1), x-face ic at x = ic cw
+  const Eigen::ArrayXXd& fv = solver.v();  // (ny + 1) x nx, y-face jc at y = jc ch
+  const auto overlap = [](double a0, double a1, double b0, double b1) { return std::max(0.0, std::min(a1, b1) - std::max(a0, b0)); };
+  // Mean of u over x = X, y in [y0, y1] (metres, inside the chip).
+  const auto xFace = [&](double X, double y0, double y1) {
+    const double f = std::clamp(X / cw, 0.0, static_cast<double>(nx));
+    const int ic = std::min(static_cast<int>(f), nx - 1);
+    const double s = f - ic;
+    double sum = 0;
+    for (int jc = std::max(0, static_cast<int>(std::floor(y0 / ch))); jc < ny && jc * ch < y1; ++jc)
+      sum += overlap(y0, y1, jc * ch, (jc + 1) * ch) * ((1 - s) * fu(jc, ic) + s * fu(jc, ic + 1));
+    return sum / (y1 - y0);
+  };
+  const auto yFace = [&](double Y, double x0, double x1) {
+    const double f = std::clamp(Y / ch, 0.0, static_cast<double>(ny));
+    const int jc = std::min(static_cast<int>(f), ny - 1);
+    const double t = f - jc;
+    double sum = 0;
+    for (int ic = std::max(0, static_cast<int>(std::floor(x0 / cw))); ic < nx && ic * cw < x1; ++ic)
+      sum += overlap(x0, x1, ic * cw, (ic + 1) * cw) * ((1 - t) * fv(jc, ic) + t * fv(jc + 1, ic));
+    return sum / (x1 - x0);
+  };
+  for (int j = 1; j <= nr; ++j)
+    for (int i = 0; i < NX; ++i) {
+      const std::size_t k = static_cast<std::size_t>(j) * NX + i;
+      if (m_solid[k]) continue;
+      // Node i sits at x = (i - 1/2) p: its right face at x = i p (the padding beyond the
+      // outlet repeats the outlet face); its top face at y = j p.
+      const double y0 = (j - 1) * p, y1 = j * p;
+      m_ux[k] = r.flux_scale * xFace(std::min(i * p, W), y0, y1);
+      const int col = std::clamp(i - 1, 0, nc - 1);
+      m_uy[k] = r.flux_scale * yFace(j * p, col * p, (col + 1) * p);
     }
   m_field->update(m_ux, m_uy, m_h, m_solid);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

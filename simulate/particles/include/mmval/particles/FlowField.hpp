@@ -90,34 +90,109 @@ class HeleShawChannel final : public FlowField {
   double m_length, m_width, m_h, m_u;
 };
 
+/// How a GriddedFlow's arrays make velocities and walls for particles.
+enum class GridWalls {
+  /// Velocities at the nodes, bilinear in between, solid nodes (zero) included: the
+  /// velocity is not zero at the wall itself. wallDistance: bilinear interpolation of each
+  /// node's Euclidean distance to the nearest solid node minus half a cell (exact beside
+  /// walls along grid lines; near a convex corner of the solid it reads up to ~0.5 cell too far).
+  nodes,
+  /// Walls at the edges of the solid nodes' cells (the region isSolid() reports; for nodes
+  /// at pixel centres, the pixel mask's edges). ux and uy of update() are face velocities:
+  /// ux[j * nx + i] on the x-face between nodes i and i + 1 (the right edge of node i's
+  /// cell), uy[j * nx + i] on the y-face between nodes j and j + 1 (its top edge); a cell's
+  /// left (bottom) face on the grid's edge takes its right (top) face's value, and faces
+  /// touching a solid cell are set to zero. In a cell the velocity is interpolated from its
+  /// faces (x linearly between its x-faces, y between its y-faces: Pollock 1988, Ground
+  /// Water 26:743), which is divergence-free wherever the faces' fluxes balance, follows
+  /// the walls and so never carries a point across streamlines into one (the bilinear node
+  /// interpolation of a field that turns around corners does). Near a wall (distance d,
+  /// normal from the nearest wall point, l = half the smaller spacing) the no-slip
+  /// expansion u_t ~ d, u_n ~ d^2 is imposed on that: the normal part (linear in d beside a
+  /// face) is scaled by d / (2 l) within 2 l, the tangential part by d / l within l; both
+  /// factors reach 1 there, so the field stays continuous in d and a face one spacing from
+  /// the wall keeps its flux. Beside a straight wall this reproduces a no-slip field that is linear
+  /// (tangential) and quadratic (normal) in d exactly. wallDistance is the exact
+  /// distance to the solid within kExactCells cells of the point's node (the distance to
+  /// each solid cell, a rectangle, is exact); beyond that reach the node transform's value,
+  /// never less than the reach. wallNormal points from the nearest wall point.
+  cells,
+  /// As cells (same walls, distances and face velocities), but near a wall the velocity is
+  /// the Brinkman-Hele-Shaw boundary layer instead of the linear no-slip expansion. The
+  /// depth-averaged flow (Hele-Shaw friction 12 mu u / h^2 plus the in-plane viscous term mu
+  /// lap u) rises from a straight wall as u(d) = U (1 - exp(-d / delta)), delta = h / sqrt(12)
+  /// (5.8 um in a 20 um chip), a layer that 5-20 um fluid cells do not resolve. Within the
+  /// match distance d_m = max(delta, resolved) + spacing / 2 of the nearest wall point q
+  /// (`resolved` m: beyond it the fluid grid's velocity is trusted, e.g. the larger of its
+  /// cell and the pixel; the half spacing puts the match point at the middle of the first
+  /// pixel beyond it), the pore is taken as a straight slot across the normal n: its
+  /// half-width D is the distance along n from q to the medial axis (where another wall
+  /// becomes as near; D = infinity if that is beyond d_m), and across it the exact slot
+  /// profile g(d) = 1 - cosh((D - d) / delta) / cosh(D / delta) holds (-> 1 - exp(-d / delta)
+  /// for D >> delta). The face velocity at the match point q + min(d_m, D) n sets the
+  /// amplitude: its tangential part is a mean over the face's pixel, so it is divided by g's
+  /// mean over that pixel's span along n; its normal part follows continuity,
+  /// u_n ~ G(d) = integral of g from 0 to d (zero flux through the wall, ~ d^2 at it). Beyond
+  /// the match distance: the face velocity unchanged. Assumes the wall is locally straight
+  /// over ~d_m (pixel-edge walls are, except within d_m of a corner) and the depth is uniform
+  /// across the layer.
+  brinkman,
+};
+
 /// A field on a regular grid of nodes (the fluid solver fills it): depth-averaged
-/// velocity, depth and a solid mask at nodes (x0 + i dx, y0 + j dy), bilinear
-/// interpolation in between. A cell with any solid corner counts as solid at
-/// points closer to that corner than to a fluid corner (nearest-node mask).
-/// The wall distance is a brute-force Euclidean distance transform of the
-/// mask, computed once per update (O(N * boundary nodes), fine up to ~1e5 nodes).
+/// velocity, depth and a solid mask at nodes (x0 + i dx, y0 + j dy). A point is solid
+/// when its nearest node is (each node owns the cell of size dx x dy around it); outside
+/// the nodes' cells is solid as well, but does not count in the wall distance. The
+/// node distance transform (Felzenszwalb & Huttenlocher 2012) is computed once per
+/// update, O(N). Depth: bilinear (GridWalls::cells: over the fluid corners only).
 class GriddedFlow final : public FlowField {
  public:
-  GriddedFlow(int nx, int ny, double x0, double y0, double dx, double dy);
-  /// Replaces the field (arrays row-major, index j * nx + i) and bumps version().
-  /// Throws std::invalid_argument on wrong sizes or non-finite values.
+  /// Cells around a point's node searched for the exact wall distance (GridWalls::cells);
+  /// GridWalls::brinkman searches at least its match distance.
+  static constexpr int kExactCells = 3;
+
+  /// `resolved_m` (GridWalls::brinkman only, >= 0): distance from a wall beyond which the
+  /// face velocities are trusted (see GridWalls::brinkman). Throws std::invalid_argument on
+  /// nx, ny < 2, dx, dy <= 0 or resolved_m < 0.
+  GriddedFlow(int nx, int ny, double x0, double y0, double dx, double dy, GridWalls walls = GridWalls::nodes, double resolved_m = 0.0);
+  /// Replaces the field (arrays row-major, index j * nx + i; ux, uy at nodes or faces as
+  /// walls() says) and bumps version(). Throws std::invalid_argument on wrong sizes or non-finite values.
   void update(const std::vector<double>& ux, const std::vector<double>& uy, const std::vector<double>& depth,
               const std::vector<std::uint8_t>& solid);
   Vec2 meanVelocity(double x, double y) const override;
   double depth(double x, double y) const override;
   bool isSolid(double x, double y) const override;
   double wallDistance(double x, double y) const override;
+  Vec2 wallNormal(double x, double y) const override;
   std::uint64_t version() const override { return m_version; }
   Bounds2 bounds() const override;
   int nx() const { return m_nx; }
   int ny() const { return m_ny; }
+  GridWalls walls() const { return m_walls; }
+  /// GridWalls::brinkman: the match distance at depth h, m: max(h / sqrt(12), resolved) + spacing / 2.
+  double matchDistance(double h) const;
 
  private:
   double bilinear(const std::vector<double>& a, double x, double y) const;
+  /// Bilinear over the fluid corners of the cell of (x, y) only; false when it has none.
+  bool fluidBilinear(const std::vector<double>& a, double x, double y, double& value) const;
+  /// GridWalls::cells: squared distance to the nearest solid cell within reach and the
+  /// nearest point on it; false when none is within kExactCells cells.
+  bool nearestWallPoint(double x, double y, double& d2, Vec2& q) const;
+  int nearestNode(double f, int n) const;
+  /// The face velocities interpolated in the cell of (x, y) (Pollock), nothing imposed at walls.
+  Vec2 faceVelocity(double x, double y) const;
+  /// GridWalls::brinkman: the velocity at wall distance d < match distance (see there).
+  Vec2 layerVelocity(double x, double y, double d, const Vec2& q) const;
   int m_nx, m_ny;
   double m_x0, m_y0, m_dx, m_dy;
+  GridWalls m_walls;
+  double m_resolved = 0;  ///< m, GridWalls::brinkman
+  int m_reach = kExactCells;  ///< cells searched around a node for the exact wall distance
   std::vector<double> m_ux, m_uy, m_h, m_dist;
   std::vector<std::uint8_t> m_solid;
+  std::vector<std::uint8_t> m_edge;  ///< GridWalls::cells, brinkman: solid nodes with a fluid 4-neighbour (only they can be nearest)
+  std::vector<std::uint8_t> m_near;  ///< GridWalls::cells, brinkman: fluid nodes with a solid 8-neighbour (only their cells come within l of a wall)
   std::uint64_t m_version = 0;
 };
 

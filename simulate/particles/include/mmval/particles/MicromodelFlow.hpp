@@ -2,8 +2,8 @@
 // pixels, row 0 at the top, y up in metres as simulate::MaskShape has it), its
 // depth-averaged Stokes flow from mmval's own solver (simulate::SteadyFlowSolver,
 // Hele-Shaw friction -12 mu u / h^2 of the chip depth), scaled to a given Darcy
-// velocity, and handed to the particle engines as a GriddedFlow on the pixel
-// centres. Four-way coupling: cells the deposits have filled are added to the
+// velocity, and handed to the particle engines as a GriddedFlow on the pixels
+// (walls at the pixel edges, velocities on the pixel faces). Four-way coupling: cells the deposits have filled are added to the
 // solids, deposit layers on the plates thin the local aperture (the solver's
 // per-cell depth: Reynolds lubrication, div(h^3 grad p) = 0 in the friction
 // limit), and the flow is solved again (Stokes has no memory, so the new
@@ -90,8 +90,14 @@ class MicromodelFlow {
   /// The field the engines see: nodes at pixel centres, padded by one node on
   /// every side (solid rows beyond the two side walls; copies of the first and
   /// last columns beyond the inlet and the outlet, so that x = 0 and x = width are inside).
+  /// Its walls are the pixel edges of the grains and closed pixels and its velocities live on
+  /// the pixel faces (GridWalls::brinkman: exact wall distance; away from walls a
+  /// divergence-free field that follows them, near them the Brinkman-Hele-Shaw layer matched
+  /// to the solve beyond max(pixel, fluid cell)), whatever cells_per_pixel is; the fluid grid
+  /// sets only the face velocities.
   std::shared_ptr<GriddedFlow> field() const { return m_field; }
-  /// Node arrays of the last solve (for checkpoints) and restoring them exactly.
+  /// The field's arrays of the last solve (velocities on the pixel faces, solid and depth at
+  /// the pixel centres; GriddedFlow::update's layout), for checkpoints, and restoring them exactly.
   const std::vector<double>& nodeUx() const { return m_ux; }
   const std::vector<double>& nodeUy() const { return m_uy; }
   const std::vector<std::uint8_t>& nodeSolid() const { return m_solid; }
