@@ -40,6 +40,7 @@
 #include "mmval/particles/FlowField.hpp"
 
 #include "../TestScratch.hpp"
+#include "ResolvedChannelCase.hpp"
 
 namespace mmval::particles {
 namespace {
@@ -225,29 +226,7 @@ output_interval = "0.5 s"
 /// The low disk deposits on the wall, the high one leaves through the open outlet. The engine has
 /// no random input: `seed` only names the output folder.
 ChannelRun channelDisks(std::uint64_t seed) {
-  const fs::path out = runResolvedCase(R"(
-[case]
-name = "contract-channel"
-kind = "particles-resolved"
-[channel]
-length = "60 um"
-width = "30 um"
-mean_velocity = "0.1 mm/s"
-[particles]
-diameter = "8 um"
-x = ["15 um", "35 um"]
-y = ["6 um", "24 um"]
-[physics]
-gravity_y = "-245 m/s2"
-[deposition]
-capture_distance = "0.5 um"
-[numerics]
-cells_per_diameter = 8
-max_step_fraction = 2.0
-[run]
-duration = "0.3 s"
-output_interval = "0.05 s"
-)",
+  const fs::path out = runResolvedCase(resolvedChannelCase("contract-channel"),
                                        fmt::format("channel-{}", seed));
   ChannelRun run;
   run.inserted = 2;

@@ -24,6 +24,7 @@
 #include "mmval/core/VtkWriter.hpp"
 
 #include "../TestScratch.hpp"
+#include "ResolvedChannelCase.hpp"
 
 namespace mmval::particles {
 namespace {
@@ -37,32 +38,7 @@ std::string readText(const fs::path& file) {
   return s.str();
 }
 
-// Two 8 um disks in a 60 x 30 um channel with creeping inflow and gravity towards y = 0: the
-// low one deposits on the wall, the high one leaves through the outlet, so the snapshots
-// differ in what they hold (2 particles, then 1 deposited).
-constexpr const char* kChannel = R"(
-[case]
-name = "resolved-series"
-kind = "particles-resolved"
-[channel]
-length = "60 um"
-width = "30 um"
-mean_velocity = "0.1 mm/s"
-[particles]
-diameter = "8 um"
-x = ["15 um", "35 um"]
-y = ["6 um", "24 um"]
-[physics]
-gravity_y = "-245 m/s2"
-[deposition]
-capture_distance = "0.5 um"
-[numerics]
-cells_per_diameter = 8
-max_step_fraction = 2.0
-[run]
-duration = "0.3 s"
-output_interval = "0.05 s"
-)";
+const std::string kChannel = resolvedChannelCase("resolved-series");
 
 struct PvdEntry {
   double time_s = 0;
