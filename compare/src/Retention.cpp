@@ -5,18 +5,11 @@
 #include <cmath>
 #include <limits>
 
+#include "mmval/tracking/Statistics.hpp"
+
 namespace mmval::compare {
 
 namespace {
-
-/// Median of v (v non-empty); v is reordered.
-double medianOf(std::vector<double> v) {
-  const std::size_t h = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(h), v.end());
-  if (v.size() % 2 == 1) return v[h];
-  const double hi = v[h];
-  return 0.5 * (hi + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(h)));
-}
 
 /// Value below which a share q of v lies (nearest rank); v non-empty.
 double quantileOf(std::vector<double> v, double q) {
@@ -37,7 +30,7 @@ double stepNoise(const std::vector<TrackPoint>& p, std::size_t b, std::size_t e)
     d.push_back(std::abs(p[k + 1].y - 2 * p[k].y + p[k - 1].y));
   }
   if (d.size() < 4) return 0.0;
-  return medianOf(d) / (0.6745 * std::sqrt(6.0));
+  return tracking::median(d) / (0.6745 * std::sqrt(6.0));
 }
 
 }  // namespace
@@ -60,8 +53,8 @@ RestVerdict restAtEnd(const std::vector<TrackPoint>& p, double t_end, double fra
       ys.push_back(p[k].y);
     }
     TrackPoint rest = p.back();
-    rest.x = medianOf(xs);
-    rest.y = medianOf(ys);
+    rest.x = tracking::median(xs);
+    rest.y = tracking::median(ys);
     for (int k = 1; t_last + k * frame_dt <= t_end + eps; ++k) {
       rest.t = t_last + k * frame_dt;
       ++rest.frame;
@@ -87,9 +80,9 @@ RestVerdict restAtEnd(const std::vector<TrackPoint>& p, double t_end, double fra
       ys.push_back(w[k].y);
       ts.push_back(w[k].t);
     }
-    mx = medianOf(xs);
-    my = medianOf(ys);
-    mt = medianOf(ts);
+    mx = tracking::median(xs);
+    my = tracking::median(ys);
+    mt = tracking::median(ts);
   };
   double ax, ay, at, bx, by, bt;
   medianPoint(b, b + third, ax, ay, at);
@@ -169,7 +162,7 @@ RetentionCount countRetention(const Tracks& tracks, const RetentionOptions& ro) 
     if (static_cast<int>(j - i) >= o.min_points) frags.push_back({i, j, reach >= o.immobile_distance});
     i = j;
   }
-  const double frame_dt = dts.empty() ? 0.0 : medianOf(dts);
+  const double frame_dt = dts.empty() ? 0.0 : tracking::median(dts);
   out.link_speed = speeds.empty() ? 0.0 : quantileOf(speeds, ro.link_speed_quantile);
   cv::Rect2d view;
   if (ro.view) {

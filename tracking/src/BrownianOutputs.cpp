@@ -20,7 +20,7 @@ constexpr double kUm = 1e6, kUm2 = 1e12;
 /// A JSON number, or null for NaN / infinity (JSON has neither).
 nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
-std::string csvNumber(double v, const char* format = "{:.6g}") { return std::isfinite(v) ? fmt::format(fmt::runtime(format), v) : std::string(); }
+using detail::csvNumber;
 
 /// Bin edges over the per-track D values: from min(0, 1st percentile) to the 99th
 /// percentile, 30 bins (a few tracks of wild D from linking errors do not set the scale).

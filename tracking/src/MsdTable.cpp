@@ -11,11 +11,9 @@ namespace {
 
 constexpr double kUm2 = 1e12;  // m^2 -> um^2
 
-/// A cell of 6 significant digits, or empty for NaN / infinity (CSV readers take an
-/// empty cell as missing, where "nan" would be a string to some).
-std::string cell(double v) { return std::isfinite(v) ? fmt::format("{:.6g}", v) : std::string(); }
-
 }  // namespace
+
+std::string csvNumber(double v, const char* format) { return std::isfinite(v) ? fmt::format(fmt::runtime(format), v) : std::string(); }
 
 std::string msdHeader() { return "lag_s,msd_um2,samples,se_um2,fit_um2\n"; }
 
@@ -23,7 +21,7 @@ std::string msdTable(const std::vector<MsdRow>& rows) {
   std::string out = msdHeader();
   auto it = std::back_inserter(out);
   for (const MsdRow& r : rows)
-    fmt::format_to(it, "{},{},{},{},{}\n", cell(r.lag_s), cell(r.msd_m2 * kUm2), r.samples, cell(r.se_m2 * kUm2), cell(r.fit_m2 * kUm2));
+    fmt::format_to(it, "{},{},{},{},{}\n", csvNumber(r.lag_s), csvNumber(r.msd_m2 * kUm2), r.samples, csvNumber(r.se_m2 * kUm2), csvNumber(r.fit_m2 * kUm2));
   return out;
 }
 

@@ -21,6 +21,10 @@ struct MsdRow {
   double fit_m2 = 0;
 };
 
+/// A CSV cell: `v` formatted by `format`, or empty for NaN / infinity (CSV readers take
+/// an empty cell as missing, where "nan" would be a string to some).
+std::string csvNumber(double v, const char* format = "{:.6g}");
+
 /// The header line of msd.csv (with its newline).
 std::string msdHeader();
 
