@@ -24,9 +24,15 @@ RenderedVideo renderTracksVideo(const Tracks& tracks, const cv::Mat& grains, dou
     frame_time.emplace(p.frame, p.t);
   }
   if (frame_time.size() < 2) throw std::invalid_argument(tracks.source + ": fewer than two output steps, nothing moves in a video");
-  const std::int64_t f0 = frame_time.begin()->first, f1 = frame_time.rbegin()->first;
-  const double dt = (frame_time.rbegin()->second - frame_time.begin()->second) / static_cast<double>(f1 - f0);
+  const std::int64_t first = frame_time.begin()->first, f1 = frame_time.rbegin()->first;
+  const double dt = (frame_time.rbegin()->second - frame_time.begin()->second) / static_cast<double>(f1 - first);
   if (!(dt > 0)) throw std::invalid_argument(tracks.source + ": output steps do not advance in time (t_s)");
+  // The video starts where the simulation's clock does: when output step k is at t = k dt (a
+  // run whose first particles appear at step 3 writes nothing before it), the empty steps
+  // before the first particle are frames too, so the tracker's frame k (its t = k / fps) is
+  // the simulation's step k at the same time. Otherwise it starts at the first step written.
+  const double t_first = frame_time.begin()->second;
+  const std::int64_t f0 = first > 0 && std::abs(t_first - static_cast<double>(first) * dt) <= 1e-6 * dt ? 0 : first;
 
   const int width = std::max(1, static_cast<int>(std::lround(grains.cols * o.scale)));
   const int height = std::max(1, static_cast<int>(std::lround(grains.rows * o.scale)));

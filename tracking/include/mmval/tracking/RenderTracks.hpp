@@ -22,12 +22,14 @@ struct RenderOptions {
 };
 
 struct RenderedVideo {
-  Tracks truth;    ///< the trajectories in the video's pixels (x_px, y_px) and metres; frames from 0
+  Tracks truth;    ///< the trajectories in the video's pixels (x_px, y_px) and metres; frames are video frames
   int frames = 0;
   double fps = 0;  ///< from the trajectories' time step
 };
 
-/// Renders `dir`/frames/frame_NNNNN.png for every output step of `tracks`
+/// Renders `dir`/frames/frame_NNNNN.png for every output step of `tracks`, from step 0
+/// when the steps are on the clock t = step * dt (so video frame k is step k, at the same
+/// time), else from the first step written
 /// (positions x_px, y_px in pixels of `grains` from the first pixel's centre,
 /// y down; CV_8U, non-zero =
 /// grain). `geometry_pixel` is the size of one geometry pixel, m. Throws
