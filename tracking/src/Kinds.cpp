@@ -104,7 +104,7 @@ void declareTrackerKeys(Schema& s) {
   const LinkOptions& link = defaults.link;
   const std::vector<std::string> thresholds = {"otsu", "manual", "adaptive"};
   const std::vector<std::string> morphologies = {"none", "erode", "dilate", "open", "close"};
-  const std::vector<std::string> refinements = {"intensity", "disc", "moments"};
+  const std::vector<std::string> refinements = {"intensity", "disc", "moments", "gaussian"};
   const std::vector<std::string> seed_methods = {"contours", "peaks"};
   const std::vector<std::string> linkers = {"global", "paper"};
   s.choice("detect.background", {"auto", "median", "none"},
@@ -133,7 +133,8 @@ void declareTrackerKeys(Schema& s) {
   s.real("detect.min_circularity", "Smallest 4 pi A / P^2").def(detect.min_circularity).min(0).max(1);
   s.choice("detect.refinement", refinements,
            "Centroid: intensity-weighted under a Gaussian mask re-centred each iteration (intensity), over a flat disc of refine_radius "
-           "(disc, Crocker & Grier), or the contour's moments")
+           "(disc, Crocker & Grier), the contour's moments, or the intensity centroid then a least-squares fit of a Gaussian spot plus "
+           "a constant (gaussian; slower, for well-separated spots)")
       .def(choiceOf(refinements, detect.refinement, parseRefinement));
   s.choice("detect.method", seed_methods,
            "Seeds: contours of the thresholded signal (the paper), or local maxima of the band-passed signal (splits touching particles)")
