@@ -53,11 +53,14 @@ struct ImageData {
   std::string caption, data, label, bar;
 };
 
-/// What the images the runs write show (simulate's field pictures, the tracker's pictures).
+/// What the images the runs write show (simulate's field pictures, the tracker's and the micromodel scene's pictures).
 std::string imageCaption(const std::string& file_name) {
   if (file_name == "streamlines.png") return "tracks drawn over the background image, one colour per track";
   if (file_name == "velocity_overlay.png") return "per-frame steps drawn where they are, coloured by speed (colour bar in the image, um/s)";
   if (file_name == "speed_map.png") return "mean speed of the steps in each bin of the view, coloured by speed (colour bar in the image, um/s; grey: no step)";
+  if (file_name == "deposits.png")
+    return "the chip's grains (grey), particle paths (blue: moving or left; orange: ended deposited; at most 600) and every retained particle "
+           "(red) where it stopped";
   return {};
 }
 
@@ -82,7 +85,7 @@ ImageData imageData(const fs::path& run_dir, const std::string& name, const fs::
     }
   }
   // Tracking images: the CSV they are drawn from sits beside them.
-  const char* csv = file_name == "streamlines.png" ? "tracks.csv" : "velocities.csv";
+  const char* csv = file_name == "streamlines.png" ? "tracks.csv" : file_name == "deposits.png" ? "trajectories.csv" : "velocities.csv";
   if (d.data.empty() && !d.caption.empty() && fs::exists(p.parent_path() / csv)) {
     d.data = relativeLink(p.parent_path() / csv, out);
     d.label = std::string(csv) + " (CSV)";

@@ -2,6 +2,7 @@
 
 #include "CaseScene.hpp"
 #include "MicromodelDetail.hpp"
+#include "MicromodelPicture.hpp"
 #include "MicromodelStages.hpp"
 
 #include <algorithm>
@@ -264,9 +265,11 @@ void checkpointIfDue(const RunControl& run, std::int64_t k, double wall, const f
 }
 
 /// Outputs: trajectories.csv (sorted by particle, then frame), the particles'
-/// .vtp series, retention.csv and permeability.csv; the checkpoint removed.
+/// .vtp series, retention.csv, permeability.csv and the picture deposits.png
+/// (`radius_px`: the largest particle radius in mask pixels); the checkpoint removed.
 /// Returns the files to list (particles.pvd stands for its snapshots).
-std::vector<std::string> writeOutputs(const fs::path& dir, const RunnerState& s, const SceneGeometry& geo, const fs::path& ckpt) {
+std::vector<std::string> writeOutputs(const fs::path& dir, const RunnerState& s, const SceneGeometry& geo, const fs::path& ckpt,
+                                      double radius_px) {
   const double pixel = geo.pixel, H = geo.height;
   Tracks traj;
   traj.points.reserve(s.rows.size());
@@ -294,9 +297,10 @@ std::vector<std::string> writeOutputs(const fs::path& dir, const RunnerState& s,
   });
   writeFileAtomic(dir / "retention.csv", s.retention);
   writeFileAtomic(dir / "permeability.csv", s.permeability);
+  writeDepositPicture(dir / "deposits.png", geo.grains, traj, radius_px);
   std::error_code ec;
   fs::remove(ckpt, ec);
-  std::vector<std::string> files = {"trajectories.csv", "retention.csv", "permeability.csv"};
+  std::vector<std::string> files = {"trajectories.csv", "retention.csv", "permeability.csv", "deposits.png"};
   if (!particle_series.empty()) files.push_back(particle_series.back());
   return files;
 }
@@ -513,7 +517,9 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   }
   const double wall = wall_now();
 
-  out.files = writeOutputs(ctx.out_dir, s, set.geo, ckpt);
+  double largest = 0;
+  for (const auto& cl : classes) largest = std::max(largest, cl.diameter);
+  out.files = writeOutputs(ctx.out_dir, s, set.geo, ckpt, 0.5 * largest / set.geo.pixel);
   const ClassTally tally = tallyClasses(classes, set.schedule, run);
   reportCounts(tally, set.sample, out);
   const double t_end = static_cast<double>(s.next_frame - 1) * run.dt_out;  // the last frame written
