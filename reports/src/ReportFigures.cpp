@@ -82,9 +82,22 @@ std::string ownerOf(const ReportInput& input, const ComparisonInput& c) {
 
 namespace {
 
-/// Wall time against error over every run that recorded a resolution ladder.
+/// The family a run's speed-against-error points belong to: its case kind, with the steady and
+/// unsteady cylinder apart (their costs differ by orders of magnitude).
+std::string speedErrorFamily(const nlohmann::json& r) {
+  std::string kind = r["case"].value("kind", std::string("other"));
+  if (kind == "cylinder-channel") {
+    const nlohmann::json& rc = r.contains("resolved_case") ? r["resolved_case"] : nlohmann::json();
+    const bool unsteady = rc.is_object() && rc.contains("numerics") && rc["numerics"].value("mode", std::string()) == "unsteady";
+    kind += unsteady ? "-unsteady" : "-steady";
+  }
+  return kind;
+}
+
+/// Wall time against error over every run that recorded a resolution ladder, one plot per family
+/// (arrays, images, cylinders, ...) with every solver that ran it (mmval and its peers).
 void speedErrorFigure(const ReportInput& input, FigureSink& sink) {
-  Plot p{"Speed against error", "wall time (s)", "relative error", true, true, {}, 640, 420};
+  std::map<std::string, Plot> plots;
   for (const auto& r : input.summary.results) {
     Series s{r["case"]["name"].get<std::string>() + " (" + solverOf(r) + ")", {}, {}, "linespoints"};
     for (const DetailRow& level : detailRows(resultDetails(r), DetailField::ladder)) {
@@ -94,9 +107,14 @@ void speedErrorFigure(const ReportInput& input, FigureSink& sink) {
         s.y.push_back(std::abs(*error));
       }
     }
-    if (!s.x.empty()) p.series.push_back(s);
+    if (s.x.empty()) continue;
+    const std::string family = speedErrorFamily(r);
+    auto [it, added] = plots.try_emplace(family, Plot{"Speed against error: " + family, "wall time (s)", "relative error", true, true, {}, 640, 420});
+    it->second.series.push_back(std::move(s));
   }
-  if (!p.series.empty()) sink.addPlot("speed-vs-error", "Wall time against relative error over each case's resolution ladder (log-log).", p);
+  for (const auto& [family, p] : plots)
+    sink.addPlot("speed-vs-error-" + fileId(family), "Wall time against relative error over each " + family +
+                                                         " case's resolution ladder, every solver that ran it (log-log).", p);
 }
 
 /// Our c_D against Re of the runs set up as the paper's Table 1, by solver, and the

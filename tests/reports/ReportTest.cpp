@@ -394,5 +394,33 @@ TEST(Summary, WallTimeIsTheRunsOwnAndTheSessionsWhenTheyDiffer) {
   EXPECT_EQ(s.wallTimeText(), "total wall time 370.5 s (the runs' own times added up)");
 }
 
+TEST(Report, SpeedAgainstErrorHasOnePlotPerFamilyWithEverySolverOnIt) {
+  // Two array runs (mmval and its OpenFOAM peer) and an image run with ladders: one plot for the
+  // arrays holding both solvers' points, one for the images; a run without a ladder adds none.
+  const fs::path dir = fs::path(MMVAL_BINARY_DIR) / "test-output" / "report-speed-error";
+  fs::remove_all(dir);
+  const auto ladder = [](const std::string& solver, double wall0, double err0) {
+    nlohmann::json rows = nlohmann::json::array();
+    for (int k = 0; k < 3; ++k) rows.push_back({{"level", k}, {"value", 1.0}, {"error", err0 / std::pow(4.0, k)}, {"wall_seconds", wall0 * std::pow(4.0, k)}});
+    return nlohmann::json{{"solver", solver}, {"ladder", rows}};
+  };
+  fakeRun(dir / "runs" / "arr", "arr", "periodic-array", nlohmann::json::array(), ladder("mmval sharp", 0.1, 0.02));
+  fakeRun(dir / "runs" / "arr-peer", "arr-peer", "periodic-array", nlohmann::json::array(), ladder("openfoam v1912", 3.0, 0.03));
+  fakeRun(dir / "runs" / "img", "img", "image-permeability", nlohmann::json::array(), ladder("mmval sharp", 0.5, 0.1));
+  fakeRun(dir / "runs" / "none", "none", "particles-micromodel", nlohmann::json::array());
+  writeReport(collect({dir}), dir / "report");
+  if (!gnuplotAvailable()) GTEST_SKIP() << "no gnuplot";
+  const fs::path arrays = dir / "report" / "figures" / "speed-vs-error-periodic-array.csv";
+  ASSERT_TRUE(fs::exists(arrays));
+  const std::string csv = slurp(arrays);
+  EXPECT_THAT(csv, ::testing::HasSubstr("arr (mmval sharp)"));
+  EXPECT_THAT(csv, ::testing::HasSubstr("arr-peer (openfoam v1912)"));
+  EXPECT_THAT(csv, ::testing::Not(::testing::HasSubstr("img")));
+  EXPECT_THAT(csv, ::testing::HasSubstr(",1.6,0.00125"));  // the mmval array's finest level: 0.1 x 16 s, 0.02 / 16
+  EXPECT_TRUE(fs::exists(dir / "report" / "figures" / "speed-vs-error-image-permeability.svg"));
+  EXPECT_FALSE(fs::exists(dir / "report" / "figures" / "speed-vs-error-particles-micromodel.svg"));
+  EXPECT_FALSE(fs::exists(dir / "report" / "figures" / "speed-vs-error.svg")) << "the single cross-family plot is gone";
+}
+
 }  // namespace
 }  // namespace mmval::reports
