@@ -75,7 +75,8 @@ void registerPeerCommands(CLI::App& app, const CaseKindRegistry& registry) {
   of->add_option("--np", o->np, "MPI ranks (decomposePar + mpirun)")->capture_default_str()->check(CLI::Range(1, 64));
   of->add_option("--levels", o->levels, "Resolution ladder (cells around the cylinder; periodic arrays: cells along the unit-cell side), overrides numerics.levels")->delimiter(',');
   of->add_option("--mesher", o->mesher,
-                 "image-permeability with the smooth boundary: direct (mmval meshes the image and snaps the wall vertices to the boundary; default) or snappy (snappyHexMesh on the boundary's STL)")
+                 "image-permeability: direct (mmval meshes the image: wall vertices snapped to the smooth boundary, or the pixel staircase exactly "
+                 "at whole numbers of cells per pixel; default) or snappy (snappyHexMesh on the boundary's STL)")
       ->capture_default_str()
       ->check(CLI::IsMember({"direct", "snappy"}));
   of->add_flag("--quiet", o->quiet, "No progress output");

@@ -185,6 +185,58 @@ TEST(DirectMesh, ImageMeshHoldsTheSmoothBoundarysPoreFraction) {
   }
 }
 
+TEST(DirectMesh, PixelMeshIsTheStaircaseExactly) {
+  // geometry.boundary = "pixels": the mesh is the connected pore pixels, cell for cell. Reference:
+  // a pixel count of the mask (every pore pixel of the disc packing is connected), plus a pocket
+  // walled off on purpose, which the mesh drops.
+  MaskGeometry g = discPacking(10e-6);
+  const int pocket_r = 2, pocket_c = 57;  // a pore pixel boxed in by grain pixels near the top right
+  for (int r = pocket_r - 1; r <= pocket_r + 1; ++r)
+    for (int c = pocket_c - 1; c <= pocket_c + 1; ++c) g.fluid.at<unsigned char>(r, c) = (r == pocket_r && c == pocket_c) ? 255 : 0;
+  const int pore = cv::countNonZero(g.fluid);
+  for (int cpp : {1, 2, 3}) {
+    const DirectMesh2D m = pixelImageMesh(g, cpp);
+    EXPECT_EQ(m.nx, 60 * cpp);
+    EXPECT_EQ(static_cast<int>(m.cells.size()), (pore - 1) * cpp * cpp) << cpp;
+    EXPECT_NEAR(m.area(), (pore - 1) * g.pixel * g.pixel, 1e-9 * g.width() * g.height()) << cpp;
+    EXPECT_EQ(m.dropped_disconnected, cpp * cpp) << "the walled-off pore pixel";
+    EXPECT_EQ(m.snapped + m.pulled_back + m.pinned, 0);
+    EXPECT_NEAR(m.minCellAreaRatio(), 1.0, 1e-9);
+    // The pocket's cells are not in the mesh; a grain pixel's centre neither.
+    EXPECT_LT(m.cell_of[static_cast<std::size_t>((59 - pocket_r) * cpp) * m.nx + pocket_c * cpp], 0);
+  }
+  EXPECT_THROW(pixelImageMesh(g, 0), std::invalid_argument);
+}
+
+TEST(DirectMesh, PeerMeshesPixelImagesDirectlyAtWholeCellsPerPixel) {
+  // A canned runner records the scene each level gets: no OpenFOAM needed. Pixels at 1, 2 cells
+  // per pixel: the direct mesher; a level at 1.5 cannot follow pixel edges: snappyHexMesh.
+  const fs::path mask = mmval::test::scratch("pixel-route.png");
+  cv::imwrite(mask.string(), discPacking(10e-6).fluid);
+  CaseKindRegistry reg;
+  simulate::registerFluidKinds(reg);
+  for (const std::string levels : {"[1, 2]", "[1, 1.5]"}) {
+    const Case c = Case::parse("[case]\nname = \"route\"\nkind = \"image-permeability\"\n[geometry]\nmask = \"" + mask.string() +
+                                   "\"\npixel_size = \"10 um\"\nboundary = \"pixels\"\n[numerics]\ndepth_model = \"2d\"\ncells_per_pixel_levels = " + levels + "\n",
+                               mmval::test::scratch("pixel-route.toml"), reg);
+    std::vector<Scene> seen;
+    PeerRunOptions o;
+    o.runner = [&seen](const Scene& s, const fs::path&, int) {
+      seen.push_back(s);
+      Result r;
+      r.ok = true;
+      r.permeability = 1e-12 * (1 + 0.1 * static_cast<double>(seen.size()));
+      return r;
+    };
+    const RunOutput out = runPeer(c, RunContext{mmval::test::scratch("pixel-route-out"), true, false, 0}, o);
+    ASSERT_EQ(seen.size(), 2u);
+    const bool whole = levels == "[1, 2]";
+    for (const Scene& s : seen) EXPECT_EQ(s.direct_mesh, whole) << levels;
+    EXPECT_EQ(out.details.at("ladder")[0].at("mesher").get<std::string>(), whole ? "direct" : "snappyHexMesh") << levels;
+    EXPECT_EQ(out.details.at("boundary").get<std::string>().rfind("pixels (mmval's direct mesher", 0) == 0, whole) << levels;
+  }
+}
+
 TEST(DirectMesh, CheckMeshAcceptsTheWrittenMesh) {
   if (!detect().available) GTEST_SKIP() << detect().reason;
   const fs::path dir = mmval::test::scratch("direct-mesh-case");

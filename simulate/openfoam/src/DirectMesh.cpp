@@ -229,7 +229,9 @@ double DirectMesh2D::minCellAreaRatio() const {
   return cells.empty() ? 0 : m / (dx() * dy());
 }
 
-DirectMesh2D directMesh2D(const LevelFunction& level, double width, double height, int nx, int ny) {
+namespace {
+/// Steps 1 of directMesh2D: the grid, its fluid cells joined to inlet and outlet, vertices unmoved.
+DirectMesh2D gridMesh(const LevelFunction& level, double width, double height, int nx, int ny) {
   if (!(width > 0) || !(height > 0) || nx < 2 || ny < 2)
     throw std::invalid_argument(fmt::format("directMesh2D: a {} x {} m domain with {} x {} cells; expected positive sizes and at least 2 x 2 cells",
                                             width, height, nx, ny));
@@ -256,17 +258,31 @@ DirectMesh2D directMesh2D(const LevelFunction& level, double width, double heigh
   // Grid edges and corners are exact multiples, not accumulated: the last column sits on width.
   for (int j = 0; j <= ny; ++j) m.vertices[static_cast<std::size_t>(j) * (nx + 1) + nx].x = width;
   for (int i = 0; i <= nx; ++i) m.vertices[static_cast<std::size_t>(ny) * (nx + 1) + i].y = height;
+  return m;
+}
 
+/// Vertices on a face between a kept and a dropped cell (or none).
+bool touchesGrain(const DirectMesh2D& m, int i, int j, bool& used) {
+  const int nx = m.nx, ny = m.ny;
+  auto kept = [&](int a, int b) { return a >= 0 && a < nx && b >= 0 && b < ny && m.cell_of[static_cast<std::size_t>(b) * nx + a] >= 0; };
+  auto dropped = [&](int a, int b) { return a >= 0 && a < nx && b >= 0 && b < ny && m.cell_of[static_cast<std::size_t>(b) * nx + a] < 0; };
+  used = kept(i - 1, j - 1) || kept(i, j - 1) || kept(i - 1, j) || kept(i, j);
+  return dropped(i - 1, j - 1) || dropped(i, j - 1) || dropped(i - 1, j) || dropped(i, j);
+}
+}  // namespace
+
+DirectMesh2D directMesh2D(const LevelFunction& level, double width, double height, int nx, int ny) {
+  DirectMesh2D m = gridMesh(level, width, height, nx, ny);
+  const double dx = m.dx(), dy = m.dy();
   auto kept = [&](int i, int j) { return i >= 0 && i < nx && j >= 0 && j < ny && m.cell_of[static_cast<std::size_t>(j) * nx + i] >= 0; };
-  auto dropped = [&](int i, int j) { return i >= 0 && i < nx && j >= 0 && j < ny && m.cell_of[static_cast<std::size_t>(j) * nx + i] < 0; };
   const Snapper snap(level, width, height, dx, dy);
   std::vector<Vertex2> move(m.vertices.size(), Vertex2{0, 0});
   std::vector<double> scale(m.vertices.size(), 0.0);
   std::vector<char> wall(m.vertices.size(), 0);
   for (int j = 0; j <= ny; ++j)
     for (int i = 0; i <= nx; ++i) {
-      const bool used = kept(i - 1, j - 1) || kept(i, j - 1) || kept(i - 1, j) || kept(i, j);
-      const bool touches_grain = dropped(i - 1, j - 1) || dropped(i, j - 1) || dropped(i - 1, j) || dropped(i, j);
+      bool used = false;
+      const bool touches_grain = touchesGrain(m, i, j, used);
       if (!used || !touches_grain) continue;
       const std::size_t v = static_cast<std::size_t>(j) * (nx + 1) + i;
       wall[v] = 1;
@@ -412,6 +428,25 @@ void writePolyMesh(const PolyMesh& mesh, const std::filesystem::path& case_dir) 
     out += fmt::format("        nFaces          {};\n        startFace       {};\n    }}\n", p.size, p.start);
   }
   writeFileAtomic(dir / "boundary", out + ")\n");
+}
+
+DirectMesh2D pixelImageMesh(const MaskGeometry& g, int cells_per_pixel) {
+  if (cells_per_pixel < 1) throw std::invalid_argument(fmt::format("pixelImageMesh: {} cells per pixel; expected a whole number >= 1", cells_per_pixel));
+  const int cols = g.fluid.cols, rows = g.fluid.rows;
+  const double p = g.pixel;
+  // +1 in a grain pixel, -1 in a pore pixel (row 0 of the image is its top); cell centres never
+  // sit on a pixel edge at a whole number of cells per pixel.
+  const LevelFunction pixels = [&g, cols, rows, p](double x, double y) {
+    const int c = std::clamp(static_cast<int>(std::floor(x / p)), 0, cols - 1), r = rows - 1 - std::clamp(static_cast<int>(std::floor(y / p)), 0, rows - 1);
+    return g.fluid.at<std::uint8_t>(r, c) != 0 ? -1.0 : 1.0;
+  };
+  DirectMesh2D m = gridMesh(pixels, g.width(), g.height(), cols * cells_per_pixel, rows * cells_per_pixel);
+  for (int j = 0; j <= m.ny; ++j)
+    for (int i = 0; i <= m.nx; ++i) {
+      bool used = false;
+      if (touchesGrain(m, i, j, used) && used) ++m.wall_vertices;
+    }
+  return m;
 }
 
 DirectMesh2D directImageMesh(const MaskGeometry& g, double sigma_px, double cells_per_pixel) {

@@ -1,5 +1,6 @@
 #include "mmval/openfoam/Kinds.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -245,6 +246,10 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
     cpp_levels = c.has("numerics.cells_per_pixel_levels") ? c.reals("numerics.cells_per_pixel_levels")
                                                           : std::vector<double>{c.real("numerics.cells_per_pixel")};
     for (std::size_t i = 0; i < cpp_levels.size(); ++i) levels.push_back(static_cast<int>(i));
+    // The pixel staircase is meshed exactly (pixelImageMesh) when every level puts a whole number
+    // of cells on a pixel edge; otherwise snappyHexMesh snaps to the pixel outlines' STL.
+    const bool whole = std::all_of(cpp_levels.begin(), cpp_levels.end(), [](double v) { return v >= 1 && std::abs(v - std::round(v)) < 1e-9; });
+    if (!scene.smooth_boundary && whole && !options.snappy_image_mesh) scene.direct_mesh = true;
   }
   // A cylinder's levels are the O-grid's cells around it; an array's are cells along the unit-cell
   // side, mmval's spacing h = L / n, from which the O-grid's cells around follow (arrayCellsAround).
@@ -319,7 +324,10 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
   out.details["ladder"] = ladder;
   out.details["cells"] = last.cells;
   if (image) {
-    out.details["boundary"] = scene.direct_mesh
+    out.details["boundary"] = scene.direct_mesh && !scene.smooth_boundary
+                                  ? std::string("pixels (mmval's direct mesher: Cartesian cells, a whole number per pixel edge, the mask's "
+                                                "staircase exactly, as mmval's solver sees it)")
+                              : scene.direct_mesh
                                   ? fmt::format("smooth (1/2 level of the mask smoothed by a Gaussian of {:g} px, as mmval's; mmval's direct mesher: "
                                                 "Cartesian cells at cells_per_pixel, wall vertices moved onto the level)", scene.smoothing_px)
                               : scene.smooth_boundary

@@ -307,7 +307,8 @@ long long writeCase(const Scene& s, const fs::path& dir, int ranks, MesherReport
       const MaskGeometry g = loadMask(s.mask, s.pixel, s.grain_dark);
       if (s.direct_mesh) {
         const auto t0 = std::chrono::steady_clock::now();
-        const DirectMesh2D m = directImageMesh(g, s.smoothing_px, s.cells_per_pixel);
+        const DirectMesh2D m = s.smooth_boundary ? directImageMesh(g, s.smoothing_px, s.cells_per_pixel)
+                                                 : pixelImageMesh(g, static_cast<int>(std::lround(s.cells_per_pixel)));
         const PolyMesh poly = extrude(m, m.dx(), "symmetry");
         fs::remove_all(dir / "constant" / "polyMesh");
         writePolyMesh(poly, dir);

@@ -1,4 +1,5 @@
-// The OpenFOAM peer's own mesher for image geometries on the smooth grain boundary: a uniform
+// The OpenFOAM peer's own mesher for image geometries, on the smooth grain boundary or on the
+// pixel staircase itself (pixelImageMesh): a uniform
 // Cartesian grid over the image, one cell deep, whose cells on the fluid side of a level function
 // are kept and whose wall vertices are moved onto the level (the boundary mmval's solver cuts its
 // cells against). It writes constant/polyMesh directly, so no blockMesh or snappyHexMesh runs, and
@@ -69,6 +70,13 @@ DirectMesh2D directMesh2D(const LevelFunction& level, double width, double heigh
 /// pores, Gaussian of sigma_px pixels) at `cells_per_pixel`: nx = round(cols cpp), ny = round(rows cpp),
 /// at least 4, as mmval's own image grid.
 DirectMesh2D directImageMesh(const MaskGeometry& g, double sigma_px, double cells_per_pixel);
+
+/// The pixel staircase of an image (geometry.boundary = "pixels"), meshed exactly: a Cartesian grid
+/// of `cells_per_pixel` (a whole number >= 1) cells per pixel edge, a cell kept when its pixel is
+/// pore and joined through faces to both inlet and outlet; no vertex moves (snapped, pulled_back,
+/// pinned stay 0; wall_vertices counts the staircase's vertices). The mesh's area is the connected
+/// pore pixels' area, the geometry mmval's sharp solver cuts against at these resolutions.
+DirectMesh2D pixelImageMesh(const MaskGeometry& g, int cells_per_pixel);
 
 /// mmval's smooth boundary of an image as a level function (simulate::SmoothMaskShape::level of
 /// the connected pores, Gaussian of sigma_px pixels); the same field smoothGrainPolygons traces.

@@ -24,8 +24,9 @@ namespace mmval::openfoam {
 struct PeerRunOptions {
   int ranks = 1;
   std::optional<std::vector<int>> levels;  ///< overrides numerics.levels
-  /// image-permeability with geometry.boundary = "smooth": mesh with snappyHexMesh on the boundary's
-  /// STL (refined once at the grains) instead of mmval's direct mesher (the default: Scene::direct_mesh).
+  /// image-permeability: mesh with snappyHexMesh on the boundary's STL (the smooth boundary refined
+  /// once at the grains; the pixel outlines) instead of mmval's direct mesher (the default:
+  /// Scene::direct_mesh; for geometry.boundary = "pixels" at whole numbers of cells per pixel).
   bool snappy_image_mesh = false;
   /// Runs one level (scene, case folder, ranks); empty: openfoam::runCase. Tests give canned
   /// Results here to check the reporting without OpenFOAM.

@@ -67,9 +67,10 @@ struct Scene {
   /// finer than the background; nCellsBetweenLevels sets the width of each refinement band.
   int surface_level = 0;
   int cells_between_levels = 3;
-  /// Image scenes on the smooth boundary: mmval meshes the image itself (directImageMesh: a
-  /// Cartesian grid at cells_per_pixel, wall vertices moved onto the level) and writes
-  /// constant/polyMesh; no blockMesh or snappyHexMesh runs. The mesh is one cell (dx) thick.
+  /// Image scenes: mmval meshes the image itself and writes constant/polyMesh; no blockMesh or
+  /// snappyHexMesh runs. On the smooth boundary directImageMesh (a Cartesian grid at
+  /// cells_per_pixel, wall vertices moved onto the level); on the pixels, at a whole number of
+  /// cells per pixel, pixelImageMesh (the staircase exactly). The mesh is one cell (dx) thick.
   bool direct_mesh = false;
   // numerics
   /// Resolution: cells around the cylinder (cylinder channel and periodic array; a periodic-array
