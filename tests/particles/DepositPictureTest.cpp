@@ -14,13 +14,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
+/// A trajectory row in pixel columns only (the picture reads nothing else).
 TrackPoint row(std::int64_t particle, std::int64_t frame, double x_px, double y_px, const char* state) {
   TrackPoint p;
-  p.particle = particle;
-  p.frame = frame;
-  p.x_px = x_px;
-  p.y_px = y_px;
-  p.state = state;
+  p.particle = particle, p.frame = frame, p.state = state;
+  p.x_px = x_px, p.y_px = y_px;
   return p;
 }
 

@@ -41,12 +41,18 @@ double rmseOf(const std::vector<cv::Point2d>& truth, const std::vector<Detection
   return matched ? std::sqrt(se / matched) : 1e9;
 }
 
-TEST(Detect, SubPixelLocalisationOnCleanSpots) {
-  std::mt19937 rng(11);
+/// 35 spot positions on a 7 x 5 grid, 20 px apart, each offset by a random sub-pixel amount.
+std::vector<cv::Point2d> gridOfSpots(unsigned seed) {
+  std::mt19937 rng(seed);
   std::uniform_real_distribution<double> U(0, 1);
   std::vector<cv::Point2d> truth;
   for (int gy = 0; gy < 5; ++gy)
     for (int gx = 0; gx < 7; ++gx) truth.push_back({15 + gx * 20 + U(rng), 15 + gy * 20 + U(rng)});
+  return truth;
+}
+
+TEST(Detect, SubPixelLocalisationOnCleanSpots) {
+  const std::vector<cv::Point2d> truth = gridOfSpots(11);
   const cv::Mat background(120, 160, CV_32F, cv::Scalar(0.8));
   DetectOptions o;
   o.blur_sigma = 1.0;
@@ -77,11 +83,7 @@ TEST(Detect, GaussianFitLocalisesNoisySpotsNearTheCramerRaoBound) {
   // independent of the spot's sigma): 0.040 px at A = 0.4, sn = 0.02. A least-squares fit on the
   // raw pixels is efficient up to the fitted background and width; it works on the blurred signal
   // here, whose correlated noise costs a little more: within 1.5x the bound, 2D RMSE over sqrt 2.
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<double> U(0, 1);
-  std::vector<cv::Point2d> truth;
-  for (int gy = 0; gy < 5; ++gy)
-    for (int gx = 0; gx < 7; ++gx) truth.push_back({15 + gx * 20 + U(rng), 15 + gy * 20 + U(rng)});
+  const std::vector<cv::Point2d> truth = gridOfSpots(7);
   const cv::Mat background(120, 160, CV_32F, cv::Scalar(0.8));
   DetectOptions o;
   o.blur_sigma = 1.0;
