@@ -156,7 +156,8 @@ void registerReportCommands(CLI::App& app) {
   cmp->add_option("--stuck-window-s", c->stuck_window_s, "Length of that final window")->capture_default_str();
   cmp->add_option("--cell-um", c->cell_um, "Grid cell of the streamline occupancy maps")->capture_default_str();
   cmp->add_option("--time-bins", c->time_bins, "Bins of the time series")->capture_default_str();
-  cmp->add_option("--mask,--register-mask", c->mask, "Geometry mask the simulation was built from: per-region speeds, and the target of --register-frame");
+  CLI::Option* mask = cmp->add_option("--mask", c->mask, "Geometry mask the simulation was built from: per-region speeds, and the target of --register-frame");
+  CLI::Option* older_mask = cmp->add_option("--register-mask", c->mask)->group("");  // its older name, hidden from --help
   cmp->add_option("--mask-pixel-size-um", c->mask_pixel_size_um, "Size of one mask pixel");
   // The mask options speak the case's words (compare-tracks' geometry.grains and geometry.y_up, synth's
   // --grain-pixels); the older spellings stay accepted, hidden from --help, and say what replaces them.
@@ -177,7 +178,8 @@ void registerReportCommands(CLI::App& app) {
   cmp->add_option("--window-rotation-deg", c->window_rotation_deg, "Imaged window's rotation, counter-clockwise")->capture_default_str();
   cmp->add_option("--window-pixel-size-um", c->window_pixel_size_um, "Imaged window's camera pixel size");
   cmp->add_option("--throat-width-um", c->throat_width_um, "Pore width at or below which pore space is throat (0: median inscribed diameter)")->capture_default_str();
-  cmp->callback([c, grains, older_grains, y_up, older_y] {
+  cmp->callback([c, mask, older_mask, grains, older_grains, y_up, older_y] {
+    if (mask->count() > 0 && older_mask->count() > 0) throw CLI::ExcludesError("--mask", "--register-mask");
     if (grains->count() > 0 && older_grains->count() > 0) throw CLI::ExcludesError("--grain-pixels", "--mask-grains");
     if (y_up->count() > 0 && older_y->count() > 0) throw CLI::ExcludesError("--y-up", "--mask-y-down");
     if (older_grains->count() > 0 || c->grains == "light") {
@@ -185,6 +187,7 @@ void registerReportCommands(CLI::App& app) {
       if (c->grains == "light") c->grains = "bright";
       noteOlderSpelling(given, "--grain-pixels " + c->grains);
     }
+    if (older_mask->count() > 0) noteOlderSpelling("--register-mask " + c->mask, "--mask " + c->mask);
     if (older_y->count() > 0) {
       noteOlderSpelling("--mask-y-down", "--y-up false");
       c->y_up = !c->y_down_older_flag;

@@ -107,11 +107,26 @@ TEST(CliVocabulary, NewAndOlderSpellingTogetherIsAUsageError) {
   EXPECT_FALSE(fs::exists(f.dir / "out-both"));
 }
 
+TEST(CliVocabulary, RegisterMaskIsTheOlderSpellingOfMask) {
+  const Folder f;
+  const Outcome now = f.compare("mask", "");
+  const Outcome older = mmval::test::runMmval(fmt::format("compare --experiment {0} --simulation {0} --register-mask {1} --mask-pixel-size-um 1 --out {2}",
+                                                          (f.dir / "tracks.csv").string(), (f.dir / "mask.pgm").string(), (f.dir / "out-register-mask").string()));
+  ASSERT_EQ(now.status, 0) << now.output;
+  ASSERT_EQ(older.status, 0) << older.output;
+  EXPECT_NEAR(f.stepsInGrains("register-mask"), 1.0 / 3.0, kCountTolerance);  // the mask was read: y up, 1 of 3 in grains
+  EXPECT_EQ(f.metrics("mask"), f.metrics("register-mask"));
+  EXPECT_THAT(older.output, HasSubstr("is an older spelling; use --mask"));
+  const Outcome both = f.compare("mask-twice", "--register-mask " + (f.dir / "mask.pgm").string());
+  EXPECT_EQ(both.status, 1) << both.output;
+  EXPECT_THAT(both.output, HasSubstr("--mask excludes --register-mask"));
+}
+
 TEST(CliVocabulary, HelpShowsOnlyTheCaseVocabulary) {
   const Outcome compare = mmval::test::runMmval("compare --help");
   EXPECT_THAT(compare.output, HasSubstr("--y-up"));
   EXPECT_THAT(compare.output, HasSubstr("--grain-pixels TEXT:{dark,bright}"));
-  for (const char* older : {"--mask-y-down", "--mask-grains", "light"}) EXPECT_THAT(compare.output, Not(HasSubstr(older))) << older;
+  for (const char* older : {"--mask-y-down", "--mask-grains", "light", "--register-mask"}) EXPECT_THAT(compare.output, Not(HasSubstr(older))) << older;
   const Outcome chip = mmval::test::runMmval("chip --help");
   EXPECT_THAT(chip.output, HasSubstr("--pixel-size-um"));
   EXPECT_THAT(chip.output, Not(HasSubstr("--pixel-um")));
