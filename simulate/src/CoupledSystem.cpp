@@ -38,6 +38,13 @@ struct CoupledSystem::Impl {
   bool warm_factorised = false;
   bool mass_schur = false;  ///< iterative Stokes: Schur complement preconditioned by the scaled pressure mass matrix
   Mat Sp = nullptr;
+  /// This rank's rows of the last assembly (CSR: row starts, columns, values; right-hand sides).
+  std::vector<PetscInt> row_start, cols;
+  std::vector<PetscScalar> vals, rhs;
+  /// Warm start: the column pattern of A's rows (row_start, cols) as last assembled, and whether
+  /// the KSP's LU (its ordering and symbolic analysis) was computed from a matrix of that pattern.
+  std::vector<PetscInt> held_start, held_cols;
+  bool pc_fits = true;
 
   ~Impl() {
     if (ksp != nullptr) KSPDestroy(&ksp);
@@ -48,6 +55,12 @@ struct CoupledSystem::Impl {
   }
 
   void create(const FlowOperator& op) {
+    createMatrix(op);
+    check(MatCreateVecs(A, &x, &b), "MatCreateVecs");
+    createKsp(op);
+  }
+
+  void createMatrix(const FlowOperator& op) {
     const PetscInt n = op.unknowns();
     check(MatCreate(comm, &A), "MatCreate");
     check(MatSetSizes(A, PETSC_DECIDE, PETSC_DECIDE, n, n), "MatSetSizes");
@@ -55,7 +68,10 @@ struct CoupledSystem::Impl {
     check(MatSeqAIJSetPreallocation(A, 24, nullptr), "prealloc");
     check(MatMPIAIJSetPreallocation(A, 24, nullptr, 24, nullptr), "prealloc");
     check(MatSetOption(A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE), "MatSetOption");
-    check(MatCreateVecs(A, &x, &b), "MatCreateVecs");
+  }
+
+  /// The KSP and its preconditioner as a new solver sets them up (no factorisation yet).
+  void createKsp(const FlowOperator& op) {
     check(KSPCreate(comm, &ksp), "KSPCreate");
     // Stokes without friction or inertia: the Schur complement -B A^-1 B^T is spectrally
     // equivalent to the pressure mass matrix / mu (Silvester & Wathen 1994), which gives
@@ -116,25 +132,41 @@ struct CoupledSystem::Impl {
 
   /// Assembles A and b linearised at `state` (the matrix pattern is the same for every state).
   void assemble(const FlowOperator& op, Linearisation mode, const std::vector<double>& state) {
-    check(MatZeroEntries(A), "MatZeroEntries");
-    check(VecSet(b, 0.0), "VecSet");
+    linearise(op, mode, state);
+    insert();
+  }
+
+  /// This rank's rows of the system linearised at `state` into row_start, cols, vals and rhs.
+  void linearise(const FlowOperator& op, Linearisation mode, const std::vector<double>& state) {
     PetscInt lo = 0, hi = 0;
     check(MatGetOwnershipRange(A, &lo, &hi), "ownership");
     RowTerms row;
     std::vector<std::pair<int, double>> entries;
-    std::vector<PetscInt> cols;
-    std::vector<PetscScalar> vals;
+    row_start.assign(1, 0);
+    cols.clear();
+    vals.clear();
+    rhs.clear();
     for (PetscInt r = lo; r < hi; ++r) {
-      const double rhs = op.linearRow(static_cast<int>(r), mode, state, row, entries);
-      cols.clear();
-      vals.clear();
+      rhs.push_back(op.linearRow(static_cast<int>(r), mode, state, row, entries));
       for (const auto& [c, v] : entries) {
         cols.push_back(c);
         vals.push_back(v);
       }
-      const PetscInt rr = r;
-      check(MatSetValues(A, 1, &rr, static_cast<PetscInt>(cols.size()), cols.data(), vals.data(), ADD_VALUES), "MatSetValues");
-      check(VecSetValue(b, r, rhs, INSERT_VALUES), "VecSetValue");
+      row_start.push_back(static_cast<PetscInt>(cols.size()));
+    }
+  }
+
+  /// Writes the linearised rows into A and b (A keeps its earlier entries' pattern, zeroed).
+  void insert() {
+    check(MatZeroEntries(A), "MatZeroEntries");
+    check(VecSet(b, 0.0), "VecSet");
+    PetscInt lo = 0, hi = 0;
+    check(MatGetOwnershipRange(A, &lo, &hi), "ownership");
+    for (PetscInt r = lo; r < hi; ++r) {
+      const std::size_t k = static_cast<std::size_t>(r - lo);
+      const PetscInt rr = r, first = row_start[k];
+      check(MatSetValues(A, 1, &rr, row_start[k + 1] - first, cols.data() + first, vals.data() + first, ADD_VALUES), "MatSetValues");
+      check(VecSetValue(b, r, rhs[k], INSERT_VALUES), "VecSetValue");
     }
     check(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY), "assembly");
     check(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY), "assembly");
@@ -227,12 +259,27 @@ struct CoupledSystem::Impl {
   /// Warm start (setWarmStart): GMRES preconditioned by the kept factors from `state`; the plain
   /// LU solve (preonly, as the direct path) on the first solve and when GMRES runs out of iterations.
   void solveWarm(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats) {
-    const auto [lo, hi] = assembleTimed(op, mode, state, stats);
+    const auto ta = std::chrono::steady_clock::now();
+    linearise(op, mode, state);
+    // A matrix of another pattern (the sharp method's solid nodes, cut stencils and merged cells
+    // follow the geometry) is a new matrix, assembled as a new solver assembles it: zeroed
+    // entries of the old pattern would stay in A and change the LU's ordering.
+    if (!held_start.empty() && patternChanged()) {
+      check(MatDestroy(&A), "MatDestroy");
+      createMatrix(op);
+      pc_fits = false;
+    }
+    held_start = row_start;
+    held_cols = cols;
+    insert();
+    PetscInt lo = 0, hi = 0;
+    check(MatGetOwnershipRange(A, &lo, &hi), "ownership");
+    stats.assemble_seconds += secondsSince(ta);
     const auto t0 = std::chrono::steady_clock::now();
     const detail::ScopedDefaultOption ordering("-fluid_mat_umfpack_ordering", "METIS", wantsMetis(op));
-    setOperators(op);
     warm_its = 0;
     warm_factorised = refactor || warm_max_its == 0;
+    setOperators(op);
     if (!warm_factorised) {
       check(KSPSetType(ksp, KSPGMRES), "KSPSetType");
       check(KSPGMRESSetRestart(ksp, warm_max_its), "restart");  // no restart within the budget
@@ -254,6 +301,10 @@ struct CoupledSystem::Impl {
       warm_factorised = reason <= 0;  // not converged within the budget (or broke down): factorise
     }
     if (warm_factorised) {
+      if (!pc_fits) {  // the kept analysis is of another pattern: factorise as a new solver
+        renewKsp(op);
+        setOperators(op);
+      }
       check(KSPSetType(ksp, KSPPREONLY), "KSPSetType");
       check(KSPSetInitialGuessNonzero(ksp, PETSC_FALSE), "initial guess");
       check(KSPSetReusePreconditioner(ksp, PETSC_FALSE), "reuse pc");
@@ -264,9 +315,24 @@ struct CoupledSystem::Impl {
       if (reason < 0) throw FlowFailure(fmt::format("the fluid linear solve failed ({})", KSPConvergedReasons[reason]), "refine the grid");
       stats.linear_iterations += 1;
       refactor = false;
+      pc_fits = true;
     }
     stats.solve_seconds += secondsSince(t0);
     gather(op, state);
+  }
+
+  /// Warm start: whether the linearised rows' column pattern differs from A's, on any rank.
+  bool patternChanged() const {
+    int mine = (held_start != row_start || held_cols != cols) ? 1 : 0, any = 0;
+    MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, comm);
+    return any != 0;
+  }
+
+  /// Replaces the KSP by a new solver's (its next setup orders and analyses A afresh).
+  void renewKsp(const FlowOperator& op) {
+    check(KSPDestroy(&ksp), "KSPDestroy");
+    factored_once = false;
+    createKsp(op);
   }
 
   /// Diagonal Schur preconditioner -vol / mu per cell (pinned cells: their own diagonal).

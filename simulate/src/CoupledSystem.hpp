@@ -51,9 +51,11 @@ class CoupledSystem {
   int factorisations() const;
 
   /// Direct solver only (else nothing): solves of a steady system whose matrix changes between
-  /// solves but keeps its pattern (SteadyFlowSolver::update). Every factorisation after the first
-  /// is numeric only: the ordering and symbolic analysis of the first matrix are kept (they
-  /// depend on the pattern), and the plain LU solve (preonly) gives the direct path's answer.
+  /// solves (SteadyFlowSolver::update). A factorisation of a matrix with the last one's pattern is
+  /// numeric only: the ordering and symbolic analysis are kept (they depend on the pattern). A
+  /// matrix of another pattern is assembled into a new matrix and factorised by a new KSP, as a
+  /// new solver would (zeroed entries of the old pattern would change the LU's ordering). Either
+  /// way the plain LU solve (preonly) gives the direct path's answer bit for bit.
   /// max_iterations > 0: a solve first runs GMRES on the current matrix from the incoming
   /// `state`, preconditioned by the kept LU factors, and factorises only when GMRES has not
   /// reached `rtol` (relative to the preconditioned right-hand side) within that budget.

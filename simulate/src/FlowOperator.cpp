@@ -166,6 +166,7 @@ FlowOperator::FlowOperator(FlowProblem problem) : m_p(std::move(problem)) {
         m_cellChi(j, i) = static_cast<double>(hits) / (ss * ss);
       }
   if (sharp && m_p.merge_cut_cells) mergeCutCells();
+  pinClosedComponents();
 }
 
 double FlowOperator::W(int a, int k) const {
@@ -474,6 +475,68 @@ void FlowOperator::mergeCutCells() {
     if (m < 0 || inside[static_cast<std::size_t>(m)] != 0) continue;
     m_master[static_cast<std::size_t>(c)] = m;
     m_merged[static_cast<std::size_t>(m)].push_back(c);
+  }
+}
+
+void FlowOperator::pinClosedComponents() {
+  // Cells exchange pressure through fluid velocity nodes (the node's momentum row holds both
+  // cells' pressures, the cells' continuity rows hold the node) and through merges. A component
+  // of cells that touches no pressure boundary and holds no pinned cell has no pressure level,
+  // and the sum of its continuity rows involves only prescribed (solid or wall) velocities, so
+  // the system is singular: its LU gave a non-finite field. The sharp method makes such
+  // components of enclosed pockets and of cut cells: at 0.5 cells per pixel a lone pore pixel in
+  // a grain can open the face between two cells whose centres are both in the grain, and each
+  // merges into the other (a chain that closes on itself, left unmerged). Replacing one
+  // continuity row of such a component by p = 0 removes the free level; the dropped row is the
+  // negative sum of the others (no net flux through a closed boundary at rest), so nothing else
+  // changes. Components with a pressure boundary, or the one pinned by the constructor when the
+  // domain has none, are left as they are.
+  const int nc = m_N[0] * m_N[1];
+  std::vector<int> parent(static_cast<std::size_t>(nc));
+  for (int c = 0; c < nc; ++c) parent[static_cast<std::size_t>(c)] = c;
+  const auto find = [&](int c) {
+    while (parent[static_cast<std::size_t>(c)] != c) c = parent[static_cast<std::size_t>(c)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(c)])];
+    return c;
+  };
+  const auto join = [&](int a, int b) {
+    a = find(a);
+    b = find(b);
+    if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
+  };
+  // Cell index (j nx + i) of the cell on side `hi` of node (d, n, t) along axis d; -1 outside the domain.
+  const auto cellBeside = [&](int d, int n, int t, bool hi) {
+    int k = hi ? n : n - 1;
+    if (m_per[d]) k = wrapIndex(d, k);
+    else if (k < 0 || k >= m_N[d]) return -1;
+    return d == 0 ? t * m_N[0] + k : k * m_N[0] + t;
+  };
+  std::vector<char> referenced(static_cast<std::size_t>(nc), 0);
+  for (int c = 0; c < nc; ++c) {
+    if (m_pinned[static_cast<std::size_t>(c)] != 0) referenced[static_cast<std::size_t>(c)] = 1;
+    if (!m_master.empty() && m_master[static_cast<std::size_t>(c)] >= 0) join(c, m_master[static_cast<std::size_t>(c)]);
+  }
+  for (int d = 0; d < 2; ++d) {
+    const int b = 1 - d;
+    for (int t = 0; t < m_N[b]; ++t)
+      for (int n = 0; n < m_nn[d]; ++n) {
+        const char k = m_kind[d][static_cast<std::size_t>(local(d, n, t))];
+        if (k == kFluid) {
+          const int lo = cellBeside(d, n, t, false), hi = cellBeside(d, n, t, true);
+          if (lo >= 0 && hi >= 0) join(lo, hi);
+        } else if (k == kPressureLo || k == kPressureHi) {
+          const int c = cellBeside(d, n, t, k == kPressureLo);
+          if (c >= 0) referenced[static_cast<std::size_t>(c)] = 1;
+        }
+      }
+  }
+  for (int c = 0; c < nc; ++c)
+    if (referenced[static_cast<std::size_t>(c)] != 0) referenced[static_cast<std::size_t>(find(c))] = 1;
+  for (int c = 0; c < nc; ++c) {  // the first cell of each closed component that keeps its own pressure
+    const int r = find(c);
+    if (referenced[static_cast<std::size_t>(r)] != 0) continue;
+    if (!m_master.empty() && m_master[static_cast<std::size_t>(c)] >= 0) continue;
+    m_pinned[static_cast<std::size_t>(c)] = 2;
+    referenced[static_cast<std::size_t>(r)] = 1;
   }
 }
 

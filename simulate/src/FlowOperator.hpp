@@ -121,6 +121,8 @@ class FlowOperator {
   void cellFluxes(int i, int j, RowTerms& R) const;
   /// Sharp: merges each cell whose centre is inside a body (and which is not pinned) into a neighbour.
   void mergeCutCells();
+  /// Pins one cell (its pressure to 0) in every pressure component without a pressure boundary.
+  void pinClosedComponents();
   void momentumRow(int d, int n, int t, bool standard, RowTerms& R) const;
   void continuityRow(int i, int j, RowTerms& R) const;
   /// Component d at the fraction w of the link from node (n, t) to its neighbour in slot s

@@ -201,13 +201,17 @@ TEST(SubCellWall, BrinkmanLayerAtAStraightWallIsTheAnalyticProfileAtEveryGrid) {
   // delta = h / sqrt(12), its mean (the Darcy velocity times H / w, the flux the solve is scaled
   // to) U0 (1 - (2 delta / w) tanh(w / (2 delta))). The velocity particles feel at 2.5, 5 and
   // 10 um from either wall must follow it at 10, 5 and 2.5 um fluid cells alike.
-  // Tolerance 8 %: the amplitude comes from the solved velocity one pixel beyond the wall's
-  // cell, and the penalized solve's walls are first order (its centre-line velocity here is
-  // 3.5-7.3 % below the exact one on these grids); measured 6.3 / 1.3 / 0.7 %. The profile's
-  // shape is exact by construction: the ratio of two distances within 1e-6 (round-off and the
-  // far wall's e^-20 tail). The linear no-slip expansion (GridWalls::cells) gives 0.95-1.49 of
-  // the analytic value on the same grids.
-  constexpr double kAmplitude = 0.08, kShape = 1e-6;
+  // Tolerance 6 %: the amplitude comes from the solved velocity one pixel beyond the wall's
+  // cell, which carries the solve's wall error: measured 4.6 / 1.3 / 0.45 % low at 0.5 / 1 / 2
+  // cells per pixel with the sharp solve (second order: the error falls 3.5 and 2.9 times per
+  // halving); the penalized solve it replaced gave 6.3 / 1.3 / 0.7 % (its walls first order) and
+  // needed 8 %. The profile's shape is exact by construction: the ratio of two distances within
+  // 1e-6 (round-off and the far wall's e^-20 tail). No flow into the walls: the transverse
+  // velocity is the solve's round-off (measured below 2e-14 U0; 1.5e-6 U0 while the outlet's
+  // face nodes read fluid beyond the image and let flow out through the walls, see
+  // MicromodelFlow's solverShape). The linear no-slip expansion (GridWalls::cells) gives
+  // 0.95-1.49 of the analytic value on the same grids.
+  constexpr double kAmplitude = 0.06, kShape = 1e-6;
   const int rows = 16, cols = 24, wall = 2;
   PixelMask m = PixelMask::Constant(rows, cols, false);
   m.topRows(wall) = true;

@@ -2,11 +2,16 @@
 // keep_factorisation): after deposits close pixels and plate layers thin the aperture, the
 // kept solver must give what a fresh direct solve of the same geometry gives. Reference: the
 // direct solve (a new solver, LU of the current matrix), the path every re-solve took before.
-// Default warm start (numeric refactorisation with the first solve's ordering and symbolic
-// analysis): the same bytes, which is what keeps checkpoint/resume exact. GMRES preconditioned
-// by the kept factors (warm_max_iterations > 0) stops at a preconditioned residual of 1e-12 of
-// the right-hand side, so k and the velocities agree to ~1e-10; the tests allow 1e-8 (k/k0 is
-// written with 6 digits). Unit tier: masks of 120 x 60 pixels, under a second each. The
+// Default warm start (numeric refactorisation with the kept ordering and symbolic analysis while
+// the pattern stays; the sharp solve's pattern changes with every closed pixel, and then a new
+// matrix is ordered and analysed as a new solver does): the same bytes, which is what keeps
+// checkpoint/resume exact. GMRES preconditioned by the kept factors (warm_max_iterations > 0)
+// stops at a preconditioned residual of 1e-12 of the right-hand side; k then agrees to ~1e-11
+// and the tests allow 1e-8 (k/k0 is written with 6 digits). The velocities agree less well
+// where pixels closed: there the sharp rows changed from momentum stencils to identities
+// (u = 0), which the kept factors do not know, so the preconditioned residual bounds their
+// error more loosely (measured 2.8e-8 of the largest velocity after 33 iterations, 1e-9 to 5e-9
+// elsewhere); the tests allow 1e-7, still 10 times below the 6 digits written. Unit tier: masks of 120 x 60 pixels, under a second each. The
 // DISABLED_ benchmark replays a deposit sequence on the full Pore2Chip mask (minutes; run with
 // --gtest_also_run_disabled_tests; MMVAL_BENCH_STEPS re-solves, MMVAL_BENCH_ITS GMRES budget).
 #include <gtest/gtest.h>
@@ -29,7 +34,8 @@ namespace mmval::particles {
 namespace {
 
 constexpr double kPixel = 5e-6, kDepth = 20e-6;
-constexpr double kAgree = 1e-8;  ///< warm against fresh direct: k and velocities, relative (see the header)
+constexpr double kAgree = 1e-8;         ///< warm against fresh direct: k, relative (see the header)
+constexpr double kAgreeVelocity = 1e-7;  ///< warm against fresh direct: velocities over the largest (see the header)
 
 /// 120 x 60 pixels with a few round grains (none touches the inlet or outlet column).
 PixelMask grains() {
@@ -96,9 +102,10 @@ TEST(WarmResolve, FirstSolveIsTheDirectSolveBitForBit) {
 }
 
 TEST(WarmResolve, ReSolvesWithTheKeptAnalysisAreTheDirectSolvesBitForBit) {
-  // The default warm start: every re-solve factorises numerically with the first solve's
-  // ordering and symbolic analysis. Byte equality with a new solver per re-solve is what keeps
-  // a resumed run identical to an uninterrupted one (the checkpoint carries no factors).
+  // The default warm start: every re-solve factorises, numerically with the kept ordering and
+  // symbolic analysis while the pattern stays, as a new solver when closed pixels changed it.
+  // Byte equality with a new solver per re-solve is what keeps a resumed run identical to an
+  // uninterrupted one (the checkpoint carries no factors).
   const PixelMask solid = grains();
   MicromodelFlow warm(solid, options(true));
   warm.solve({});
@@ -118,7 +125,9 @@ TEST(WarmResolve, ReSolvesWithTheKeptAnalysisAreTheDirectSolvesBitForBit) {
 TEST(WarmResolve, GmresReSolvesEqualFreshDirectSolvesAsDepositsGrow) {
   const PixelMask solid = grains();
   MicromodelFlowOptions o = options(true);
-  o.warm_max_iterations = 40;
+  // Each re-solve closes pixels: 33, 46, 58 and 73 GMRES iterations with the sharp solve (the
+  // penalized one needed under 40), so a budget of 80 keeps the kept factors for all four.
+  o.warm_max_iterations = 80;
   MicromodelFlow warm(solid, o);
   warm.solve({});
   DepositGrid d(solid, kPixel, kDepth, 0.5);
@@ -134,7 +143,7 @@ TEST(WarmResolve, GmresReSolvesEqualFreshDirectSolvesAsDepositsGrow) {
     EXPECT_NEAR(w.permeability, f.permeability, kAgree * f.permeability) << "re-solve " << step;
     EXPECT_NEAR(w.pressure_drop, f.pressure_drop, kAgree * f.pressure_drop) << "re-solve " << step;
     const double dev = velocityDeviation(warm, fresh);
-    EXPECT_LT(dev, kAgree) << "re-solve " << step;
+    EXPECT_LT(dev, kAgreeVelocity) << "re-solve " << step;
     std::printf("re-solve %d: k %.12g (fresh %.12g), %d GMRES iterations, %s, velocity deviation %.2g\n", step, w.permeability,
                 f.permeability, w.iterations, w.factorised ? "factorised" : "kept factors", dev);
   }

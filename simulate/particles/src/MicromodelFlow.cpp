@@ -17,6 +17,7 @@ namespace mmval::particles {
 
 namespace {
 constexpr double kPressureDrop = 1.0;  // Pa; Stokes is linear, the field is rescaled to the target flux
+constexpr double kEdge = 1e-9;         // pixels: a cell edge this close to a pixel edge lies on it (rounding of the axis' faces)
 
 /// Distance (m) from each pixel centre to the nearest grain or side wall, row-major
 /// from the bottom row up (j * cols + i, j = 0 the image's last row).
@@ -34,6 +35,18 @@ std::vector<double> pixelWallDistance(const PixelMask& solid, double pixel) {
   for (int j = 0; j < rows; ++j)
     for (int i = 0; i < cols; ++i) d[static_cast<std::size_t>(j) * cols + i] = g.wallDistance((i + 0.5) * pixel, (j + 0.5) * pixel);
   return d;
+}
+
+/// The shape the fluid solver cuts against: the mask plus one column beyond the outlet repeating
+/// its last. The outlet's face nodes lie on the image's edge (x = width), where MaskShape reads
+/// the pixel beyond, outside the image and so fluid: every grain touching the outlet had open
+/// outlet faces, and the sharp solve let flow out through them (1 % more flux in a straight
+/// 8-cell channel whose walls reach the outlet). Everything inside the image is unchanged.
+std::shared_ptr<const simulate::MaskShape> solverShape(const PixelMask& solid, double pixel) {
+  PixelMask padded(solid.rows(), solid.cols() + 1);
+  padded.leftCols(solid.cols()) = solid;
+  padded.col(solid.cols()) = solid.col(solid.cols() - 1);
+  return std::make_shared<const simulate::MaskShape>(std::move(padded), pixel);
 }
 }  // namespace
 
@@ -83,20 +96,25 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
   prob.boundary[2].type = prob.boundary[3].type = simulate::BoundaryType::slip;
   prob.viscosity = m_opt.viscosity;
   prob.depth = m_opt.depth;
-  // Deposits (or a coarse grid) can wall off pockets of pore space; an enclosed
-  // pocket has no pressure level and makes the linear system singular.
-  // Connectivity is taken as the sharp method sees it: a cell is fluid when its
-  // centre is, and two cells (or a cell and the inlet/outlet) communicate when
-  // the node of their shared face is fluid too. Cells reachable from neither
-  // the inlet nor the outlet are closed (every pixel they overlap).
-  const double cw = W / nx, ch = H / ny;
+  // Deposits (or a coarse grid) can wall off pockets of pore space. A cell is pore when its
+  // centre is, and two pore cells (or a pore cell and the inlet/outlet) communicate when the
+  // velocity node of their shared face is fluid too, with the solver's own node positions
+  // (Axis::face, Axis::centre: at 0.5 cells per pixel the nodes lie on pixel corners, where
+  // i * W / nx and the axis' face can round to different pixels). No path from inlet to outlet:
+  // blocked, no solve. Pore cells reachable from neither are closed (the pixels under them).
+  // A cell whose centre is in a grain does not carry the path here, though the sharp solve
+  // merges it into a neighbour when a face is fluid: at 0.5 cells per pixel a wall of closed
+  // pixels one pixel thick at an odd column passes between the face nodes and only the cell
+  // centres see it, and it must still stop the pump. Components of such cells that reach
+  // neither side get their pressure pinned by the solver (FlowOperator) and carry no flow.
   for (int pass = 0; pass < 8; ++pass) {  // closing pixels can cut off more cells: repeat until none is
-    const simulate::MaskShape probe(all, p);
+    const auto shape = solverShape(all, p);
+    const simulate::MaskShape& probe = *shape;
     std::vector<std::uint8_t> fluid(static_cast<std::size_t>(nx) * ny), reach(fluid.size(), 0);
     for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i) fluid[static_cast<std::size_t>(j) * nx + i] = !probe.solid((i + 0.5) * cw, (j + 0.5) * ch);
-    const auto openX = [&](int i, int j) { return !probe.solid(i * cw, (j + 0.5) * ch); };  // face at x = i cw
-    const auto openY = [&](int i, int j) { return !probe.solid((i + 0.5) * cw, j * ch); };  // face at y = j ch
+      for (int i = 0; i < nx; ++i) fluid[static_cast<std::size_t>(j) * nx + i] = !probe.solid(prob.x.centre(i), prob.y.centre(j));
+    const auto openX = [&](int i, int j) { return !probe.solid(prob.x.face(i), prob.y.centre(j)); };  // x-face i of row j
+    const auto openY = [&](int i, int j) { return !probe.solid(prob.x.centre(i), prob.y.face(j)); };  // y-face j of column i
     const auto flood = [&](int column, std::uint8_t bit) {
       std::vector<int> stack;
       for (int j = 0; j < ny; ++j) {
@@ -143,16 +161,20 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
         const auto k = static_cast<std::size_t>(j) * nx + i;
         if (!fluid[k] || reach[k]) continue;
         isolated = true;
-        // Pixels overlapping cell (i, j); b counts pixel rows from the bottom.
-        const int c0 = std::max(0, static_cast<int>(std::floor(i * cw / p))), c1 = std::min(nc - 1, static_cast<int>(std::ceil((i + 1) * cw / p)));
-        const int b0 = std::max(0, static_cast<int>(std::floor(j * ch / p))), b1 = std::min(nr - 1, static_cast<int>(std::ceil((j + 1) * ch / p)));
+        // The pixels under cell (i, j) (b counts pixel rows from the bottom): those it overlaps by
+        // more than kEdge of a pixel, so that a cell edge on a pixel edge closes no pixel beyond it.
+        const auto first = [&](double lo) { return static_cast<int>(std::floor(lo / p + kEdge)); };
+        const auto last = [&](double hi) { return static_cast<int>(std::ceil(hi / p - kEdge)) - 1; };
+        const int c0 = std::max(0, first(prob.x.face(i))), c1 = std::min(nc - 1, last(prob.x.face(i + 1)));
+        const int b0 = std::max(0, first(prob.y.face(j))), b1 = std::min(nr - 1, last(prob.y.face(j + 1)));
         for (int b = b0; b <= b1; ++b)
           for (int cc = c0; cc <= c1; ++cc) all(nr - 1 - b, cc) = true;
       }
     if (!isolated) break;
   }
-  prob.shape = std::make_shared<simulate::MaskShape>(all, p);
-  prob.method = simulate::ImmersedMethod::penalized;
+  const double cw = W / nx, ch = H / ny;
+  prob.shape = solverShape(all, p);
+  prob.method = simulate::ImmersedMethod::sharp;
   if (!aperture.empty()) {
     // Cell depth: mean aperture of the open pixels whose centres lie in the cell
     // (the pixel under the cell centre when the cell is smaller than a pixel);

@@ -32,6 +32,10 @@
 //    whose nodes are solid carry no flux), so it held those faces' flow near
 //    zero and moved the wall by a fraction of a cell: a first-order error
 //    (FlowProblem::merge_cut_cells).
+// Cells that exchange pressure (through fluid velocity nodes and merges) but
+// reach no pressure boundary, e.g. a pocket enclosed by a body, have no
+// pressure level: one cell of each such component is pinned to p = 0 (its
+// continuity row depends on the others), so the system is never singular.
 // Force on a body: the sum, over every face whose equation the immersed
 // boundary changed, of the residual of the unchanged momentum balance
 // (-sum R). Because the balance is conservative this equals the momentum
@@ -147,9 +151,11 @@ struct SolverOptions {
   double newton_tolerance = 1e-8;  ///< max |du| / max |u|
   double linear_rtol = 1e-10;      ///< iterative only
   /// Direct solver, Stokes: re-solves after SteadyFlowSolver::update keep the linear solver.
-  /// Each factorisation after the first is numeric only (the ordering and symbolic analysis of
-  /// the first matrix are kept: the pattern does not change), with the same answer as a new
-  /// solver. warm_max_iterations > 0: the LU factors of an earlier geometry first precondition
+  /// A factorisation of a matrix with the pattern of the last one is numeric only (the ordering
+  /// and symbolic analysis are kept); a matrix of another pattern (the sharp method's solid
+  /// nodes, cut stencils and merged cells follow the geometry) is assembled, ordered and
+  /// analysed as a new solver does it. Either way the answer is a new solver's, bit for bit.
+  /// warm_max_iterations > 0: the LU factors of an earlier geometry first precondition
   /// GMRES on the changed one, from the last solution; when GMRES has not converged within that
   /// many iterations the solve factorises the current matrix and keeps those factors.
   bool keep_factorisation = false;
@@ -191,8 +197,9 @@ class SteadyFlowSolver {
 
   /// Replaces the problem by one on the same grid (axes, boundary types and inertia setting;
   /// e.g. other solids or depths). With SolverOptions::keep_factorisation the linear solver is
-  /// kept (its ordering and symbolic analysis; with warm_max_iterations > 0 also its factors and
-  /// the last solution as GMRES's start); otherwise the next solve() is a new solver's.
+  /// kept (its ordering and symbolic analysis while the matrix pattern stays; with
+  /// warm_max_iterations > 0 also its factors and the last solution as GMRES's start);
+  /// otherwise the next solve() is a new solver's.
   /// Throws std::invalid_argument when the grid differs.
   void update(FlowProblem problem);
 

@@ -12,13 +12,14 @@
 // Permeability by Darcy's law at a fixed pressure drop,
 //   k = mu q L / (W dp)   (q: flux through the outlet per unit chip depth, the
 //                          undisturbed depth, so that k/k0 sees the thinned aperture),
-// the definition of the image-permeability kind. Solids enter by the penalized
-// (volume-fraction) immersed boundary: with the sharp one, pixels closed by
-// deposits put face nodes exactly on the pixel staircase and the solve came out
-// non-finite (seen on the dilated Pore2Chip mask at 0.1 and 0.5 cells per
-// pixel), and the method must not change between re-solves, or k/k0 would
-// jump for numerical reasons. Pockets cut off from both inlet and outlet are
-// closed before each solve (they have no pressure level).
+// the definition of the image-permeability kind. Solids enter by the sharp immersed
+// boundary (cut viscous stencils at the exact pixel edges, as the permeability kinds
+// use; docs/validation/particle-physics.md, "Grid and seed convergence"): the
+// penalized one's first-order wall error in narrow throats kept the scene's retention
+// from converging with the grid. The method must not change between re-solves, or
+// k/k0 would jump for numerical reasons. Pockets cut off from both inlet and outlet
+// (connectivity as the sharp solve sees it) are closed before each solve; the solver
+// pins the pressure of any component without a pressure boundary anyway.
 #pragma once
 #include <cstdint>
 #include <memory>
@@ -42,11 +43,12 @@ struct MicromodelFlowOptions {
   double viscosity = 1e-3;          ///< Pa s
   double darcy_velocity = 0.0;      ///< m/s, superficial velocity the flow is scaled to (>= 0)
   double cells_per_pixel = 0.5;     ///< fluid grid resolution
-  /// Re-solves (numerics.resolve): true ("warm") keeps the fluid solver between solves: the
-  /// fill-reducing ordering and symbolic LU analysis of the first solve serve every re-solve
-  /// (deposits change the matrix's numbers, not its pattern), so a re-solve is a numeric
-  /// factorisation and gives the direct answer bit for bit; false ("direct") builds a new
-  /// solver per solve. The first solve is the same either way.
+  /// Re-solves (numerics.resolve): true ("warm") keeps the fluid solver between solves: while
+  /// the matrix keeps its pattern (aperture changes) a re-solve is a numeric factorisation with
+  /// the kept ordering and symbolic analysis; closed pixels change the sharp solve's pattern,
+  /// and then the re-solve orders and analyses the new matrix as a new solver does. Either way
+  /// it gives the direct answer bit for bit; false ("direct") builds a new solver per solve.
+  /// The first solve is the same either way.
   bool warm_start = true;
   /// Warm start: > 0 first runs GMRES from the last field, preconditioned by the kept LU factors
   /// of an earlier geometry, factorising only when it has not converged (1e-12 of the
