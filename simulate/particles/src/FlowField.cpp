@@ -161,7 +161,28 @@ void GriddedFlow::update(const std::vector<double>& ux, const std::vector<double
       if (!m_solid[k]) h_max = std::max(h_max, m_h[k]);
     m_reach = std::max(kExactCells, static_cast<int>(std::ceil(matchDistance(h_max) / std::min(m_dx, m_dy))));
   }
+  if (m_walls != GridWalls::nodes) indexWallCells();
   ++m_version;
+}
+
+void GriddedFlow::indexWallCells() {
+  // The wall search visits the (2 reach + 1)^2 nodes around a point's node, of which only the
+  // solid ones with a fluid neighbour count (a few per block beside a wall): list those once
+  // per update, in the search's order, so that equal distances resolve to the same wall point.
+  const auto n = static_cast<std::size_t>(m_nx) * static_cast<std::size_t>(m_ny);
+  m_wall_start.assign(n + 1, 0);
+  m_wall_cells.clear();
+  for (int jc = 0; jc < m_ny; ++jc)
+    for (int ic = 0; ic < m_nx; ++ic) {
+      m_wall_start[static_cast<std::size_t>(jc) * m_nx + ic] = m_wall_cells.size() / 2;
+      for (int j = std::max(0, jc - m_reach); j <= std::min(m_ny - 1, jc + m_reach); ++j)
+        for (int i = std::max(0, ic - m_reach); i <= std::min(m_nx - 1, ic + m_reach); ++i) {
+          if (!m_edge[static_cast<std::size_t>(j) * m_nx + i]) continue;
+          m_wall_cells.push_back(i);
+          m_wall_cells.push_back(j);
+        }
+    }
+  m_wall_start[n] = m_wall_cells.size() / 2;
 }
 
 double GriddedFlow::bilinear(const std::vector<double>& a, double x, double y) const {
@@ -205,24 +226,46 @@ bool GriddedFlow::fluidBilinear(const std::vector<double>& a, double x, double y
 }
 
 bool GriddedFlow::nearestWallPoint(double x, double y, double& d2, Vec2& q) const {
-  const int ic = nearestNode((x - m_x0) / m_dx, m_nx), jc = nearestNode((y - m_y0) / m_dy, m_ny);
+  const std::size_t k = static_cast<std::size_t>(nearestNode((y - m_y0) / m_dy, m_ny)) * m_nx + nearestNode((x - m_x0) / m_dx, m_nx);
   const double hx = 0.5 * m_dx, hy = 0.5 * m_dy;
   d2 = std::numeric_limits<double>::infinity();
-  for (int j = std::max(0, jc - m_reach); j <= std::min(m_ny - 1, jc + m_reach); ++j)
-    for (int i = std::max(0, ic - m_reach); i <= std::min(m_nx - 1, ic + m_reach); ++i) {
-      if (!m_edge[static_cast<std::size_t>(j) * m_nx + i]) continue;
-      // Nearest point of the solid cell [xi - hx, xi + hx] x [yj - hy, yj + hy].
-      const double cx = m_x0 + i * m_dx, cy = m_y0 + j * m_dy;
-      const double px = std::clamp(x, cx - hx, cx + hx), py = std::clamp(y, cy - hy, cy + hy);
-      const double e2 = (x - px) * (x - px) + (y - py) * (y - py);
-      if (e2 < d2) {
-        d2 = e2;
-        q = Vec2(px, py);
-      }
+  // The wall cells (solid with a fluid neighbour) within m_reach cells of the point's node.
+  for (std::size_t e = m_wall_start[k]; e < m_wall_start[k + 1]; ++e) {
+    const int i = m_wall_cells[2 * e], j = m_wall_cells[2 * e + 1];
+    // Nearest point of the solid cell [xi - hx, xi + hx] x [yj - hy, yj + hy].
+    const double cx = m_x0 + i * m_dx, cy = m_y0 + j * m_dy;
+    const double px = std::clamp(x, cx - hx, cx + hx), py = std::clamp(y, cy - hy, cy + hy);
+    const double e2 = (x - px) * (x - px) + (y - py) * (y - py);
+    if (e2 < d2) {
+      d2 = e2;
+      q = Vec2(px, py);
     }
+  }
   // Any solid cell beyond the searched block is at least m_reach cells away.
   const double reach = m_reach * std::min(m_dx, m_dy);
   return d2 <= reach * reach;
+}
+
+bool GriddedFlow::nearestWallIsAt(const Vec2& p, double s) const {
+  // nearestWallPoint(p) && sqrt(d2) >= s (1 - 1e-9), as a test over the cells: sqrt is monotone, so
+  // the minimum's root is the roots' minimum, and the first cell nearer than that settles it.
+  if (isSolid(p.x(), p.y())) return false;
+  const double x = p.x(), y = p.y();
+  const std::size_t k = static_cast<std::size_t>(nearestNode((y - m_y0) / m_dy, m_ny)) * m_nx + nearestNode((x - m_x0) / m_dx, m_nx);
+  const double hx = 0.5 * m_dx, hy = 0.5 * m_dy;
+  const double reach = m_reach * std::min(m_dx, m_dy), t = s * (1 - 1e-9);
+  // Above t^2 (1 + 1e-9) the root is above t whatever its rounding: no square root needed.
+  const double t2 = t * t * (1 + 1e-9);
+  bool within = false;
+  for (std::size_t e = m_wall_start[k]; e < m_wall_start[k + 1]; ++e) {
+    const int i = m_wall_cells[2 * e], j = m_wall_cells[2 * e + 1];
+    const double cx = m_x0 + i * m_dx, cy = m_y0 + j * m_dy;
+    const double px = std::clamp(x, cx - hx, cx + hx), py = std::clamp(y, cy - hy, cy + hy);
+    const double e2 = (x - px) * (x - px) + (y - py) * (y - py);
+    if (e2 < t2 && std::sqrt(e2) < t) return false;
+    within = within || e2 <= reach * reach;
+  }
+  return within;
 }
 
 Vec2 GriddedFlow::faceVelocity(double x, double y) const {
@@ -248,19 +291,14 @@ struct SlotProfile {
 };
 }  // namespace
 
-Vec2 GriddedFlow::layerVelocity(double x, double y, double d, const Vec2& q) const {
+Vec2 GriddedFlow::layerVelocity(double x, double y, double d, const Vec2& q, double h, double d_m) const {
   const Vec2 n = (Vec2(x, y) - q) / d;
-  const double delta = depth(x, y) / std::sqrt(12.0), d_target = matchDistance(depth(x, y));
+  const double delta = h / std::sqrt(12.0), d_target = d_m;
   // The slot's half-width: the largest s <= d_target with q still the nearest wall point of
   // q + s n (the distance along the ray grows as s until the ray meets the medial axis, and
   // stays below s after it), by bisection to 1e-3 of a spacing.
   double D = std::numeric_limits<double>::infinity(), s_match = d_target;
-  const auto qNearest = [&](double s) {
-    double e2 = 0;
-    Vec2 r;
-    const Vec2 p = q + s * n;
-    return !isSolid(p.x(), p.y()) && nearestWallPoint(p.x(), p.y(), e2, r) && std::sqrt(e2) >= s * (1 - 1e-9);
-  };
+  const auto qNearest = [&](double s) { return nearestWallIsAt(q + s * n, s); };
   if (!qNearest(d_target)) {
     double lo = d, hi = d_target;
     while (hi - lo > 1e-3 * std::min(m_dx, m_dy)) {
@@ -291,13 +329,14 @@ Vec2 GriddedFlow::meanVelocity(double x, double y) const {
   if (m_walls == GridWalls::brinkman) {
     // Quick exit far from walls: the node transform reads up to ~half a spacing too far beside
     // convex corners and its bilinear interpolation up to ~0.7 spacings more.
-    if (bilinear(m_dist, x, y) > matchDistance(depth(x, y)) + 2 * std::max(m_dx, m_dy)) return u;
+    const double h = depth(x, y), d_m = matchDistance(h);
+    if (bilinear(m_dist, x, y) > d_m + 2 * std::max(m_dx, m_dy)) return u;
     double d2 = 0;
     Vec2 q;
     if (!nearestWallPoint(x, y, d2, q)) return u;
     const double d = std::sqrt(d2);
     if (!(d > 0)) return {0, 0};
-    return d < matchDistance(depth(x, y)) ? layerVelocity(x, y, d, q) : u;
+    return d < d_m ? layerVelocity(x, y, d, q, h, d_m) : u;
   }
   const int i = nearestNode((x - m_x0) / m_dx, m_nx), j = nearestNode((y - m_y0) / m_dy, m_ny);
   const std::size_t k = static_cast<std::size_t>(j) * m_nx + i;

@@ -179,11 +179,17 @@ class GriddedFlow final : public FlowField {
   /// GridWalls::cells: squared distance to the nearest solid cell within reach and the
   /// nearest point on it; false when none is within kExactCells cells.
   bool nearestWallPoint(double x, double y, double& d2, Vec2& q) const;
+  /// GridWalls::brinkman: whether the ray point p = q + s n still has q as its nearest wall
+  /// point (p fluid, a wall within reach, none nearer than s (1 - 1e-9)); the same answer as
+  /// nearestWallPoint's distance tested against s, without finding the minimum.
+  bool nearestWallIsAt(const Vec2& p, double s) const;
   int nearestNode(double f, int n) const;
+  /// GridWalls::cells, brinkman: fills m_wall_start and m_wall_cells from m_edge and m_reach.
+  void indexWallCells();
   /// The face velocities interpolated in the cell of (x, y) (Pollock), nothing imposed at walls.
   Vec2 faceVelocity(double x, double y) const;
-  /// GridWalls::brinkman: the velocity at wall distance d < match distance (see there).
-  Vec2 layerVelocity(double x, double y, double d, const Vec2& q) const;
+  /// GridWalls::brinkman: the velocity at wall distance d < match distance d_m (see there) at depth h.
+  Vec2 layerVelocity(double x, double y, double d, const Vec2& q, double h, double d_m) const;
   int m_nx, m_ny;
   double m_x0, m_y0, m_dx, m_dy;
   GridWalls m_walls;
@@ -193,6 +199,11 @@ class GriddedFlow final : public FlowField {
   std::vector<std::uint8_t> m_solid;
   std::vector<std::uint8_t> m_edge;  ///< GridWalls::cells, brinkman: solid nodes with a fluid 4-neighbour (only they can be nearest)
   std::vector<std::uint8_t> m_near;  ///< GridWalls::cells, brinkman: fluid nodes with a solid 8-neighbour (only their cells come within l of a wall)
+  /// GridWalls::cells, brinkman: for each node, the m_edge nodes within m_reach cells of it
+  /// (row by row, as nearestWallPoint scans them), nodes m_wall_start[k] to m_wall_start[k + 1]
+  /// of m_wall_cells; built by update(), so that a wall search visits only wall cells.
+  std::vector<std::size_t> m_wall_start;
+  std::vector<std::int32_t> m_wall_cells;  ///< pairs (i, j)
   std::uint64_t m_version = 0;
 };
 
