@@ -73,10 +73,27 @@ MaskShape::MaskShape(Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic> solid, d
   if (m_solid.size() == 0 || !(pixel_m > 0)) throw std::invalid_argument("a mask needs pixels and a positive pixel size");
 }
 
+namespace {
+/// Pixels: a point this close to the image's edge lies on it (x = width is cols * pixel / pixel).
+constexpr double kOnEdge = 1e-9;
+
+/// The pixel index of coordinate u (pixel edges at integers) among n, a point on the image's
+/// edge (u = 0 or n, to kOnEdge) taking the edge pixel; -1 outside the image.
+double pixelIndex(double u, int n) {
+  if (u >= -kOnEdge && u < 0) return 0;
+  if (u >= n && u <= n + kOnEdge) return n - 1;
+  const double i = std::floor(u);
+  return i < 0 || i >= n ? -1 : i;
+}
+}  // namespace
+
 int MaskShape::bodyAt(double x, double y) const {
-  const double c = std::floor((x - m_ox) / m_pixel);
-  const double r = std::floor((m_oy + height() - y) / m_pixel);
-  if (c < 0 || r < 0 || c >= cols() || r >= rows()) return -1;
+  // On the image's edge the edge pixel counts: the outlet's face nodes lie on x = width, and a grain
+  // touching the outlet must close them (reading the fluid beyond opened it: 1 % more flux through
+  // a channel whose walls reach the outlet).
+  const double c = pixelIndex((x - m_ox) / m_pixel, cols());
+  const double r = pixelIndex((m_oy + height() - y) / m_pixel, rows());
+  if (c < 0 || r < 0) return -1;
   return m_solid(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c)) ? 0 : -1;
 }
 
@@ -154,8 +171,11 @@ SmoothMaskShape::SmoothMaskShape(const Eigen::Array<bool, Eigen::Dynamic, Eigen:
 }
 
 double SmoothMaskShape::level(double x, double y) const {
-  const double u = (x - m_ox) / m_pixel, v = (m_oy + height() - y) / m_pixel;  // column, row coordinates (pixel edges at integers)
-  if (u < 0 || v < 0 || u > m_cols || v > m_rows) return -0.5;
+  double u = (x - m_ox) / m_pixel, v = (m_oy + height() - y) / m_pixel;  // column, row coordinates (pixel edges at integers)
+  // A point on the image's edge (to kOnEdge, the rounding of width / pixel) reads the edge's field.
+  if (u < -kOnEdge || v < -kOnEdge || u > m_cols + kOnEdge || v > m_rows + kOnEdge) return -0.5;
+  u = std::clamp(u, 0.0, static_cast<double>(m_cols));
+  v = std::clamp(v, 0.0, static_cast<double>(m_rows));
   const double cu = u - 0.5, cv = v - 0.5;  // pixel centres at integers
   const int i0 = static_cast<int>(std::floor(cv)), j0 = static_cast<int>(std::floor(cu));
   const double ti = cv - i0, tj = cu - j0;

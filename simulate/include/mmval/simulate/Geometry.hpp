@@ -55,7 +55,8 @@ class Circles final : public Shape {
 
 /// A binary mask: solid(row, col) true for grain pixels; row 0 is the image's
 /// top row, which sits at y = origin_y + rows * pixel (y up, x to the right).
-/// All grain pixels form body 0.
+/// All grain pixels form body 0. Outside the image is fluid; a point on its edge (the inlet's and
+/// outlet's face nodes) reads the edge pixel, so a grain touching a port closes it.
 class MaskShape final : public Shape {
  public:
   MaskShape(Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic> solid, double pixel_m, double origin_x = 0, double origin_y = 0);
@@ -84,7 +85,7 @@ class MaskShape final : public Shape {
 /// converge at first order in the grid spacing. Every pixel centre is kept on its own side (a
 /// pixel whose smoothed value crossed 1/2 is set just inside its side), so a one-pixel gap, grain or
 /// wall survives any sigma; wider sigma rounds more and narrows gaps of 1-2 pixels. Same layout as
-/// MaskShape (row 0 at the top); outside the image is fluid. Body 0.
+/// MaskShape (row 0 at the top); outside the image is fluid, its edge reads the edge pixels' field. Body 0.
 class SmoothMaskShape final : public Shape {
  public:
   SmoothMaskShape(const Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic>& solid, double pixel_m, double sigma_px, double origin_x = 0,
@@ -95,7 +96,8 @@ class SmoothMaskShape final : public Shape {
   double distanceAlong(double x, double y, int axis, int sign, double max_distance) const override;
   int bodies() const override { return 1; }
   Eigen::Vector2d centre(int body) const override;
-  /// The smoothed, interpolated mask at (x, y) minus 1/2: > 0 in grains. Outside the image -1/2.
+  /// The smoothed, interpolated mask at (x, y) minus 1/2: > 0 in grains. Outside the image -1/2
+  /// (a point on the edge, to 1e-9 pixel, is inside).
   double level(double x, double y) const;
   int rows() const { return m_rows; }
   int cols() const { return m_cols; }
