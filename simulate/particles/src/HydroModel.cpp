@@ -27,6 +27,14 @@ HydroModel::HydroModel(std::shared_ptr<const FlowField> flow, const SceneConfig&
   // No wall hydrodynamics at all without wall_hindrance (a point particle): no lag either.
   m_near_wall_shear = m_cfg.wall_hindrance && m_cfg.near_wall_shear;
   m_near_contact_drag = m_cfg.near_contact_drag;
+  if (m_cfg.attachment.rule == AttachmentModel::Rule::dlvo) {
+    // Plates and grains are the chip's material: sphere-plate against the collector potential
+    // (the engine's attachment uses the same parameters, OverdampedEngine.cpp).
+    DlvoParameters p = m_cfg.attachment.chemistry;
+    p.particle_radius = m_radius;
+    p.collector_radius = std::numeric_limits<double>::infinity();
+    m_wall_dlvo = std::make_shared<const DlvoInteraction>(p);
+  }
   m_perp_table.resize(kTable);
   for (int i = 0; i < kTable; ++i) {
     const double g = std::exp(kLogGapMin + (kLogGapMax - kLogGapMin) * i / (kTable - 1));
@@ -82,22 +90,29 @@ Vec3 HydroModel::force(const Vec3& x) const {
   const auto& c = m_cfg;
   Vec3 f(0, 0, -(c.particle.density - c.fluid.density) * c.particle.volume() * c.gravity);
   const auto& at = c.attachment;
-  if (at.hamaker > 0) {
-    const double a = m_radius, g_min = std::max(at.capture_distance, a * kMinGapFraction);
-    const auto vdw = [&](double gap) { return at.hamaker * a / (6.0 * std::pow(std::max(gap, g_min), 2)); };
+  if (m_wall_dlvo || at.hamaker > 0) {
+    const double a = m_radius;
     const double h = m_flow->depth(x.x(), x.y());
-    if (at.bottom && x.z() - a < at.attraction_range) f.z() -= vdw(x.z() - a);
-    if (at.top && h - x.z() - a < at.attraction_range) f.z() += vdw(h - x.z() - a);
+    if (at.bottom && x.z() - a < at.attraction_range) f.z() -= surfaceAttraction(x.z() - a);
+    if (at.top && h - x.z() - a < at.attraction_range) f.z() += surfaceAttraction(h - x.z() - a);
     if (at.grains) {
       const double gap = m_flow->wallDistance(x.x(), x.y()) - a;
       if (gap < at.attraction_range) {
         const Vec2 n = m_flow->wallNormal(x.x(), x.y());
-        f.x() -= n.x() * vdw(gap);
-        f.y() -= n.y() * vdw(gap);
+        const double pull = surfaceAttraction(gap);
+        f.x() -= n.x() * pull;
+        f.y() -= n.y() * pull;
       }
     }
   }
   return f;
+}
+
+double HydroModel::surfaceAttraction(double gap) const {
+  const auto& at = m_cfg.attachment;
+  const double g = std::max(gap, std::max(at.capture_distance, m_radius * kMinGapFraction));
+  if (m_wall_dlvo) return -m_wall_dlvo->force(g);  // DlvoInteraction::force > 0 pushes apart
+  return at.hamaker * m_radius / (6.0 * g * g);
 }
 
 namespace {

@@ -305,7 +305,7 @@ void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {
   s.boolean("deposition.top", "The top plate is sticky").def(false);
   s.boolean("deposition.walls", "Grains and side walls are sticky").def(true);
   s.boolean("deposition.deposited", "Deposited particles are sticky (ripening, bridging)").def(true);
-  s.quantity("deposition.hamaker", "J", "Hamaker constant of the sphere-wall van der Waals attraction (0: none)").def(hamaker_default).nonNegative();
+  s.quantity("deposition.hamaker", "J", "Hamaker constant of the sphere-wall van der Waals attraction of the capture rule (0: none; the dlvo rule uses chemistry.hamaker)").def(hamaker_default).nonNegative();
   s.quantity("deposition.attraction_range", "um", "van der Waals cut-off gap").def("1 um").positive();
   s.choice("deposition.plate_rule", {"capture", "torque-balance"},
            "Attachment to a sticky plate. capture: within the capture distance, for good; torque-balance (overdamped engine): "

@@ -329,6 +329,20 @@ void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched) 
       if (dlvoArrival(p, s, *chemistry(s))) return hold(s);
       p.rejected = static_cast<std::uint8_t>(p.rejected | bit);
     }
+    // Caught in a secondary minimum the local shear did not let hold it (p.secondary while mobile,
+    // p.held_by the surface): it translates along that surface in the well and is held as soon as
+    // the shear lets the well hold it (low-velocity regions: Torkzaban, Bradford & Walker 2007);
+    // it leaves the well when it leaves that surface's capture distance.
+    if (p.secondary) {
+      bool in_well = false;
+      for (const auto& [s, is_near] : near) in_well = in_well || (s == p.held_by && is_near);
+      if (!in_well) {
+        p.secondary = false;
+        p.held_by = Surface::none;
+      } else if (secondaryHolds(p, p.held_by, *chemistry(p.held_by))) {
+        hold(p.held_by);
+      }
+    }
     return;
   }
   bool plate = on_bottom || on_top;
@@ -350,21 +364,28 @@ void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched) 
 }
 
 bool OverdampedEngine::dlvoArrival(ParticleState& p, Surface s, const SurfaceChemistry& sc) {
-  p.secondary = false;
   const double u = arrivalDraw(p.id, ++p.arrivals);
-  if (u < sc.alpha) return true;  // over the barrier into the primary minimum
+  if (u < sc.alpha) {  // over the barrier into the primary minimum
+    p.secondary = false;
+    return true;
+  }
   // Not over the barrier: captured in the secondary minimum with the Maxwell probability
-  // (the same draw, rescaled to [0, 1) on the rest of the interval).
+  // (the same draw, rescaled to [0, 1) on the rest of the interval); a particle that is not
+  // stays in whatever well it was in.
   if (sc.alpha >= 1 || (u - sc.alpha) / (1 - sc.alpha) >= sc.secondary_capture) return false;
-  // Held at a distance by the well's attraction alone: only while that pull-off force holds
-  // against the local shear's torque, on plates, grain walls and deposits alike (otherwise the
-  // flow carries it on along the surface and a later arrival draws again).
-  const bool plate = s == Surface::bottom || s == Surface::top;
-  if (plate ? !m_model.plateAdhesionHolds(p.x, s == Surface::bottom, nullptr, sc.secondary_force)
-            : !m_model.surfaceAdhesionHolds(p.x, sc.secondary_force))
-    return false;
+  // In the well of s: held there only if the well withstands the local shear, else it
+  // translates in it (decideAttachment checks again every step).
   p.secondary = true;
-  return true;
+  p.held_by = s;
+  return secondaryHolds(p, s, sc);
+}
+
+bool OverdampedEngine::secondaryHolds(const ParticleState& p, Surface s, const SurfaceChemistry& sc) const {
+  // Held at a distance by the well's attraction alone: only while that pull-off force holds
+  // against the local shear's torque, on plates, grain walls and deposits alike.
+  const bool plate = s == Surface::bottom || s == Surface::top;
+  return plate ? m_model.plateAdhesionHolds(p.x, s == Surface::bottom, nullptr, sc.secondary_force)
+               : m_model.surfaceAdhesionHolds(p.x, sc.secondary_force);
 }
 
 bool OverdampedEngine::overlapsDeposit(const ParticleState& p, const std::vector<int>& fresh) const {
@@ -557,6 +578,9 @@ nlohmann::json OverdampedEngine::describe() const {
           {"near_wall_shear_lag", m_model.nearWallShear()},
           {"capture_distance_um", c.attachment.capture_distance * 1e6},
           {"hamaker_J", c.attachment.hamaker},
+          {"surface_force", c.attachment.rule == AttachmentModel::Rule::dlvo
+                                ? "DLVO sphere-plate force of the chemistry (the attachment's profile) towards sticky plates and grains"
+                                : "van der Waals A a / (6 gap^2) towards sticky plates and grains"},
           {"plate_attachment", c.attachment.torque_balance ? "torque balance (GCB shear vs DMT adhesion)" : "capture distance"},
           {"plate_attachment_efficiency", c.attachment.plate_efficiency},
           {"adhesion_separation_nm", c.attachment.adhesion_separation * 1e9},

@@ -22,8 +22,13 @@
 //                    wall_hindrance, which drops all wall hydrodynamics); plane flow
 //                    has no lag.
 //   body force       -(rho_p - rho_f) V g e_z
-//   attraction       sphere-plate van der Waals A a / (6 gap^2) towards sticky
-//                    surfaces within `attraction_range` (AttachmentModel)
+//   attraction       towards sticky surfaces within `attraction_range` (AttachmentModel):
+//                    capture rule: sphere-plate van der Waals A a / (6 gap^2) with
+//                    deposition.hamaker; dlvo rule: the same DLVO force that decides
+//                    attachment (Dlvo.hpp: double layer + retarded van der Waals, sphere-plate
+//                    with the case's chemistry), so that transport and attachment see one
+//                    profile. Both are evaluated at gaps of at least the capture distance:
+//                    inside it the attachment rule decides.
 //   capture          gap to a sticky surface <= capture distance (an arrival; the
 //                    engine's attachment rule decides whether it attaches)
 //   plate adhesion   (optional) torque balance of a sphere resting on a plate in
@@ -41,6 +46,7 @@
 #include <utility>
 #include <vector>
 
+#include "mmval/particles/Dlvo.hpp"
 #include "mmval/particles/Scene.hpp"
 
 namespace mmval::particles {
@@ -66,6 +72,10 @@ class HydroModel {
   double normalHindrance(double z, double h) const;
   /// Gravity-buoyancy + attraction at x, N.
   Vec3 force(const Vec3& x) const;
+  /// Force pulling a particle towards a sticky plate or grain wall at surface gap `gap`
+  /// (N, > 0 attracts, < 0 repels; gaps below the capture distance count as the capture
+  /// distance): the header's "attraction" of the case's attachment rule.
+  double surfaceAttraction(double gap) const;
   /// True when x is within the capture distance of a sticky plate, grain or side wall.
   bool captured(const Vec3& x) const;
   /// Torque balance of a particle resting on the bottom (or top) plate at x (header
@@ -89,6 +99,7 @@ class HydroModel {
   SceneConfig m_cfg;
   double m_radius, m_drag0, m_diffusivity;
   bool m_near_wall_shear = true, m_near_contact_drag = true;
+  std::shared_ptr<const DlvoInteraction> m_wall_dlvo;  ///< dlvo rule: sphere-plate profile of plates and grains
   std::vector<double> m_perp_table;
 };
 

@@ -7,7 +7,8 @@
 //          Brenner 1967; HydroModel::shearLag, the plates superposed)
 //   M = diag(1/lambda_par, 1/lambda_par, 1/lambda_perp) / (6 pi mu a)
 //       (Goldman-Cox-Brenner joined to Faxen for a sphere free to rotate, Brenner; two plates)
-//   F = gravity - buoyancy along -z + van der Waals attraction to sticky surfaces
+//   F = gravity - buoyancy along -z + the attraction to sticky surfaces (HydroModel::surfaceAttraction:
+//       van der Waals under the capture rule, the attachment's own DLVO force under the dlvo rule)
 //   dx_B = sqrt(2 D dt) xi with D = k_B T M, plus the drift k_B T dM/dz (Ito; SceneConfig::ito_drift,
 //   off only in checks that show what leaving it out does).
 //   Only M_zz depends on z in a way the drift sees (M_xx depends on z, not x), so the
@@ -30,7 +31,11 @@
 // a particle caught in a secondary minimum stays only while the well's pull-off force
 // holds against the local shear's torque, at plates, grain walls and deposits alike
 // (HydroModel::plateAdhesionHolds, surfaceAdhesionHolds): in flowing fluid it is carried
-// on along the surface, as Torkzaban et al. (2007) describe for secondary-minimum colloids.
+// on along the surface in the well, checked again every step, and held where the shear
+// falls low enough (Torkzaban, Bradford & Walker 2007, Langmuir 23:9652: secondary-minimum
+// colloids translate to low-velocity regions); it leaves the well when it leaves the
+// surface's capture distance. While it translates it is mobile with secondary = true and
+// held_by = the surface of the well.
 // A particle that would attach still overlapping a deposit (a push undone at a
 // grain) stays mobile for this step.
 // Not modelled: the wall correction of the lag for the parabola's curvature (the
@@ -104,8 +109,12 @@ class OverdampedEngine final : public ParticleEngine {
   std::uint8_t applyWalls(ParticleState& p, const Vec3& before);
   /// After contacts: attaches a particle that arrived at a sticky surface (either rule).
   void decideAttachment(ParticleState& p, std::uint8_t touched);
-  /// dlvo rule: one draw for an arrival on surface `s`; true when the particle attaches.
+  /// dlvo rule: one draw for an arrival on surface `s`; true when the particle attaches. A
+  /// particle caught in the secondary minimum but not held is marked as translating in that
+  /// well (secondary = true, held_by = s, still mobile).
   bool dlvoArrival(ParticleState& p, Surface s, const SurfaceChemistry& sc);
+  /// dlvo rule: the secondary minimum of `s` holds p against the local shear's torque.
+  bool secondaryHolds(const ParticleState& p, Surface s, const SurfaceChemistry& sc) const;
   bool overlapsDeposit(const ParticleState& p, const std::vector<int>& fresh) const;
   /// Uniform [0, 1) draw of a particle's n-th plate arrival (plate attachment efficiency).
   double arrivalDraw(std::int64_t id, std::uint32_t arrival) const;

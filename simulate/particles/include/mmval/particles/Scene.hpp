@@ -138,8 +138,8 @@ struct ParticleState {
   /// attach (cleared when the particle leaves that surface's capture distance).
   std::uint32_t arrivals = 0;
   std::uint8_t rejected = 0;
-  Surface held_by = Surface::none;   ///< set when it deposits
-  bool secondary = false;            ///< dlvo rule: held in the secondary minimum (not the primary)
+  Surface held_by = Surface::none;   ///< set when it deposits; dlvo rule: also the surface a mobile particle translates along in its secondary minimum
+  bool secondary = false;            ///< dlvo rule: in the secondary minimum (deposited: held there; mobile: translating along held_by in the well)
 };
 
 /// Particle bookkeeping; injected == inside + deposited + left always holds.
