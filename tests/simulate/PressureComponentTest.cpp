@@ -32,8 +32,8 @@ constexpr int kRows = 24, kCols = 24, kWall = 4;          // pixels; the channel
 
 /// Solid walls 4 pixels thick above and below the channel; `pockets`: pore pixels inside the
 /// lower wall (y counted in pixels from the bottom): one at (10, 1) and three at (17-19, 1).
-/// One column more than the domain: the outlet's face nodes (x = kCols pixels) sample it, where
-/// MaskShape would read fluid beyond its image and open the walls at the outlet.
+/// One column more than the domain (written before MaskShape read its edge pixel at the image
+/// edge, MaskEdgeTest; kept: the outlet's face nodes at x = kCols pixels see walls either way).
 Mask channel(bool pockets) {
   Mask m = Mask::Constant(kRows, kCols + 1, false);
   const auto set = [&](int x, int y, bool solid) { m(kRows - 1 - y, x) = solid; };
