@@ -37,16 +37,11 @@ std::vector<double> pixelWallDistance(const PixelMask& solid, double pixel) {
   return d;
 }
 
-/// The shape the fluid solver cuts against: the mask plus one column beyond the outlet repeating
-/// its last. The outlet's face nodes lie on the image's edge (x = width), where MaskShape reads
-/// the pixel beyond, outside the image and so fluid: every grain touching the outlet had open
-/// outlet faces, and the sharp solve let flow out through them (1 % more flux in a straight
-/// 8-cell channel whose walls reach the outlet). Everything inside the image is unchanged.
+/// The shape the fluid solver cuts against: the mask itself. Its outlet face nodes lie on the
+/// image's edge (x = width), where MaskShape reads the edge pixel (Geometry.hpp), so a grain
+/// touching the outlet closes its outlet faces.
 std::shared_ptr<const simulate::MaskShape> solverShape(const PixelMask& solid, double pixel) {
-  PixelMask padded(solid.rows(), solid.cols() + 1);
-  padded.leftCols(solid.cols()) = solid;
-  padded.col(solid.cols()) = solid.col(solid.cols() - 1);
-  return std::make_shared<const simulate::MaskShape>(std::move(padded), pixel);
+  return std::make_shared<const simulate::MaskShape>(solid, pixel);
 }
 }  // namespace
 
