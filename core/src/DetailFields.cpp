@@ -69,6 +69,10 @@ std::vector<DetailFieldDecl> makeDeclarations() {
        "per depth model: observed order, extrapolated value, GCI band and a status (`monotone`, `two levels`, ...)", "image-permeability, `mmval peer openfoam`"},
       {F::narrowest_throat, "narrowest_throat", top, T::object, none, 0, "-",
        "the mask's narrowest inlet-to-outlet throat: `x_px`, `y_px` (y down), `width_px`, `width_m`", "image-permeability"},
+      {F::depth_model_throat, "depth_model_throat", top, T::object, none, 0, "-",
+       "that throat as a duct of the chip's depth: `width_m`, `depth_m`, `width_over_depth`, `duct_excess` (the depth-averaged model's flow "
+       "through it over exact Stokes, minus 1; docs/validation/depth-model.md)",
+       "image-permeability (depth-averaged model)"},
 
       {F::statistics_window_s, "statistics_window_s", top, T::array, T::number, 2, "s",
        "[begin, end] of the window over which the unsteady force statistics (c_D max, St, ...) are taken", "cylinder-channel (unsteady)"},

@@ -11,6 +11,7 @@
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/core/SchemaBlocks.hpp"
+#include "mmval/simulate/DuctFlow.hpp"
 #include "mmval/simulate/FieldOutput.hpp"
 #include "mmval/simulate/KindMetrics.hpp"
 #include "mmval/simulate/Petsc.hpp"
@@ -132,11 +133,10 @@ CaseKind channelKind() {
       requireSteadyFlowMemory(c, drive == "periodic" ? 4.0 : std::max(4.0, std::round(n * L / W)), n, 0.0,
                               c.has("numerics.levels") ? "numerics.levels" : "numerics.cells",
                               "fewer cells across the width, or a shorter geometry.length (the inlet/outlet drives mesh the whole length)");
-    // Exact solutions of the continuous models: q = G W^3 / (12 mu) (plates);
-    // depth-averaged Brinkman channel Q = G h^2 W / (12 mu) (1 - tanh(kW/2) / (kW/2)) h, k = sqrt(12) / h.
-    const double kap = hd > 0 ? std::sqrt(12.0) / hd : 0;
-    const double exact = hd > 0 ? G * hd * hd * W / (12 * mu) * (1 - std::tanh(kap * W / 2) / (kap * W / 2)) * hd : G * W * W * W / (12 * mu);
+    // Exact solutions of the continuous models: q = G W^3 / (12 mu) (plates); the depth-averaged
+    // (Brinkman-Hele-Shaw) channel: Q = G h^3 W / (12 mu) (1 - tanh(kW/2) / (kW/2)), k = sqrt(12) / h.
     const double plates = G * hd * hd * hd * W / (12 * mu);
+    const double exact = hd > 0 ? plates * ductFlowFactorDepthAveraged(W, hd) : G * W * W * W / (12 * mu);
     const char* primary_name = drive == "velocity" ? "pressure_gradient" : (hd > 0 ? "flow_rate_factor" : "flow_rate_per_depth");
     const Acceptance* primary = c.acceptanceFor(primary_name);
     RunOutput out;

@@ -50,6 +50,7 @@ enum class DetailField {
   runs_3d,
   grid_convergence,
   narrowest_throat,
+  depth_model_throat,
   // Unsteady cylinder.
   statistics_window_s,
   shedding_periods,
