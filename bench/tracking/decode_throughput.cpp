@@ -10,14 +10,17 @@
 //   source-1     FrameSource::next() over every frame, one thread: the tracker's own decoding
 //                (8-bit PNG: its libdeflate reader when built with it, else cv::imread) and
 //                the conversion to float grey
+//   source-N     the same with N threads (FrameSource::readAt, files only): the decoding floor
+//                of a tracking run's wall time
 //   track-1/-N   runTracker + writeTrackOutputs with detect.threads 1 / N
 //   grab        (mp4) cv::VideoCapture::grab() of every frame: what skipping costs
-//   stages       track-N's own account (TrackRun::stage_seconds): sampling, background,
+//   stages       track-N's own account (TrackRun::stage_seconds, wall, and stage_cpu_seconds,
+//                CPU summed over threads): sampling, background,
 //                rings, polarity, decisions, frames (decode + detect + link of the rest),
 //                joins, analysis, outputs; and the CPU time its threads spent decoding
 //                (FrameSource::decodeSeconds), summed over threads, next to the run's CPU time;
 //                detect + link alone: the same frames decoded into memory first, detected
-//                with N threads against the run's background and polarity, then linked
+//                with N threads against the run's background and polarity, then linked (wall and CPU)
 //   old-1        emulated old path, one thread: the old samplers read the video twice
 //                more in order (background: every frame up to its 60th sample; polarity:
 //                up to its 24th) before the main pass decoded every frame: track-1 plus
@@ -113,8 +116,9 @@ TrackConfig defaults(int threads) {
 /// Detection and linking alone of every frame of `input`, decoded into memory first (not
 /// timed), as the tracking run does them: against the run's background and polarity, frames
 /// detected by `threads` threads taking them from a shared counter, linked in order after.
-/// Linked without prediction (what a Brownian run ends with). Returns the wall time (s).
-double detectAndLink(const fs::path& input, int threads, const TrackRun& run) {
+/// Linked without prediction (what a Brownian run ends with). Returns the wall time (s);
+/// `cpu` receives the CPU time summed over threads (s).
+double detectAndLink(const fs::path& input, int threads, const TrackRun& run, double& cpu) {
   FrameSource src(input.string());
   std::vector<cv::Mat> frames;
   cv::Mat f;
@@ -122,7 +126,8 @@ double detectAndLink(const fs::path& input, int threads, const TrackRun& run) {
   const TrackConfig c = defaults(threads);
   LinkOptions link = c.link;
   link.predict = Prediction::none;
-  return seconds([&] {
+  const std::clock_t cpu0 = std::clock();
+  const double wall = seconds([&] {
     std::vector<std::vector<Detection>> found(frames.size());
     std::atomic<std::size_t> next{0};
     auto work = [&] {
@@ -135,13 +140,16 @@ double detectAndLink(const fs::path& input, int threads, const TrackRun& run) {
     TrackLinker linker(link);
     for (std::size_t k = 0; k < frames.size(); ++k) linker.push(static_cast<int>(k), found[k]);
   });
+  cpu = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
+  return wall;
 }
 
 /// A tracking run's own account: its stages' wall times and the time its threads spent decoding.
 struct RunStages {
-  std::vector<std::pair<std::string, double>> stages;
+  std::vector<std::pair<std::string, double>> stages, stages_cpu;
   double decode_s = 0, outputs_s = 0, cpu_s = 0;
-  double detect_link_s = 0;  ///< detection + linking alone on frames in memory (wall, same threads)
+  double detect_link_s = 0;      ///< detection + linking alone on frames in memory (wall, same threads)
+  double detect_link_cpu_s = 0;  ///< the same, CPU summed over threads
 };
 
 double track(const fs::path& input, int threads, const fs::path& out, long& decoded, long& grabbed, RunStages* stages = nullptr) {
@@ -153,9 +161,9 @@ double track(const fs::path& input, int threads, const fs::path& out, long& deco
     const double outputs = seconds([&] { writeTrackOutputs(run, defaults(threads), out, nlohmann::json::object()); });
     decoded = src.decoded();
     grabbed = src.grabbed();
-    if (stages) *stages = {run.stage_seconds, src.decodeSeconds(), outputs, static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC};
+    if (stages) *stages = {run.stage_seconds, run.stage_cpu_seconds, src.decodeSeconds(), outputs, static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC};
   });
-  if (stages) stages->detect_link_s = detectAndLink(input, threads, run);
+  if (stages) stages->detect_link_s = detectAndLink(input, threads, run, stages->detect_link_cpu_s);
   return wall;
 }
 
@@ -163,8 +171,11 @@ double track(const fs::path& input, int threads, const fs::path& out, long& deco
 void printStages(const std::string& format, int threads, const RunStages& r) {
   std::printf("%-7s track-%d stages (s):", format.c_str(), threads);
   for (const auto& [name, s] : r.stages) std::printf(" %s %.3f", name.c_str(), s);
-  std::printf(" outputs %.3f; CPU: decoding %.3f s of %.3f s (%.0f %%); detect + link alone (frames in memory): %.3f s\n", r.outputs_s, r.decode_s,
-              r.cpu_s, r.cpu_s > 0 ? 100 * r.decode_s / r.cpu_s : 0.0, r.detect_link_s);
+  std::printf("\n%-7s track-%d stages, CPU summed over threads (s):", "", threads);
+  for (const auto& [name, s] : r.stages_cpu) std::printf(" %s %.3f", name.c_str(), s);
+  std::printf("\n%-7s", "");
+  std::printf(" outputs %.3f; CPU: decoding %.3f s of %.3f s (%.0f %%); detect + link alone (frames in memory): %.3f s wall, %.3f s CPU\n", r.outputs_s,
+              r.decode_s, r.cpu_s, r.cpu_s > 0 ? 100 * r.decode_s / r.cpu_s : 0.0, r.detect_link_s, r.detect_link_cpu_s);
 }
 
 }  // namespace
@@ -221,6 +232,31 @@ int main(int argc, char** argv) {
                 n / t_old, t_old / t1, 100.0 * dec1 / t1, static_cast<double>(decoded1) / n, static_cast<double>(decoded_old) / n);
     std::printf("%-7s source-1 (FrameSource decode + grey float, 1 thread): %.1f frames/s against decode-1 (cv::imread) %.1f frames/s\n", "", n / source1,
                 n / dec1);
+    if (fs::is_directory(input)) {
+      // The tracker's own decoding with `threads` workers (FrameSource::readAt, as the
+      // tracking run's workers call it): the floor of an end-to-end run's wall time.
+      double cpu = 0;
+      const double sourcen = seconds([&] {
+        const std::clock_t c0 = std::clock();
+        FrameSource src(input.string());
+        cv::Mat first;
+        int first_index = 0;
+        src.next(first, first_index);  // fixes the frame size (and a 16-bit range), as the tracking run does
+        std::atomic<int> next{1};
+        auto work = [&] {
+          cv::Mat f;
+          int index = 0;
+          for (int pos; (pos = next++) < src.count();) src.readAt(pos, f, index);
+        };
+        std::vector<std::thread> pool;
+        for (int t = 1; t < threads; ++t) pool.emplace_back(work);
+        work();
+        for (auto& t : pool) t.join();
+        cpu = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
+      });
+      std::printf("%-7s source-%d (the same, %d threads): %.1f frames/s, %.3f s wall, %.3f s CPU: the pure-decoding floor of a tracking run\n", "",
+                  threads, threads, n / sourcen, sourcen, cpu);
+    }
     printStages(format, threads, stages_n);
     if (!fs::is_directory(input)) {
       // What a sampler's grab() saves over read(): the pixel conversion only.

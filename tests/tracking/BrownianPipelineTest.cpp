@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -150,6 +151,63 @@ TEST(BrownianPipeline, AutoPicksBrownianForADiffusionVideo) {
   std::string header;
   std::getline(disp, header);
   EXPECT_NE(header.find("drift_x_um,drift_y_um"), std::string::npos);
+}
+
+TEST(BrownianPipeline, AutoLinksAsBrownianDoesAndWritesTheSameFilesOnOneOrTwoThreads) {
+  // analysis.motion "auto" links the detections a second time, without prediction, while
+  // the frames are detected; once the tracks are judged Brownian those are the tracks: the
+  // same, point for point, as a run told "brownian" from the start (which links without
+  // prediction only). And the output files written by two threads (writeTrackOutputs) are
+  // those one thread writes, byte for byte, in the same order (summary.json aside: it
+  // holds the run's seconds).
+  SynthOptions o;
+  o.width = 200;
+  o.height = 150;
+  o.frames = 30;
+  o.particles = 40;
+  o.immobile = 0;
+  o.grains = 0;
+  o.speed = 0;
+  o.deposit_fraction = 0;
+  o.brownian_d = 0.8;  // px^2 per frame
+  o.fps = 10;
+  o.pixel_size = 0.5e-6;
+  o.seed = 22;
+  const fs::path dir = render("brownian-auto-relink", o);
+  TrackConfig c;
+  c.fps = o.fps;
+  c.pixel_size = o.pixel_size;
+  c.threads = 2;
+  TrackConfig told = c;
+  told.analysis.motion = MotionModel::brownian;
+  FrameSource a((dir / "frames").string()), b((dir / "frames").string());
+  const TrackRun automatic = runTracker(a, c, true), brownian = runTracker(b, told, true);
+  ASSERT_EQ(automatic.motion.model, MotionModel::brownian) << automatic.motion.reason;
+  EXPECT_TRUE(automatic.motion.relinked);
+  EXPECT_GT(automatic.tracks.points.size(), 500u);
+  ASSERT_EQ(automatic.tracks.points.size(), brownian.tracks.points.size());
+  for (std::size_t i = 0; i < automatic.tracks.points.size(); ++i) {
+    EXPECT_EQ(automatic.tracks.points[i].particle, brownian.tracks.points[i].particle) << i;
+    EXPECT_EQ(automatic.tracks.points[i].frame, brownian.tracks.points[i].frame) << i;
+    EXPECT_EQ(automatic.tracks.points[i].x_px, brownian.tracks.points[i].x_px) << i;
+  }
+  EXPECT_EQ(automatic.link.links, brownian.link.links);
+  EXPECT_EQ(automatic.link.gap_closures, brownian.link.gap_closures);
+  TrackConfig one = c;
+  one.threads = 1;
+  const auto files2 = writeTrackOutputs(automatic, c, dir / "out2", nlohmann::json::object());
+  const auto files1 = writeTrackOutputs(automatic, one, dir / "out1", nlohmann::json::object());
+  EXPECT_EQ(files2, files1);
+  EXPECT_NE(std::find(files2.begin(), files2.end(), "tracks.vtp"), files2.end());
+  EXPECT_NE(std::find(files2.begin(), files2.end(), "streamlines.png"), files2.end());
+  auto bytes = [](const fs::path& f) {
+    std::ifstream in(f, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  for (const auto& f : files1) {
+    ASSERT_TRUE(fs::exists(dir / "out2" / f)) << f;
+    if (f != "summary.json") EXPECT_TRUE(bytes(dir / "out1" / f) == bytes(dir / "out2" / f)) << f << " differs between one and two threads";
+  }
 }
 
 }  // namespace

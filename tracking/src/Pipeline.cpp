@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <condition_variable>
 #include <exception>
 #include <map>
@@ -32,19 +33,29 @@ namespace {
 
 constexpr const PipelineTuning& kTune = kPipelineTuning;
 
-/// Wall time of runTracker's stages (TrackRun::stage_seconds) and of the whole run.
+/// Wall and CPU time of runTracker's stages (TrackRun::stage_seconds, stage_cpu_seconds)
+/// and the wall time of the whole run.
 class StageClock {
  public:
-  StageClock() : m_start(std::chrono::steady_clock::now()), m_lap(m_start) {}
+  StageClock() : m_start(std::chrono::steady_clock::now()), m_lap(m_start), m_cpu_lap(processCpuSeconds()) {}
   void lap(TrackRun& run, const char* stage) {
     const auto now = std::chrono::steady_clock::now();
+    const double cpu = processCpuSeconds();
     run.stage_seconds.emplace_back(stage, std::chrono::duration<double>(now - m_lap).count());
+    run.stage_cpu_seconds.emplace_back(stage, cpu - m_cpu_lap);
     m_lap = now;
+    m_cpu_lap = cpu;
   }
   double total() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count(); }
 
  private:
+  static double processCpuSeconds() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+  }
   std::chrono::steady_clock::time_point m_start, m_lap;
+  double m_cpu_lap;
 };
 
 // ---- Stage 1: which frames the decisions sample -----------------------------------------
@@ -284,20 +295,41 @@ class FrameDetector {
   std::mutex m_reference_mutex, m_absent_mutex;
 };
 
+/// The linkers of the pass over the frames: `linker` as configured, and, while the motion
+/// model is still open (analysis.motion "auto" with link.predict automatic), `unpredicted`,
+/// the same detections linked without prediction, which chooseMotion takes if the tracks
+/// turn out Brownian (linked here, in the linking thread, while the workers detect, instead
+/// of in a second pass after them).
+struct FrameLinkers {
+  TrackLinker& linker;
+  std::optional<TrackLinker> unpredicted;
+};
+
+FrameLinkers frameLinkers(TrackLinker& linker, const TrackConfig& c) {
+  FrameLinkers l{linker, std::nullopt};
+  if (c.analysis.motion == MotionModel::automatic && c.link.predict == Prediction::automatic) {
+    LinkOptions none = c.link;
+    none.predict = Prediction::none;
+    l.unpredicted.emplace(none);
+  }
+  return l;
+}
+
 /// Takes each frame's detections in frame order: linked, and kept (run.detections,
 /// run.frame_index).
 class InOrderLinker {
  public:
-  InOrderLinker(TrackLinker& linker, TrackRun& run, Progress& progress) : m_linker(linker), m_run(run), m_progress(progress) {}
+  InOrderLinker(FrameLinkers& linkers, TrackRun& run, Progress& progress) : m_linkers(linkers), m_run(run), m_progress(progress) {}
   void operator()(int index, std::vector<Detection>&& found) {
-    m_linker.push(index, found);
+    m_linkers.linker.push(index, found);
+    if (m_linkers.unpredicted) m_linkers.unpredicted->push(index, found);
     m_run.detections.push_back(std::move(found));
     m_run.frame_index.push_back(index);
     m_progress.advance();
   }
 
  private:
-  TrackLinker& m_linker;
+  FrameLinkers& m_linkers;
   TrackRun& m_run;
   Progress& m_progress;
 };
@@ -405,9 +437,9 @@ void detectInOrder(FrameSource& source, int threads, FrameDetector& detector, In
 /// run.detections, run.frame_index); returns the evidence for the stuck-particle joins.
 /// setup.polarity is final afterwards.
 StuckEvidence detectFrames(FrameSource& source, const TrackConfig& c, const FramePlan& plan, const cv::Mat& background, const RollingBackground& rolling,
-                           DetectionSetup& setup, TrackLinker& linker, Progress& progress, TrackRun& run) {
+                           DetectionSetup& setup, FrameLinkers& linkers, Progress& progress, TrackRun& run) {
   FrameDetector detector(c, plan, background, rolling, setup, source.count());
-  InOrderLinker link(linker, run, progress);
+  InOrderLinker link(linkers, run, progress);
   cv::Mat frame;
   int index = 0;
   // One OpenCV thread per worker of ours (the workers are the parallelism); one worker
@@ -426,9 +458,9 @@ StuckEvidence detectFrames(FrameSource& source, const TrackConfig& c, const Fram
 // ---- Stage 7: motion model, stuck and deposited particles --------------------------------
 
 /// analysis.motion as set, or decided from the linked tracks when "auto"; Brownian with
-/// link.predict automatic links the stored detections again without prediction (a
-/// linker pass costs a small part of the detection).
-MotionDecision chooseMotion(const TrackConfig& c, std::vector<LinkedPoint>& linked, TrackRun& run) {
+/// link.predict automatic takes the detections linked without prediction (`unpredicted`,
+/// linked during the pass over the frames; linked here if absent).
+MotionDecision chooseMotion(const TrackConfig& c, std::vector<LinkedPoint>& linked, std::optional<TrackLinker>& unpredicted, TrackRun& run) {
   MotionDecision m;
   m.requested = m.model = c.analysis.motion;
   if (c.analysis.motion != MotionModel::automatic) {
@@ -439,12 +471,14 @@ MotionDecision chooseMotion(const TrackConfig& c, std::vector<LinkedPoint>& link
   for (const auto& p : linked) raw.points.push_back(trackPoint(c, p.frame, p.particle, p.x, p.y));
   m = decideMotion(raw);
   if (m.model == MotionModel::brownian && c.link.predict == Prediction::automatic) {
-    LinkOptions none = c.link;
-    none.predict = Prediction::none;
-    TrackLinker again(none);
-    for (std::size_t k = 0; k < run.detections.size(); ++k) again.push(run.frame_index[k], run.detections[k]);
-    linked = again.points();
-    run.link = again.stats();
+    if (!unpredicted) {
+      LinkOptions none = c.link;
+      none.predict = Prediction::none;
+      unpredicted.emplace(none);
+      for (std::size_t k = 0; k < run.detections.size(); ++k) unpredicted->push(run.frame_index[k], run.detections[k]);
+    }
+    linked = unpredicted->points();
+    run.link = unpredicted->stats();
     m.relinked = true;
   }
   return m;
@@ -648,9 +682,9 @@ TypicalSpot joinStuckParticles(const TrackConfig& c, StuckEvidence& evidence, st
 /// deposited particles (detect.find_stuck), tracks that stop labelled deposited from where
 /// they stopped (so their resting positions stay out of velocity statistics), and the
 /// joins by reference frames and onto clusters.
-void buildTracks(const TrackConfig& c, const TrackLinker& linker, StuckEvidence& evidence, TrackRun& run) {
-  std::vector<LinkedPoint> linked = linker.points();
-  run.motion = chooseMotion(c, linked, run);
+void buildTracks(const TrackConfig& c, FrameLinkers& linkers, StuckEvidence& evidence, TrackRun& run) {
+  std::vector<LinkedPoint> linked = linkers.linker.points();
+  run.motion = chooseMotion(c, linked, linkers.unpredicted, run);
   const bool flow = run.motion.model == MotionModel::flow;
   std::int64_t next_id = 0;
   for (const auto& p : linked) next_id = std::max(next_id, p.particle + 1);
@@ -688,12 +722,13 @@ TrackRun runTracker(FrameSource& source, const TrackConfig& c, bool quiet) {
   run.background_decision = settleBackground(c, plan, polarity_frames, background, setup);
   run.background = std::move(background.median);
   clock.lap(run, "decisions");
-  StuckEvidence evidence = detectFrames(source, c, plan, run.background, background.rolling, setup, linker, progress, run);
+  FrameLinkers linkers = frameLinkers(linker, c);
+  StuckEvidence evidence = detectFrames(source, c, plan, run.background, background.rolling, setup, linkers, progress, run);
   clock.lap(run, "frames");
   run.polarity = setup.polarity;
   run.polarity_reason = setup.reason;
   run.link = linker.stats();
-  buildTracks(c, linker, evidence, run);
+  buildTracks(c, linkers, evidence, run);
   clock.lap(run, "joins");
   run.smoothed_points = smoothTracks(run.tracks, c.smooth_frames, c.pixel_size).points;
   if (run.motion.model != MotionModel::flow) run.brownian = analyseBrownian(run.tracks, c.analysis.brownian);

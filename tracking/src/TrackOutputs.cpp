@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <future>
 #include <iterator>
 #include <limits>
 #include <map>
@@ -67,6 +68,18 @@ bool writeTracksVtp(const std::filesystem::path& file, const Tracks& tracks, dou
   return true;
 }
 
+/// detections.csv: every detection of every processed frame.
+std::string detectionsCsv(const TrackRun& run, const TrackConfig& c) {
+  std::string det = "frame,t_s,x_px,y_px,x_um,y_um,area_px2,mass,peak\n";
+  // Formatted straight into the file's text (no string per row).
+  auto det_out = std::back_inserter(det);
+  for (std::size_t k = 0; k < run.detections.size(); ++k)
+    for (const auto& d : run.detections[k])
+      fmt::format_to(det_out, "{},{:.6g},{:.4f},{:.4f},{:.4f},{:.4f},{:.1f},{:.4g},{:.4g}\n", run.frame_index[k], run.frame_index[k] / c.fps, d.x, d.y,
+                     d.x * c.pixel_size * 1e6, d.y * c.pixel_size * 1e6, d.area, d.mass, d.peak);
+  return det;
+}
+
 }  // namespace
 
 std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfig& c, const std::filesystem::path& dir,
@@ -77,31 +90,47 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
     writeFileAtomic(dir / name, text);
     files.push_back(name);
   };
-  std::string det = "frame,t_s,x_px,y_px,x_um,y_um,area_px2,mass,peak\n";
-  // Formatted straight into the file's text (no string per row).
-  auto det_out = std::back_inserter(det);
-  for (std::size_t k = 0; k < run.detections.size(); ++k)
-    for (const auto& d : run.detections[k])
-      fmt::format_to(det_out, "{},{:.6g},{:.4f},{:.4f},{:.4f},{:.4f},{:.1f},{:.4g},{:.4g}\n", run.frame_index[k], run.frame_index[k] / c.fps, d.x, d.y,
-                     d.x * c.pixel_size * 1e6, d.y * c.pixel_size * 1e6, d.area, d.mass, d.peak);
-  put("detections.csv", det);
-  const auto png = [&](const std::string& name, const cv::Mat& m) {
+  const auto writePng = [&](const std::string& name, const cv::Mat& m) {
     const auto t = temporaryPathFor(dir / name);
     cv::imwrite(t.string(), m);
     commitTemporary(t, dir / name);
+  };
+  const auto png = [&](const std::string& name, const cv::Mat& m) {
+    writePng(name, m);
     files.push_back(name);
   };
-  nlohmann::json summary = extra;
   const bool brownian = run.motion.model == MotionModel::brownian;
+  // The files that depend on nothing written here (detections.csv; in Brownian mode
+  // tracks.vtp and streamlines.png) are written by a second thread while this one writes
+  // the analysis' files (one thread when c.threads is 1); `files` keeps the same order.
+  const auto independent = [&] {
+    writeFileAtomic(dir / "detections.csv", detectionsCsv(run, c));
+    if (!brownian) return false;
+    const bool vtp = writeTracksVtp(dir / "tracks.vtp", run.tracks, c.pixel_size, run.background.rows);
+    if (!run.detections.empty()) writePng("streamlines.png", streamlines(run));
+    return vtp;
+  };
+  std::future<bool> side;
+  bool vtp_written = false;
+  if (c.threads == 1)
+    vtp_written = independent();
+  else
+    side = std::async(std::launch::async, independent);
+  files.push_back("detections.csv");
+  nlohmann::json summary = extra;
   TrackStats s;
   if (brownian)
     summary.update(detail::writeBrownianOutputs(run, c, {dir, put, png, &files}));
   else
     s = writeFlowOutputs(run, c, dir, put, files);
-  if (brownian && writeTracksVtp(dir / "tracks.vtp", run.tracks, c.pixel_size, run.background.rows)) files.push_back("tracks.vtp");
+  if (side.valid()) vtp_written = side.get();
+  if (vtp_written) files.push_back("tracks.vtp");
   // Streamline composite: every position of every frame, over the background.
   if (!run.detections.empty()) {
-    png("streamlines.png", streamlines(run));
+    if (brownian)
+      files.push_back("streamlines.png");
+    else
+      png("streamlines.png", streamlines(run));
     // Steps coloured by speed, and the mean speed binned on the pore space (bins of
     // about two particle diameters).
     if (!brownian) {

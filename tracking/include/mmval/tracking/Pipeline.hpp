@@ -51,6 +51,9 @@ struct TrackRun {
   /// detecting and linking every frame), joins (motion model, deposits), analysis. For
   /// benchmarks and profiling.
   std::vector<std::pair<std::string, double>> stage_seconds;
+  /// The same stages' CPU time, summed over the process' threads (s): on a loaded
+  /// machine steadier than the wall time, and CPU / wall tells how well a stage used the cores.
+  std::vector<std::pair<std::string, double>> stage_cpu_seconds;
   int stuck_found = 0;  ///< particles found in the background (stuck all along)
   /// Particles that arrived, deposited and stayed long enough to be part of the median
   /// background: joined to the track that brought them (it continues, at rest, to the end
