@@ -13,7 +13,9 @@
 // error more loosely (measured 2.8e-8 of the largest velocity after 33 iterations, 1e-9 to 5e-9
 // elsewhere); the tests allow 1e-7, still 10 times below the 6 digits written. Unit tier: masks of 120 x 60 pixels, under a second each. The
 // DISABLED_ benchmark replays a deposit sequence on the full Pore2Chip mask (minutes; run with
-// --gtest_also_run_disabled_tests; MMVAL_BENCH_STEPS re-solves, MMVAL_BENCH_ITS GMRES budget).
+// --gtest_also_run_disabled_tests; MMVAL_BENCH_STEPS re-solves, MMVAL_BENCH_ITS GMRES budget,
+// MMVAL_BENCH_CPP cells per pixel, MMVAL_BENCH_SAME_PATTERN aperture-only steps; measurements in
+// docs/validation/particle-physics.md, "Cost of the fluid re-solves").
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -182,13 +184,15 @@ TEST(WarmResolve, UpdateRejectsAnotherGrid) {
 
 /// Benchmark (opt-in): the full Pore2Chip mask at the full scene's settings (10 um/px, 20 um deep,
 /// 0.5 cells per pixel), deposits of 5 um parcels added until 0.5 % of the pore columns are lost
-/// (coupling.resolve_threshold of cases/particles-micromodel-full.toml), then a warm and a direct re-solve.
+/// (coupling.resolve_threshold of cases/particles-micromodel-full.toml), then a warm and a direct re-solve
+/// (MMVAL_BENCH_SAME_PATTERN: a uniformly thinner aperture instead, which keeps the matrix pattern).
 TEST(WarmResolve, DISABLED_BenchmarkPore2Chip) {
   const PixelMask solid = simulate::analysePoreSpace(simulate::readMask(std::string(MMVAL_SHARED_DATA_DIR) + "/pore2chip/grain_network.png", true)).solid_connected;
   MicromodelFlowOptions o = options(true);
   o.warm_max_iterations = std::getenv("MMVAL_BENCH_ITS") ? std::atoi(std::getenv("MMVAL_BENCH_ITS")) : 0;
   o.pixel = 10e-6;
   o.darcy_velocity = 4.17e-4;
+  if (const char* cpp = std::getenv("MMVAL_BENCH_CPP")) o.cells_per_pixel = std::atof(cpp);
   MicromodelFlowOptions od = o;
   od.warm_start = false;
   MicromodelFlow warm(solid, o), direct(solid, od);
@@ -207,8 +211,11 @@ TEST(WarmResolve, DISABLED_BenchmarkPore2Chip) {
       if (n % 3 == 0) d.add(x, y, parcel);
       else d.addLayer(x, y, parcel, 5e-6);
     }
-    const FlowSolveResult w = warm.solve(d.closed(), d.aperture());
-    const FlowSolveResult f = direct.solve(d.closed(), d.aperture());
+    // MMVAL_BENCH_SAME_PATTERN: a uniform 1 % thinner aperture instead (the matrix keeps its pattern).
+    const bool same_pattern = std::getenv("MMVAL_BENCH_SAME_PATTERN") != nullptr;
+    const std::vector<double> thinner(static_cast<std::size_t>(solid.size()), (1 - 0.01 * (step + 1)) * kDepth);
+    const FlowSolveResult w = same_pattern ? warm.solve({}, thinner) : warm.solve(d.closed(), d.aperture());
+    const FlowSolveResult f = same_pattern ? direct.solve({}, thinner) : direct.solve(d.closed(), d.aperture());
     warm_s += w.seconds;
     direct_s += f.seconds;
     std::printf("re-solve %2d: warm %.2f s (%d its, %s), direct %.2f s, k/k_direct - 1 = %.2g, velocity deviation %.2g\n", step, w.seconds,
