@@ -49,10 +49,25 @@ void printSummary(const simulate::ChipResult& r, const std::string& out) {
     std::printf("  depth fitted        %.4g um (k at%s plane-2D bound %.4g D): %s\n", r.spec.depth_um, steps.c_str(),
                 j["depth_fit"]["k_plane_2d_tile_D"].get<double>(), j["depth_fit"]["why"].get<std::string>().c_str());
   }
-  if (r.spec.permeability_D > 0)
+  const bool model_3d = t.contains("permeability_3d_D");
+  if (r.spec.permeability_D > 0 && !model_3d)
     std::printf("  k target            %.4g D +- %.1f %% at %g cells/px: achieved %.4g D (%s)%s\n", r.spec.permeability_D, 100 * r.spec.permeability_tolerance,
                 r.spec.cells_per_pixel, r.k_target_level_D, t["permeability_depth_averaged_D"]["met"].get<bool>() ? "met" : "NOT met",
                 j["permeability"]["converged"].get<bool>() ? "" : "; the ladder is not converged within the tolerance (see chip.json)");
+  if (model_3d) {
+    const auto& m = j["permeability"]["model_3d"];
+    std::string steps;
+    for (const auto& st : m["steps"])
+      steps += fmt::format(" {} {:.4g} um: depth-averaged {:.4g} D, ratio {:.4f}, 3D {:.4g} D;", st["where"].get<std::string>(),
+                           st["mean_grain_um"].get<double>(), st["k_depth_averaged_D"].get<double>(), st["ratio"].get<double>(), st["k_3d_D"].get<double>());
+    std::printf("  3D model steps     %s\n", steps.c_str());
+    std::printf("  k target (3D model) %.4g D +- %.1f %% at %g cells/px: achieved %.4g D (%s) = depth-averaged %.4g D x 3D ratio %.4f (3D at %g cells/px, "
+                "cells_z extrapolated)%s%s\n",
+                r.spec.permeability_D, 100 * r.spec.permeability_tolerance, r.spec.cells_per_pixel, t["permeability_3d_D"]["achieved"].get<double>(),
+                t["permeability_3d_D"]["met"].get<bool>() ? "met" : "NOT met", r.k_target_level_D, m["ratio"].get<double>(), r.spec.cells_per_pixel_3d,
+                m.contains("k_3d_extrapolated_D") ? fmt::format("; extrapolated in-plane {:.4g} D", m["k_3d_extrapolated_D"].get<double>()).c_str() : "",
+                j["permeability"]["converged"].get<bool>() ? "" : "; the ladder is not converged within the tolerance (see chip.json)");
+  }
   if (j["permeability"].contains("tile_samples") && j["permeability"]["tile_samples"].contains("mean_D")) {
     const auto& ts = j["permeability"]["tile_samples"];
     std::printf("  chip windows        depth-averaged k %.4g D +- %.2g (SD of %zu) at %g cells/px against the tile's %.4g D (x %.3f)%s\n",
@@ -99,6 +114,15 @@ void registerChipCommand(CLI::App& app) {
   cmd->add_option("--porosity-tolerance", s.porosity_tolerance, "Absolute porosity tolerance")->capture_default_str();
   cmd->add_option("--permeability-D", s.permeability_D, "Target depth-averaged permeability in darcy (0: none)")->capture_default_str();
   cmd->add_option("--permeability-tolerance", s.permeability_tolerance, "Relative k tolerance")->capture_default_str();
+  cmd->add_option("--permeability-model", s.permeability_model,
+                  "Which model's k meets --permeability-D: depth-averaged (Brinkman-Hele-Shaw), or 3d (coarse 3D Stokes: the depth-averaged k times the "
+                  "measured ratio of 3D to depth-averaged k on the same staircase and grid; docs/chip-generator.md)")
+      ->check(CLI::IsMember({simulate::kChipModelDepthAveraged, simulate::kChipModel3D}))
+      ->capture_default_str();
+  cmd->add_option("--cells-per-pixel-3d", s.cells_per_pixel_3d, "3D model: in-plane cells per pixel (the mask block-averaged)")->capture_default_str();
+  cmd->add_option("--cells-z-levels", s.cells_z, "3D model: cells across the depth, coarse to fine (Richardson in dz over the last two)")
+      ->delimiter(',')
+      ->capture_default_str();
   cmd->add_option("--mean-throat-um", s.mean_throat_um, "Target mean throat width (used without a k target; 0: none)")->capture_default_str();
   cmd->add_option("--mean-grain-um", s.mean_grain_um, "Mean grain diameter (fixed without targets, else the start; 0: estimated)")->capture_default_str();
   cmd->add_option("--grain-cv", s.grain_cv, "Coefficient of variation of the (lognormal) grain diameter")->capture_default_str();

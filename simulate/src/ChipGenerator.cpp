@@ -163,7 +163,7 @@ double tuneOnTile(const ChipSpec& s, int cols, int rows, ChipResult& r, const st
     const double d = std::exp(x);
     const ChipPacking p = pack(s, cols, rows, d);
     const double v = by_k ? kDarcyOf(p, s) : meanThroatUm(p, s, d);
-    r.tuning.push_back({"tile", d, v, seconds(t0)});
+    r.tuning.push_back({"tile", d, v, seconds(t0), target});
     if (log) log(fmt::format("chip: tile {} x {} px, step {}: mean grain {:.4g} um -> {} {:.4g} {} (target {:.4g})", cols, rows, step, d,
                              by_k ? "k" : "mean throat", v, by_k ? "D" : "um", target));
     const double f = std::log(v / target);
@@ -186,6 +186,33 @@ double tuneOnTile(const ChipSpec& s, int cols, int rows, ChipResult& r, const st
   }
   if (log) log(fmt::format("chip: the tile did not settle within {} steps; keeping the closest ({:.2f} % off)", kMaxTuneSteps, 100 * (std::exp(best_err) - 1)));
   return std::exp(best_x);
+}
+
+/// The 3D model's options, and its largest solve (finest cells_z on the solved region) against the
+/// memory limit (kStokes3DBytesPerCell, measured: MemoryBudget.hpp, as image-permeability checks it).
+void validateModel3D(const ChipSpec& s, double side_cols, double side_rows) {
+  if (s.permeability_model != kChipModelDepthAveraged && s.permeability_model != kChipModel3D)
+    throw InputError(opt("--permeability-model"), "unknown permeability model", s.permeability_model,
+                     fmt::format("{} or {}", kChipModelDepthAveraged, kChipModel3D));
+  if (s.permeability_model != kChipModel3D) return;
+  if (!(s.permeability_D > 0) || s.fit_depth)
+    throw InputError(opt("--permeability-model"), "the 3d model meets a k target at a given depth",
+                     fmt::format("--permeability-model 3d with --permeability-D {:g}{}", s.permeability_D, s.fit_depth ? " and --depth-um fit" : ""),
+                     "--permeability-D > 0 and a fixed --depth-um (the depth fit is depth-averaged only)");
+  if (!(s.cells_per_pixel_3d >= 0.25 && s.cells_per_pixel_3d <= 4))
+    throw InputError(opt("--cells-per-pixel-3d"), "value out of range", fmt::format("{:g}", s.cells_per_pixel_3d), "cells per pixel in [0.25, 4]");
+  if (s.cells_z.empty()) throw InputError(opt("--cells-z-levels"), "the ladder is empty", "", "e.g. 4,8");
+  for (std::size_t i = 0; i < s.cells_z.size(); ++i)
+    if (s.cells_z[i] < 2 || s.cells_z[i] > 256 || (i > 0 && s.cells_z[i] <= s.cells_z[i - 1]))
+      throw InputError(opt("--cells-z-levels"), "a cells_z level is out of range or out of order", fmt::format("{}", s.cells_z[i]),
+                       "integers in [2, 256], growing (e.g. 4,8)");
+  const double cells = side_cols * side_rows * s.cells_per_pixel_3d * s.cells_per_pixel_3d * s.cells_z.back();
+  const double bytes = detail::kStartupBytes + detail::kStokes3DBytesPerCell * cells;
+  if (bytes > defaultMaxMemoryBytes())
+    throw InputError(opt("--cells-per-pixel-3d"),
+                     fmt::format("the 3D solve on {:.3g} cells needs ~{:.1f} GB ({:.1f} kB per cell measured), {:.1f} GB available", cells, bytes / 1e9,
+                                 detail::kStokes3DBytesPerCell / 1e3, defaultMaxMemoryBytes() / 1e9),
+                     fmt::format("{:g}", s.cells_per_pixel_3d), "fewer 3D cells per pixel or across the depth (--cells-z-levels), or --solve-on tile");
 }
 
 }  // namespace
@@ -235,6 +262,7 @@ void validateChipSpec(const ChipSpec& s) {
          fmt::format("a finest level whose direct solve fits in memory: {:.3g} cells need ~{:.1f} GB, {:.1f} GB available (coarser levels, a larger "
                      "--pixel-size-um, or --solve-on tile)", side_cols * side_rows * finest * finest, bytes / 1e9, defaultMaxMemoryBytes() / 1e9));
   }
+  validateModel3D(s, side_cols, side_rows);
   bool has_level = false;
   for (std::size_t i = 0; i < s.ladder.size(); ++i) {
     need(s.ladder[i] >= 0.1 && s.ladder[i] <= 8, "--ladder", s.ladder[i], "cells per pixel in [0.1, 8]");
@@ -266,7 +294,7 @@ double confirmOnChip(const ChipSpec& s, double d, ChipResult& r, std::vector<std
     } else {
       v = meanThroatUm(r.packing, s, d);
     }
-    r.tuning.push_back({"chip", d, v, seconds(t1)});
+    r.tuning.push_back({"chip", d, v, seconds(t1), target});
     if (log) log(fmt::format("chip: full chip {} x {} px: mean grain {:.4g} um -> {:.4g} (target {:.4g}, {:.1f} s)", cols, rows, d, v, target, seconds(t1)));
     if (std::abs(v / target - 1) <= tol || round == kMaxChipCorrections) break;
     d = std::exp(sec.next(std::log(d), std::log(v / target)));
@@ -353,6 +381,78 @@ double fitChipDepth(const ChipSpec& s, const BoolArray& tile, bool confirm_on_ch
   return h;
 }
 
+/// One 3D measurement on `solved` (the chip or the tile at scale d): the depth-averaged k at
+/// cells_per_pixel (from `known` when that solve was done), the same model on the pixel staircase at
+/// cells_per_pixel_3d, and coarse 3D Stokes there; `known` gets the depth-averaged solve.
+ChipModel3DStep measure3D(const ChipSpec& s, const BoolArray& solved, const std::string& where, double d, double da_target,
+                          std::vector<std::pair<double, ChipFlowResult>>& known, const std::function<void(const std::string&)>& log) {
+  const auto t0 = std::chrono::steady_clock::now();
+  ChipModel3DStep st;
+  st.where = where;
+  st.mean_grain_um = d;
+  st.da_target_D = da_target;
+  const BoolArray connected = analysePoreSpace(solved).solid_connected;
+  ChipFlowResult da;
+  if (!known.empty() && std::abs(known.front().first - s.cells_per_pixel) < 1e-12) da = known.front().second;
+  else da = chipPermeability(connected, flowSettings(s), s.cells_per_pixel);
+  known = {{s.cells_per_pixel, da}};
+  st.k_da_D = da.permeability_m2 / kDarcyM2;
+  ChipFlowSettings pixels = flowSettings(s);
+  pixels.smooth_boundary = false;
+  st.k_da_pixels_D = !s.smooth_boundary && std::abs(s.cells_per_pixel_3d - s.cells_per_pixel) < 1e-12
+                         ? st.k_da_D
+                         : chipPermeability(connected, pixels, s.cells_per_pixel_3d).permeability_m2 / kDarcyM2;
+  st.run_3d = chipPermeability3D(connected, flowSettings(s), s.cells_per_pixel_3d, s.cells_z);
+  st.ratio = st.run_3d.extrapolated_m2 / kDarcyM2 / st.k_da_pixels_D;
+  st.k_3d_D = st.ratio * st.k_da_D;
+  st.seconds = seconds(t0);
+  if (log) {
+    std::string ks, zs;
+    for (std::size_t i = 0; i < s.cells_z.size(); ++i) {
+      ks += fmt::format("{}{:.4g}", i ? " / " : "", st.run_3d.permeability_m2[i] / kDarcyM2);
+      zs += fmt::format("{}{}", i ? "/" : "", s.cells_z[i]);
+    }
+    log(fmt::format("chip: 3D model on the {} ({} x {} px, mean grain {:.4g} um): depth-averaged {:.4g} D; at {:g} cells/px on pixels depth-averaged "
+                    "{:.4g} D, 3D (cells_z {}) {} D, extrapolated {:.4g} D; ratio {:.4f} -> k_3d {:.4g} D (target {:.4g} D, {:.1f} s)",
+                    where, connected.cols(), connected.rows(), d, st.k_da_D, s.cells_per_pixel_3d, st.k_da_pixels_D,
+                    zs, ks, st.run_3d.extrapolated_m2 / kDarcyM2, st.ratio, st.k_3d_D, s.permeability_D, st.seconds));
+  }
+  return st;
+}
+
+/// Stage 3c (permeability_model "3d"): measures k_3d = r k_da on the solved region; while it misses
+/// the target, re-tunes the grain scale to the depth-averaged target permeability_D / r (tile, then
+/// chip as in stages 3-4) and measures again, up to kMaxChip3DRetunes times. The re-tuning runs at
+/// half the k tolerance so that the ratio's drift between scales has room. Returns the final d.
+double tuneTo3D(const ChipSpec& s, double d, int tile_cols, int tile_rows, bool confirm_on_chip, ChipResult& r,
+                std::vector<std::pair<double, ChipFlowResult>>& known, const std::function<void(const std::string&)>& log) {
+  const int cols = static_cast<int>(r.packing.solid.cols()), rows = static_cast<int>(r.packing.solid.rows());
+  const bool on_tile = s.solve_on_tile && !(tile_cols == cols && tile_rows == rows);
+  double da_target = s.permeability_D;
+  for (int round = 0;; ++round) {
+    const BoolArray solved = on_tile ? pack(s, tile_cols, tile_rows, d).solid : r.packing.solid;
+    r.model_3d.push_back(measure3D(s, solved, on_tile ? "tile" : "chip", d, da_target, known, log));
+    const ChipModel3DStep& st = r.model_3d.back();
+    if (std::abs(st.k_3d_D / s.permeability_D - 1) <= s.permeability_tolerance) break;
+    if (round == kMaxChip3DRetunes) {
+      if (log) log(fmt::format("chip: the 3D model's k did not settle within {} re-tunings ({:.2f} % off)", kMaxChip3DRetunes, 100 * (st.k_3d_D / s.permeability_D - 1)));
+      break;
+    }
+    ChipSpec sd = s;
+    da_target = s.permeability_D / st.ratio;
+    sd.permeability_D = da_target;
+    sd.permeability_tolerance = std::max(0.005, 0.5 * s.permeability_tolerance);
+    sd.mean_grain_um = d;
+    if (log) log(fmt::format("chip: re-tuning to the depth-averaged target {:.4g} D (= {:.4g} D / ratio {:.4f})", da_target, s.permeability_D, st.ratio));
+    d = tuneOnTile(sd, tile_cols, tile_rows, r, log);
+    r.packing = pack(s, cols, rows, d);
+    known.clear();
+    if (confirm_on_chip) d = confirmOnChip(sd, d, r, known, log);
+  }
+  r.da_target_D = da_target;
+  return d;
+}
+
 /// Stage 4: both depth models on the ladder, on `solved` (the chip or a tile).
 void solveLadders(const ChipSpec& s, const BoolArray& solved, const std::vector<std::pair<double, ChipFlowResult>>& known, ChipResult& r,
                   const std::function<void(const std::string&)>& log) {
@@ -426,7 +526,12 @@ ChipResult generateChip(const ChipSpec& spec, const std::function<void(const std
   std::vector<std::pair<double, ChipFlowResult>> known;  // the last full-chip solve at cells_per_pixel
   if (tuned && !tile_is_chip && !s.solve_on_tile) d = confirmOnChip(s, d, r, known, log);
   r.mean_grain_um = d;
+  r.da_target_D = s.permeability_D;
   lap("confirm");
+  if (s.permeability_model == kChipModel3D) {
+    d = r.mean_grain_um = tuneTo3D(s, d, tile_cols, tile_rows, !tile_is_chip && !s.solve_on_tile, r, known, log);
+    lap("model_3d");
+  }
   if (s.fit_depth) {
     const bool on_chip = !tile_is_chip && !s.solve_on_tile;
     s.depth_um = fitChipDepth(s, tile_is_chip ? r.packing.solid : pack(s, tile_cols, tile_rows, d).solid, on_chip, r, known, log);

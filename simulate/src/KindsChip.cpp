@@ -10,6 +10,7 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "KindsCommon.hpp"
 #include "mmval/core/Error.hpp"
@@ -35,6 +36,9 @@ const std::map<std::string, std::string, std::less<>>& keyOfOption() {
       {"--porosity-tolerance", "target.porosity_tolerance"},
       {"--permeability-D", "target.permeability"},
       {"--permeability-tolerance", "target.permeability_tolerance"},
+      {"--permeability-model", "target.permeability_model"},
+      {"--cells-per-pixel-3d", "numerics.cells_per_pixel_3d"},
+      {"--cells-z-levels", "numerics.cells_z_levels"},
       {"--mean-throat-um", "target.mean_throat"},
       {"--mean-grain-um", "grains.mean_diameter"},
       {"--grain-cv", "grains.cv"},
@@ -91,6 +95,12 @@ ChipSpec specOf(const Case& c) {
   s.cells_per_pixel = c.real("numerics.cells_per_pixel");
   s.ladder = c.reals("numerics.ladder");
   s.solve_on_tile = c.text("numerics.solve_on") == "tile";
+  s.permeability_model = c.text("target.permeability_model");
+  s.cells_per_pixel_3d = c.real("numerics.cells_per_pixel_3d");
+  if (c.has("numerics.cells_z_levels")) {
+    s.cells_z.clear();
+    for (const auto v : c.integers("numerics.cells_z_levels")) s.cells_z.push_back(static_cast<int>(v));
+  }
   s.seed = static_cast<std::uint64_t>(c.integer("generator.seed"));
   return s;
 }
@@ -107,6 +117,11 @@ void chipGeneratorMetrics(Schema& s) {
   s.metric("median_throat_radius", "um", "Median throat radius: half the median gap");
   s.metric("grains", "1", "Number of grains of the chip");
   s.metric("mean_grain_diameter", "um", "Mean grain diameter of the chip");
+  s.metric("permeability_3d", "D",
+           "target.permeability_model = 3d: the 3D model's k that meets the target, the depth-averaged k at numerics.cells_per_pixel times the "
+           "ratio of coarse 3D Stokes to depth-averaged k on the pixel staircase at numerics.cells_per_pixel_3d");
+  s.metric("permeability_3d_extrapolated", "D", "target.permeability_model = 3d: the same ratio times the extrapolated depth-averaged k of the ladder");
+  s.metric("k_3d_over_depth_averaged", "1", "target.permeability_model = 3d: that ratio (cells_z Richardson-extrapolated 3D over depth-averaged)");
   s.metric("tile_window_over_tile", "1",
            "numerics.solve_on = tile: mean depth-averaged k of tile-sized windows of the chip over the tile's, at the ladder's coarsest level "
            "(1: the tile stands for the chip)");
@@ -131,6 +146,20 @@ CaseKind chipGeneratorKind() {
         .def("0 D")
         .nonNegative();
     s.real("target.permeability_tolerance", "Relative tolerance of the permeability target").def(0.05).min(1e-3).max(0.5);
+    const ChipSpec defaults;
+    s.choice("target.permeability_model", {kChipModelDepthAveraged, kChipModel3D},
+             "Which model's k meets target.permeability: depth-averaged (Brinkman-Hele-Shaw), or 3d (the depth-averaged k times the measured ratio of "
+             "coarse 3D Stokes to depth-averaged k on the same pixel staircase and grid, docs/chip-generator.md)")
+        .def(defaults.permeability_model);
+    s.real("numerics.cells_per_pixel_3d", "target.permeability_model = 3d: in-plane cells per pixel of the 3D model (the mask block-averaged)")
+        .def(defaults.cells_per_pixel_3d)
+        .min(0.25)
+        .max(4);
+    s.integerList("numerics.cells_z_levels",
+                  fmt::format("target.permeability_model = 3d: cells across the depth, coarse to fine (Richardson in dz over the last two, order 2); "
+                              "absent: {}",
+                              fmt::join(defaults.cells_z, ", ")))
+        .optional();
     s.quantity("target.mean_throat", "um", "Target mean throat width, tuned when there is no permeability target; 0: none").def("0 um").nonNegative();
     s.quantity("grains.mean_diameter", "um", "Mean grain diameter: fixed without targets, else the tuning's start; 0: estimated").def("0 um").nonNegative();
     s.real("grains.cv", "Coefficient of variation of the (lognormal) grain diameter").def(0.3).min(0).max(1);
@@ -179,17 +208,28 @@ CaseKind chipGeneratorKind() {
     out.metrics["median_throat_radius"] = 0.5 * j["throats"]["median_width_um"].get<double>() * 1e-6;
     out.metrics["grains"] = j["grains"]["count"].get<double>();
     out.metrics["mean_grain_diameter"] = j["grains"]["mean_diameter_um"].get<double>() * 1e-6;
+    if (j["permeability"].contains("model_3d") && j["permeability"]["model_3d"].contains("ratio")) {
+      const nlohmann::json& m = j["permeability"]["model_3d"];
+      out.metrics["permeability_3d"] = m["k_3d_D"].get<double>() * kDarcy;
+      if (m.contains("k_3d_extrapolated_D")) out.metrics["permeability_3d_extrapolated"] = m["k_3d_extrapolated_D"].get<double>() * kDarcy;
+      out.metrics["k_3d_over_depth_averaged"] = m["ratio"].get<double>();
+      out.units["permeability_3d"] = out.units["permeability_3d_extrapolated"] = "D";
+    }
     if (j["permeability"].contains("tile_samples"))
       if (const auto& ts = j["permeability"]["tile_samples"]; ts.contains("mean_over_tile") && ts["mean_over_tile"].is_number())
         out.metrics["tile_window_over_tile"] = ts["mean_over_tile"].get<double>();
     for (const char* m : {"permeability_depth_averaged", "permeability_depth_averaged_extrapolated", "permeability_2d_extrapolated"}) out.units[m] = "D";
     for (const char* m : {"mean_throat_radius", "median_throat_radius", "mean_grain_diameter"}) out.units[m] = "um";
-    if (!j["permeability"]["converged"].get<bool>()) {
-      const std::string w = fmt::format("depth-averaged permeability ladder not converged within the {:g} % tolerance ({}): see chip.json",
-                                        100 * spec.permeability_tolerance, da["status"].get<std::string>());
-      out.details["warnings"] = nlohmann::json::array({w});
+    std::vector<std::string> warnings;
+    if (!j["permeability"]["converged"].get<bool>())
+      warnings.push_back(fmt::format("depth-averaged permeability ladder not converged within the {:g} % tolerance ({}): see chip.json",
+                                     100 * spec.permeability_tolerance, da["status"].get<std::string>()));
+    if (const auto& t3 = j["targets"]; t3.contains("permeability_3d_D") && !t3["permeability_3d_D"]["met"].get<bool>())
+      warnings.push_back(fmt::format("the 3D model's k {:.4g} D misses the target after {} re-tunings: see chip.json permeability.model_3d",
+                                     t3["permeability_3d_D"]["achieved"].get<double>(), kMaxChip3DRetunes));
+    if (!warnings.empty()) out.details["warnings"] = warnings;
+    for (const auto& w : warnings)
       if (!ctx.quiet && PetscSession::rank() == 0) std::fprintf(stderr, "mmval: warning: %s\n", w.c_str());
-    }
     return out;
   };
   return k;

@@ -43,6 +43,23 @@ struct ChipLadder {
 ChipLadder chipLadder(const BoolArray& solid, const ChipFlowSettings& s, const std::vector<double>& levels, const std::string& model,
                       const std::vector<std::pair<double, ChipFlowResult>>& known = {});
 
+/// The coarse 3D Stokes model of the same mask (Stokes3D.hpp, as image-permeability's
+/// numerics.depth_model = "3d" builds it): the mask block-averaged onto cells_per_pixel_3d cells per
+/// pixel in the plane, extruded between no-slip plates s.depth_m apart, one solve per cells_z level.
+struct ChipFlow3DResult {
+  double cells_per_pixel = 1;
+  std::vector<int> cells_z;           ///< levels, coarse to fine
+  std::vector<double> permeability_m2;  ///< per level
+  std::vector<int> iterations;        ///< FGMRES iterations per level
+  std::vector<long long> cells;       ///< nx ny nz per level
+  double extrapolated_m2 = 0;         ///< Richardson in dz over the two finest levels, order 2 (the finest with one level)
+  int nx = 0, ny = 0;
+  double seconds = 0;
+};
+
+/// Throws NoFlowPath when the block-averaged mask has no open path (throats under a cell).
+ChipFlow3DResult chipPermeability3D(const BoolArray& solid, const ChipFlowSettings& s, double cells_per_pixel_3d, const std::vector<int>& cells_z);
+
 /// 1 darcy in m^2 (9.869233e-13: the definition 1 cP, 1 cm/s, 1 atm/cm).
 inline constexpr double kDarcyM2 = 9.869233e-13;
 

@@ -47,8 +47,19 @@ struct ChipSpec {
   /// Where the k target is confirmed and the ladder solved: the full chip, or (when the full chip
   /// is too large to solve) the tuning tile at the final grain scale.
   bool solve_on_tile = false;
+  /// The model whose k meets permeability_D: kChipModelDepthAveraged (the grain scale is tuned to
+  /// the depth-averaged k at cells_per_pixel) or kChipModel3D (the same k times the measured ratio
+  /// of coarse 3D Stokes to depth-averaged k: ChipModel3DStep).
+  std::string permeability_model = "depth-averaged";
+  double cells_per_pixel_3d = 1;       ///< 3D model: in-plane cells per pixel (the mask block-averaged, as image-permeability)
+  std::vector<int> cells_z{4, 8};      ///< 3D model: cells across the depth, coarse to fine (Richardson in dz over the last two)
   std::uint64_t seed = 1;
 };
+
+inline constexpr const char* kChipModelDepthAveraged = "depth-averaged";
+inline constexpr const char* kChipModel3D = "3d";
+/// 3D model: at most this many re-tunings of the depth-averaged target after the first 3D measurement.
+inline constexpr int kMaxChip3DRetunes = 2;
 
 /// Throws InputError naming the option (--porosity, --permeability-D, ...) and its limit:
 /// porosity outside (kMinPorosity, kMaxPorosity), k not below the open Hele-Shaw limit
@@ -80,6 +91,7 @@ struct ChipTuneStep {
   double mean_grain_um = 0;
   double value = 0;    ///< k in darcy (or mean throat in um)
   double seconds = 0;
+  double target = 0;   ///< what the step aimed at (with the 3D model, the re-tuned depth-averaged k)
 };
 
 /// A tile-sized window of the chip solved at the ladder's coarsest level (solve-on tile only):
@@ -89,6 +101,24 @@ struct ChipTileSample {
   double porosity = 0;     ///< pore pixels / all pixels of the window
   double k_D = 0;          ///< depth-averaged k, darcy (NaN with `error`)
   std::string error;       ///< why the window gave no k (no spanning path), empty otherwise
+};
+
+/// One measurement of the 3D model (permeability_model "3d") on the solved region (chip or tile):
+/// the ratio r = k_3d / k_da,pixels of coarse 3D Stokes (Richardson in dz) to the depth-averaged
+/// model on the same pixel staircase and in-plane grid (cells_per_pixel_3d), which is the depth
+/// model's error without the in-plane grid error (0.930 / 0.931 at 1 / 2 cells per pixel on the
+/// paper's chip statistics, docs/validation/depth-model.md), applied to the depth-averaged k at
+/// cells_per_pixel: k_3d = r k_da.
+struct ChipModel3DStep {
+  std::string where;               ///< "chip" or "tile"
+  double mean_grain_um = 0;
+  double da_target_D = 0;          ///< the depth-averaged target the grain scale was tuned to before this step
+  double k_da_D = 0;               ///< depth-averaged k at cells_per_pixel (the generator's boundary)
+  double k_da_pixels_D = 0;        ///< depth-averaged k on the pixel staircase at cells_per_pixel_3d
+  ChipFlow3DResult run_3d;         ///< coarse 3D Stokes at cells_per_pixel_3d, per cells_z level and extrapolated
+  double ratio = 0;                ///< run_3d.extrapolated / k_da_pixels
+  double k_3d_D = 0;               ///< ratio x k_da_D: the k that meets the target
+  double seconds = 0;
 };
 
 /// Windows sampled at these fractions of the free range along x and y (four, one per quadrant).
@@ -103,7 +133,9 @@ struct ChipResult {
   double k_plane_2d_tile_D = 0;    ///< fit_depth: the tile's plane-2D k at cells_per_pixel (the bound of k at any depth)
   ChipLadder ladder_2d, ladder_da; ///< ladders on the chip (or the tile: spec.solve_on_tile)
   int solved_cols = 0, solved_rows = 0;  ///< size of what the ladder solved, px
-  double k_target_level_D = 0;     ///< depth-averaged k at spec.cells_per_pixel (what the target is met at)
+  double k_target_level_D = 0;     ///< depth-averaged k at spec.cells_per_pixel (what the target is met at with the depth-averaged model)
+  std::vector<ChipModel3DStep> model_3d;  ///< permeability_model "3d": every 3D measurement, in order (the last is the chip's)
+  double da_target_D = 0;          ///< the depth-averaged k the grain scale was finally tuned to (permeability_D with the depth-averaged model)
   std::vector<ChipTileSample> tile_samples;  ///< solve-on tile: windows of the chip at the ladder's coarsest level
   nlohmann::json stats;            ///< chip.json (see docs/chip-generator.md)
   double seconds = 0;
