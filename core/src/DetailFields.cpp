@@ -18,6 +18,7 @@ using F = DetailField;
 using T = DetailType;
 
 constexpr const char* kFluidLadderKinds = "channel, cylinder-channel, periodic-array, image-permeability, `mmval peer openfoam`";
+constexpr const char* kSteadyMmvalKinds = "channel, cylinder-channel (steady), periodic-array, image-permeability (2d, depth-averaged)";
 constexpr const char* kPhysicsReferenceKinds = "physics-settling-slit, physics-diffusion-slit, physics-near-wall-shear, physics-sedimentation";
 
 // The declarations, in DetailField order (checked when the table is first used).
@@ -63,6 +64,12 @@ std::vector<DetailFieldDecl> makeDeclarations() {
        "cylinder-channel (unsteady)"},
       {F::ladder_status, "status", F::ladder, T::string, none, 0, "-", "`not converged` when the level's solve ran out of iterations",
        "`mmval peer openfoam`"},
+      {F::ladder_linear_solver, "linear_solver", F::ladder, T::string, none, 0, "-",
+       "the linear solver of the level's coupled solve: `direct` or `iterative` (numerics.linear_solver = \"auto\" picks one)", kSteadyMmvalKinds},
+      {F::ladder_linear_solver_reason, "linear_solver_reason", F::ladder, T::string, none, 0, "-",
+       "why that solver: `requested`, or the rule `auto` applied (problem class, unknowns, ranks) and any fallback", kSteadyMmvalKinds},
+      {F::ladder_linear_solver_fallback, "linear_solver_fallback", F::ladder, T::boolean, none, 0, "-",
+       "true when an auto-chosen iterative solve did not converge and the direct LU solved the level instead", kSteadyMmvalKinds},
       {F::runs, "runs", top, T::array, T::object, 0, "-", "every solved level of every depth model (the ladder holds one model's)", "image-permeability"},
       {F::runs_3d, "runs_3d", top, T::array, T::object, 0, "-", "the levels of the coarse 3D Stokes solve", "image-permeability (depth_model 3d or all)"},
       {F::grid_convergence, "grid_convergence", top, T::object, none, 0, "-",

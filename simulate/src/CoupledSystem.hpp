@@ -16,7 +16,8 @@ namespace mmval::simulate {
 class CoupledSystem {
  public:
   /// options.linear: "direct" (UMFPACK serial, ordered by METIS from 1e5 unknowns; MUMPS parallel) or "iterative"
-  /// (FGMRES + Schur fieldsplit with GAMG); throws std::invalid_argument otherwise.
+  /// (FGMRES + Schur fieldsplit with GAMG, at most options.linear_max_iterations); "auto" is "direct" here
+  /// (SteadyFlowSolver resolves it before; time stepping keeps its LU); throws std::invalid_argument otherwise.
   CoupledSystem(const FlowOperator& op, const SolverOptions& options, MPI_Comm comm);
   ~CoupledSystem();
   CoupledSystem(const CoupledSystem&) = delete;

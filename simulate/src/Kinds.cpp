@@ -41,18 +41,21 @@ void declareSolverKeys(Schema& s, bool peer_keys) {
            "Sharp treatment: a cell whose centre lies inside a solid shares the pressure and mass balance of the neighbour "
            "across its most open fluid face (merged), or keeps its own (separate: the walls move by a fraction of a cell, first order)")
       .def("merged");
-  s.choice("numerics.linear_solver", {"direct", "iterative"},
-           "mmval's coupled (u, v, p) solve: direct LU (UMFPACK serial, MUMPS parallel) or FGMRES + Schur fieldsplit with GAMG")
-      .def("direct");
+  s.choice("numerics.linear_solver", {"auto", "direct", "iterative"},
+           "mmval's coupled (u, v, p) solve: direct LU (UMFPACK serial, MUMPS parallel), FGMRES + Schur fieldsplit with AMG, or auto: "
+           "iterative for plane Stokes on analytic periodic solids from 12000 unknowns (or on more than one rank), direct otherwise and "
+           "for time stepping, with one direct retry if an auto-chosen iterative solve does not converge (result.json: details.ladder[].linear_solver)")
+      .def("auto");
   if (peer_keys) {
     s.integer("numerics.max_iterations", "Steady iteration limit (OpenFOAM: SIMPLE iterations; mmval: Newton steps, capped at 50)").def(4000).min(10).max(1000000);
     s.real("numerics.residual", "Steady convergence target (OpenFOAM: initial residuals; mmval: relative Newton update)").def(1e-7).min(0.0, true).max(1e-2);
   }
 }
 
-SolverOptions solverOptions(const Case& c) {
+SolverOptions solverOptions(const Case& c, bool quiet) {
   SolverOptions o;
   o.linear = c.text("numerics.linear_solver");
+  o.announce_choice = !quiet;
   if (c.has("numerics.max_iterations")) o.max_newton = static_cast<int>(std::min<std::int64_t>(50, c.integer("numerics.max_iterations")));
   if (c.has("numerics.residual")) o.newton_tolerance = std::max(1e-10, c.real("numerics.residual"));
   return o;
@@ -83,6 +86,9 @@ nlohmann::json ladderRow(std::size_t index, int resolution, const SteadyFlowSolv
                         {"newton_iterations", st.newton_iterations},
                         {"peak_memory_bytes", peakMemoryBytes()},
                         {"ranks", PetscSession::size()},
+                        {"linear_solver", st.linear_solver},
+                        {"linear_solver_reason", st.linear_reason},
+                        {"linear_solver_fallback", st.linear_fallback},
                         {"value", value}};
   if (primary != nullptr && !primary->reference.isInterval() && primary->reference.value != 0)
     row["error"] = (value - primary->reference.value) / primary->reference.value;
@@ -170,7 +176,7 @@ CaseKind channelKind() {
           p.inertia = true;
         }
       }
-      last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c));
+      last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c, ctx.quiet));
       solveNamingKey(*last, c.has("numerics.levels") ? "numerics.levels" : "numerics.cells");
       q = last->flowRate(Side::east) * (hd > 0 ? hd : 1.0);
       if (drive == "velocity") {

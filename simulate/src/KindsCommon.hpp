@@ -22,7 +22,8 @@ inline constexpr const char* kSolverName = "mmval simulate (MAC, immersed bounda
 std::vector<int> levelsOf(const Case& c, const char* single_key, int lo, int hi);
 /// numerics.immersed, numerics.cut_cells, numerics.linear_solver (+ the peer's max_iterations / residual if absent).
 void declareSolverKeys(Schema& s, bool peer_keys);
-SolverOptions solverOptions(const Case& c);
+/// quiet: no terminal line when numerics.linear_solver = "auto" picks the iterative solver or falls back.
+SolverOptions solverOptions(const Case& c, bool quiet = false);
 /// The case's immersed-boundary treatment (numerics.immersed, numerics.cut_cells) into p.
 void setImmersed(const Case& c, FlowProblem& p);
 /// result.json's details.immersed: "penalized", or "sharp" with the cut-cell treatment.

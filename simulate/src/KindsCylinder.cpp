@@ -159,7 +159,7 @@ CaseKind cylinderChannelKind() {
       const auto t0 = std::chrono::steady_clock::now();
       const double h = surfaceSpacing(scene, levels[li]);
       const FlowProblem p = makeProblem(levels[li]);
-      last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c));
+      last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c, ctx.quiet));
       solveNamingKey(*last, c.has("numerics.levels") ? "numerics.levels" : "numerics.cells_around");
       load = last->bodyLoads()[0];
       if (probes) {

@@ -298,7 +298,7 @@ CaseKind periodicArrayKind() {
       setImmersed(c, p);
       p.supersample = static_cast<int>(c.integer("numerics.supersample"));
       checkThroats(p, res_key, levels[li], out, ctx.quiet);
-      last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c));
+      last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c, ctx.quiet));
       solveNamingKey(*last, res_key);
       // Sangani & Acrivos: F = G L^2 per unit length, F* = F / (mu U_darcy).
       fstar = G * L * L / (mu * last->superficialVelocity());
@@ -453,7 +453,7 @@ CaseKind imagePermeabilityKind() {
           pc.shape = geo.pixels;
           checkThroats(pc, res_key, levels[li], out, ctx.quiet, kWarnImageThroatCells, px, &throat);
         }
-        last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c));
+        last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c, ctx.quiet));
         solveNamingKey(*last, res_key);
         // Darcy: k = mu Q L / (A dp), per unit depth in 2D (Q per depth, A = height).
         const double q = last->flowRate(Side::east);
