@@ -11,6 +11,7 @@
 
 #include "CoupledSystem.hpp"
 #include "FlowOperator.hpp"
+#include "ProjectionStep.hpp"
 #include "mmval/simulate/Petsc.hpp"
 
 namespace mmval::simulate {
@@ -22,7 +23,8 @@ struct UnsteadyFlowSolver::Impl {
   MPI_Comm comm;
   FlowStats stats;
   StepStats steps;
-  std::unique_ptr<CoupledSystem> sys;
+  std::unique_ptr<CoupledSystem> sys;   ///< coupled method
+  std::unique_ptr<ProjectionStep> proj;  ///< projection method
   std::vector<double> un, unm1, old;  ///< u^n, u^{n-1}, history term of the last step
   double t = 0, coef = 0;
   bool warned = false;
@@ -46,6 +48,24 @@ struct UnsteadyFlowSolver::Impl {
     un.assign(static_cast<std::size_t>(op->unknowns()), 0.0);
     unm1 = un;
     old = un;
+    if (uopt.projection_sweeps < 1 || uopt.projection_sweeps > 50)
+      throw std::invalid_argument(fmt::format("projection_sweeps must be in [1, 50], got {}", uopt.projection_sweeps));
+    if (!(uopt.projection_rtol > 0 && uopt.projection_rtol < 1e-2))
+      throw std::invalid_argument(fmt::format("projection_rtol must be in (0, 1e-2), got {}", uopt.projection_rtol));
+    makeSolver();
+  }
+
+  /// The linear solver of the steps for the current operator (after construction and setShape).
+  void makeSolver() {
+    if (uopt.method == UnsteadyMethod::projection) {
+      proj = std::make_unique<ProjectionStep>(*op, comm, uopt.projection_rtol, uopt.projection_rtol);
+      op->setTransient(coef, coef > 0 ? &old : nullptr);  // ProjectionStep read the rows' mass with its own
+      return;
+    }
+    if (sys) {
+      sys->invalidate();
+      return;
+    }
     sys = std::make_unique<CoupledSystem>(*op, opt, comm);
     // The step matrix changes by O(dt): reuse its LU factorisation across steps (GMRES, tolerance 1e-10).
     sys->setLaggedFactorisation(8, 1e-10);
@@ -104,11 +124,22 @@ struct UnsteadyFlowSolver::Impl {
     op->setTransient(coef, &hist);
     const double stable = stableTimeStep();
     const double rate_before = std::isfinite(stable) ? uopt.max_courant / stable : 0.0;
-    const int factorisations_before = sys->factorisations();
+    const int factorisations_before = sys ? sys->factorisations() : 0;
     std::vector<double> basis = next;  // the state this step's matrix is linearised at
     try {
-      sys->solve(*op, Linearisation::picard, next, stats);
-      if (sys->factorisations() > factorisations_before) {
+      if (proj) {
+        // The first step sweeps until its pressure has settled to 1e-8 (at most 30 sweeps).
+        const bool first = steps.steps == 0;
+        proj->step(*op, coef, hist, next, stats, first ? 30 : uopt.projection_sweeps, first ? 1e-8 : 0.0);
+        const ProjectionTimings& pt = proj->timings();
+        steps.velocity_seconds = pt.velocity_seconds;
+        steps.pressure_seconds = pt.pressure_seconds;
+        steps.velocity_iterations = pt.velocity_iterations;
+        steps.pressure_iterations = pt.pressure_iterations;
+      } else {
+        sys->solve(*op, Linearisation::picard, next, stats);
+      }
+      if (sys && sys->factorisations() > factorisations_before) {
         if (factor_count == 0) {
           first_factor_coef = coef;
           first_factor_state = basis;
@@ -177,7 +208,8 @@ struct UnsteadyFlowSolver::Impl {
 
 namespace {
 // 2: with the lagged LU's origin (state 1 restarted to the GMRES tolerance only).
-constexpr const char* kStateFormat = "mmval-unsteady-state-2";
+// 3: with the projection method's last pressure increment (empty for the coupled method).
+constexpr const char* kStateFormat = "mmval-unsteady-state-3";
 }
 
 void UnsteadyFlowSolver::saveState(CheckpointWriter& w) const {
@@ -200,11 +232,12 @@ void UnsteadyFlowSolver::saveState(CheckpointWriter& w) const {
   w.putVector(s.unm1);
   w.putVector(s.old);
   w.put<std::int64_t>(s.factor_count);
-  w.put(s.sys->refactorPending());
+  w.put(s.sys ? s.sys->refactorPending() : false);
   w.put(s.first_factor_coef);
   w.put(s.last_factor_coef);
   w.putVector(s.first_factor_state);
   w.putVector(s.last_factor_state);
+  w.putVector(s.proj ? s.proj->lastIncrement() : std::vector<double>{});
 }
 
 void UnsteadyFlowSolver::loadState(CheckpointReader& r) {
@@ -237,6 +270,9 @@ void UnsteadyFlowSolver::loadState(CheckpointReader& r) {
   const double first_coef = r.get<double>(), last_coef = r.get<double>();
   const std::size_t basis_size = factor_count > 0 ? s.un.size() : 0;
   auto first_state = vectorOf(basis_size), last_state = vectorOf(basis_size);
+  auto increment = r.getVector<double>();
+  if (!increment.empty() && (!s.proj || increment.size() != s.un.size() - static_cast<std::size_t>(s.nvel())))
+    throw std::runtime_error(fmt::format("checkpoint {}: a pressure increment of {} values that this solver cannot use", r.name(), increment.size()));
   s.t = t;
   s.coef = coef;
   s.warned = warned;
@@ -252,8 +288,10 @@ void UnsteadyFlowSolver::loadState(CheckpointReader& r) {
   s.last_factor_coef = last_coef;
   s.first_factor_state = std::move(first_state);
   s.last_factor_state = std::move(last_state);
+  if (s.proj) s.proj->setLastIncrement(std::move(increment));
   // Rebuild the lagged LU exactly: the first factorisation fixed the ordering, the last is in use.
-  if (s.factor_count > 0) {
+  // (The projection method keeps nothing between steps but the state.)
+  if (s.sys && s.factor_count > 0) {
     s.op->setTransient(s.first_factor_coef, &s.old);
     s.sys->factorise(*s.op, Linearisation::picard, s.first_factor_state);
     if (s.factor_count > 1) {
@@ -261,7 +299,7 @@ void UnsteadyFlowSolver::loadState(CheckpointReader& r) {
       s.sys->factorise(*s.op, Linearisation::picard, s.last_factor_state);
     }
   }
-  s.sys->setRefactorPending(s.factor_count == 0 || refactor_pending);
+  if (s.sys) s.sys->setRefactorPending(s.factor_count == 0 || refactor_pending);
   s.op->setTransient(s.coef, &s.old);  // the residual body force of the restored step
 }
 
@@ -294,12 +332,19 @@ void UnsteadyFlowSolver::setShape(std::shared_ptr<const Shape> shape) {
   p.shape = std::move(shape);
   m->op = std::make_unique<FlowOperator>(std::move(p));
   m->op->setTransient(m->coef, &m->old);
-  m->sys->invalidate();
+  m->makeSolver();
   // The matrix pattern may change with the shape: the next factorisation starts a new LU history.
   m->factor_count = 0;
 }
 
-void UnsteadyFlowSolver::setBodyForce(const Eigen::Vector2d& force) { m->op->setBodyForce(force); }
+void UnsteadyFlowSolver::setBodyForce(const Eigen::Vector2d& force) {
+  m->op->setBodyForce(force);
+  if (m->proj) {  // its rows keep the body force in their constant part
+    m->op->setTransient(0.0, nullptr);
+    m->proj->refreshRows(*m->op);
+    m->op->setTransient(m->coef, &m->old);
+  }
+}
 
 double UnsteadyFlowSolver::time() const { return m->t; }
 const StepStats& UnsteadyFlowSolver::stepStats() const { return m->steps; }

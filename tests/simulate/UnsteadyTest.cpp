@@ -14,6 +14,8 @@
 
 #include <gtest/gtest.h>
 
+#include "CylinderChannelProblem.hpp"
+
 #include "mmval/core/Checkpoint.hpp"
 #include "mmval/simulate/ForceHistory.hpp"
 #include "mmval/simulate/UnsteadyFlowSolver.hpp"
@@ -53,20 +55,6 @@ Eigen::ArrayXd startupProfile(int ny, double dt, double t_end) {
   Eigen::ArrayXXd u, v, p;
   s.fields(u, v, p);
   return u.col(0);
-}
-
-FlowProblem cylinderProblem(double Umax, double h, double length) {
-  const double H = 0.41, D = 0.1;
-  FlowProblem p;
-  p.x = refinedAxis(0, length, 0.125, 0.5, h, 1.1, 3 * h);
-  p.y = refinedAxis(0, H, 0.08, 0.32, h, 1.1, 3 * h);
-  p.boundary[0].type = BoundaryType::velocity;
-  p.boundary[0].velocity = [=](double y) { return 4 * Umax * y * (H - y) / (H * H); };
-  p.boundary[1].type = BoundaryType::pressure;
-  p.density = 1;
-  p.viscosity = 1e-3;
-  p.shape = std::make_shared<Circles>(std::vector<Circle>{{0.2, 0.2, 0.5 * D}});
-  return p;
 }
 
 /// Box of whole cells [i0, i1) x [j0, j1) for the control-volume momentum balance.
@@ -139,7 +127,7 @@ TEST(Unsteady, BodyForceMatchesControlVolumeMomentumBalance) {
   // wake (measured here: c_L within 1 %, c_D within 2.4 %; on a D/10 Schaefer-Turek 2D-2 run in its
   // periodic state c_L max 0.6652 against 0.6639, c_D 0.2 %).
   const double D = 0.1, Ubar = 1.0, c = 2 / (Ubar * Ubar * D);
-  const FlowProblem pr = cylinderProblem(1.5, D / 10, 1.0);
+  const FlowProblem pr = mmval::test::cylinderChannelProblem(1.5, D / 10, 1.0);
   UnsteadyFlowSolver s(pr);
   s.setVelocity([](double x, double y) {
     const double X = (x - 0.35) / 0.1, Y = (y - 0.2) / 0.1, g = 0.35 * std::exp(-(X * X + Y * Y));
@@ -195,7 +183,7 @@ TEST(Unsteady, StartupPoiseuilleIsSecondOrderInTime) {
 TEST(Unsteady, RequestedStepAboveCourantLimitIsSubdivided) {
   UnsteadyOptions o;
   o.max_courant = 0.8;
-  UnsteadyFlowSolver s(cylinderProblem(0.3, 0.02, 1.0), {}, o);
+  UnsteadyFlowSolver s(mmval::test::cylinderChannelProblem(0.3, 0.02, 1.0), {}, o);
   const double stable = s.stableTimeStep();
   ASSERT_TRUE(std::isfinite(stable));
   const int steps = s.advance(20 * stable);  // far above the limit
@@ -213,7 +201,7 @@ TEST(Unsteady, RequestedStepAboveCourantLimitIsSubdivided) {
 TEST(Unsteady, SolidCanBeInsertedBetweenSteps) {
   // Coupling-loop use: empty channel for 10 steps, then the cylinder appears. The drag is zero
   // before (no body) and positive after; the flow stays divergence-free.
-  FlowProblem p = cylinderProblem(0.3, 0.02, 1.0);
+  FlowProblem p = mmval::test::cylinderChannelProblem(0.3, 0.02, 1.0);
   const auto cylinder = p.shape;
   p.shape = nullptr;
   UnsteadyFlowSolver s(p);
@@ -232,7 +220,7 @@ TEST(Unsteady, DivergenceGuardThrowsAndKeepsTheLastGoodState) {
   // not return the offending state.
   UnsteadyOptions o;
   o.blowup_factor = 1.05;
-  UnsteadyFlowSolver s(cylinderProblem(0.3, 0.02, 1.0), {}, o);
+  UnsteadyFlowSolver s(mmval::test::cylinderChannelProblem(0.3, 0.02, 1.0), {}, o);
   bool threw = false;
   for (int k = 0; k < 200 && !threw; ++k) {
     const double t = s.time();
@@ -255,7 +243,7 @@ TEST(Unsteady, Re200CoarseShedsTwentyPeriodsWithoutBlowUp) {
   // Schaefer-Turek channel at Re = Ubar D / nu = 200 (U_max 3 m/s), h = D/8, Courant 1.
   // Coarse on purpose (cheap): the test asserts stability and sustained shedding, not accuracy.
   const double Umax = 3.0, Ubar = 2.0, D = 0.1;
-  UnsteadyFlowSolver s(cylinderProblem(Umax, D / 8, 1.2));
+  UnsteadyFlowSolver s(mmval::test::cylinderChannelProblem(Umax, D / 8, 1.2));
   s.setVelocity([](double x, double y) {  // small vortex behind the cylinder: shedding starts early
     const double X = (x - 0.35) / 0.1, Y = (y - 0.2) / 0.1, g = 0.5 * std::exp(-(X * X + Y * Y));
     return Eigen::Vector2d(-Y * g, X * g);
@@ -334,7 +322,7 @@ TEST(Unsteady, RestartFromACheckpointContinuesBitForBit) {
     const double X = (x - 0.35) / 0.1, Y = (y - 0.2) / 0.1, g = 0.5 * std::exp(-(X * X + Y * Y));
     return Eigen::Vector2d(-Y * g, X * g);
   };
-  const auto makeSolver = [&] { return std::make_unique<UnsteadyFlowSolver>(cylinderProblem(3.0, 0.1 / 8, 1.2)); };
+  const auto makeSolver = [&] { return std::make_unique<UnsteadyFlowSolver>(mmval::test::cylinderChannelProblem(3.0, 0.1 / 8, 1.2)); };
   struct Sample {
     double t, fx, fy;
   };

@@ -39,7 +39,20 @@
 
 namespace mmval::simulate {
 
+/// How a step solves for velocity and pressure: one coupled solve (lagged LU + GMRES; the
+/// continuity and momentum exact to 1e-10), or incremental pressure correction (a velocity
+/// predictor, a pressure Poisson solve by algebraic multigrid, a velocity correction; the
+/// continuity exact to the Poisson tolerance, the momentum up to the O(dt^2) splitting error;
+/// no factorisation: memory and time per step ~ linear in the cells).
+enum class UnsteadyMethod { coupled, projection };
+
 struct UnsteadyOptions {
+  UnsteadyMethod method = UnsteadyMethod::coupled;
+  double projection_rtol = 1e-8;  ///< projection: relative tolerance of its velocity and pressure solves
+  /// projection: predictor-correction sweeps per step (1: the standard scheme; more approach the
+  /// coupled solve). The first step sweeps until the pressure settles (its increment is the whole
+  /// initial pressure, not O(dt)).
+  int projection_sweeps = 1;
   double max_courant = 1.0;     ///< Courant limit (dimensionless), in (0, 4]
   double max_growth = 1.25;     ///< largest dt_n / dt_{n-1}, in (1, 2.4]
   double blowup_factor = 20;    ///< max |u| above this x the velocity scale counts as divergence
@@ -53,6 +66,10 @@ struct StepStats {
   double last_courant = 0;      ///< Courant number of the last step
   double max_courant = 0;       ///< largest Courant number of any step
   std::string warning;          ///< the last dt reduction, empty if none
+  /// Projection method: wall time and iterations of the velocity predictor and of the pressure
+  /// correction (with the correction of the velocity), summed over the steps.
+  double velocity_seconds = 0, pressure_seconds = 0;
+  long long velocity_iterations = 0, pressure_iterations = 0;
 };
 
 class UnsteadyFlowSolver {
@@ -102,7 +119,8 @@ class UnsteadyFlowSolver {
   /// Checkpoint and restart: everything the next step needs (time, step history, the two
   /// velocity levels and the pressure, the last step's history term, and where the lagged LU
   /// came from: the transient coefficient and linearised state of its first and its last
-  /// factorisation, and whether the next step refactorises) and the summed statistics, all as
+  /// factorisation, and whether the next step refactorises; for the projection method its last
+  /// pressure increment, the next step's initial guess) and the summed statistics, all as
   /// binary doubles. loadState needs a solver built from the same problem and options; it refuses
   /// a state of another grid or format (std::runtime_error naming the checkpoint). It rebuilds
   /// the LU from the same matrices in the same order, so a resumed run continues bit for bit like
