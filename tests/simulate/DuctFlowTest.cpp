@@ -17,6 +17,7 @@
 #include "mmval/simulate/PoreSpace.hpp"
 
 #include "../TestScratch.hpp"
+#include "FluidRegistry.hpp"
 
 namespace fs = std::filesystem;
 using namespace mmval;
@@ -43,11 +44,7 @@ fs::path slotMask(int slot, const std::string& name) {
 }
 
 RunOutput runSlot(int slot, const std::string& depth_model) {
-  static const CaseKindRegistry reg = [] {
-    CaseKindRegistry r;
-    registerFluidKinds(r);
-    return r;
-  }();
+  const CaseKindRegistry& reg = test_support::fluidRegistry();
   const fs::path mask = slotMask(slot, "duct-slot-" + std::to_string(slot) + ".pgm");
   const std::string text = "[case]\nname = \"slot\"\nkind = \"image-permeability\"\n[geometry]\nmask = \"" + mask.generic_string() +
                            "\"\npixel_size = \"10 um\"\ngrains = \"dark\"\ndepth = \"20 um\"\n[numerics]\ncells_per_pixel = 1.0\ndepth_model = \"" +

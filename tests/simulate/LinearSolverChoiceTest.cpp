@@ -15,20 +15,14 @@
 #include "mmval/simulate/Kinds.hpp"
 
 #include "../TestScratch.hpp"
+#include "FluidRegistry.hpp"
 
 using namespace mmval;
 using namespace mmval::simulate;
 
 namespace {
 
-const CaseKindRegistry& registry() {
-  static const CaseKindRegistry r = [] {
-    CaseKindRegistry reg;
-    registerFluidKinds(reg);
-    return reg;
-  }();
-  return r;
-}
+const CaseKindRegistry& registry() { return test_support::fluidRegistry(); }
 
 /// The square array at solid fraction 0.2 on n x n cells, driven by G (Pa/m).
 FlowProblem array(int n, double G = 1.0) { return squareArrayProblem(1e-4, n, 0.2, 1e-3, G); }

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -113,12 +114,15 @@ TEST(BrownianPipeline, AutoPicksFlowForAFlowVideoAndKeepsItsOutputs) {
   EXPECT_EQ(summaryOf(dir / "out")["motion"]["model"], "flow");
 }
 
-TEST(BrownianPipeline, AutoPicksBrownianForADiffusionVideo) {
+namespace {
+/// Free diffusion only (no flow, grains, stuck or deposited particles): D 0.8 px^2 per frame at
+/// 10 fps and 0.5 um/px.
+SynthOptions diffusionVideo(int width, int height, int frames, int particles, std::uint64_t seed) {
   SynthOptions o;
-  o.width = 240;
-  o.height = 180;
-  o.frames = 40;
-  o.particles = 60;
+  o.width = width;
+  o.height = height;
+  o.frames = frames;
+  o.particles = particles;
   o.immobile = 0;
   o.grains = 0;
   o.speed = 0;
@@ -126,7 +130,13 @@ TEST(BrownianPipeline, AutoPicksBrownianForADiffusionVideo) {
   o.brownian_d = 0.8;  // px^2 per frame
   o.fps = 10;
   o.pixel_size = 0.5e-6;
-  o.seed = 21;
+  o.seed = seed;
+  return o;
+}
+}  // namespace
+
+TEST(BrownianPipeline, AutoPicksBrownianForADiffusionVideo) {
+  const SynthOptions o = diffusionVideo(240, 180, 40, 60, 21);
   const fs::path dir = render("brownian-auto-diffusion", o);
   TrackConfig c;
   c.fps = o.fps;
@@ -160,19 +170,7 @@ TEST(BrownianPipeline, AutoLinksAsBrownianDoesAndWritesTheSameFilesOnOneOrTwoThr
   // prediction only). And the output files written by two threads (writeTrackOutputs) are
   // those one thread writes, byte for byte, in the same order (summary.json aside: it
   // holds the run's seconds).
-  SynthOptions o;
-  o.width = 200;
-  o.height = 150;
-  o.frames = 30;
-  o.particles = 40;
-  o.immobile = 0;
-  o.grains = 0;
-  o.speed = 0;
-  o.deposit_fraction = 0;
-  o.brownian_d = 0.8;  // px^2 per frame
-  o.fps = 10;
-  o.pixel_size = 0.5e-6;
-  o.seed = 22;
+  const SynthOptions o = diffusionVideo(200, 150, 30, 40, 22);
   const fs::path dir = render("brownian-auto-relink", o);
   TrackConfig c;
   c.fps = o.fps;
