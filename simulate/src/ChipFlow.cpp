@@ -45,18 +45,10 @@ ChipFlow3DResult chipPermeability3D(const BoolArray& solid, const ChipFlowSettin
   ChipFlow3DResult r;
   r.cells_per_pixel = cpp;
   r.cells_z = cells_z;
-  Stokes3DProblem p;
-  p.length = static_cast<double>(solid.cols()) * s.pixel_m;
-  p.width = static_cast<double>(solid.rows()) * s.pixel_m;
-  p.depth = s.depth_m;
-  // The grid image-permeability's 3D model builds (KindsPorous.cpp, run3d).
-  p.nx = r.nx = std::max(4, static_cast<int>(std::lround(solid.cols() * cpp)));
-  p.ny = r.ny = std::max(4, static_cast<int>(std::lround(solid.rows() * cpp)));
-  p.solid = coarsenMask(solid, p.nx, p.ny);
-  p.slip_sides = true;
-  p.viscosity = s.viscosity_Pa_s;
-  p.inlet_pressure = s.pressure_drop_Pa;
-  p.outlet_pressure = 0;
+  // The problem image-permeability's 3D model builds (KindsPorous.cpp, run3d).
+  Stokes3DProblem p = maskStokes3DProblem(solid, s.pixel_m, s.depth_m, s.viscosity_Pa_s, s.pressure_drop_Pa, cpp);
+  r.nx = p.nx;
+  r.ny = p.ny;
   for (const int nz : cells_z) {
     p.nz = nz;
     Stokes3DSolver solver(p);
@@ -65,13 +57,7 @@ ChipFlow3DResult chipPermeability3D(const BoolArray& solid, const ChipFlowSettin
     r.iterations.push_back(solver.stats().iterations);
     r.cells.push_back(solver.stats().cells);
   }
-  const std::size_t n = r.permeability_m2.size();
-  r.extrapolated_m2 = n ? r.permeability_m2.back() : 0;
-  if (n >= 2 && cells_z[n - 1] != cells_z[n - 2]) {
-    // Richardson in dz with the plate closure's order 2 (exact for plane Poiseuille, Stokes3D.hpp).
-    const double q = static_cast<double>(cells_z[n - 1]) / cells_z[n - 2];
-    r.extrapolated_m2 = r.permeability_m2[n - 1] + (r.permeability_m2[n - 1] - r.permeability_m2[n - 2]) / (q * q - 1);
-  }
+  r.extrapolated_m2 = extrapolateInDepthCells(cells_z, r.permeability_m2).value_or(r.permeability_m2.empty() ? 0.0 : r.permeability_m2.back());
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }

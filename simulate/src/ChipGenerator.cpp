@@ -257,7 +257,7 @@ void validateChipSpec(const ChipSpec& s) {
   const double side_rows = (s.solve_on_tile ? std::min(s.tile_mm, s.width_mm) : s.width_mm) * 1e3 / s.pixel_um;
   if (!s.ladder.empty()) {
     const double finest = std::max(s.ladder.back(), s.cells_per_pixel);
-    const double bytes = detail::kStartupBytes + detail::kDirectBytesPerCell * side_cols * side_rows * finest * finest;
+    const double bytes = detail::steadyFlowBytes(side_cols * side_rows * finest * finest, false);
     need(bytes <= defaultMaxMemoryBytes(), "--ladder", finest,
          fmt::format("a finest level whose direct solve fits in memory: {:.3g} cells need ~{:.1f} GB, {:.1f} GB available (coarser levels, a larger "
                      "--pixel-size-um, or --solve-on tile)", side_cols * side_rows * finest * finest, bytes / 1e9, defaultMaxMemoryBytes() / 1e9));

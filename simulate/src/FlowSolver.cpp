@@ -66,7 +66,7 @@ struct SteadyFlowSolver::Impl {
   /// memory per cell fits within the default memory limit. Returns whether it switched.
   bool fallBack(const FlowFailure& e) {
     if (!automatic || fell_back || opt.linear != "iterative") return false;
-    const double need = detail::kStartupBytes + static_cast<double>(op.nx()) * op.ny() * detail::kDirectBytesPerCell;
+    const double need = detail::steadyFlowBytes(static_cast<double>(op.nx()) * op.ny(), false);
     if (need > defaultMaxMemoryBytes()) return false;
     fell_back = true;
     opt.linear = "direct";

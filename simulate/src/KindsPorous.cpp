@@ -36,8 +36,6 @@ constexpr double kDarcy = 9.869233e-13;  // m2
 void run3d(const Case& c, const RunContext& ctx, const BoolArray& solid, double px, double depth, double mu, double dp, std::map<std::string, double>& k_of,
            RunOutput& out) {
   const double cpp = c.real("numerics.cells_per_pixel_3d");
-  const int nx = std::max(4, static_cast<int>(std::lround(solid.cols() * cpp)));
-  const int ny = std::max(4, static_cast<int>(std::lround(solid.rows() * cpp)));
   std::vector<int> levels{static_cast<int>(c.integer("numerics.cells_z"))};
   if (c.has("numerics.cells_z_levels")) {
     levels.clear();
@@ -47,17 +45,8 @@ void run3d(const Case& c, const RunContext& ctx, const BoolArray& solid, double 
     }
     if (levels.empty()) throw InputError(c.where("numerics.cells_z_levels"), "the ladder is empty", "[]", "e.g. [4, 8, 16]");
   }
-  Stokes3DProblem p;
-  p.length = static_cast<double>(solid.cols()) * px;
-  p.width = static_cast<double>(solid.rows()) * px;
-  p.depth = depth;
-  p.nx = nx;
-  p.ny = ny;
-  p.solid = coarsenMask(solid, nx, ny);  // row j = y cell j (the image mirrored in y: k along x is unchanged)
-  p.slip_sides = true;
-  p.viscosity = mu;
-  p.inlet_pressure = dp;
-  p.outlet_pressure = 0;
+  Stokes3DProblem p = maskStokes3DProblem(solid, px, depth, mu, dp, cpp);
+  const int nx = p.nx, ny = p.ny;
   Stokes3DOptions o;
   o.schur = c.text("numerics.schur_3d");
   nlohmann::json runs = nlohmann::json::array();
@@ -108,11 +97,8 @@ void run3d(const Case& c, const RunContext& ctx, const BoolArray& solid, double 
   k_of["3d"] = ks.back();
   out.metrics["permeability_3d"] = ks.back();
   out.units["permeability_3d"] = "D";
-  if (ks.size() >= 2 && levels[levels.size() - 1] != levels[levels.size() - 2]) {
-    // Richardson in dz with the plate closure's order 2 (exact for plane Poiseuille, Stokes3D.hpp).
-    const double r = static_cast<double>(levels.back()) / levels[levels.size() - 2];
-    const double kx = ks.back() + (ks.back() - ks[ks.size() - 2]) / (r * r - 1);
-    out.metrics["permeability_3d_extrapolated"] = kx;
+  if (const auto kx = extrapolateInDepthCells(levels, ks)) {
+    out.metrics["permeability_3d_extrapolated"] = *kx;
     out.units["permeability_3d_extrapolated"] = "D";
   }
   out.metrics["porosity_3d_grid"] = last.porosity_connected;

@@ -37,10 +37,12 @@ inline constexpr double kMaskBytesPerPixel = 12;
 /// What stays of the mask while the solver runs (the bool mask, the pore-space copy, the shape).
 inline constexpr double kMaskKeptBytesPerPixel = 3;
 
+/// Peak bytes of one steady 2D solve on `cells` cells, direct LU or iterative.
+inline double steadyFlowBytes(double cells, bool iterative) { return kStartupBytes + cells * (iterative ? kIterativeBytesPerCell : kDirectBytesPerCell); }
+
 /// Peak bytes of one steady 2D solve on `cells` cells with the case's numerics.linear_solver.
 inline double steadyFlowBytes(const Case& c, double cells) {
-  const bool iterative = c.has("numerics.linear_solver") && c.text("numerics.linear_solver") == "iterative";
-  return kStartupBytes + cells * (iterative ? kIterativeBytesPerCell : kDirectBytesPerCell);
+  return steadyFlowBytes(cells, c.has("numerics.linear_solver") && c.text("numerics.linear_solver") == "iterative");
 }
 
 /// Refuses a steady solve on an nx x ny grid (plus `extra_bytes` held alongside) that does not fit

@@ -420,4 +420,26 @@ BoolArray coarsenMask(const BoolArray& fine, int nx, int ny) {
   return out;
 }
 
+Stokes3DProblem maskStokes3DProblem(const BoolArray& solid, double pixel, double depth, double viscosity, double pressure_drop, double cells_per_pixel) {
+  Stokes3DProblem p;
+  p.length = static_cast<double>(solid.cols()) * pixel;
+  p.width = static_cast<double>(solid.rows()) * pixel;
+  p.depth = depth;
+  p.nx = std::max(4, static_cast<int>(std::lround(solid.cols() * cells_per_pixel)));
+  p.ny = std::max(4, static_cast<int>(std::lround(solid.rows() * cells_per_pixel)));
+  p.solid = coarsenMask(solid, p.nx, p.ny);  // row j = y cell j (the image mirrored in y: k along x is unchanged)
+  p.slip_sides = true;
+  p.viscosity = viscosity;
+  p.inlet_pressure = pressure_drop;
+  p.outlet_pressure = 0;
+  return p;
+}
+
+std::optional<double> extrapolateInDepthCells(const std::vector<int>& cells_z, const std::vector<double>& k) {
+  const std::size_t n = std::min(cells_z.size(), k.size());
+  if (n < 2 || cells_z[n - 1] == cells_z[n - 2]) return std::nullopt;
+  const double r = static_cast<double>(cells_z[n - 1]) / cells_z[n - 2];
+  return k[n - 1] + (k[n - 1] - k[n - 2]) / (r * r - 1);
+}
+
 }  // namespace mmval::simulate

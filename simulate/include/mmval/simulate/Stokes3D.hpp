@@ -57,6 +57,8 @@
 // PETSc options with prefix "stokes3d_" (lsc), "stokes3ds_" (selfp) or "stokes3dm_" (mass)
 // override the defaults (e.g. -stokes3d_ksp_monitor).
 #pragma once
+#include <optional>
+#include <vector>
 #include <memory>
 #include <string>
 #include <vector>
@@ -133,5 +135,15 @@ class Stokes3DSolver {
 /// solid if more than half of the pixels whose centres it contains are solid
 /// (with no pixel centre inside, the pixel under the cell centre decides).
 BoolArray coarsenMask(const BoolArray& fine, int nx, int ny);
+
+/// The coarse 3D model of a pore mask (image-permeability's depth_model "3d", `mmval chip
+/// --permeability-model 3d`): the mask (rows x cols pixels of `pixel` m) block-averaged onto
+/// round(cols x cells_per_pixel) x round(rows x cells_per_pixel) cells (at least 4 each), extruded
+/// between no-slip plates `depth` apart, slip sides, `pressure_drop` from x = 0 to x = L; nz unset.
+Stokes3DProblem maskStokes3DProblem(const BoolArray& solid, double pixel, double depth, double viscosity, double pressure_drop, double cells_per_pixel);
+
+/// Richardson extrapolation of k over the two finest cells_z levels with the plate closure's order 2
+/// (exact for plane Poiseuille); none with fewer than two levels or equal finest two.
+std::optional<double> extrapolateInDepthCells(const std::vector<int>& cells_z, const std::vector<double>& k);
 
 }  // namespace mmval::simulate
