@@ -296,8 +296,8 @@ class CaseReader {
       // A case kept away from mmval's data (a user's folder, `mmval init`)
       // names "reference-data/<file>": the one of mmval's data folder.
       if (const auto at_data = given.rfind("reference-data/");
-          !std::filesystem::exists(ref_path) && at_data != std::string::npos && (at_data == 0 || given[at_data - 1] == '/'))
-        if (const auto data = referenceDataDirectory(); !data.empty() && std::filesystem::exists(data / given.substr(at_data + 15)))
+          !pathExists(ref_path) && at_data != std::string::npos && (at_data == 0 || given[at_data - 1] == '/'))
+        if (const auto data = referenceDataDirectory(); !data.empty() && pathExists(data / given.substr(at_data + 15)))
           ref_path = (data / given.substr(at_data + 15)).lexically_normal();
       if (!insideReferenceFolders(ref_path, m_file))
         fail(lineOf(*file), key + ".file", "a reference pointer must stay inside reference-data/ or the case file's folder", "\"" + given + "\"",
@@ -751,7 +751,7 @@ std::string Case::hash() const {
 
 ReferenceValue lookupReference(const std::filesystem::path& file, std::string_view quantity, const AtMap& at,
                                const InputLocation& where) {
-  if (!std::filesystem::is_regular_file(file))
+  if (!isRegularFile(file))
     throw InputError(where, "reference file not found", file.string(), "a path relative to the case file, e.g. \"../reference-data/<name>.toml\"");
   const ReferenceFile& ref = loadReferenceFile(file);
   const auto rows = ref.find(std::string(quantity), at);

@@ -83,4 +83,19 @@ fs::path exampleCasesDirectory() {
   return !dir.empty() && fs::is_directory(dir / "cases", ec) ? dir / "cases" : fs::path();
 }
 
+bool pathExists(const fs::path& p) noexcept {
+  std::error_code ec;
+  return fs::exists(p, ec) && !ec;
+}
+
+bool isRegularFile(const fs::path& p) noexcept {
+  std::error_code ec;
+  return fs::is_regular_file(p, ec) && !ec;
+}
+
+bool isDirectory(const fs::path& p) noexcept {
+  std::error_code ec;
+  return fs::is_directory(p, ec) && !ec;
+}
+
 }  // namespace mmval

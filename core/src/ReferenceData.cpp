@@ -10,6 +10,7 @@
 #include <toml++/toml.h>
 
 #include "mmval/core/Case.hpp"
+#include "mmval/core/DataPaths.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Utf8.hpp"
 #include "mmval/core/Strings.hpp"
@@ -197,7 +198,7 @@ const ReferenceFile& loadReferenceFile(const std::filesystem::path& path) {
   std::lock_guard lock(mutex);
   auto it = cache.find(key);
   if (it != cache.end()) return *it->second;
-  if (!std::filesystem::is_regular_file(path)) fail(path, 0, {}, "reference file not found", path.string(), "an existing file under reference-data/");
+  if (!isRegularFile(path)) fail(path, 0, {}, "reference file not found", path.string(), "an existing file under reference-data/");
   auto file = std::make_unique<ReferenceFile>(parseReferenceFile(path));
   return *cache.emplace(key, std::move(file)).first->second;
 }

@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/DataPaths.hpp"
 #include "mmval/core/DetailFields.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/BuildInfo.hpp"
@@ -162,7 +163,7 @@ std::filesystem::path siblingRunFile(const Case& c, const RunContext& ctx, const
   const std::string& run = c.text(run_key);
   const std::filesystem::path runs = ctx.out_dir.parent_path();
   const std::filesystem::path f = runs / run / file;
-  if (!std::filesystem::exists(f))
+  if (!pathExists(f))
     throw InputError(c.where(run_key), "no " + file + " from that run in " + runs.string(), run,
                      "the name of a case that `mmval validate` runs before this one");
   return f;

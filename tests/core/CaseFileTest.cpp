@@ -233,6 +233,17 @@ TEST(CaseFileErrors, ReferencePointerToMissingRow) {
   EXPECT_THAT(e, HasSubstr("2D-9"));
 }
 
+// Fuzz finding (CI of 9270433): a reference name longer than the system's
+// limit (NAME_MAX 255 on Linux) made std::filesystem::exists throw, and the
+// case reader ended on an uncaught filesystem_error instead of an InputError.
+TEST(CaseFileErrors, OverlongReferencePathIsAnInputError) {
+  const std::string name = "../reference-data/" + std::string(600, 'a') + ".toml";
+  const std::string text = std::string(kValid) + "[[acceptance]]\nmetric = \"c_D\"\nreference = { file = \"" + name +
+                           "\", quantity = \"c_D\" }\ntolerance = \"1 %\"\nreason = \"r\"\n";
+  const std::string e = errorOf(text, std::string(MMVAL_SOURCE_DIR) + "/cases/bad.toml");
+  EXPECT_THAT(e, HasSubstr("acceptance[0].reference"));
+}
+
 TEST(CaseFileErrors, MissingFileIsAnInputError) {
   try {
     Case::load("no/such/case.toml", registry());

@@ -12,6 +12,7 @@
 
 #include <fmt/format.h>
 
+#include "mmval/core/DataPaths.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ImageHeader.hpp"
 #include "mmval/core/Resources.hpp"
@@ -98,7 +99,7 @@ FrameSource::FrameSource(const std::string& input, std::optional<cv::Rect> roi, 
   } else if (input.find_first_of("*?") != std::string::npos) {
     const fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
     const std::regex re = globToRegex(p.filename().string());
-    if (fs::is_directory(dir))
+    if (isDirectory(dir))
       for (const auto& e : fs::directory_iterator(dir))
         if (std::regex_match(e.path().filename().string(), re) && isImage(e.path())) m_files.push_back(e.path().string());
     std::sort(m_files.begin(), m_files.end());
@@ -106,7 +107,7 @@ FrameSource::FrameSource(const std::string& input, std::optional<cv::Rect> roi, 
     m_kind = Kind::images;
     m_total = static_cast<int>(m_files.size());
   } else {
-    if (!fs::exists(p)) throw InputError({input, 0, 0, {}}, "input not found", {}, "a video, an image folder, a glob or a multi-page TIFF");
+    if (!pathExists(p)) throw InputError({input, 0, 0, {}}, "input not found", {}, "a video, an image folder, a glob or a multi-page TIFF");
     std::string ext = p.extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
     if (ext == ".tif" || ext == ".tiff") {

@@ -7,6 +7,7 @@
 
 #include "MicromodelDetail.hpp"
 #include "CaseScene.hpp"
+#include "mmval/core/DataPaths.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ImageHeader.hpp"
 #include "mmval/core/Resources.hpp"
@@ -139,12 +140,12 @@ PixelMask dilate(const PixelMask& m, int radius_px) {
 
 fs::path maskPath(const Case& c) {
   const fs::path p = c.path("geometry.mask");
-  if (fs::exists(p)) return p;
+  if (pathExists(p)) return p;
   // Also relative to the folder above the case file (the repository for cases/).
   const fs::path raw = c.text("geometry.mask");
   if (raw.is_relative()) {
     const fs::path q = c.file().parent_path().parent_path() / raw;
-    if (fs::exists(q)) return q;
+    if (pathExists(q)) return q;
     throw InputError(c.where("geometry.mask"), "mask image not found", raw.string(),
                      fmt::format("an image at {} or {}", p.string(), q.string()));
   }

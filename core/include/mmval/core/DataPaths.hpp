@@ -30,4 +30,13 @@ std::filesystem::path referenceDataDirectory();
 /// dataDirectory() / "cases" when that folder exists, or an empty path.
 std::filesystem::path exampleCasesDirectory();
 
+/// std::filesystem::exists and is_regular_file without their throwing
+/// overloads: a path the system cannot even examine (a name longer than the
+/// system allows, a parent folder without permission) counts as absent, so a
+/// caller reports "not found" as an InputError naming the path instead of
+/// ending on an uncaught filesystem_error. Paths come from users' files.
+bool pathExists(const std::filesystem::path& p) noexcept;
+bool isRegularFile(const std::filesystem::path& p) noexcept;
+bool isDirectory(const std::filesystem::path& p) noexcept;
+
 }  // namespace mmval
