@@ -143,7 +143,7 @@ void registerCaseCommands(CLI::App& app, const CaseKindRegistry& registry) {
     for (const auto& s : run_opts->set) overrides.push_back(CaseOverride::parse(s));
     const Case c = Case::load(run_opts->file, registry, overrides);
     const RunSummary s = runCase(c, registry, run_opts->out, {run_opts->quiet, run_opts->resume});
-    printMetrics(s);
+    if (primaryRank()) printMetrics(s);  // under mpirun, one table, not one per rank
     if (!s.all_pass) throw MetricsFailed(fmt::format("case '{}': an acceptance metric failed (see {})", c.name(), s.result_file.string()));
   });
 

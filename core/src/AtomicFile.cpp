@@ -38,16 +38,11 @@ void commitTemporary(const fs::path& temporary, const fs::path& final_path) {
   if (ec) throw std::runtime_error("cannot rename " + temporary.string() + " to " + final_path.string() + ": " + ec.message());
 }
 
-namespace {
-
 bool primaryRank() {
-  // Under mpirun only rank 0 manages the folder (Open MPI and MPICH/PMI name the rank).
   const char* rank = std::getenv("OMPI_COMM_WORLD_RANK");
   if (rank == nullptr) rank = std::getenv("PMI_RANK");
   return rank == nullptr || std::string(rank) == "0";
 }
-
-}  // namespace
 
 void writeFileAtomic(const fs::path& path, std::string_view content) {
   // Under mpirun every rank computes the same outputs and only rank 0 writes them: a

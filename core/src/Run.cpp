@@ -148,10 +148,8 @@ RunSummary runCaseWith(const Case& c, const std::function<RunOutput(const Case&,
                }()},
               {"files", output.files},
               {"provenance", provenanceJson()}};
-  // Under mpirun only rank 0 writes (Open MPI and MPICH/PMI name the rank in the environment).
-  const char* rank = std::getenv("OMPI_COMM_WORLD_RANK");
-  if (rank == nullptr) rank = std::getenv("PMI_RANK");
-  if (rank == nullptr || std::string(rank) == "0") {
+  // Under mpirun only rank 0 writes.
+  if (primaryRank()) {
     writeFileAtomic(staged.path() / "result.json", s.result.dump(2) + "\n");
     staged.commit();
   }

@@ -5,9 +5,11 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
+#include <string>
 
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Error.hpp"
@@ -163,3 +165,26 @@ TEST(OutputFolder, AStagingNameHeldByAUsersFolderIsNotCleared) {
 }
 
 }  // namespace
+
+// Under mpirun every rank runs the case; only rank 0 writes files and prints the
+// metrics table (before, `mpirun -np 2 mmval run` printed it twice). The rank
+// comes from the launcher's environment: Open MPI, else MPICH/PMI.
+TEST(OutputFolder, OnlyTheFirstRankOfAnMpiLaunchWritesAndPrints) {
+  const char* keep_ompi = std::getenv("OMPI_COMM_WORLD_RANK");
+  const char* keep_pmi = std::getenv("PMI_RANK");
+  const std::string ompi = keep_ompi ? keep_ompi : "", pmi = keep_pmi ? keep_pmi : "";
+  ::unsetenv("OMPI_COMM_WORLD_RANK");
+  ::unsetenv("PMI_RANK");
+  EXPECT_TRUE(mmval::primaryRank());  // no launcher
+  ::setenv("PMI_RANK", "1", 1);
+  EXPECT_FALSE(mmval::primaryRank());
+  ::setenv("OMPI_COMM_WORLD_RANK", "0", 1);  // Open MPI's variable is read first
+  EXPECT_TRUE(mmval::primaryRank());
+  ::setenv("OMPI_COMM_WORLD_RANK", "1", 1);
+  const fs::path dir = fs::temp_directory_path() / "mmval-rank-test";
+  fs::remove_all(dir);
+  mmval::writeFileAtomic(dir / "a.txt", "x");
+  EXPECT_FALSE(fs::exists(dir / "a.txt"));  // a second rank writes nothing
+  if (keep_ompi) ::setenv("OMPI_COMM_WORLD_RANK", ompi.c_str(), 1); else ::unsetenv("OMPI_COMM_WORLD_RANK");
+  if (keep_pmi) ::setenv("PMI_RANK", pmi.c_str(), 1); else ::unsetenv("PMI_RANK");
+}

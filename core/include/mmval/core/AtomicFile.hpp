@@ -20,6 +20,11 @@ namespace mmval {
 /// Under mpirun only rank 0 writes; on the other ranks this does nothing.
 void writeFileAtomic(const std::filesystem::path& path, std::string_view content);
 
+/// False on the ranks other than 0 of a run started by mpirun (Open MPI and
+/// MPICH/PMI name the rank in the environment); true otherwise. Every rank
+/// computes the same outputs; only the primary one writes and prints them.
+bool primaryRank();
+
 /// A temporary path beside `final_path` for writers that need a file name
 /// (OpenCV, CSV streams); call commitTemporary() when the file is complete.
 std::filesystem::path temporaryPathFor(const std::filesystem::path& final_path);
