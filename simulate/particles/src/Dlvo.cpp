@@ -170,6 +170,59 @@ double debyeLength(const Electrolyte& e) {
   return 1.0 / std::sqrt(kappa2);
 }
 
+RegulatedCharge regulatedCharge(const SternSurface& s, const Electrolyte& e, double pH) {
+  require(std::isfinite(pH) && pH >= 0 && pH <= 14, "pH must be in [0, 14], got " + std::to_string(pH));
+  require(std::isfinite(s.pK), "silanol pK must be finite");
+  require(std::isfinite(s.site_density) && s.site_density > 0, "silanol site density must be > 0 and finite");
+  require(s.capacitance > 0, "Stern capacitance must be > 0 F/m2 (infinity: no Stern layer)");
+  const double kappa = 1.0 / debyeLength(e);  // validates the electrolyte
+  const double kT = kBoltzmann * e.temperature;
+  const double eps = e.relative_permittivity * kVacuumPermittivity;
+  const double z = e.valence;
+  const double q = kElementaryCharge;
+  // Dimensionless potentials phi = e psi / kT. Grahame for a z:z salt: sigma_d = -(2 eps kappa kT / z e)
+  // sinh(z phi_d / 2) = e Gamma alpha, so phi_d = -(2/z) asinh(g alpha); the Stern layer: phi_0 = phi_d
+  // + e sigma_0 / (C kT) = phi_d - s alpha; mass action at the surface: alpha / (1 - alpha) =
+  // 10^(pH - pK) exp(phi_0), i.e. phi_0 = x + L with x = logit(alpha), L = ln10 (pK - pH).
+  const double g = z * q * q * s.site_density / (2.0 * eps * kappa * kT);
+  const double stern = std::isinf(s.capacitance) ? 0.0 : q * q * s.site_density / (s.capacitance * kT);
+  const double L = std::log(10.0) * (s.pK - pH);
+  const auto alphaOf = [](double x) { return x < 0 ? std::exp(x) / (1.0 + std::exp(x)) : 1.0 / (1.0 + std::exp(-x)); };
+  const auto residual = [&](double x) {
+    const double a = alphaOf(x);
+    return x + L + (2.0 / z) * std::asinh(g * a) + stern * a;
+  };
+  // residual(x) - x - L lies in [0, B): the root lies in [-L - B, -L].
+  const double B = (2.0 / z) * std::asinh(g) + stern;
+  double lo = -L - B, hi = -L;
+  for (int it = 0; it < 400 && hi - lo > 1e-15 * (1.0 + std::abs(lo) + std::abs(hi)); ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (residual(mid) < 0 ? lo : hi) = mid;
+  }
+  const double x = 0.5 * (lo + hi);
+  RegulatedCharge out;
+  out.dissociated_fraction = alphaOf(x);
+  out.surface_charge = -q * s.site_density * out.dissociated_fraction;
+  out.diffuse_potential = -(2.0 / z) * std::asinh(g * out.dissociated_fraction) * kT / q;
+  out.surface_potential = out.diffuse_potential + (std::isinf(s.capacitance) ? 0.0 : out.surface_charge / s.capacitance);
+  return out;
+}
+
+double regulatedSurfacePotential(const SternSurface& s, const Electrolyte& e, double pH) {
+  return regulatedCharge(s, e, pH).diffuse_potential;
+}
+
+DlvoParameters withRegulatedCollector(DlvoParameters p) {
+  if (p.collector_charge.regulated)
+    p.collector_potential = regulatedSurfacePotential(p.collector_charge.surface, p.electrolyte, p.collector_charge.ph);
+  return p;
+}
+
+DlvoParameters atIonicStrength(DlvoParameters p, double ionic_strength) {
+  p.electrolyte.ionic_strength = ionic_strength;
+  return withRegulatedCollector(p);
+}
+
 DlvoInteraction::DlvoInteraction(const DlvoParameters& p) : m_p(p) {
   require(p.particle_radius > 0, "particle radius must be > 0");
   require(p.collector_radius > 0, "collector radius must be > 0 (infinity: a plate)");

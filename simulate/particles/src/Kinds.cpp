@@ -4,6 +4,7 @@
 #include "CaseScene.hpp"
 #include "checks/PhysicsChecks.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -235,8 +236,24 @@ void declareChemistry(Schema& s, bool with_temperature) {
       .def(d.particle_potential / kMillivolt).min(-300).max(300);
   s.real("chemistry.collector_zeta_mv",
          "Collector surface (zeta) potential in mV: the chip's glass for plates and grains in particle scenes; an assumption, "
-         "reference-data/dlvo-materials.toml")
+         "reference-data/dlvo-materials.toml. Used with chemistry.collector_charge = \"fixed\" only")
       .def(d.collector_potential / kMillivolt).min(-300).max(300);
+  const auto& cc = d.collector_charge;
+  s.choice("chemistry.collector_charge", {"fixed", "regulated"},
+           "How the collector (glass) potential is set. fixed: chemistry.collector_zeta_mv. regulated: the diffuse-layer potential "
+           "of the Basic Stern model of silanol dissociation (Behrens & Grier 2001) at chemistry.ph and the case's ionic strength, "
+           "valence and temperature; its magnitude falls as the salt rises (then collector_zeta_mv must not be given)")
+      .def(cc.regulated ? "regulated" : "fixed");
+  s.real("chemistry.ph", "Bulk pH for chemistry.collector_charge = \"regulated\". The source paper gives none: 7 (neutral water) is an "
+                         "assumption; water in equilibrium with air is nearer 5.6")
+      .def(cc.ph).min(0).max(14);
+  s.real("chemistry.silanol_pk", "pK of silanol dissociation SiOH <-> SiO- + H+ (regulated charge; Behrens & Grier 2001, "
+                                 "reference-data/dlvo-materials.toml)")
+      .def(cc.surface.pK).min(0).max(14);
+  s.real("chemistry.silanol_sites_per_nm2", "Silanol site density Gamma in sites per nm2 (regulated charge; Behrens & Grier 2001)")
+      .def(cc.surface.site_density * 1e-18).positive().max(100);
+  s.real("chemistry.stern_capacitance_f_m2", "Stern-layer capacitance C in F/m2 (regulated charge; Behrens & Grier 2001)")
+      .def(cc.surface.capacitance).positive().max(1000);
   s.quantity("chemistry.ionic_strength", "mol/m3", "Ionic strength I of the symmetric z:z electrolyte (mol/m3 = mM)")
       .def(d.electrolyte.ionic_strength).min(1e-4).max(5000);
   s.integer("chemistry.valence", "Valence z of both ions of the symmetric electrolyte (1: KCl, NaCl)").def(1).min(1).max(4);
@@ -268,7 +285,23 @@ DlvoParameters chemistryFromCase(const Case& c, const char* temperature_key) {
   p.double_layer = c.text("chemistry.double_layer") == "hhf" ? DoubleLayerModel::hhf : DoubleLayerModel::lsa;
   p.born = c.flag("chemistry.born");
   p.born_collision_diameter = c.quantity("chemistry.born_collision_diameter");
+  auto& cc = p.collector_charge;
+  cc.regulated = c.text("chemistry.collector_charge") == "regulated";
+  cc.ph = c.real("chemistry.ph");
+  cc.surface.pK = c.real("chemistry.silanol_pk");
+  cc.surface.site_density = c.real("chemistry.silanol_sites_per_nm2") * 1e18;
+  cc.surface.capacitance = c.real("chemistry.stern_capacitance_f_m2");
+  if (cc.regulated) {
+    const auto given = [&](std::string_view key) {
+      if (c.where(key).line > 0) return true;
+      return std::any_of(c.overrides().begin(), c.overrides().end(), [&](const CaseOverride& o) { return o.key == key; });
+    };
+    if (given("chemistry.collector_zeta_mv"))
+      throw InputError(c.where("chemistry.collector_zeta_mv"),
+                       "is computed when chemistry.collector_charge = \"regulated\" (Basic Stern model at chemistry.ph); give one or the other");
+  }
   try {
+    p = withRegulatedCollector(p);
     (void)DlvoInteraction(p);
   } catch (const std::invalid_argument& e) {
     throw InputError(c.where("chemistry"), fmt::format("the chemistry does not define a DLVO interaction: {}", e.what()));

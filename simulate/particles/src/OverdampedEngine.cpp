@@ -67,6 +67,7 @@ OverdampedEngine::OverdampedEngine(std::shared_ptr<const FlowField> flow, SceneC
     DlvoParameters deposit = plate;
     deposit.collector_radius = m_radius;
     deposit.collector_potential = plate.particle_potential;
+    deposit.collector_charge.regulated = false;  // a deposit is latex at the particle's (fixed) potential, not glass
     m_plate_chem = std::make_unique<SurfaceChemistry>(surfaceChemistry(plate));
     m_deposit_chem = std::make_unique<SurfaceChemistry>(surfaceChemistry(deposit));
   }
@@ -78,12 +79,33 @@ const SurfaceChemistry* OverdampedEngine::chemistry(Surface s) const {
   return nullptr;
 }
 
+namespace {
+
+/// Where the collector potential came from: an input, or charge regulation (with its inputs and state).
+nlohmann::json collectorChargeJson(const DlvoParameters& p) {
+  const auto& cc = p.collector_charge;
+  if (!cc.regulated) return {{"model", "fixed"}, {"zeta_mV", p.collector_potential * 1e3}};
+  const RegulatedCharge r = regulatedCharge(cc.surface, p.electrolyte, cc.ph);
+  return {{"model", "regulated (Basic Stern model of silanol dissociation, Behrens & Grier 2001); zeta = diffuse-layer potential"},
+          {"zeta_mV", p.collector_potential * 1e3},  // the value used: r.diffuse_potential at this electrolyte
+          {"surface_potential_mV", r.surface_potential * 1e3},
+          {"surface_charge_mC_m2", r.surface_charge * 1e3},
+          {"dissociated_fraction", r.dissociated_fraction},
+          {"pH", cc.ph},
+          {"pK", cc.surface.pK},
+          {"sites_per_nm2", cc.surface.site_density * 1e-18},
+          {"stern_capacitance_F_m2", cc.surface.capacitance}};
+}
+
+}  // namespace
+
 nlohmann::json SurfaceChemistry::describe() const {
   const auto& p = parameters;
   const auto& f = profile;
   nlohmann::json j = {{"geometry", std::isinf(p.collector_radius) ? "sphere-plate" : "sphere-sphere"},
                       {"particle_zeta_mV", p.particle_potential * 1e3},
                       {"collector_zeta_mV", p.collector_potential * 1e3},
+                      {"collector_charge", collectorChargeJson(p)},
                       {"ionic_strength_mM", p.electrolyte.ionic_strength},
                       {"valence", p.electrolyte.valence},
                       {"temperature_K", p.electrolyte.temperature},

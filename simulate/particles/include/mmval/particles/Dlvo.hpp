@@ -3,7 +3,9 @@
 // van der Waals (Gregory 1981), optional Born repulsion (Ruckenstein & Prieve
 // 1976); the features of the energy profile; and attachment from the profile
 // (barrier-limited rate: Ruckenstein & Prieve 1973; Prieve & Ruckenstein 1974,
-// AIChE J. 20:1178; secondary-minimum capture: Shen et al. 2007). SI throughout:
+// AIChE J. 20:1178; secondary-minimum capture: Shen et al. 2007); and the charge
+// regulation of a glass collector (Basic Stern model, Behrens & Grier 2001), whose
+// diffuse-layer potential can stand for its zeta potential. SI throughout:
 // gaps in m, energies in J, forces in N, potentials in V. The overdamped engine evaluates DlvoInteraction::force at a
 // particle's surface gap; the physics-dlvo case kind checks it against theory.
 #pragma once
@@ -27,6 +29,41 @@ struct Electrolyte {
 /// Throws std::invalid_argument unless I > 0, z >= 1, T > 0, eps_r > 0.
 double debyeLength(const Electrolyte& e);
 
+/// A silanol surface (glass, silica) in the Basic Stern model as Behrens & Grier (2001,
+/// J. Chem. Phys. 115:6716, Sec. II) use it: SiOH <-> SiO- + H+ with dissociation constant
+/// 10^-pK mol/L at the proton concentration next to the surface (bulk 10^-pH mol/L times
+/// exp(-e psi_0 / kT)); a charge-free Stern layer of capacitance C between the surface
+/// (psi_0, charge sigma_0 = -e Gamma alpha) and the start of the diffuse layer (psi_d); a
+/// Gouy-Chapman diffuse layer whose charge is -sigma_0 (Grahame's equation for a z:z salt).
+/// Defaults: the paper's silica values (reference-data/dlvo-materials.toml).
+struct SternSurface {
+  double pK = 7.5;               ///< -log10 of the silanol dissociation constant in mol/L
+  double site_density = 8e18;    ///< Gamma, silanol sites per m2 (8 per nm2)
+  double capacitance = 2.9;      ///< C, F/m2; infinity: no Stern layer (psi_d = psi_0)
+};
+
+/// The regulated state of a SternSurface in a bulk electrolyte.
+struct RegulatedCharge {
+  double diffuse_potential = 0;     ///< psi_d, V: what DLVO takes as the zeta (surface) potential
+  double surface_potential = 0;     ///< psi_0, V, at the plane of the silanol groups
+  double surface_charge = 0;        ///< sigma_0, C/m2 (<= 0); the diffuse layer holds -sigma_0
+  double dissociated_fraction = 0;  ///< alpha = [SiO-] / Gamma, in [0, 1]
+};
+
+/// Solves the Basic Stern model for the diffuse-layer potential at the bulk pH and the
+/// electrolyte's ionic strength, valence, temperature and permittivity. The three relations
+/// (mass action, Stern layer, Grahame) reduce to one equation in x = ln(alpha / (1 - alpha)),
+///   x + ln10 (pK - pH) + (2/z) asinh(g alpha) + s alpha = 0,
+///   g = z e^2 Gamma / (2 eps kappa kT),  s = e^2 Gamma / (C kT),  psi_d = -(2 kT / z e) asinh(g alpha),
+/// whose left side rises strictly with x and lies in [x + L, x + L + (2/z) asinh(g) + s],
+/// L = ln10 (pK - pH): the root is bracketed in closed form and found by bisection to
+/// rounding. Never NaN; alpha -> 0 gives psi_d = 0 exactly. Throws std::invalid_argument
+/// unless 0 <= pH <= 14, pK is finite, Gamma > 0 and finite, C > 0 and the electrolyte is
+/// valid (debyeLength).
+RegulatedCharge regulatedCharge(const SternSurface& s, const Electrolyte& e, double pH);
+/// regulatedCharge(s, e, pH).diffuse_potential, V.
+double regulatedSurfacePotential(const SternSurface& s, const Electrolyte& e, double pH);
+
 enum class DoubleLayerModel {
   /// Hogg, Healy & Fuerstenau 1966 (Trans. Faraday Soc. 62:1638), constant surface
   /// potential, Derjaguin approximation. Linearised Poisson-Boltzmann: holds for
@@ -49,6 +86,15 @@ struct DlvoParameters {
   double collector_radius = std::numeric_limits<double>::infinity();
   double particle_potential = -0.050;   ///< surface (zeta) potential, V (latex: an assumption, no source)
   double collector_potential = -0.077;  ///< V (glass: middle of -88..-66 mV, reference-data/dlvo-materials.toml)
+  /// How collector_potential came about. Fixed: an input. Regulated: the diffuse-layer potential
+  /// of the Basic Stern model of `surface` at the electrolyte and `ph` (withRegulatedCollector
+  /// sets it). The interaction uses collector_potential only; this says where it came from.
+  struct CollectorCharge {
+    bool regulated = false;
+    SternSurface surface;
+    double ph = 7.0;  ///< bulk pH (an assumption: the source paper gives none; neutral water)
+  };
+  CollectorCharge collector_charge;
   Electrolyte electrolyte;
   double hamaker = 1e-20;                 ///< J, particle-water-collector
   double retardation_wavelength = 100e-9; ///< m, Gregory 1981's lambda
@@ -56,6 +102,14 @@ struct DlvoParameters {
   bool born = true;                       ///< Born repulsion (bounds the primary minimum)
   double born_collision_diameter = 0.5e-9;  ///< m, sigma of the Born term
 };
+
+/// p with collector_potential = regulatedSurfacePotential(collector_charge.surface,
+/// electrolyte, collector_charge.ph) when the collector charge is regulated; p unchanged when
+/// it is fixed.
+DlvoParameters withRegulatedCollector(DlvoParameters p);
+/// p at another ionic strength (mol/m3): a regulated collector potential follows it, a fixed
+/// one stays (what a scan over ionic strength should use).
+DlvoParameters atIonicStrength(DlvoParameters p, double ionic_strength);
 
 /// Energy and force of the pair at a surface gap h > 0 (h <= 0 is outside the model:
 /// the results are not finite; callers clamp the gap). Force > 0 pushes the surfaces
