@@ -8,6 +8,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <limits>
 
 #include <fmt/format.h>
@@ -385,6 +387,21 @@ TEST(Dlvo, CasesRunAndRejectBadInput) {
     EXPECT_NE(std::string(e.what()).find("check.ionic_strengths"), std::string::npos) << e.what();
   }
   EXPECT_THROW(Case::load(file, reg, {CaseOverride::parse("chemistry.particle_zeta_mv=500")}), InputError);
+
+  // A charge-regulated glass moves with the ionic strength, so the scan's fixed-potential
+  // theory does not apply: the check refuses it, naming the key, instead of comparing.
+  std::ifstream in(file);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto line = text.find("collector_zeta_mv = -25.0\n");
+  ASSERT_NE(line, std::string::npos);
+  text.replace(line, std::string("collector_zeta_mv = -25.0\n").size(), "collector_charge = \"regulated\"\n");
+  const Case regulated = Case::parse(text, file, reg);
+  try {
+    runCase(regulated, reg, fs::path(MMVAL_BINARY_DIR) / "tests" / "particles" / "physics-dlvo-regulated", {.quiet = true});
+    ADD_FAILURE() << "a regulated collector was compared with the fixed-potential slope";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("chemistry.collector_charge"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

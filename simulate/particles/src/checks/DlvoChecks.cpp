@@ -273,6 +273,13 @@ void scanStage(const Case& c, const DlvoParameters& p, const std::vector<double>
 RunOutput runDlvo(const Case& c, const RunContext& ctx) {
   const auto t0 = std::chrono::steady_clock::now();
   const DlvoParameters p = parametersFromCase(c);
+  // The scan's theory (the barrier's slope with ln I, Reerink-Overbeek) holds the surface
+  // potentials fixed; a charge-regulated collector moves with I, so this check does not apply.
+  if (p.collector_charge.regulated)
+    throw InputError(c.where("chemistry.collector_charge"),
+                     "the alpha(I) check compares with the barrier's slope at fixed surface potentials; a charge-regulated "
+                     "collector potential changes with the ionic strength",
+                     "\"regulated\"", "\"fixed\" (the potential at one ionic strength: chemistry.collector_zeta_mv)");
   const Gaps gaps{c.quantity("check.profile_min_gap"), c.quantity("check.profile_max_gap")};
   if (!(gaps.max > 10.0 * gaps.min))
     throw InputError(c.where("check.profile_max_gap"), "the profile range is too narrow", fmt::format("{:g} nm", gaps.max / kNm),
