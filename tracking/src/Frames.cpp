@@ -120,8 +120,9 @@ FrameSource::FrameSource(const std::string& input, std::optional<cv::Rect> roi, 
       m_total = 1;
     } else {
       m_kind = Kind::video;
-      if (!m_video.open(input)) throw InputError({input, 0, 0, {}}, "cannot open the video", {}, "a video OpenCV/FFmpeg reads (avi, mp4, mov, mkv)");
-      m_total = static_cast<int>(m_video.get(cv::CAP_PROP_FRAME_COUNT));
+      m_video = std::make_unique<cv::VideoCapture>();
+      if (!m_video->open(input)) throw InputError({input, 0, 0, {}}, "cannot open the video", {}, "a video OpenCV/FFmpeg reads (avi, mp4, mov, mkv)");
+      m_total = static_cast<int>(m_video->get(cv::CAP_PROP_FRAME_COUNT));
     }
   }
   const int last = m_range.last < 0 ? m_total - 1 : std::min(m_range.last, m_total - 1);
@@ -143,14 +144,14 @@ FrameSource::FrameSource(const std::string& input, std::optional<cv::Rect> roi, 
   const double limit = defaultMaxMemoryBytes();
   const std::string advice = "smaller frames: a region of interest (--roi) does not help, the whole frame is decoded; downscale the video";
   if (m_kind == Kind::video) {
-    const double w = m_video.get(cv::CAP_PROP_FRAME_WIDTH), h = m_video.get(cv::CAP_PROP_FRAME_HEIGHT);
+    const double w = m_video->get(cv::CAP_PROP_FRAME_WIDTH), h = m_video->get(cv::CAP_PROP_FRAME_HEIGHT);
     requireMemory(w * h * kTrackerBytesPerPixel, limit, fmt::format("tracking the video's {:.0f} x {:.0f} px frames", w, h), {input, 0, 0, "inputs.video"},
                   advice);
   } else {
     const std::string first = m_kind == Kind::tiff ? input : m_files[static_cast<std::size_t>(std::min<int>(m_range.first, static_cast<int>(m_files.size()) - 1))];
     requireImageWithin(first, {first, 0, 0, "inputs.video"}, limit, kTrackerBytesPerPixel, advice);
   }
-  if (m_kind == Kind::video && m_range.first > 0) m_video.set(cv::CAP_PROP_POS_FRAMES, m_range.first);
+  if (m_kind == Kind::video && m_range.first > 0) m_video->set(cv::CAP_PROP_POS_FRAMES, m_range.first);
   m_video_at = m_kind == Kind::video ? m_range.first : 0;
 }
 
@@ -160,15 +161,15 @@ bool FrameSource::readVideo(int index, cv::Mat& out) {
   if (index < m_video_at) {
     // Back to the first selected frame (the position the constructor relies on too),
     // then forward: seeking to an arbitrary frame lands on a key frame in some codecs.
-    m_video.set(cv::CAP_PROP_POS_FRAMES, m_range.first);
+    m_video->set(cv::CAP_PROP_POS_FRAMES, m_range.first);
     m_video_at = m_range.first;
   }
   for (; m_video_at < index; ++m_video_at) {
-    if (!m_video.grab()) return false;
+    if (!m_video->grab()) return false;
     ++m_stats->grabbed;
   }
   ++m_video_at;
-  if (!m_video.read(out) || out.empty()) return false;
+  if (!m_video->read(out) || out.empty()) return false;
   ++m_stats->decoded;
   return true;
 }

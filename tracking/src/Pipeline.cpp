@@ -363,9 +363,6 @@ void detectFilesInParallel(FrameSource& source, int threads, const cv::Mat& fram
   std::condition_variable ready;
   std::atomic<int> next_pos{1};
   std::atomic<bool> stop{false};
-  found[0] = detector(frame, index);
-  frame_of[0] = index;
-  done[0] = 1;
   auto worker = [&] {
     cv::Mat f;
     for (int pos; !stop && (pos = next_pos++) < n;) {
@@ -390,7 +387,17 @@ void detectFilesInParallel(FrameSource& source, int threads, const cv::Mat& fram
   };
   std::vector<std::thread> pool;
   for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
+  // The first frame here while the workers start on the next ones (not before them).
   std::exception_ptr error;
+  try {
+    std::vector<Detection> d = detector(frame, index);
+    const std::lock_guard<std::mutex> lock(m);
+    found[0] = std::move(d);
+    frame_of[0] = index;
+    done[0] = 1;
+  } catch (...) {
+    error = std::current_exception();
+  }
   for (int pos = 0; pos < n && !error; ++pos) {
     std::unique_lock<std::mutex> lock(m);
     ready.wait(lock, [&] { return done[pos] != 0; });

@@ -37,8 +37,13 @@ namespace {
 
 /// Per |dy| from 0 to r_out - 1, the ring's half-widths (wo, wi): the ring's pixels in the
 /// row dy are |dx| < wo and |dx| >= wi, the same pixels as the test r_in^2 <= r2 < r_out^2.
-/// Computed once per thread and ring (measureSpot asks for a few dozen rings, again and again).
+/// Computed once per thread and ring (measureSpot asks for a few dozen rings, again and
+/// again, each r_in = r_out - 2: those are looked up by r_out in a vector, the rest in a map).
 const std::vector<std::pair<int, int>>& ringWidths(int r_in, int r_out) {
+  constexpr int kRingWidth = 2, kDirect = 64;
+  thread_local std::vector<std::vector<std::pair<int, int>>> direct(kDirect);
+  const bool is_direct = r_in == r_out - kRingWidth && r_out >= 0 && r_out < kDirect;
+  if (is_direct && !direct[static_cast<std::size_t>(r_out)].empty()) return direct[static_cast<std::size_t>(r_out)];
   thread_local std::map<std::pair<int, int>, std::vector<std::pair<int, int>>> tables;
   auto [it, added] = tables.try_emplace({r_in, r_out});
   if (added) {
@@ -51,6 +56,7 @@ const std::vector<std::pair<int, int>>& ringWidths(int r_in, int r_out) {
     };
     for (int dy = 0; dy < r_out; ++dy) it->second.emplace_back(halfWidth(r_out * r_out, dy * dy), halfWidth(r_in * r_in, dy * dy));
   }
+  if (is_direct && !it->second.empty()) direct[static_cast<std::size_t>(r_out)] = it->second;
   return it->second;
 }
 
@@ -62,7 +68,9 @@ double ringMedian(const cv::Mat& img, int cx, int cy, int r_in, int r_out) {
   // ~12 times as many pixels for the large windows of blurred spots).
   const std::vector<std::pair<int, int>>& widths = ringWidths(r_in, r_out);
   thread_local std::vector<float> v;
-  v.resize(static_cast<std::size_t>(2 * r_out) * static_cast<std::size_t>(2 * r_out));
+  // Grown only (a vector resized down and up again would zero the regrown part each time).
+  const std::size_t room = static_cast<std::size_t>(2 * r_out) * static_cast<std::size_t>(2 * r_out);
+  if (v.size() < room) v.resize(room);
   float* out = v.data();
   for (int y = std::max(0, cy - r_out + 1); y <= std::min(img.rows - 1, cy + r_out - 1); ++y) {
     const float* row = img.ptr<float>(y);

@@ -10,11 +10,11 @@
 #include <vector>
 
 #include <fmt/format.h>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "BrownianOutputs.hpp"
 #include "MsdTable.hpp"
+#include "PngWriter.hpp"
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/OutputTables.hpp"
 #include "mmval/core/VtkWriter.hpp"
@@ -90,11 +90,9 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
     writeFileAtomic(dir / name, text);
     files.push_back(name);
   };
-  const auto writePng = [&](const std::string& name, const cv::Mat& m) {
-    const auto t = temporaryPathFor(dir / name);
-    cv::imwrite(t.string(), m);
-    commitTemporary(t, dir / name);
-  };
+  // The pictures are encoded here (PngWriter.hpp), not by OpenCV's codec module, which
+  // `mmval track` then never loads.
+  const auto writePng = [&](const std::string& name, const cv::Mat& m) { writeFileAtomic(dir / name, detail::encodePng(m)); };
   const auto png = [&](const std::string& name, const cv::Mat& m) {
     writePng(name, m);
     files.push_back(name);

@@ -104,7 +104,7 @@ class FrameSource {
   FrameRange m_range;
   enum class Kind { video, images, tiff } m_kind = Kind::images;
   std::vector<std::string> m_files;  // images
-  cv::VideoCapture m_video;
+  std::unique_ptr<cv::VideoCapture> m_video;  // videos only: image inputs never load OpenCV's video module
   int m_total = 0, m_count = 0, m_pos = 0;
   int m_video_at = 0;  // input index of the frame the capture returns next
   int m_cache_limit = kMaxCachedFrames;
