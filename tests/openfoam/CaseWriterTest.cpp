@@ -150,6 +150,132 @@ TEST(CaseWriter, UnsteadyCaseUsesPimpleFoam) {
   EXPECT_THAT(slurp(dir / "system/fvSolution"), HasSubstr("PIMPLE"));
 }
 
+TEST(BlockMesh, ChannelSidesKeepUniformCells) {
+  // Schaefer-Turek (2.2 m x 0.41 m, D 0.1 m at (0.2, 0.2)) at 64 cells around: box half side
+  // a = D, h = 2a / 16 = 0.0125 m; left 8, below 8, above round(0.11 / h) = 9 columns/rows of
+  // uniform cells, downstream round(1.9 / (h (1 + 3.8) / 2)) = 63 cells growing 3.8x:
+  // (8 + 16 + 63) (8 + 16 + 9) - 16^2 + 4 16^2 = 3,639 cells, the 2D-2 study's coarsest O-grid
+  // (docs/validation/cylinder-unsteady.md). Only the four O-grid blocks (radially) and the three
+  // downstream ones (along x) are graded.
+  const BlockMeshDict d = cylinderChannelMesh(CylinderChannel{}, 64);
+  EXPECT_EQ(d.cellCount(), 3639);
+  int graded_x = 0, graded_y = 0;
+  for (const auto& b : d.blocks) {
+    graded_x += b.grading[0] != 1.0;
+    graded_y += b.grading[1] != 1.0;
+  }
+  EXPECT_EQ(graded_x, 3);
+  EXPECT_EQ(graded_y, 4);
+  // The paper's channel (5 mm x 6.3 mm, D 0.2 mm at (2.3, 3.15) mm): its sides lie 10.5 D and
+  // 14.75 D from the box, inside the 16 D below which a side is a channel's, so they stay uniform.
+  const BlockMeshDict paper = cylinderChannelMesh(CylinderChannel{5e-3, 6.3e-3, 2.3e-3, 3.15e-3, 0.2e-3, 0.2e-4}, 64);
+  for (const auto& b : paper.blocks) EXPECT_TRUE(b.grading[1] == 1.0 || b.grading[1] == 0.25);  // 1 / radial_grading in the O-grid
+}
+
+/// Sizes of the first and last of n cells along a block edge of length len with simpleGrading e
+/// (last / first, a geometric progression): first = len (r - 1) / (r^n - 1), r = e^(1 / (n - 1)).
+std::pair<double, double> endCells(double len, int n, double e) {
+  const double r = std::pow(e, 1.0 / (n - 1));
+  const double first = std::abs(r - 1) < 1e-15 ? len / n : len * (r - 1) / (std::pow(r, n) - 1);
+  return {first, first * std::pow(r, n - 1)};
+}
+
+TEST(BlockMesh, FarFieldSidesGrowTheirCellsToAtMostFourBoxCells) {
+  // cases/fluid-cylinder-unconfined-re100.toml: 6 m x 8 m, D 0.1 m at (2, 4): the box (a = D)
+  // lies 19 D from the inlet and 39 D from each slip side. At 48 cells around, h = D / 6: the
+  // sides grow 39 / 10 = 3.9x over round(234 / 2.45) = 96 rows, the inlet side 1.9x over
+  // round(114 / 1.45) = 79 columns, downstream 4x over 94: (79 + 12 + 94) (96 + 12 + 96) - 144 + 576
+  // = 38,172 cells (checkMesh counted the same for the generated case).
+  const CylinderChannel g{6.0, 8.0, 2.0, 4.0, 0.1, 0.01};
+  const BlockMeshDict d = cylinderChannelMesh(g, 48);
+  expectClosedTopology(d);
+  EXPECT_EQ(d.cellCount(), 38172);
+  const double h = 0.1 / 6;
+  // The cells next to the box are near h and the last ones at most ~4 h: the cell counts come from
+  // the arithmetic mean cell (1 + e) h / 2, larger than the progression's, so the first cell is
+  // up to ~15 % above h (3.9x: (e - 1) / ln e = 2.13 against 2.45).
+  bool top_seen = false, left_seen = false;
+  for (const auto& b : d.blocks) {
+    if (b.grading[1] > 1.0 && b.cells[0] == 12) {  // above the box: from y = 4.1 m to the side at 8 m
+      const auto [first, last] = endCells(3.9, b.cells[1], b.grading[1]);
+      EXPECT_NEAR(first / h, 1.0, 0.2);
+      EXPECT_NEAR(last / h, 3.9, 0.6);
+      top_seen = true;
+    }
+    if (b.grading[0] < 1.0 && b.cells[1] == 12) {  // upstream of the box: from the inlet at x = 0 to 1.9 m
+      const auto [first, last] = endCells(1.9, b.cells[0], b.grading[0]);
+      EXPECT_NEAR(first / h, 1.9, 0.3);  // at the inlet
+      EXPECT_NEAR(last / h, 1.0, 0.2);   // at the box
+      left_seen = true;
+    }
+  }
+  EXPECT_TRUE(top_seen);
+  EXPECT_TRUE(left_seen);
+}
+
+TEST(CaseWriter, UnsteadyCylinderStartsFromMmvalsVortex) {
+  // mmval's numerics.initial_perturbation 0.3 (KindsCylinderUnsteady.cpp): u = A (-Y, X)
+  // exp(-(X^2 + Y^2)), X, Y in diameters from (cx + 1.5 D, cy), A = 0.3 U sqrt(e / 2) = 0.349747 m/s.
+  Scene s;
+  s.unsteady = true;
+  s.end_time = 1.0;
+  s.dt = 1e-3;
+  s.cx = 0.2;
+  s.cy = 0.2;
+  s.diameter = 0.1;
+  s.u_ref = 1.0;
+  s.initial_perturbation = 0.3;
+  const auto dir = std::filesystem::path(MMVAL_BINARY_DIR) / "test-output" / "foam-writer-vortex";
+  std::filesystem::remove_all(dir);
+  writeCase(s, dir);
+  const std::string dict = slurp(dir / "system/setExprFieldsDict");
+  EXPECT_THAT(dict, HasSubstr("\"X = (pos().x() - 0.35) / 0.1\""));
+  EXPECT_THAT(dict, HasSubstr("\"Y = (pos().y() - 0.2) / 0.1\""));
+  EXPECT_THAT(dict, HasSubstr("\"g = 0.3497465972"));
+  EXPECT_THAT(dict, HasSubstr("vector(-Y * g, X * g, 0)"));
+  EXPECT_THAT(slurp(dir / "Allrun"), HasSubstr("setExprFields > log.setExprFields"));
+  // Without a perturbation the flow starts from rest and no field is set.
+  s.initial_perturbation = 0;
+  std::filesystem::remove_all(dir);
+  writeCase(s, dir);
+  EXPECT_FALSE(std::filesystem::exists(dir / "system/setExprFieldsDict"));
+  EXPECT_THAT(slurp(dir / "Allrun"), ::testing::Not(HasSubstr("setExprFields")));
+}
+
+TEST(Results, SheddingStatisticsUseTheCasesWindowAndWholePeriods) {
+  // A start-up (c_D 1.6, dense samples every 1 ms to 6 s) then periodic shedding sampled every 4 ms:
+  // c_L = 0.33 sin(2 pi f t), c_D = 1.35 + 0.01 sin(4 pi f t), f = 1.65 Hz, so with D 0.1 m and
+  // U 1 m/s St = 0.165; over whole c_L periods c_D's mean is 1.35 exactly. The last half of the
+  // samples (the peer's statistics before) reaches back into the start-up.
+  Scene s;
+  s.unsteady = true;
+  s.end_time = 12.0;
+  s.statistics_from = 7.0;
+  s.diameter = 0.1;
+  s.u_ref = 1.0;
+  const double f = 1.65;
+  std::vector<Coefficients> h;
+  for (double t = 1e-3; t <= 12.0 + 1e-9; t += t < 6.0 ? 1e-3 : 4e-3)
+    h.push_back({t, t < 5.0 ? 1.6 : 1.35 + 0.01 * std::sin(4 * M_PI * f * t), 0.33 * std::sin(2 * M_PI * f * t)});
+  Result r;
+  addSheddingStatistics(s, h, r);
+  EXPECT_EQ(r.shedding_periods, 4);
+  ASSERT_TRUE(r.strouhal.has_value());
+  EXPECT_NEAR(*r.strouhal, 0.165, 1e-5);  // crossings interpolated linearly on a sine: error O(dt^3)
+  // The window's ends fall between samples (up to 4 ms of 2.4 s): c_D's mean is off by at most
+  // 0.01 x 2 x 4 ms / 2.4 s ~ 3e-5.
+  ASSERT_TRUE(r.c_d_mean.has_value());
+  EXPECT_NEAR(*r.c_d_mean, 1.35, 1e-4);
+  EXPECT_NEAR(*r.c_d_max, 1.36, 1e-4);
+  EXPECT_NEAR(*r.c_l_max, 0.33, 1e-4);
+  // No shedding (a steady lift): no St, no periods.
+  for (auto& c : h) c.cl = 0.01;
+  Result steady;
+  addSheddingStatistics(s, h, steady);
+  EXPECT_EQ(steady.shedding_periods, 0);
+  EXPECT_FALSE(steady.strouhal.has_value());
+}
+
 TEST(Results, StrouhalFromASineLift) {
   // c_l = sin(2 pi f t) with f = 3 Hz, D = 0.1, U = 1 -> St = f D / U = 0.3.
   std::vector<Coefficients> h;

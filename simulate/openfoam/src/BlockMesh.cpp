@@ -118,6 +118,13 @@ BlockMeshDict channelMesh(double length, double height, double depth, int nx, in
   return b.finish({{"inlet", "patch", {}, {}}, {"outlet", "patch", {}, {}}, {"walls", side_type, {}, {}}, {"frontAndBack", "empty", {}, {}}});
 }
 
+namespace {
+/// A cylinder channel's side farther than this many diameters from the O-grid's box is far field.
+constexpr double kFarFieldSide = 16.0;
+/// A far-field side's cells grow by this side's length / (kFarFieldGrowthLength D), at most 4x.
+constexpr double kFarFieldGrowthLength = 10.0;
+}  // namespace
+
 BlockMeshDict cylinderChannelMesh(const CylinderChannel& g, int n, double radial_grading) {
   if (n < 4 || n % 4 != 0) throw std::invalid_argument("cylinderChannelMesh: cells_around must be a multiple of 4");
   const double r = 0.5 * g.diameter;
@@ -126,7 +133,6 @@ BlockMeshDict cylinderChannelMesh(const CylinderChannel& g, int n, double radial
   const int nt = n / 4;                         // cells along each side of the box
   const double h = 2 * a / nt;                  // cell size at the box
   const int nr = std::max(4, nt);               // radial cells
-  auto cells = [&](double len) { return std::max(1, static_cast<int>(std::lround(len / h))); };
   const double x0 = g.cx - a, x1 = g.cx + a, y0 = g.cy - a, y1 = g.cy + a;
   const double L = g.length, H = g.height;
   const double s = r / std::sqrt(2.0);
@@ -151,19 +157,26 @@ BlockMeshDict cylinderChannelMesh(const CylinderChannel& g, int n, double radial
   b.arc(C2, C3, g.cx, g.cy + r);
   b.arc(C3, C0, g.cx - r, g.cy);
 
-  const int nl = cells(x0), nb = cells(y0), ntop = cells(H - y1);
   // Downstream: cells grow geometrically from h to at most 4h.
   const double right = L - x1;
   const double expand = std::min(4.0, std::max(1.0, right / (40 * h)));
-  const int nright = std::max(1, static_cast<int>(std::lround(right / (h * 0.5 * (1 + expand)))));
-  b.block(A0, A1, S0, B0, nl, nb);           // lower left
-  b.block(B0, S0, S3, D0, nl, nt);           // left
-  b.block(D0, S3, E1, E0, nl, ntop);         // upper left
-  b.block(A1, A2, S1, S0, nt, nb);           // below the box
-  b.block(S3, S2, E2, E1, nt, ntop);         // above the box
-  b.block(A2, A3, B3, S1, nright, nb, expand, 1);  // lower right
-  b.block(S1, B3, D3, S2, nright, nt, expand, 1);  // right
-  b.block(S2, D3, E3, E2, nright, ntop, expand, 1);  // upper right
+  // Upstream and across: uniform cells of h in a channel; a far-field side (more than
+  // kFarFieldSide diameters from the box, unconfined flow) grows its cells geometrically from the
+  // box to the boundary by len / (kFarFieldGrowthLength D), at most 4x, the same at every level
+  // (the confined benchmarks' sides, at most ~15 D, keep their uniform cells). The cell counts
+  // take the mean cell as (1 + e) h / 2, as downstream.
+  const auto side = [&](double len) { return len > kFarFieldSide * g.diameter ? std::min(4.0, len / (kFarFieldGrowthLength * g.diameter)) : 1.0; };
+  const double e_left = side(x0), e_bottom = side(y0), e_top = side(H - y1);
+  const auto graded = [&](double len, double e) { return std::max(1, static_cast<int>(std::lround(len / (h * 0.5 * (1 + e))))); };
+  const int nl = graded(x0, e_left), nb = graded(y0, e_bottom), ntop = graded(H - y1, e_top), nright = graded(right, expand);
+  b.block(A0, A1, S0, B0, nl, nb, 1 / e_left, 1 / e_bottom);  // lower left
+  b.block(B0, S0, S3, D0, nl, nt, 1 / e_left, 1);             // left
+  b.block(D0, S3, E1, E0, nl, ntop, 1 / e_left, e_top);       // upper left
+  b.block(A1, A2, S1, S0, nt, nb, 1, 1 / e_bottom);           // below the box
+  b.block(S3, S2, E2, E1, nt, ntop, 1, e_top);                // above the box
+  b.block(A2, A3, B3, S1, nright, nb, expand, 1 / e_bottom);  // lower right
+  b.block(S1, B3, D3, S2, nright, nt, expand, 1);             // right
+  b.block(S2, D3, E3, E2, nright, ntop, expand, e_top);       // upper right
 
   for (auto [p, q] : {std::pair{A0, B0}, {B0, D0}, {D0, E0}}) b.face("inlet", q, p);
   for (auto [p, q] : {std::pair{A3, B3}, {B3, D3}, {D3, E3}}) b.face("outlet", p, q);

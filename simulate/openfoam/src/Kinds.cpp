@@ -34,6 +34,9 @@ Scene cylinderScene(const Case& c) {
   if (s.unsteady) {
     s.end_time = c.quantity("numerics.end_time");
     s.dt = c.quantity("numerics.time_step");
+    // The same statistics window and start as mmval's own run of the case (KindsCylinderUnsteady.cpp).
+    s.statistics_from = c.has("numerics.statistics_from") ? c.quantity("numerics.statistics_from") : 0.5 * s.end_time;
+    s.initial_perturbation = c.real("numerics.initial_perturbation");
   }
   s.max_iterations = static_cast<int>(c.integer("numerics.max_iterations"));
   s.residual = c.real("numerics.residual");
@@ -71,9 +74,10 @@ Scene imageScene(const Case& c) {
   return s;
 }
 
-/// The primary metric of a kind: the one whose error the ladder records.
-const char* primaryMetric(const std::string& kind) {
-  if (kind == "cylinder-channel") return "c_D";  // steady; unsteady cases report c_D_mean too
+/// The primary metric of a kind: the one whose error the ladder records (an unsteady cylinder's
+/// time-mean drag: its last instant's c_D is a phase of the shedding, not a result).
+const char* primaryMetric(const std::string& kind, bool unsteady) {
+  if (kind == "cylinder-channel") return unsteady ? "c_D_mean" : "c_D";
   if (kind == "periodic-array") return "F_star";
   return "permeability";
 }
@@ -264,7 +268,7 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
     if (!array && (l < 8 || l > 4096 || l % 4 != 0))
       throw InputError(c.where(level_key), "a resolution level must be a multiple of 4 from 8 to 4096", std::to_string(l), "8, 12, 16, ... 4096");
   }
-  const Acceptance* primary = c.acceptanceFor(primaryMetric(c.kind()));
+  const Acceptance* primary = c.acceptanceFor(primaryMetric(c.kind(), scene.unsteady));
   RunOutput out;
   out.details["solver"] = "openfoam " + inst.version;
   // On the diameter, as simulate::CylinderScene::reynolds (mmval's details.Re), whatever l_ref is.
@@ -293,6 +297,13 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
       row["spacing_m"] = scene.cell / levels[i];
       row["surface_spacing_m"] = 2 * M_PI * scene.radius / scene.cells_around;
     }
+    if (scene.unsteady) {
+      // Each level's periodic statistics (the primary c_D is the last instant's): the ladder of an
+      // unsteady case compares levels on these.
+      row["shedding_periods"] = last.shedding_periods;
+      for (const auto& [name, v] : {std::pair{"c_D_mean", last.c_d_mean}, {"c_D_max", last.c_d_max}, {"c_L_max", last.c_l_max}, {"St", last.strouhal}})
+        if (v) row[name] = *v;
+    }
     if (image) {
       row.erase("cells_around");
       row["cells_per_pixel"] = cpp_levels[i];
@@ -308,7 +319,7 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
     } else {
       RunOutput level_out;
       addMetrics(scene, last, level_out);
-      auto it = level_out.metrics.find(primaryMetric(c.kind()));
+      auto it = level_out.metrics.find(primaryMetric(c.kind(), scene.unsteady));
       if (it != level_out.metrics.end()) {
         row["value"] = it->second;
         if (primary != nullptr && !primary->reference.isInterval() && primary->reference.value != 0)

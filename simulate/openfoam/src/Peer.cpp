@@ -18,6 +18,7 @@
 #include "mmval/openfoam/DirectMesh.hpp"
 #include "mmval/openfoam/FoamFile.hpp"
 #include "mmval/openfoam/ImageGeometry.hpp"
+#include "mmval/simulate/ForceHistory.hpp"
 
 namespace fs = std::filesystem;
 
@@ -149,6 +150,22 @@ std::string transportProperties(const Scene& s) {
 std::string turbulenceProperties() {
   return foamHeader("dictionary", "turbulenceProperties", "constant") + "simulationType laminar;\n";
 }
+
+/// The initial velocity of an unsteady cylinder scene with Scene::initial_perturbation eps: mmval's
+/// Gaussian vortex 1.5 D behind the centre on a fluid at rest, the same field as
+/// simulate::runUnsteadyCylinder sets (u = A (-Y, X) exp(-(X^2 + Y^2)), X, Y in diameters from the
+/// vortex, A = eps U sqrt(e / 2); its peak speed is eps U / 2, at r = D / sqrt 2).
+std::string setExprFieldsDict(const Scene& s) {
+  const double xv = s.cx + 1.5 * s.diameter, yv = s.cy, amp = s.initial_perturbation * s.u_ref * std::sqrt(std::exp(1.0) / 2);
+  return foamHeader("dictionary", "setExprFieldsDict", "system") +
+         fmt::format("expressions\n(\n    U\n    {{\n        field U;\n        dimensions [0 1 -1 0 0 0 0];\n"
+                     "        variables\n        (\n            \"X = (pos().x() - {0:.12g}) / {2:.12g}\"\n"
+                     "            \"Y = (pos().y() - {1:.12g}) / {2:.12g}\"\n            \"g = {3:.12g} * exp(-(X * X + Y * Y))\"\n        );\n"
+                     "        expression #{{ vector(-Y * g, X * g, 0) #}};\n    }}\n);\n",
+                     xv, yv, s.diameter, amp);
+}
+
+bool perturbedStart(const Scene& s) { return s.kind == Scene::Kind::cylinder_channel && s.unsteady && s.initial_perturbation > 0; }
 
 const std::string kNoSlip = "        type noSlip;\n";
 const std::string kZeroGradient = "        type zeroGradient;\n";
@@ -361,17 +378,19 @@ long long writeCase(const Scene& s, const fs::path& dir, int ranks, MesherReport
   put(dir / "constant" / "turbulenceProperties", turbulenceProperties());
   put(dir / "0" / "U", u_file);
   put(dir / "0" / "p", p_file);
+  if (perturbedStart(s)) put(dir / "system" / "setExprFieldsDict", setExprFieldsDict(s));
   // Allrun repeats the runner's steps (runWrittenCase): mesh, checkMesh, solve, and for a
   // parallel run the latest time reconstructed so that case.foam opens it whole in ParaView.
   put(dir / "Allrun",
       fmt::format("#!/bin/sh\n# Reruns this case by hand (written by mmval); ./Allclean undoes it.\ncd \"$(dirname \"$0\")\"\n"
                   "export WM_PROJECT_DIR=${{WM_PROJECT_DIR:-/usr/share/openfoam}}\n"
                   "{}{}"
-                  "checkMesh > log.checkMesh 2>&1 || exit 1\n{}",
+                  "checkMesh > log.checkMesh 2>&1 || exit 1\n{}{}",
                   direct_cells >= 0 ? "# constant/polyMesh was written by mmval's own mesher (directImageMesh)\n" : "blockMesh > log.blockMesh 2>&1 || exit 1\n",
                   s.kind == Scene::Kind::image && direct_cells < 0 ? std::string("snappyHexMesh -overwrite > log.snappyHexMesh 2>&1 || exit 1\n") +
                                                      (s.surface_level > 0 ? "extrudeMesh > log.extrudeMesh 2>&1 || exit 1\n" : "")
                                                : std::string(),
+                  perturbedStart(s) ? "setExprFields > log.setExprFields 2>&1 || exit 1\n" : "",
                   ranks > 1 ? fmt::format("decomposePar -force > log.decomposePar 2>&1 || exit 1\n"
                                           "mpirun --allow-run-as-root -np {} {} -parallel > log.solver 2>&1 || exit 1\n"
                                           "reconstructPar -latestTime > log.reconstructPar 2>&1 || exit 1\n",
@@ -464,6 +483,21 @@ std::vector<Coefficients> readCoefficients(const fs::path& file) {
     if (static_cast<int>(v.size()) > std::max(col_cd, col_cl)) out.push_back({v[0], v[col_cd], v[col_cl]});
   }
   return out;
+}
+
+void addSheddingStatistics(const Scene& s, const std::vector<Coefficients>& history, Result& r) {
+  // mmval's own statistics (simulate::ForceHistory::analyse): the last (up to 4) whole c_L periods
+  // after statistics_from, time means by the trapezoidal rule (the adjustable time step spaces the
+  // samples unevenly), St = f D / U_ref.
+  simulate::ForceHistory forces;
+  for (const auto& c : history) forces.add(c.time, c.cd, c.cl);
+  const simulate::SheddingStats st = forces.analyse(s.statistics_from >= 0 ? s.statistics_from : 0.5 * s.end_time, 4);
+  r.c_d_max = st.cd_max;
+  r.c_d_mean = st.cd_mean;
+  r.c_l_max = st.cl_max;
+  r.shedding_periods = st.periods;
+  r.strouhal.reset();
+  if (st.periods > 0) r.strouhal = st.frequency_hz * s.diameter / s.u_ref;
 }
 
 std::optional<double> strouhalFromLift(const std::vector<Coefficients>& h, double l_ref, double u_ref, int periods) {
@@ -604,6 +638,7 @@ Result runWrittenCase(const Scene& s, const fs::path& dir, int ranks) {
     return r;
   }
   r.mesh_seconds += r.steps.back().wall_seconds;
+  if (perturbedStart(s) && !step("setExprFields", "log.setExprFields")) return r;
   {
     static const std::regex cells_re("cells: +([0-9]+)");
     std::smatch m;
@@ -637,19 +672,7 @@ Result runWrittenCase(const Scene& s, const fs::path& dir, int ranks) {
       }
       r.c_d = hist.back().cd;
       r.c_l = hist.back().cl;
-      if (s.unsteady) {
-        double cdmax = -1e300, clmax = -1e300;
-        for (std::size_t i = hist.size() / 2; i < hist.size(); ++i) {
-          cdmax = std::max(cdmax, hist[i].cd);
-          clmax = std::max(clmax, hist[i].cl);
-        }
-        r.c_d_max = cdmax;
-        double sum = 0;
-        for (std::size_t i = hist.size() / 2; i < hist.size(); ++i) sum += hist[i].cd;
-        r.c_d_mean = sum / static_cast<double>(hist.size() - hist.size() / 2);
-        r.c_l_max = clmax;
-        r.strouhal = strouhalFromLift(hist, s.l_ref, s.u_ref);
-      }
+      if (s.unsteady) addSheddingStatistics(s, hist, r);
       if (s.pressure_probes.size() >= 2) {
         const auto row = lastRow(dir / "postProcessing" / "probes1" / "0" / "p");
         if (row.size() >= 3) r.dp = (row[1] - row[2]) * s.rho;

@@ -51,7 +51,8 @@ struct CylinderChannel {
 };
 
 /// O-grid around the cylinder inside a square box of side 4r (clipped to the
-/// channel), Cartesian blocks elsewhere, cells stretched downstream.
+/// channel), Cartesian blocks elsewhere, cells stretched downstream and, on a
+/// far-field side more than 16 D from the box (unconfined flow), towards that side.
 /// `cells_around` (multiple of 4) cells lie on the circumference, each pi D /
 /// cells_around long (the surface spacing numerics.cells_around sets in mmval's
 /// own grid too; simulate::surfaceSpacing); the box edge has cells_around / 4

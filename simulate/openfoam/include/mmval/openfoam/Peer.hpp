@@ -78,6 +78,13 @@ struct Scene {
   int cells_around = 64;
   bool unsteady = false;
   double end_time = 0, dt = 0;      ///< unsteady
+  /// Unsteady: start of the statistics window (s); the metrics come from the last whole c_L periods
+  /// (up to 4) after it, as mmval's own (simulate::ForceHistory::analyse). Negative: half the end time.
+  double statistics_from = -1;
+  /// Unsteady: strength eps of the Gaussian vortex 1.5 D behind the cylinder in the initial
+  /// velocity, mmval's numerics.initial_perturbation and the same field (peak speed eps u_ref / 2);
+  /// set by setExprFields after blockMesh. 0: none, the flow starts from rest.
+  double initial_perturbation = 0;
   int max_iterations = 2000;        ///< steady
   double residual = 1e-7;           ///< steady convergence target (p and U)
 };
@@ -121,7 +128,8 @@ struct Result {
   MesherReport mesher;        ///< image on the direct mesher (its seconds are within mesh_seconds)
   /// checkMesh's "Mesh non-orthogonality Max" (degrees) and "Max skewness"; NaN when not reported.
   double max_non_orthogonality = 0, max_skewness = 0;
-  std::optional<double> c_d_mean;  ///< unsteady: mean over the second half
+  int shedding_periods = 0;         ///< unsteady: whole c_L periods the statistics span (0: no shedding found)
+  std::optional<double> c_d_mean;  ///< unsteady: time mean over the last whole c_L periods after Scene::statistics_from
   std::optional<double> c_d, c_l, c_d_max, c_l_max, strouhal, dp, flow_rate, permeability, drag_per_length, f_star;
 };
 
@@ -158,6 +166,12 @@ std::vector<Coefficients> readCoefficients(const std::filesystem::path& file);
 /// Strouhal number from a lift history by zero crossings over the last
 /// `periods` periods; returns nullopt without a clear oscillation.
 std::optional<double> strouhalFromLift(const std::vector<Coefficients>& history, double l_ref, double u_ref, int periods = 4);
+
+/// An unsteady cylinder's c_D max / mean, c_L max and St from its force history, as mmval's own
+/// unsteady kind computes them: over the last (up to 4) whole c_L periods after
+/// scene.statistics_from (half the end time when negative), St = f D / u_ref; no St without a
+/// whole period (Result::shedding_periods 0).
+void addSheddingStatistics(const Scene& scene, const std::vector<Coefficients>& history, Result& r);
 
 /// How a steady SIMPLE solve ended, read from simpleFoam's log: converged when the log says
 /// "SIMPLE solution converged" (residualControl met) or every field's initial residual in the last
