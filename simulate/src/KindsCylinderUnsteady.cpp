@@ -55,8 +55,8 @@ void declareUnsteadyCylinderKeys(Schema& s) {
       .def(1).min(1).max(50);
   s.real("numerics.max_courant", "Unsteady (mmval): Courant limit of the adaptive time step, max over cells of dt (|u|/dx + |v|/dy)").def(1.0).min(0.05).max(4.0);
   s.real("numerics.initial_perturbation",
-         "Unsteady (mmval): peak speed of a vortex placed 1.5 D behind the cylinder at t = 0, as a fraction of the reference velocity "
-         "(breaks the symmetry so shedding starts early; 0: none)")
+         "Unsteady (mmval): strength eps of a Gaussian vortex placed 1.5 D behind the cylinder at t = 0; its peak speed is eps / 2 "
+         "times the reference velocity (breaks the symmetry so shedding starts early; 0: none)")
       .def(0.0).min(0.0).max(1.0);
   s.quantity("numerics.statistics_from", "s", "Unsteady: start of the window for the periodic statistics (whole c_L periods after it); default: half the end time")
       .optional()
@@ -156,7 +156,8 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const Cylind
       if (PetscSession::rank() == 0 && !ctx.quiet)
         spdlog::info("{}: resumed level {} at t = {:.6g} s (step {}) from {}", c.name(), li + 1, solver.time(), solver.stepStats().steps, ckpt.string());
     } else if (eps > 0) {
-      // Gaussian vortex (stream function psi = eps U D exp(-r^2 / D^2) / 2) 1.5 D behind the cylinder.
+      // Gaussian vortex 1.5 D behind the cylinder: speed amp (r/D) exp(-r^2/D^2), whose peak (at r = D / sqrt 2)
+      // is amp exp(-1/2) / sqrt 2 = eps U / 2.
       const double xv = cx + 1.5 * D, yv = cy, amp = eps * Uref * std::sqrt(std::exp(1.0) / 2);
       solver.setVelocity([=](double x, double y) {
         const double X = (x - xv) / D, Y = (y - yv) / D, g = amp * std::exp(-(X * X + Y * Y));
