@@ -548,6 +548,82 @@ double FlowOperator::fluxWeight(int d, int n, int t) const {
 
 double FlowOperator::linearRow(int r, Linearisation mode, const std::vector<double>& state, RowTerms& R,
                                std::vector<std::pair<int, double>>& entries) const {
+  const double rhs = ownRow(r, mode, state, R, entries);
+  if (!m_pattern) return rhs;
+  // The kept pattern's columns this row lacks, as explicit zeros (merged in column order).
+  const RowPattern& P = *m_pattern;
+  const auto first = P.cols.begin() + P.start[static_cast<std::size_t>(r)], last = P.cols.begin() + P.start[static_cast<std::size_t>(r) + 1];
+  const std::size_t own = entries.size();
+  std::size_t k = 0;
+  for (auto it = first; it != last; ++it) {
+    while (k < own && entries[k].first < *it) ++k;
+    if (k < own && entries[k].first == *it) continue;
+    entries.emplace_back(*it, 0.0);
+  }
+  if (entries.size() != own)
+    std::inplace_merge(entries.begin(), entries.begin() + static_cast<std::ptrdiff_t>(own), entries.end(),
+                       [](const auto& a, const auto& b) { return a.first < b.first; });
+  return rhs;
+}
+
+RowPattern FlowOperator::keptPattern() const {
+  // Extra (row, column) pairs beyond the rows' own entries.
+  std::vector<std::pair<int, int>> extra;
+  const int nc = m_N[0] * m_N[1];
+  for (int c = 0; c < nc; ++c) extra.emplace_back(m_off[2] + c, m_off[2] + c);
+  if (!m_master.empty()) {
+    for (int c = 0; c < nc; ++c) {
+      if (m_master[static_cast<std::size_t>(c)] < 0) continue;
+      const int i = c % m_N[0], j = c / m_N[0];
+      const int faces[4] = {unknown(0, i, j), unknown(0, i + 1, j), unknown(1, j, i), unknown(1, j + 1, i)};
+      const int ni[4] = {i - 1, i + 1, i, i}, nj[4] = {j, j, j - 1, j + 1};
+      for (int s = 0; s < 4; ++s) {
+        if ((!m_per[0] && (ni[s] < 0 || ni[s] >= m_N[0])) || (!m_per[1] && (nj[s] < 0 || nj[s] >= m_N[1]))) continue;
+        const int nb = cellUnknown(ni[s], nj[s]);
+        extra.emplace_back(cellUnknown(i, j), nb);
+        for (int f : faces) {
+          extra.emplace_back(nb, f);
+          extra.emplace_back(f, nb);
+        }
+      }
+    }
+  }
+  std::sort(extra.begin(), extra.end());
+  RowPattern P;
+  const std::vector<double> zero(static_cast<std::size_t>(unknowns()), 0.0);
+  RowTerms R;
+  std::vector<std::pair<int, double>> entries;
+  std::vector<int> row;
+  std::size_t e = 0;
+  for (int r = 0; r < unknowns(); ++r) {
+    ownRow(r, Linearisation::stokes, zero, R, entries);
+    row.clear();
+    for (const auto& en : entries) row.push_back(en.first);
+    for (; e < extra.size() && extra[e].first == r; ++e) row.push_back(extra[e].second);
+    std::sort(row.begin(), row.end());
+    row.erase(std::unique(row.begin(), row.end()), row.end());
+    P.cols.insert(P.cols.end(), row.begin(), row.end());
+    P.start.push_back(static_cast<int>(P.cols.size()));
+  }
+  return P;
+}
+
+bool FlowOperator::fitsPattern(const RowPattern& P) const {
+  if (P.rows() != unknowns()) return false;
+  const std::vector<double> zero(static_cast<std::size_t>(unknowns()), 0.0);
+  RowTerms R;
+  std::vector<std::pair<int, double>> entries;
+  for (int r = 0; r < unknowns(); ++r) {
+    ownRow(r, Linearisation::stokes, zero, R, entries);
+    const auto first = P.cols.begin() + P.start[static_cast<std::size_t>(r)], last = P.cols.begin() + P.start[static_cast<std::size_t>(r) + 1];
+    for (const auto& en : entries)
+      if (!std::binary_search(first, last, en.first)) return false;
+  }
+  return true;
+}
+
+double FlowOperator::ownRow(int r, Linearisation mode, const std::vector<double>& state, RowTerms& R,
+                            std::vector<std::pair<int, double>>& entries) const {
   R.clear();
   entries.clear();
   if (r >= m_off[2]) {

@@ -5,6 +5,7 @@
 // linearisations, and the residual of the unmodified balance used for forces.
 #pragma once
 #include <array>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -15,6 +16,13 @@
 namespace mmval::simulate {
 
 enum class Linearisation { stokes, picard, newton };
+
+/// A matrix's nonzero pattern, row by row (compressed rows, columns sorted within each row).
+struct RowPattern {
+  std::vector<int> start{0};  ///< row r's columns are cols[start[r] .. start[r + 1])
+  std::vector<int> cols;
+  int rows() const { return static_cast<int>(start.size()) - 1; }
+};
 
 /// Affine expression sum c_k x[idx_k] + k of at most two unknowns.
 struct Lin {
@@ -62,6 +70,18 @@ class FlowOperator {
   /// Row r of the system linearised at `state`: merged (column, value) entries, returns the right-hand side.
   double linearRow(int r, Linearisation mode, const std::vector<double>& state, RowTerms& scratch,
                    std::vector<std::pair<int, double>>& entries) const;
+
+  /// Fixed pattern (SolverOptions::fixed_pattern), Stokes rows. The pattern this operator keeps for
+  /// later geometries on the same grid: its own entries; the pressure of every cell in its
+  /// continuity row (a cell whose faces all close is pinned, p = 0); and for every merged cell the
+  /// entries a neighbour as its new master needs when its master closes (its continuity row: the
+  /// neighbours' pressures; the neighbours' rows: its faces; its faces' rows: the neighbours' pressures).
+  RowPattern keptPattern() const;
+  /// Whether every Stokes row of this operator has its entries within `pattern`.
+  bool fitsPattern(const RowPattern& pattern) const;
+  /// Rows are returned in `pattern` (explicit zeros where this operator has no entry, so that the
+  /// assembled matrix keeps that pattern); null: the operator's own entries (the default).
+  void setPattern(std::shared_ptr<const RowPattern> pattern) { m_pattern = std::move(pattern); }
 
   /// Unsteady hook: adds coef * vol * u (coef = rho a0 / dt) to every momentum
   /// row and vol * old[r] to its right-hand side (old: rho times the history terms / dt per unknown).
@@ -119,6 +139,8 @@ class FlowOperator {
   }
   /// Adds the four face fluxes of cell (i, j) to a continuity row.
   void cellFluxes(int i, int j, RowTerms& R) const;
+  /// linearRow without the kept pattern: the row's own merged entries.
+  double ownRow(int r, Linearisation mode, const std::vector<double>& state, RowTerms& R, std::vector<std::pair<int, double>>& entries) const;
   /// Sharp: merges each cell whose centre is inside a body (and which is not pinned) into a neighbour.
   void mergeCutCells();
   /// Pins one cell (its pressure to 0) in every pressure component without a pressure boundary.
@@ -173,6 +195,7 @@ class FlowOperator {
   Eigen::ArrayXXd m_cellChi;  ///< ny x nx
   double m_tcoef = 0;
   const std::vector<double>* m_told = nullptr;
+  std::shared_ptr<const RowPattern> m_pattern;  ///< see setPattern
 };
 
 }  // namespace mmval::simulate

@@ -27,6 +27,11 @@ struct SteadyFlowSolver::Impl {
   std::vector<double> state;
   Eigen::ArrayXXd u, v, p;
 
+  /// fixed_pattern: the kept pattern (from the first problem), whether the current operator's rows
+  /// fit in it, and the kept solver while a problem that does not fit has a new one.
+  std::shared_ptr<const RowPattern> kept;
+  bool fits = true;
+  std::unique_ptr<CoupledSystem> parked;
   bool automatic = false;  ///< options.linear was "auto": opt.linear holds its choice
   LinearChoice choice;
   bool fell_back = false;
@@ -37,6 +42,7 @@ struct SteadyFlowSolver::Impl {
   }
 
   bool warm() const { return opt.keep_factorisation && opt.linear == "direct" && !op.problem().inertia; }
+  bool fixed() const { return opt.fixed_pattern && opt.linear == "direct" && !op.problem().inertia; }
 
   /// "auto": picks the solver for the current problem (a new choice for each new linear solver).
   void choose() {
@@ -111,10 +117,21 @@ struct SteadyFlowSolver::Impl {
     stats = {};
     stats.unknowns = op.unknowns();
     stats.cells = static_cast<long long>(op.nx()) * op.ny();
+    if (parked) sys = std::move(parked);  // an earlier solve on a new solver threw before handing back
+    const bool first = !sys;
     if (!sys) {
       choose();
+      if (fixed()) {
+        kept = std::make_shared<const RowPattern>(op.keptPattern());
+        op.setPattern(kept);
+        fits = true;
+      }
       sys = std::make_unique<CoupledSystem>(op, opt, comm);
-      if (warm()) sys->setWarmStart(opt.warm_max_iterations, opt.warm_rtol);
+      if (warm() || fixed()) sys->setWarmStart(fixed() ? 0 : opt.warm_max_iterations, opt.warm_rtol);
+    }
+    if (fixed() && !fits) {  // rows beyond the kept pattern: a new solver for this problem, the kept one parked
+      parked = std::move(sys);
+      sys = std::make_unique<CoupledSystem>(op, opt, comm);
     }
     const int factorised_before = sys->factorisations();
     // Warm start: the last solution is the GMRES initial guess; otherwise start from rest.
@@ -137,6 +154,8 @@ struct SteadyFlowSolver::Impl {
     stats.linear_solver = opt.linear;
     stats.linear_reason = choice.reason;
     stats.linear_fallback = fell_back;
+    stats.pattern_kept = fixed() && fits && !first;
+    if (parked) sys = std::move(parked);  // the new solver's factors go; the kept pattern's solver serves the next problem
     op.unpack(state, u, v, p);
   }
 
@@ -152,6 +171,11 @@ struct SteadyFlowSolver::Impl {
     for (std::size_t s = 0; s < old.boundary.size(); ++s) ok = ok && old.boundary[s].type == problem.boundary[s].type;
     if (!ok) throw std::invalid_argument("SteadyFlowSolver::update: the new problem must keep the grid, the boundary types and the inertia setting");
     op = FlowOperator(std::move(problem));
+    if (fixed() && kept) {
+      fits = op.fitsPattern(*kept);
+      if (fits) op.setPattern(kept);
+      return;
+    }
     if (!warm()) sys.reset();  // nothing of the old matrix is reused: the next solve is a new solver's
   }
 };

@@ -14,12 +14,14 @@
 // elsewhere); the tests allow 1e-7, still 10 times below the 6 digits written. Unit tier: masks of 120 x 60 pixels, under a second each. The
 // DISABLED_ benchmark replays a deposit sequence on the full Pore2Chip mask (minutes; run with
 // --gtest_also_run_disabled_tests; MMVAL_BENCH_STEPS re-solves, MMVAL_BENCH_ITS GMRES budget,
-// MMVAL_BENCH_CPP cells per pixel, MMVAL_BENCH_SAME_PATTERN aperture-only steps; measurements in
+// MMVAL_BENCH_CPP cells per pixel, MMVAL_BENCH_SAME_PATTERN aperture-only steps, MMVAL_BENCH_FIXED the
+// clean chip's pattern kept (SolverOptions::fixed_pattern) by the warm solver; measurements in
 // docs/validation/particle-physics.md, "Cost of the fluid re-solves").
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -56,6 +58,7 @@ MicromodelFlowOptions options(bool warm) {
   o.darcy_velocity = 1e-4;
   o.cells_per_pixel = 0.5;
   o.warm_start = warm;
+  o.fixed_pattern = false;  // the kept pattern (FixedPatternTest) is equal to rounding only; these tests compare bits
   return o;
 }
 
@@ -127,9 +130,11 @@ TEST(WarmResolve, ReSolvesWithTheKeptAnalysisAreTheDirectSolvesBitForBit) {
 TEST(WarmResolve, GmresReSolvesEqualFreshDirectSolvesAsDepositsGrow) {
   const PixelMask solid = grains();
   MicromodelFlowOptions o = options(true);
-  // Each re-solve closes pixels: 33, 46, 58 and 73 GMRES iterations with the sharp solve (the
-  // penalized one needed under 40), so a budget of 80 keeps the kept factors for all four.
-  o.warm_max_iterations = 80;
+  // Each re-solve closes pixels: 60, 86, 106 and over 120 GMRES iterations with the sharp solve and
+  // closed pixels as closed squares (33 to 73 when a closed pixel's far edge stayed fluid; the
+  // penalized solve needed under 40), so a budget of 140 keeps the kept factors for at least three of four,
+  // with a margin for rounding differences between BLAS builds.
+  o.warm_max_iterations = 140;
   MicromodelFlow warm(solid, o);
   warm.solve({});
   DepositGrid d(solid, kPixel, kDepth, 0.5);
@@ -193,6 +198,7 @@ TEST(WarmResolve, DISABLED_BenchmarkPore2Chip) {
   o.pixel = 10e-6;
   o.darcy_velocity = 4.17e-4;
   if (const char* cpp = std::getenv("MMVAL_BENCH_CPP")) o.cells_per_pixel = std::atof(cpp);
+  o.fixed_pattern = std::getenv("MMVAL_BENCH_FIXED") != nullptr;  // the clean chip's pattern kept (numeric LU only while it fits)
   MicromodelFlowOptions od = o;
   od.warm_start = false;
   MicromodelFlow warm(solid, o), direct(solid, od);
@@ -214,14 +220,20 @@ TEST(WarmResolve, DISABLED_BenchmarkPore2Chip) {
     // MMVAL_BENCH_SAME_PATTERN: a uniform 1 % thinner aperture instead (the matrix keeps its pattern).
     const bool same_pattern = std::getenv("MMVAL_BENCH_SAME_PATTERN") != nullptr;
     const std::vector<double> thinner(static_cast<std::size_t>(solid.size()), (1 - 0.01 * (step + 1)) * kDepth);
+    const std::clock_t c0 = std::clock();
     const FlowSolveResult w = same_pattern ? warm.solve({}, thinner) : warm.solve(d.closed(), d.aperture());
+    const std::clock_t c1 = std::clock();
     const FlowSolveResult f = same_pattern ? direct.solve({}, thinner) : direct.solve(d.closed(), d.aperture());
+    const std::clock_t c2 = std::clock();
+    std::printf("re-solve %2d CPU (process, BLAS threads included): warm %.2f s, direct %.2f s\n", step,
+                static_cast<double>(c1 - c0) / CLOCKS_PER_SEC, static_cast<double>(c2 - c1) / CLOCKS_PER_SEC);
     warm_s += w.seconds;
     direct_s += f.seconds;
-    std::printf("re-solve %2d: warm %.2f s (%d its, %s), direct %.2f s, k/k_direct - 1 = %.2g, velocity deviation %.2g\n", step, w.seconds,
-                w.iterations, w.factorised ? "factorised" : "kept", f.seconds, w.permeability / f.permeability - 1, velocityDeviation(warm, direct));
+    std::printf("re-solve %2d: warm %.2f s (%d its, %s%s), direct %.2f s, k/k_direct - 1 = %.2g, velocity deviation %.2g\n", step, w.seconds,
+                w.iterations, w.factorised ? "factorised" : "kept", w.pattern_kept ? ", kept pattern" : "", f.seconds,
+                w.permeability / f.permeability - 1, velocityDeviation(warm, direct));
     EXPECT_NEAR(w.permeability, f.permeability, kAgree * f.permeability);
-    if (o.warm_max_iterations == 0) {
+    if (o.warm_max_iterations == 0 && !o.fixed_pattern) {
       EXPECT_TRUE(sameBits(warm, w, direct, f));
     }
   }

@@ -47,6 +47,8 @@ void micromodelMetrics(Schema& s) {
   s.metric("permeability_reduction", "%", "1 - k / k0");
   s.metric("k0", "D", "Permeability of the clean micromodel");
   s.metric("resolves", "1", "Fluid re-solves after deposition changed the pore space");
+  s.metric("resolves_pattern_kept", "1",
+           "Of those, re-solves that fitted the clean chip's matrix pattern (numerics.resolve_pattern = \"fixed\"): a numeric LU only, no new ordering");
   s.metric("time_to_10pct_reduction", "s", "Time of the first 10 % permeability loss (absent when it never happened)");
   s.metric("time_to_clogging", "s", "Time of the first re-solve that found no open path inlet to outlet (absent when none)");
   s.metric("closed_pixels", "1", "Pore pixels closed by deposits");

@@ -42,9 +42,9 @@ using namespace stages;
 void writeCheckpoint(const fs::path& file, const std::string& fp, const RunnerState& s, const std::vector<SizeClass>& classes,
                      const DepositGrid& deposits, const MicromodelFlow& flow) {
   CheckpointWriter w;
-  w.putString("mmval-micromodel-checkpoint-6");
+  w.putString("mmval-micromodel-checkpoint-7");
   w.putString(fp);
-  w.put(s.next_frame); w.put(s.next_id); w.put(s.resolves); w.put(s.steps_at_checkpoint);
+  w.put(s.next_frame); w.put(s.next_id); w.put(s.resolves); w.put(s.resolves_pattern_kept); w.put(s.steps_at_checkpoint);
   w.put(s.wall_deposits); w.put(s.plate_deposits); w.put(s.lost_at_solve); w.put(s.blocked_at);
   w.put(s.k); w.put(s.k0); w.put(s.pressure_drop); w.put(s.speed_sum); w.put(s.solve_seconds); w.put(s.wall_before); w.put(s.speed_n);
   w.putVector(s.rows);
@@ -70,9 +70,10 @@ void writeCheckpoint(const fs::path& file, const std::string& fp, const RunnerSt
 bool readCheckpoint(const fs::path& file, const std::string& fp, RunnerState& s, std::vector<SizeClass>& classes, DepositGrid& deposits,
                     MicromodelFlow& flow) {
   CheckpointReader r(readBinaryFile(file), file.string());
-  if (r.getString() != "mmval-micromodel-checkpoint-6") throw std::runtime_error("checkpoint " + file.string() + ": unknown format");
+  if (r.getString() != "mmval-micromodel-checkpoint-7") throw std::runtime_error("checkpoint " + file.string() + ": unknown format");
   if (r.getString() != fp) return false;  // another scene: start afresh
   s.next_frame = r.get<std::int64_t>(); s.next_id = r.get<std::int64_t>(); s.resolves = r.get<std::int64_t>();
+  s.resolves_pattern_kept = r.get<std::int64_t>();
   s.steps_at_checkpoint = r.get<std::int64_t>();
   s.wall_deposits = r.get<std::int64_t>(); s.plate_deposits = r.get<std::int64_t>(); s.lost_at_solve = r.get<double>();
   s.blocked_at = r.get<double>();
@@ -388,6 +389,7 @@ void reportPermeability(const RunnerState& s, const DepositGrid& deposits, std::
   out.metrics["k0"] = s.k0;
   out.units["k0"] = "D";
   out.metrics["resolves"] = static_cast<double>(s.resolves);
+  out.metrics["resolves_pattern_kept"] = static_cast<double>(s.resolves_pattern_kept);
   // Time to the first 10 % permeability loss (the paper's "time to bridging"
   // trend: shorter at higher velocity); absent when it never happened.
   const tables::TableColumns rows = tables::parseTable(s.permeability, "permeability.csv");
@@ -508,7 +510,7 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
       Coupling cp = set.coupling;
       if (final_resolve && k == run.frames && deposits.lostColumns() > s.lost_at_solve) cp.resolve_pixels = 0;
       stall = resolve(flow, deposits, cp, set.max_pressure, t, classes, ps,
-                      {s.resolves, s.solve_seconds, s.lost_at_solve, s.k, s.pressure_drop, s.blocked_at});
+                      {s.resolves, s.resolves_pattern_kept, s.solve_seconds, s.lost_at_solve, s.k, s.pressure_drop, s.blocked_at});
     }
     if (!stall) insertDue(classes, *flow.field(), set.schedule, k, t, ps, s.next_id);
     recordFrame(classes, ps, k, t, {set.geo.pixel, set.geo.height}, run.dt_out, s);

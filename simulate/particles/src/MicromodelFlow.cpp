@@ -37,11 +37,47 @@ std::vector<double> pixelWallDistance(const PixelMask& solid, double pixel) {
   return d;
 }
 
-/// The shape the fluid solver cuts against: the mask itself. Its outlet face nodes lie on the
-/// image's edge (x = width), where MaskShape reads the edge pixel (Geometry.hpp), so a grain
-/// touching the outlet closes its outlet faces.
-std::shared_ptr<const simulate::MaskShape> solverShape(const PixelMask& solid, double pixel) {
-  return std::make_shared<const simulate::MaskShape>(solid, pixel);
+/// The shape the fluid solver cuts against. The grains are the mask itself (simulate::MaskShape:
+/// a node on a pixel edge reads one of the two pixels, and the outlet face nodes on the image's
+/// edge x = width read the edge pixel, so a grain touching the outlet closes its outlet faces).
+/// Pixels closed since (deposits, pockets cut off) are closed squares: a node on any of their
+/// edges is solid (u = 0 on a wall through the node). So the cells of a closed pixel have no fluid
+/// face at 1 cell per pixel and finer: they are pinned (p = 0, no flow), never merged into a
+/// neighbour, and closing a pixel only turns rows of the solver's matrix into identities within
+/// their old stencils (what SolverOptions::fixed_pattern keeps). Read as a MaskShape, a node on
+/// the far edge of a closed pixel stayed fluid at ~1 % of its neighbour's velocity (its wall
+/// distance clamped to 1 % of a cell) and the pixel's cell merged into the neighbour beyond it.
+/// Distances to the surface are the mask's of grains and closed pixels together.
+class PoreShape final : public simulate::Shape {
+ public:
+  PoreShape(const PixelMask& grains, const PixelMask& all, double pixel)
+      : m_grains(grains, pixel), m_all(all, pixel), m_closed(all && !grains), m_any(m_closed.any()), m_pixel(pixel) {}
+  int bodyAt(double x, double y) const override {
+    if (m_grains.bodyAt(x, y) >= 0) return 0;
+    if (!m_any) return -1;
+    const double u = x / m_pixel, v = (m_all.height() - y) / m_pixel;  // pixel column and row coordinates (row 0 at the top)
+    const int c0 = static_cast<int>(std::floor(u - kEdge)), c1 = static_cast<int>(std::floor(u + kEdge));
+    const int r0 = static_cast<int>(std::floor(v - kEdge)), r1 = static_cast<int>(std::floor(v + kEdge));
+    for (int r = std::max(r0, 0); r <= std::min(r1, static_cast<int>(m_closed.rows()) - 1); ++r)
+      for (int c = std::max(c0, 0); c <= std::min(c1, static_cast<int>(m_closed.cols()) - 1); ++c)
+        if (m_closed(r, c)) return 0;
+    return -1;
+  }
+  double distanceAlong(double x, double y, int axis, int sign, double max_distance) const override {
+    return m_all.distanceAlong(x, y, axis, sign, max_distance);
+  }
+  int bodies() const override { return 1; }
+  Eigen::Vector2d centre(int body) const override { return m_all.centre(body); }
+
+ private:
+  simulate::MaskShape m_grains, m_all;
+  PixelMask m_closed;
+  bool m_any;
+  double m_pixel;
+};
+
+std::shared_ptr<const PoreShape> solverShape(const PixelMask& grains, const PixelMask& all, double pixel) {
+  return std::make_shared<const PoreShape>(grains, all, pixel);
 }
 }  // namespace
 
@@ -69,11 +105,8 @@ void MicromodelFlow::pixelOf(double x, double y, int& col, int& row) const {
   row = rows() - 1 - static_cast<int>(std::floor(y / m_opt.pixel));
 }
 
-FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::vector<double>& aperture) {
-  const auto t0 = std::chrono::steady_clock::now();
-  if (!aperture.empty() && aperture.size() != static_cast<std::size_t>(m_grains.size()))
-    throw std::invalid_argument("MicromodelFlow::solve: the aperture needs one value per pixel");
-  PixelMask all = m_grains;
+bool MicromodelFlow::buildProblem(const PixelMask& extra_solid, const std::vector<double>& aperture, simulate::FlowProblem& prob, PixelMask& all) const {
+  all = m_grains;
   if (extra_solid.size() > 0) {
     if (extra_solid.rows() != all.rows() || extra_solid.cols() != all.cols()) throw std::invalid_argument("MicromodelFlow::solve: extra solid has the wrong shape");
     all = all || extra_solid;
@@ -82,7 +115,7 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
   const double W = width(), H = height(), p = m_opt.pixel;
   const int nx = std::max(4, static_cast<int>(std::lround(nc * m_opt.cells_per_pixel)));
   const int ny = std::max(4, static_cast<int>(std::lround(nr * m_opt.cells_per_pixel)));
-  simulate::FlowProblem prob;
+  prob = simulate::FlowProblem();
   prob.x = simulate::uniformAxis(0, W, nx);
   prob.y = simulate::uniformAxis(0, H, ny);
   prob.boundary[0].type = prob.boundary[1].type = simulate::BoundaryType::pressure;
@@ -103,8 +136,8 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
   // centres see it, and it must still stop the pump. Components of such cells that reach
   // neither side get their pressure pinned by the solver (FlowOperator) and carry no flow.
   for (int pass = 0; pass < 8; ++pass) {  // closing pixels can cut off more cells: repeat until none is
-    const auto shape = solverShape(all, p);
-    const simulate::MaskShape& probe = *shape;
+    const auto shape = solverShape(m_grains, all, p);
+    const simulate::Shape& probe = *shape;
     std::vector<std::uint8_t> fluid(static_cast<std::size_t>(nx) * ny), reach(fluid.size(), 0);
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i) fluid[static_cast<std::size_t>(j) * nx + i] = !probe.solid(prob.x.centre(i), prob.y.centre(j));
@@ -140,16 +173,7 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
     flood(nx - 1, 2);
     bool spanning = false;
     for (int j = 0; j < ny && !spanning; ++j) spanning = reach[static_cast<std::size_t>(j) * nx + nx - 1] == 3;
-    if (!spanning) {
-      FlowSolveResult blocked;
-      blocked.blocked = true;
-      blocked.pressure_drop = m_opt.darcy_velocity > 0 ? std::numeric_limits<double>::infinity() : 0.0;
-      m_ux.assign(m_ux.size(), 0.0);
-      m_uy.assign(m_uy.size(), 0.0);
-      if (!m_ux.empty()) m_field->update(m_ux, m_uy, m_h, m_solid);
-      blocked.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      return blocked;
-    }
+    if (!spanning) return false;
     bool isolated = false;
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i) {
@@ -168,7 +192,7 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
     if (!isolated) break;
   }
   const double cw = W / nx, ch = H / ny;
-  prob.shape = solverShape(all, p);
+  prob.shape = solverShape(m_grains, all, p);
   prob.method = simulate::ImmersedMethod::sharp;
   if (!aperture.empty()) {
     // Cell depth: mean aperture of the open pixels whose centres lie in the cell
@@ -193,6 +217,27 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
         if (n_open > 0 && sum > 0) prob.depth_field(j, i) = sum / n_open;
       }
   }
+  return true;
+}
+
+FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::vector<double>& aperture) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (!aperture.empty() && aperture.size() != static_cast<std::size_t>(m_grains.size()))
+    throw std::invalid_argument("MicromodelFlow::solve: the aperture needs one value per pixel");
+  simulate::FlowProblem prob;
+  PixelMask all;
+  if (!buildProblem(extra_solid, aperture, prob, all)) {
+    FlowSolveResult blocked;
+    blocked.blocked = true;
+    blocked.pressure_drop = m_opt.darcy_velocity > 0 ? std::numeric_limits<double>::infinity() : 0.0;
+    m_ux.assign(m_ux.size(), 0.0);
+    m_uy.assign(m_uy.size(), 0.0);
+    if (!m_ux.empty()) m_field->update(m_ux, m_uy, m_h, m_solid);
+    blocked.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return blocked;
+  }
+  const int nr = rows(), nc = cols(), nx = prob.x.cells(), ny = prob.y.cells();
+  const double W = width(), H = height(), p = m_opt.pixel, cw = W / nx, ch = H / ny;
   // Warm start: the kept solver takes the changed geometry (same grid); direct: a fresh solver
   // per solve, dropped after it (as its LU factors).
   std::unique_ptr<simulate::SteadyFlowSolver> fresh;
@@ -202,11 +247,26 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
     simulate::SolverOptions so;
     so.keep_factorisation = m_opt.warm_start;
     so.warm_max_iterations = m_opt.warm_start ? m_opt.warm_max_iterations : 0;
-    (m_opt.warm_start ? m_solver : fresh) = std::make_unique<simulate::SteadyFlowSolver>(std::move(prob), so);
+    so.fixed_pattern = m_opt.warm_start && m_opt.fixed_pattern;
+    simulate::FlowProblem clean;
+    PixelMask clean_all;
+    const bool is_clean = !(extra_solid.size() > 0 && extra_solid.any()) &&
+                          std::all_of(aperture.begin(), aperture.end(), [&](double h) { return h == m_opt.depth; });
+    if (so.fixed_pattern && !is_clean && buildProblem({}, {}, clean, clean_all)) {
+      // The kept pattern and its ordering are the clean chip's, whatever geometry comes first (a
+      // resumed run starts with deposits): a re-solve then depends only on the clean chip and the
+      // current geometry, so a resumed run is the uninterrupted one. Costs one factorisation more.
+      m_solver = std::make_unique<simulate::SteadyFlowSolver>(std::move(clean), so);
+      m_solver->solve();
+      m_solver->update(std::move(prob));
+    } else {
+      (m_opt.warm_start ? m_solver : fresh) = std::make_unique<simulate::SteadyFlowSolver>(std::move(prob), so);
+    }
   }
   simulate::SteadyFlowSolver& solver = m_opt.warm_start ? *m_solver : *fresh;
   const simulate::FlowStats& stats = solver.solve();
   FlowSolveResult r;
+  r.pattern_kept = stats.pattern_kept;
   r.factorised = stats.factorisations > 0;
   r.iterations = stats.linear_iterations - stats.factorisations;  // a factorising solve counts its LU solve as one
   const double q = solver.flowRate(simulate::Side::east);

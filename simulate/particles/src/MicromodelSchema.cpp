@@ -89,6 +89,13 @@ void declareMicromodel(Schema& s) {
            "Fluid re-solves. warm: one solver kept for the run, the first solve's LU ordering and symbolic analysis reused by every "
            "re-solve (the same answer bit for bit; ~30 % less solve CPU on the full scene); direct: a new solver per solve")
       .def("warm");
+  s.choice("numerics.resolve_pattern", {"fixed", "rebuild"},
+           "Warm re-solves (numerics.resolve = warm). fixed: the clean chip's matrix pattern is kept for the run (a closed face an "
+           "identity row, a closed cell pinned, inside their old stencils), so a re-solve is a numeric LU with the clean chip's "
+           "ordering and symbolic analysis (about half the time of a rebuilt solve at 1 cell per pixel); a re-solve that does not fit the pattern takes a new "
+           "solver. The answer equals the rebuilt solver's to rounding (~1e-12), not bit for bit. rebuild: a matrix of another "
+           "pattern is ordered and analysed anew, bit for bit a new solver's")
+      .def("fixed");
   s.real("numerics.max_step_fraction", "Largest particle displacement per step, in radii").def(0.5).min(1e-4).max(1);
   s.quantity("engines.compare_window", "s",
              "Before the run: the overdamped engine against LIGGGHTS (Hertz contacts, grains as an STL mesh wall) on a shared window of "

@@ -88,6 +88,7 @@ MicromodelFlowOptions readFlow(const Case& c, const SceneGeometry& geo) {
       c.has("flow.darcy_velocity") ? c.quantity("flow.darcy_velocity") : Q / ((rate_width > 0 ? rate_width : geo.height) * geo.depth);
   fo.cells_per_pixel = c.real("numerics.cells_per_pixel");
   fo.warm_start = c.text("numerics.resolve") == "warm";
+  fo.fixed_pattern = c.text("numerics.resolve_pattern") == "fixed";
   return fo;
 }
 
@@ -267,6 +268,7 @@ std::optional<PumpStall> resolve(MicromodelFlow& flow, const DepositGrid& deposi
   if (deposits.lostColumns() - record.lost_at_solve < static_cast<double>(coupling.resolve_pixels)) return std::nullopt;
   const FlowSolveResult r = flow.solve(deposits.closed(), coupling.layers ? deposits.aperture() : std::vector<double>{});
   ++record.resolves;
+  if (r.pattern_kept) ++record.resolves_pattern_kept;
   record.solve_seconds += r.seconds;
   record.lost_at_solve = deposits.lostColumns();
   record.k = r.permeability;

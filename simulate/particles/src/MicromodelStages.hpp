@@ -58,6 +58,7 @@ constexpr std::uint8_t kVolumeBooked = 1, kRowWritten = 2;
 /// Everything of the runner that a checkpoint must carry besides the engines and the deposits.
 struct RunnerState {
   std::int64_t next_frame = 0, next_id = 1, resolves = 0, steps_at_checkpoint = 0;
+  std::int64_t resolves_pattern_kept = 0;  ///< re-solves that were a numeric refactorisation in the kept pattern
   std::int64_t wall_deposits = 0, plate_deposits = 0;  ///< deposits booked as columns (at a grain) / as plate layers
   double lost_at_solve = 0;  ///< DepositGrid::lostColumns() at the last solve
   double blocked_at = -1;    ///< s: first re-solve that found no flow path (-1: never)
@@ -153,6 +154,7 @@ void deposit(std::vector<SizeClass>& classes, const ClassParticles& ps, const Fl
 /// What a re-solve changes in the runner's state.
 struct FlowRecord {
   std::int64_t& resolves;
+  std::int64_t& resolves_pattern_kept;
   double& solve_seconds;
   double& lost_at_solve;
   double& k;

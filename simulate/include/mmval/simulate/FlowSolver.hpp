@@ -170,6 +170,17 @@ struct SolverOptions {
   /// Warm start: GMRES tolerance, relative to the preconditioned right-hand side (the LU-
   /// preconditioned residual estimates the error against the direct answer).
   double warm_rtol = 1e-12;
+  /// Direct solver, Stokes: re-solves keep the first problem's matrix pattern for the solver's
+  /// life, so that a geometry that only closes faces and cells (deposits) or changes depths is a
+  /// numeric factorisation with the first problem's ordering and symbolic analysis. The kept
+  /// pattern is the first problem's, plus the entries a cell that closes (pinned) or a merged cell
+  /// that changes master needs (FlowOperator::keptPattern); a later problem's rows are assembled
+  /// into it with explicit zeros (a closed face: the identity row u = 0 inside its old stencil).
+  /// A problem whose rows do not fit (a face that opens, a merge beyond the neighbours) is solved
+  /// once by a new solver (ordering, symbolic analysis), and the kept one serves the next problem.
+  /// The answer is a new solver's to rounding (not bit for bit: the ordering is the first
+  /// problem's), and it depends only on the first problem and the current one.
+  bool fixed_pattern = false;
 };
 
 struct BodyLoad {
@@ -189,6 +200,9 @@ struct FlowStats {
   std::string linear_solver;     ///< the linear solver that produced the solution: "direct" or "iterative"
   std::string linear_reason;     ///< why (numerics.linear_solver = "auto": the rule that chose it; else "requested")
   bool linear_fallback = false;  ///< "auto" chose iterative, it did not converge, the direct LU solved instead
+  /// fixed_pattern: the solve factorised into the kept pattern, numerically only (not the first
+  /// solve, nor one whose rows did not fit and took a new solver).
+  bool pattern_kept = false;
 };
 
 /// What numerics.linear_solver = "auto" picks for a steady problem, and why.

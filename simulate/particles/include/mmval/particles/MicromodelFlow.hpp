@@ -19,7 +19,9 @@
 // from converging with the grid. The method must not change between re-solves, or
 // k/k0 would jump for numerical reasons. Pockets cut off from both inlet and outlet
 // (connectivity as the sharp solve sees it) are closed before each solve; the solver
-// pins the pressure of any component without a pressure boundary anyway.
+// pins the pressure of any component without a pressure boundary anyway. Closed pixels
+// (deposits, pockets) are closed squares to the solver, edges included: their faces carry
+// u = 0 and their cells are pinned, not merged (MicromodelFlow.cpp, PoreShape).
 #pragma once
 #include <cstdint>
 #include <memory>
@@ -31,6 +33,7 @@
 
 namespace mmval::simulate {
 class SteadyFlowSolver;
+struct FlowProblem;
 }
 
 namespace mmval::particles {
@@ -43,11 +46,12 @@ struct MicromodelFlowOptions {
   double viscosity = 1e-3;          ///< Pa s
   double darcy_velocity = 0.0;      ///< m/s, superficial velocity the flow is scaled to (>= 0)
   double cells_per_pixel = 0.5;     ///< fluid grid resolution
-  /// Re-solves (numerics.resolve): true ("warm") keeps the fluid solver between solves: while
-  /// the matrix keeps its pattern (aperture changes) a re-solve is a numeric factorisation with
-  /// the kept ordering and symbolic analysis; closed pixels change the sharp solve's pattern,
-  /// and then the re-solve orders and analyses the new matrix as a new solver does. Either way
-  /// it gives the direct answer bit for bit; false ("direct") builds a new solver per solve.
+  /// Re-solves (numerics.resolve): true ("warm") keeps the fluid solver between solves. With
+  /// fixed_pattern (below) every re-solve that fits the clean chip's pattern is a numeric
+  /// factorisation. Without it: while the matrix keeps its pattern (aperture changes) a re-solve is
+  /// a numeric factorisation with the kept ordering and symbolic analysis; closed pixels change the
+  /// sharp solve's pattern, and then the re-solve orders and analyses the new matrix as a new
+  /// solver does, the direct answer bit for bit. false ("direct") builds a new solver per solve.
   /// The first solve is the same either way.
   bool warm_start = true;
   /// Warm start: > 0 first runs GMRES from the last field, preconditioned by the kept LU factors
@@ -58,6 +62,13 @@ struct MicromodelFlowOptions {
   /// 0 (the default): every re-solve factorises. On the full Pore2Chip scene a re-solve's change
   /// (0.5 % of the pore columns) left GMRES at a residual of ~1e-2 after 40 iterations (WarmResolveTest).
   int warm_max_iterations = 0;
+  /// Warm start (numerics.resolve_pattern = "fixed"): the kept solver keeps the clean chip's matrix
+  /// pattern (SolverOptions::fixed_pattern): a re-solve whose closed pixels and thinner apertures fit
+  /// in it (closed faces: identity rows; closed cells: pinned; see PoreShape in MicromodelFlow.cpp)
+  /// is a numeric factorisation with the clean chip's ordering and symbolic analysis; one that does
+  /// not fit is solved by a new solver (FlowSolveResult::pattern_kept false). The answer equals the
+  /// rebuilt solver's to rounding, not bit for bit. false ("rebuild"): as described above.
+  bool fixed_pattern = true;
 };
 
 struct FlowSolveResult {
@@ -71,6 +82,9 @@ struct FlowSolveResult {
   bool blocked = false;        ///< no flow path left (k = 0)
   bool factorised = false;     ///< the solve factorised the system (LU) rather than reuse kept factors
   int iterations = 0;          ///< warm start with GMRES: its iterations (0: straight to the LU)
+  /// Fixed pattern: a numeric factorisation into the kept pattern (no ordering nor symbolic
+  /// analysis); false for the first solve and for a re-solve that took a new solver.
+  bool pattern_kept = false;
 };
 
 class MicromodelFlow {
@@ -124,6 +138,10 @@ class MicromodelFlow {
   std::vector<double> m_ux, m_uy, m_h;
   std::vector<std::uint8_t> m_solid;
   std::unique_ptr<simulate::SteadyFlowSolver> m_solver;  ///< warm start: kept between solves
+
+  /// The flow problem of the grains plus `extra_solid` and `aperture` (solve's arguments) and the
+  /// solid pixels it closes (pockets cut off included); false when no flow path is left.
+  bool buildProblem(const PixelMask& extra_solid, const std::vector<double>& aperture, simulate::FlowProblem& prob, PixelMask& all) const;
 };
 
 /// Largest particle diameter (m) that can travel from the inlet column to the
