@@ -527,9 +527,9 @@ TEST(MicromodelStages, ResolveWaitsForItsThresholdThenSeesTheDeposits) {
   stages::makeEngines(classes, flow.field(), stageScene(5e-6, 1), 1);
   classes[0].engine->insert({Vec3(55e-6, 75e-6, 10e-6)});  // in pixel (column 5, row 2)
   stages::ClassParticles ps{classes[0].engine->particles()};
-  std::int64_t resolves = 0;
+  std::int64_t resolves = 0, kept = 0;
   double seconds = 0, lost = 0, k = r0.permeability, pressure_drop = 0, blocked_at = -1;
-  const auto record = [&] { return stages::FlowRecord{resolves, seconds, lost, k, pressure_drop, blocked_at}; };
+  const auto record = [&] { return stages::FlowRecord{resolves, kept, seconds, lost, k, pressure_drop, blocked_at}; };
   const double per_pixel = lm.packing * o.pixel * o.pixel * 10e-6;  // a 10 um layer on one pixel
   int n = 0;
   for (int c = 10; c < 20; ++c)
