@@ -53,6 +53,11 @@ void declareUnsteadyCylinderKeys(Schema& s) {
             "Unsteady (mmval), projection: predictor-correction sweeps per step (1: standard incremental pressure correction; each "
             "further sweep shrinks the splitting error towards the coupled solve)")
       .def(1).min(1).max(50);
+  s.boolean("numerics.projection_rotational",
+            "Unsteady (mmval), projection: the rotational pressure update p = p^n + dp - mu div u' (Timmermans, Minev & Van de Vosse "
+            "1996), which removes the standard form's numerical pressure boundary layer at walls; measured effect small so far "
+            "(docs/validation/cylinder-unsteady.md)")
+      .def(false);
   s.real("numerics.max_courant", "Unsteady (mmval): Courant limit of the adaptive time step, max over cells of dt (|u|/dx + |v|/dy)").def(1.0).min(0.05).max(4.0);
   s.real("numerics.initial_perturbation",
          "Unsteady (mmval): strength eps of a Gaussian vortex placed 1.5 D behind the cylinder at t = 0; its peak speed is eps / 2 "
@@ -99,6 +104,7 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const Cylind
   uo.method = projection ? UnsteadyMethod::projection : UnsteadyMethod::coupled;
   uo.projection_rtol = c.real("numerics.projection_tolerance");
   uo.projection_sweeps = static_cast<int>(c.integer("numerics.projection_sweeps"));
+  uo.projection_rotational = c.flag("numerics.projection_rotational");
   const double eps = c.real("numerics.initial_perturbation");
   RunOutput out;
   out.details["solver"] = std::string(kSolverName) + (projection ? ", unsteady BDF2, pressure correction" : ", unsteady BDF2");

@@ -70,6 +70,10 @@ struct ProjectionStep::Impl {
   CachedRows rows;               ///< this rank's velocity rows
   PetscInt own_lo = 0, own_hi = 0;  ///< this rank's velocity rows
   std::vector<int> master;       ///< per cell: the cell whose increment it takes (-1: its own; -2: pinned, zero)
+  /// Rotational form: mu / (fluid area) per cell with a continuity flux (0 elsewhere, and 0 in the
+  /// standard form), so that mu_over_area * (outflow of u') = mu div u'.
+  std::vector<double> mu_over_area;
+  bool rotational = false;
   Mat Au = nullptr, K = nullptr;
   Vec bu = nullptr, xu = nullptr, bp = nullptr, xp = nullptr;
   KSP ku = nullptr, kp = nullptr;
@@ -127,6 +131,7 @@ struct ProjectionStep::Impl {
       C.close();
     }
     buildPressureMatrix(pressure_rtol);
+    cellAreas(op);
     createVelocitySolver(velocity_rtol);
     cacheRows(op);
     t.setup_seconds += secondsSince(t0);
@@ -187,6 +192,26 @@ struct ProjectionStep::Impl {
     check(KSPSetInitialGuessNonzero(kp, PETSC_TRUE), "guess");
     check(KSPSetFromOptions(kp), "options");
     check(KSPSetUp(kp), "setup");
+  }
+
+  /// mu / A_i for the rotational pressure update: A_i the cell's area plus its merged cells'
+  /// fluid parts (m_cellChi is the solid indicator of the sharp boundary: merged cells are solid,
+  /// so A_i is the master's own area). Depth-weighted fluxes (Hele-Shaw) are divided the same way.
+  void cellAreas(const FlowOperator& op) {
+    const int nx = op.nx(), ny = op.ny();
+    const Eigen::ArrayXXd chi = op.cellSolidFraction();
+    std::vector<double> area(static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny), 0.0);
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const std::size_t c = static_cast<std::size_t>(j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i);
+        const double a = op.problem().x.width(i) * op.problem().y.width(j) * std::max(0.0, 1.0 - chi(j, i));
+        const int m = master[c];
+        if (m >= 0) area[static_cast<std::size_t>(m)] += a;
+        else if (m == -1) area[c] += a;
+      }
+    mu_over_area.assign(area.size(), 0.0);
+    for (std::size_t c = 0; c < area.size(); ++c)
+      if (master[c] == -1 && area[c] > 0) mu_over_area[c] = op.problem().viscosity / area[c];
   }
 
   void createVelocitySolver(double rtol) {
@@ -286,6 +311,8 @@ struct ProjectionStep::Impl {
            double sweep_tolerance) {
     if (op.unknowns() != N) throw std::logic_error("ProjectionStep: the operator's grid changed");
     const auto t0 = std::chrono::steady_clock::now();
+    const int cells = N - P;
+    const std::vector<double> p_old(state.begin() + P, state.end());
     // 1. The velocity rows at the advecting velocity: A u' = f - G p^n.
     std::vector<double> rhs(static_cast<std::size_t>(P), 0.0);
     fillVelocityRows(coef, history, state, rhs);
@@ -293,8 +320,7 @@ struct ProjectionStep::Impl {
     stats.assemble_seconds += secondsSince(t0);
     const auto t1 = std::chrono::steady_clock::now();
     check(KSPSetOperators(ku, Au, Au), "operators");
-    const int cells = N - P;
-    std::vector<double> u, dp, r(static_cast<std::size_t>(cells), 0.0);
+    std::vector<double> u, dp, r(static_cast<std::size_t>(cells), 0.0), chi(static_cast<std::size_t>(cells), 0.0);
     int sweep = 0;
     while (true) {
       const auto ts = std::chrono::steady_clock::now();
@@ -315,19 +341,28 @@ struct ProjectionStep::Impl {
         r[ui] = coef * s;
       }
       fill(bp, r, 0);
-      // Initial guess: the last step's increment (the pressure changes smoothly from step to step;
-      // a correction sweep's increment is small, so it starts from zero).
+      // Initial guess: the last step's pressure change (the pressure changes smoothly from step to
+      // step); zero in a correction sweep (small increments).
       if (sweep == 0 && !last_dp.empty()) fill(xp, last_dp, 0);
       else check(VecSet(xp, 0.0), "VecSet");
       solve(kp, bp, xp, "pressure", its_p);
       detail::gatherToAll(xp, cells, dp, "the pressure increment");
-      if (sweep == 0) last_dp = dp;
       for (int i = 0; i < cells; ++i) {
         const int m = master[static_cast<std::size_t>(i)];
         if (m >= 0) dp[static_cast<std::size_t>(i)] = dp[static_cast<std::size_t>(m)];
         else if (m == -2) dp[static_cast<std::size_t>(i)] = 0;
       }
-      // 3. Correction: u = u' - M^-1 G dp, p = p + dp.
+      // Rotational form: the pressure takes -mu div u' besides the increment (r / coef is the
+      // outflow of u' per cell); merged cells take their master's, pinned cells nothing.
+      if (rotational) {
+        for (int i = 0; i < cells; ++i)
+          if (master[static_cast<std::size_t>(i)] == -1) chi[static_cast<std::size_t>(i)] = -mu_over_area[static_cast<std::size_t>(i)] * r[static_cast<std::size_t>(i)] / coef;
+        for (int i = 0; i < cells; ++i) {
+          const int m = master[static_cast<std::size_t>(i)];
+          if (m >= 0) chi[static_cast<std::size_t>(i)] = chi[static_cast<std::size_t>(m)];
+        }
+      }
+      // 3. Correction: u = u' - M^-1 G dp, p = p + dp (+ chi, rotational).
       for (int k = 0; k < P; ++k) {
         const auto uk = static_cast<std::size_t>(k);
         double grad = 0;
@@ -337,8 +372,9 @@ struct ProjectionStep::Impl {
       double dp_max = 0, p_max = 0;
       for (int i = 0; i < cells; ++i) {
         double& p = state[static_cast<std::size_t>(P + i)];
-        p += dp[static_cast<std::size_t>(i)];
-        dp_max = std::max(dp_max, std::abs(dp[static_cast<std::size_t>(i)]));
+        const double change = dp[static_cast<std::size_t>(i)] + chi[static_cast<std::size_t>(i)];
+        p += change;
+        dp_max = std::max(dp_max, std::abs(change));
         p_max = std::max(p_max, std::abs(p));
       }
       t.pressure_seconds += secondsSince(t2);
@@ -350,18 +386,32 @@ struct ProjectionStep::Impl {
       // Another sweep: the predictor with the corrected pressure, f - G p.
       for (PetscInt q = own_lo; q < own_hi; ++q) {
         const auto uq = static_cast<std::size_t>(q);
-        for (std::size_t a = G.start[uq]; a < G.start[uq + 1]; ++a) rhs[uq] -= G.e[a].second * dp[static_cast<std::size_t>(G.e[a].first)];
+        for (std::size_t a = G.start[uq]; a < G.start[uq + 1]; ++a) {
+          const auto c = static_cast<std::size_t>(G.e[a].first);
+          rhs[uq] -= G.e[a].second * (dp[c] + chi[c]);
+        }
       }
+    }
+    // The step's pressure change: the next step's initial guess. A start-up step (swept to a
+    // tolerance) changes the pressure from nothing to all of it: no guess for the next.
+    if (sweeps > 1 && sweep_tolerance > 0) {
+      last_dp.clear();
+    } else {
+      // (Zero on the identity rows of pinned and merged cells: the pressure solve's initial guess.)
+      last_dp.assign(static_cast<std::size_t>(cells), 0.0);
+      for (int i = 0; i < cells; ++i)
+        if (master[static_cast<std::size_t>(i)] == -1) last_dp[static_cast<std::size_t>(i)] = state[static_cast<std::size_t>(P + i)] - p_old[static_cast<std::size_t>(i)];
     }
     stats.solve_seconds += secondsSince(t1);
     return sweep;
   }
 };
 
-ProjectionStep::ProjectionStep(FlowOperator& op, MPI_Comm comm, double velocity_rtol, double pressure_rtol) : m(std::make_unique<Impl>()) {
+ProjectionStep::ProjectionStep(FlowOperator& op, MPI_Comm comm, double velocity_rtol, double pressure_rtol, bool rotational) : m(std::make_unique<Impl>()) {
   if (!(velocity_rtol > 0 && velocity_rtol < 1) || !(pressure_rtol > 0 && pressure_rtol < 1))
     throw std::invalid_argument("ProjectionStep: tolerances must be in (0, 1)");
   m->comm = comm;
+  m->rotational = rotational;
   m->setup(op, velocity_rtol, pressure_rtol);
 }
 

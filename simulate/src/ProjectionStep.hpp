@@ -8,14 +8,22 @@
 // incremental form of Van Kan 1986 with the pressure of the last step in the predictor):
 //   1. velocity predictor   A u' = f - G p^n                    (GMRES, ILU(0))
 //   2. pressure correction  -D M^-1 G dp = g - D u' - C p^n       (CG, BoomerAMG)
-//   3. velocity correction  u = u' - M^-1 G dp,  p = p^n + dp
+//   3. velocity correction  u = u' - M^-1 G dp,  p = p^n + dp  [- mu div u']
 // with M = (rho a0 / dt) V, the transient term's diagonal (V: the rows' control volumes, as
 // the momentum rows weigh them). D u + C p = g holds to the pressure solve's tolerance after
 // every step: the continuity is exact as in the coupled solve. What the split leaves is the
 // momentum residual (A - M) M^-1 G dp, O(dt) times the pressure increment dp = O(dt): the
 // splitting error of incremental pressure correction, second order in dt for the velocity
 // with BDF2 (Guermond, Minev & Shen 2006, section 3.3).
-//
+// [- mu div u'] is the rotational form (Timmermans, Minev & Van de Vosse 1996; Guermond, Minev &
+// Shen 2006, section 3.4): with A - M = -mu Laplacian, the identity Laplacian = grad div - curl
+// curl makes G (-mu div u') cancel the viscous part of the residual, and the pressure loses the
+// O(dt) numerical boundary layer of the standard form. div u' is read from the continuity
+// residual (the outflow of u' over the cell's fluid area). Off by default: it moved the tests'
+// split errors by < 3 % (no walls, or a viscous number << 1) and the unconfined Re 100 cylinder's
+// c_D and St by < 1e-4; on 2D-2 (viscous number ~1 on the finest cells) it is not measured yet. An extrapolated predictor
+// pressure, p^n + w (p^n - p^{n-1}), cut the Taylor-Green split error 300x but made the unconfined
+// Re 100 cylinder drift (docs/validation/cylinder-unsteady.md, 2026-12-05): not kept.
 // The pressure matrix -D M^-1 G depends on the geometry only, up to the factor rho a0 / dt,
 // so its multigrid hierarchy is built once (and after setShape). Pinned cells and merged
 // cells' own pressures carry no continuity flux: they enter the pressure solve as identity
@@ -43,7 +51,9 @@ class ProjectionStep {
   /// `op` must be the operator the steps use; its transient term is changed here (set to the
   /// mass of the rows and back to none) and the caller sets it again afterwards.
   /// velocity_rtol, pressure_rtol: relative tolerances of the two iterative solves.
-  ProjectionStep(FlowOperator& op, MPI_Comm comm, double velocity_rtol, double pressure_rtol);
+  /// rotational: the pressure update p = p^n + dp - mu div u' (see above); false (the default, and
+  /// UnsteadyFlowSolver's): p = p^n + dp.
+  ProjectionStep(FlowOperator& op, MPI_Comm comm, double velocity_rtol, double pressure_rtol, bool rotational = false);
   ~ProjectionStep();
   ProjectionStep(const ProjectionStep&) = delete;
   ProjectionStep& operator=(const ProjectionStep&) = delete;
@@ -64,8 +74,9 @@ class ProjectionStep {
   void refreshRows(const FlowOperator& op);
 
   const ProjectionTimings& timings() const;
-  /// The last step's pressure increment (first sweep), the next step's initial guess; part of
-  /// a restart state (empty before the first step).
+  /// The last step's pressure change p^{n+1} - p^n (zero on pinned and merged cells), the next
+  /// step's initial guess; part of a restart state (empty before the first
+  /// step and after a start-up step swept to a tolerance).
   const std::vector<double>& lastIncrement() const;
   void setLastIncrement(std::vector<double> dp);
 

@@ -58,7 +58,7 @@ struct UnsteadyFlowSolver::Impl {
   /// The linear solver of the steps for the current operator (after construction and setShape).
   void makeSolver() {
     if (uopt.method == UnsteadyMethod::projection) {
-      proj = std::make_unique<ProjectionStep>(*op, comm, uopt.projection_rtol, uopt.projection_rtol);
+      proj = std::make_unique<ProjectionStep>(*op, comm, uopt.projection_rtol, uopt.projection_rtol, uopt.projection_rotational);
       op->setTransient(coef, coef > 0 ? &old : nullptr);  // ProjectionStep read the rows' mass with its own
       return;
     }
@@ -290,7 +290,7 @@ void UnsteadyFlowSolver::loadState(CheckpointReader& r) {
   s.last_factor_state = std::move(last_state);
   if (s.proj) s.proj->setLastIncrement(std::move(increment));
   // Rebuild the lagged LU exactly: the first factorisation fixed the ordering, the last is in use.
-  // (The projection method keeps nothing between steps but the state.)
+  // (The projection method keeps only the state and the last pressure change, set above.)
   if (s.sys && s.factor_count > 0) {
     s.op->setTransient(s.first_factor_coef, &s.old);
     s.sys->factorise(*s.op, Linearisation::picard, s.first_factor_state);

@@ -53,6 +53,9 @@ struct UnsteadyOptions {
   /// coupled solve). The first step sweeps until the pressure settles (its increment is the whole
   /// initial pressure, not O(dt)).
   int projection_sweeps = 1;
+  /// projection: the rotational pressure update p = p^n + dp - mu div u' (Timmermans, Minev &
+  /// Van de Vosse 1996) instead of p = p^n + dp (ProjectionStep.hpp).
+  bool projection_rotational = false;
   double max_courant = 1.0;     ///< Courant limit (dimensionless), in (0, 4]
   double max_growth = 1.25;     ///< largest dt_n / dt_{n-1}, in (1, 2.4]
   double blowup_factor = 20;    ///< max |u| above this x the velocity scale counts as divergence
