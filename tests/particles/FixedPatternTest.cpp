@@ -20,6 +20,7 @@
 
 #include <petsclog.h>
 
+#include "GrainMask.hpp"
 #include "mmval/particles/DepositGrid.hpp"
 #include "mmval/particles/MicromodelFlow.hpp"
 #include "mmval/simulate/FlowSolver.hpp"
@@ -46,15 +47,7 @@ int symbolicFactorisations() {
   return info.count;
 }
 
-/// 120 x 60 pixels with a few round grains (none touches the inlet or outlet column).
-PixelMask grains() {
-  PixelMask m = PixelMask::Constant(60, 120, false);
-  const double c[][3] = {{25, 15, 8}, {50, 40, 10}, {80, 18, 9}, {100, 45, 7}, {60, 10, 5}};
-  for (int r = 0; r < m.rows(); ++r)
-    for (int col = 0; col < m.cols(); ++col)
-      for (const auto& g : c) m(r, col) = m(r, col) || std::hypot(col - g[0], r - g[1]) < g[2];
-  return m;
-}
+PixelMask grains() { return test_support::roundGrains120x60(); }
 
 MicromodelFlowOptions options(bool fixed) {
   MicromodelFlowOptions o;
@@ -67,29 +60,11 @@ MicromodelFlowOptions options(bool fixed) {
   return o;
 }
 
-/// Column deposits at random pore pixels (each closes its pixel) and plate layers (3 um thinner), n of each.
 void depositSome(DepositGrid& d, const PixelMask& solid, std::mt19937& rng, int n) {
-  std::uniform_int_distribution<int> col(2, static_cast<int>(solid.cols()) - 3), row(0, static_cast<int>(solid.rows()) - 1);
-  const double column = kPixel * kPixel * kDepth;
-  for (int placed = 0; placed < 2 * n;) {
-    const int c = col(rng), r = row(rng);
-    if (solid(r, c) || d.closed()(r, c)) continue;
-    const double x = (c + 0.5) * kPixel, y = (solid.rows() - 1 - r + 0.5) * kPixel;
-    if (placed % 2 == 0) d.add(x, y, 1.5 * column);
-    else d.addLayer(x, y, 3.0 * column, 3e-6);
-    ++placed;
-  }
+  test_support::depositSome(d, solid, rng, n, kPixel, kDepth);
 }
 
-/// Largest velocity difference over the largest velocity, on the pixel-face velocities the engines see.
-double velocityDeviation(const MicromodelFlow& a, const MicromodelFlow& b) {
-  double dmax = 0, umax = 0;
-  for (std::size_t k = 0; k < a.nodeUx().size(); ++k) {
-    dmax = std::max({dmax, std::abs(a.nodeUx()[k] - b.nodeUx()[k]), std::abs(a.nodeUy()[k] - b.nodeUy()[k])});
-    umax = std::max({umax, std::abs(b.nodeUx()[k]), std::abs(b.nodeUy()[k])});
-  }
-  return dmax / umax;
-}
+using test_support::velocityDeviation;
 
 TEST(FixedPattern, ReSolvesEqualRebuiltSolvesWithOneSymbolicFactorisation) {
   const PixelMask solid = grains();
@@ -127,29 +102,6 @@ TEST(FixedPattern, ReSolvesEqualRebuiltSolvesWithOneSymbolicFactorisation) {
   EXPECT_EQ(symbolicFactorisations() - before - symbolic_rebuilt, 1);  // the fixed-pattern flow's whole life: one analysis
 }
 
-/// Pixel squares closed with their edges (a node on an edge is solid), as MicromodelFlow closes deposit pixels.
-class ClosedSquares final : public simulate::Shape {
- public:
-  ClosedSquares(PixelMask closed, double pixel) : m_closed(std::move(closed)), m_all(m_closed, pixel), m_pixel(pixel) {}
-  int bodyAt(double x, double y) const override {
-    const double u = x / m_pixel, v = (m_all.height() - y) / m_pixel;
-    for (int r = static_cast<int>(std::floor(v - 1e-9)); r <= static_cast<int>(std::floor(v + 1e-9)); ++r)
-      for (int c = static_cast<int>(std::floor(u - 1e-9)); c <= static_cast<int>(std::floor(u + 1e-9)); ++c)
-        if (r >= 0 && c >= 0 && r < m_closed.rows() && c < m_closed.cols() && m_closed(r, c)) return 0;
-    return -1;
-  }
-  double distanceAlong(double x, double y, int axis, int sign, double max_distance) const override {
-    return m_all.distanceAlong(x, y, axis, sign, max_distance);
-  }
-  int bodies() const override { return 1; }
-  Eigen::Vector2d centre(int body) const override { return m_all.centre(body); }
-
- private:
-  PixelMask m_closed;
-  simulate::MaskShape m_all;
-  double m_pixel;
-};
-
 /// A 40 x 20 pixel depth-averaged channel, 1 cell per pixel, driven by 1 Pa from west to east, with `closed` pixels.
 simulate::FlowProblem channel(const PixelMask& closed) {
   simulate::FlowProblem p;
@@ -160,7 +112,8 @@ simulate::FlowProblem channel(const PixelMask& closed) {
   p.boundary[2].type = p.boundary[3].type = simulate::BoundaryType::no_slip;
   p.depth = kDepth;
   p.method = simulate::ImmersedMethod::sharp;
-  p.shape = std::make_shared<ClosedSquares>(closed, kPixel);
+  // Closed pixels as the micromodel closes deposit pixels: squares solid on their edges too.
+  p.shape = poreShape(PixelMask::Constant(closed.rows(), closed.cols(), false), closed, kPixel);
   return p;
 }
 

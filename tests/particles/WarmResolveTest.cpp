@@ -27,6 +27,7 @@
 #include <cstring>
 #include <random>
 
+#include "GrainMask.hpp"
 #include "mmval/particles/DepositGrid.hpp"
 #include "mmval/particles/MicromodelFlow.hpp"
 #include "mmval/simulate/FlowSolver.hpp"
@@ -41,15 +42,7 @@ constexpr double kPixel = 5e-6, kDepth = 20e-6;
 constexpr double kAgree = 1e-8;         ///< warm against fresh direct: k, relative (see the header)
 constexpr double kAgreeVelocity = 1e-7;  ///< warm against fresh direct: velocities over the largest (see the header)
 
-/// 120 x 60 pixels with a few round grains (none touches the inlet or outlet column).
-PixelMask grains() {
-  PixelMask m = PixelMask::Constant(60, 120, false);
-  const double c[][3] = {{25, 15, 8}, {50, 40, 10}, {80, 18, 9}, {100, 45, 7}, {60, 10, 5}};
-  for (int r = 0; r < m.rows(); ++r)
-    for (int col = 0; col < m.cols(); ++col)
-      for (const auto& g : c) m(r, col) = m(r, col) || std::hypot(col - g[0], r - g[1]) < g[2];
-  return m;
-}
+PixelMask grains() { return test_support::roundGrains120x60(); }
 
 MicromodelFlowOptions options(bool warm) {
   MicromodelFlowOptions o;
@@ -62,19 +55,8 @@ MicromodelFlowOptions options(bool warm) {
   return o;
 }
 
-/// Deposits as the scene makes them: column deposits at grain walls and plate layers
-/// (monolayer patches of 3 um particles) at random pore pixels, `n` of each.
 void depositSome(DepositGrid& d, const PixelMask& solid, std::mt19937& rng, int n) {
-  std::uniform_int_distribution<int> col(2, static_cast<int>(solid.cols()) - 3), row(0, static_cast<int>(solid.rows()) - 1);
-  const double column = kPixel * kPixel * kDepth;
-  for (int placed = 0; placed < 2 * n;) {
-    const int c = col(rng), r = row(rng);
-    if (solid(r, c) || d.closed()(r, c)) continue;
-    const double x = (c + 0.5) * kPixel, y = (solid.rows() - 1 - r + 0.5) * kPixel;
-    if (placed % 2 == 0) d.add(x, y, 1.5 * column);
-    else d.addLayer(x, y, 3.0 * column, 3e-6);
-    ++placed;
-  }
+  test_support::depositSome(d, solid, rng, n, kPixel, kDepth);
 }
 
 /// The node arrays the engines see and k, byte for byte (the same code path, not a tolerance).
@@ -85,15 +67,7 @@ bool sameBits(const MicromodelFlow& a, const FlowSolveResult& ra, const Micromod
   return same(a.nodeUx(), b.nodeUx()) && same(a.nodeUy(), b.nodeUy()) && std::memcmp(&ra.permeability, &rb.permeability, sizeof(double)) == 0;
 }
 
-/// Largest velocity difference over the largest velocity, on the node arrays the engines see.
-double velocityDeviation(const MicromodelFlow& a, const MicromodelFlow& b) {
-  double dmax = 0, umax = 0;
-  for (std::size_t k = 0; k < a.nodeUx().size(); ++k) {
-    dmax = std::max({dmax, std::abs(a.nodeUx()[k] - b.nodeUx()[k]), std::abs(a.nodeUy()[k] - b.nodeUy()[k])});
-    umax = std::max({umax, std::abs(b.nodeUx()[k]), std::abs(b.nodeUy()[k])});
-  }
-  return dmax / umax;
-}
+using test_support::velocityDeviation;
 
 TEST(WarmResolve, FirstSolveIsTheDirectSolveBitForBit) {
   MicromodelFlow warm(grains(), options(true)), direct(grains(), options(false));

@@ -81,6 +81,10 @@ std::shared_ptr<const PoreShape> solverShape(const PixelMask& grains, const Pixe
 }
 }  // namespace
 
+std::shared_ptr<const simulate::Shape> poreShape(const PixelMask& grains, const PixelMask& all, double pixel) {
+  return solverShape(grains, all, pixel);
+}
+
 MicromodelFlow::MicromodelFlow(PixelMask grains, MicromodelFlowOptions options) : m_grains(std::move(grains)), m_opt(options) {
   if (m_grains.rows() < 2 || m_grains.cols() < 2) throw std::invalid_argument("MicromodelFlow: the mask needs at least 2 x 2 pixels");
   if (!(m_opt.pixel > 0) || !(m_opt.depth > 0) || !(m_opt.viscosity > 0) || !(m_opt.darcy_velocity >= 0) || !(m_opt.cells_per_pixel > 0) ||

@@ -34,6 +34,7 @@
 namespace mmval::simulate {
 class SteadyFlowSolver;
 struct FlowProblem;
+class Shape;
 }
 
 namespace mmval::particles {
@@ -153,5 +154,11 @@ double passableDiameter(const PixelMask& solid, double pixel);
 
 /// Largest particle diameter (m) that fits somewhere in the inlet column.
 double inletOpening(const PixelMask& solid, double pixel);
+
+/// The shape the micromodel's fluid solve cuts against: `grains` read as the mask itself
+/// (simulate::MaskShape), the pixels of `all` that are not grains (deposits, cut-off pockets) as
+/// closed squares, solid on their edges too, so that closing a pixel turns rows of the solver's
+/// matrix into identities within their old stencils (SolverOptions::fixed_pattern).
+std::shared_ptr<const simulate::Shape> poreShape(const PixelMask& grains, const PixelMask& all, double pixel);
 
 }  // namespace mmval::particles

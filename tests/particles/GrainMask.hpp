@@ -1,0 +1,49 @@
+// What the micromodel flow tests share (WarmResolveTest, FixedPatternTest): a small mask,
+// deposits placed as the scene makes them, and the velocity difference the engines would see.
+#pragma once
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <random>
+
+#include "mmval/particles/DepositGrid.hpp"
+#include "mmval/particles/MicromodelFlow.hpp"
+
+namespace mmval::particles::test_support {
+
+/// 120 x 60 pixels with five round grains (none touches the inlet or outlet column).
+inline PixelMask roundGrains120x60() {
+  PixelMask m = PixelMask::Constant(60, 120, false);
+  const double c[][3] = {{25, 15, 8}, {50, 40, 10}, {80, 18, 9}, {100, 45, 7}, {60, 10, 5}};
+  for (int r = 0; r < m.rows(); ++r)
+    for (int col = 0; col < m.cols(); ++col)
+      for (const auto& g : c) m(r, col) = m(r, col) || std::hypot(col - g[0], r - g[1]) < g[2];
+  return m;
+}
+
+/// Deposits as the scene makes them: column deposits (1.5 pixel columns of volume, closing the
+/// pixel) and plate layers (monolayer patches of 3 um particles) at random pore pixels, `n` of each.
+inline void depositSome(DepositGrid& d, const PixelMask& solid, std::mt19937& rng, int n, double pixel, double depth) {
+  std::uniform_int_distribution<int> col(2, static_cast<int>(solid.cols()) - 3), row(0, static_cast<int>(solid.rows()) - 1);
+  const double column = pixel * pixel * depth;
+  for (int placed = 0; placed < 2 * n;) {
+    const int c = col(rng), r = row(rng);
+    if (solid(r, c) || d.closed()(r, c)) continue;
+    const double x = (c + 0.5) * pixel, y = (static_cast<double>(solid.rows()) - 1 - r + 0.5) * pixel;
+    if (placed % 2 == 0) d.add(x, y, 1.5 * column);
+    else d.addLayer(x, y, 3.0 * column, 3e-6);
+    ++placed;
+  }
+}
+
+/// Largest velocity difference over the largest velocity, on the node arrays the engines see.
+inline double velocityDeviation(const MicromodelFlow& a, const MicromodelFlow& b) {
+  double dmax = 0, umax = 0;
+  for (std::size_t k = 0; k < a.nodeUx().size(); ++k) {
+    dmax = std::max({dmax, std::abs(a.nodeUx()[k] - b.nodeUx()[k]), std::abs(a.nodeUy()[k] - b.nodeUy()[k])});
+    umax = std::max({umax, std::abs(b.nodeUx()[k]), std::abs(b.nodeUy()[k])});
+  }
+  return dmax / umax;
+}
+
+}  // namespace mmval::particles::test_support
