@@ -17,6 +17,7 @@
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/core/VtkWriter.hpp"
+#include "mmval/simulate/CylinderScene.hpp"
 #include "mmval/simulate/FieldOutput.hpp"
 #include "mmval/simulate/ForceHistory.hpp"
 #include "mmval/simulate/Petsc.hpp"
@@ -162,12 +163,10 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const Cylind
       if (PetscSession::rank() == 0 && !ctx.quiet)
         spdlog::info("{}: resumed level {} at t = {:.6g} s (step {}) from {}", c.name(), li + 1, solver.time(), solver.stepStats().steps, ckpt.string());
     } else if (eps > 0) {
-      // Gaussian vortex 1.5 D behind the cylinder: speed amp (r/D) exp(-r^2/D^2), whose peak (at r = D / sqrt 2)
-      // is amp exp(-1/2) / sqrt 2 = eps U / 2.
-      const double xv = cx + 1.5 * D, yv = cy, amp = eps * Uref * std::sqrt(std::exp(1.0) / 2);
+      const auto vortex = startVortex(cx, cy, D, eps, Uref);  // peak speed eps U / 2
       solver.setVelocity([=](double x, double y) {
-        const double X = (x - xv) / D, Y = (y - yv) / D, g = amp * std::exp(-(X * X + Y * Y));
-        return Eigen::Vector2d(-Y * g, X * g);
+        const auto u = vortex.velocity(x, y);
+        return Eigen::Vector2d(u[0], u[1]);
       });
     }
     auto saveCheckpoint = [&] {

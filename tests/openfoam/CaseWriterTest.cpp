@@ -276,15 +276,6 @@ TEST(Results, SheddingStatisticsUseTheCasesWindowAndWholePeriods) {
   EXPECT_FALSE(steady.strouhal.has_value());
 }
 
-TEST(Results, StrouhalFromASineLift) {
-  // c_l = sin(2 pi f t) with f = 3 Hz, D = 0.1, U = 1 -> St = f D / U = 0.3.
-  std::vector<Coefficients> h;
-  for (int i = 0; i <= 4000; ++i) h.push_back({i * 1e-3, 3.2, std::sin(2 * M_PI * 3.0 * i * 1e-3)});
-  const auto st = strouhalFromLift(h, 0.1, 1.0);
-  ASSERT_TRUE(st.has_value());
-  EXPECT_NEAR(*st, 0.3, 1e-4);
-}
-
 TEST(Results, FatalMessageIsExtracted) {
   const std::string log = "Create time\n\n--> FOAM FATAL ERROR:\ncannot find file \"0/U\"\n\n    From function x\n\n\nFOAM exiting\n";
   EXPECT_THAT(fatalMessage(log), HasSubstr("cannot find file \"0/U\""));

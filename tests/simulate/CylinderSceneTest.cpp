@@ -136,5 +136,25 @@ max_velocity = "0.3 m/s"
   EXPECT_THROW(openfoam::peerScene(c), InputError);
 }
 
+TEST(CylinderScene, StartVortexPeaksAtHalfTheInflowTimesEps) {
+  // u = A (-Y, X) exp(-(X^2 + Y^2)), A = eps U sqrt(e / 2): |u| = A rho exp(-rho^2) (rho = r / D)
+  // peaks at rho = 1 / sqrt 2 with A exp(-1/2) / sqrt 2 = eps U / 2, 1.5 D behind the centre.
+  const double D = 0.1, eps = 0.3, U = 2.0;
+  const auto v = startVortex(0.2, 0.25, D, eps, U);
+  EXPECT_DOUBLE_EQ(v.x_m, 0.35);
+  EXPECT_DOUBLE_EQ(v.y_m, 0.25);
+  double peak = 0, peak_r = 0;
+  for (int k = 1; k <= 4000; ++k) {
+    const double r = k * 1e-3 * D;
+    const auto u = v.velocity(v.x_m + r, v.y_m);
+    EXPECT_DOUBLE_EQ(u[0], 0.0);  // on the axis through the vortex the flow is across it
+    if (std::abs(u[1]) > peak) peak = std::abs(u[1]), peak_r = r;
+  }
+  EXPECT_NEAR(peak, eps * U / 2, 1e-6);
+  EXPECT_NEAR(peak_r, D / std::sqrt(2.0), 1e-3 * D);
+  // Counter-clockwise: above the vortex the flow goes upstream.
+  EXPECT_LT(v.velocity(v.x_m, v.y_m + 0.5 * D)[0], 0.0);
+}
+
 }  // namespace
 }  // namespace mmval::simulate

@@ -18,6 +18,7 @@
 #include "mmval/openfoam/DirectMesh.hpp"
 #include "mmval/openfoam/FoamFile.hpp"
 #include "mmval/openfoam/ImageGeometry.hpp"
+#include "mmval/simulate/CylinderScene.hpp"
 #include "mmval/simulate/ForceHistory.hpp"
 
 namespace fs = std::filesystem;
@@ -152,11 +153,10 @@ std::string turbulenceProperties() {
 }
 
 /// The initial velocity of an unsteady cylinder scene with Scene::initial_perturbation eps: mmval's
-/// Gaussian vortex 1.5 D behind the centre on a fluid at rest, the same field as
-/// simulate::runUnsteadyCylinder sets (u = A (-Y, X) exp(-(X^2 + Y^2)), X, Y in diameters from the
-/// vortex, A = eps U sqrt(e / 2); its peak speed is eps U / 2, at r = D / sqrt 2).
+/// start vortex (simulate::startVortex) on a fluid at rest, written as the same expression.
 std::string setExprFieldsDict(const Scene& s) {
-  const double xv = s.cx + 1.5 * s.diameter, yv = s.cy, amp = s.initial_perturbation * s.u_ref * std::sqrt(std::exp(1.0) / 2);
+  const auto v = simulate::startVortex(s.cx, s.cy, s.diameter, s.initial_perturbation, s.u_ref);
+  const double xv = v.x_m, yv = v.y_m, amp = v.amplitude_m_s;
   return foamHeader("dictionary", "setExprFieldsDict", "system") +
          fmt::format("expressions\n(\n    U\n    {{\n        field U;\n        dimensions [0 1 -1 0 0 0 0];\n"
                      "        variables\n        (\n            \"X = (pos().x() - {0:.12g}) / {2:.12g}\"\n"
@@ -498,25 +498,6 @@ void addSheddingStatistics(const Scene& s, const std::vector<Coefficients>& hist
   r.shedding_periods = st.periods;
   r.strouhal.reset();
   if (st.periods > 0) r.strouhal = st.frequency_hz * s.diameter / s.u_ref;
-}
-
-std::optional<double> strouhalFromLift(const std::vector<Coefficients>& h, double l_ref, double u_ref, int periods) {
-  if (h.size() < 10) return std::nullopt;
-  // Use the last half of the history: mean-removed upward zero crossings.
-  const std::size_t start = h.size() / 2;
-  double mean = 0;
-  for (std::size_t i = start; i < h.size(); ++i) mean += h[i].cl;
-  mean /= static_cast<double>(h.size() - start);
-  std::vector<double> crossings;
-  for (std::size_t i = start + 1; i < h.size(); ++i) {
-    const double a = h[i - 1].cl - mean, b = h[i].cl - mean;
-    if (a < 0 && b >= 0) crossings.push_back(h[i - 1].time + (h[i].time - h[i - 1].time) * (-a) / (b - a));
-  }
-  if (static_cast<int>(crossings.size()) < 2) return std::nullopt;
-  const int use = std::min<int>(periods, static_cast<int>(crossings.size()) - 1);
-  const double period = (crossings.back() - crossings[crossings.size() - 1 - use]) / use;
-  if (period <= 0) return std::nullopt;
-  return l_ref / (period * u_ref);
 }
 
 namespace {

@@ -6,6 +6,7 @@
 // solver. SI units throughout.
 #pragma once
 #include <array>
+#include <cmath>
 #include <vector>
 
 namespace mmval {
@@ -51,5 +52,21 @@ CylinderScene readCylinderScene(const Case& c);
 /// the body have this size; the peer's O-grid puts cells_around cells of this arc length on the
 /// circumference.
 double surfaceSpacing(const CylinderScene& s, int cells_around);
+
+/// The start vortex of an unsteady scene with numerics.initial_perturbation eps, the same for
+/// both solvers (mmval's sets it directly, the OpenFOAM peer through setExprFields): a Gaussian
+/// vortex 1.5 D behind the cylinder's centre, u = A (-Y, X) exp(-(X^2 + Y^2)) with X, Y in
+/// diameters from the vortex and A = eps U sqrt(e / 2), so that its peak speed, at
+/// r = D / sqrt 2, is A exp(-1/2) / sqrt 2 = eps U / 2.
+struct StartVortex {
+  double x_m = 0, y_m = 0, diameter_m = 1, amplitude_m_s = 0;
+  std::array<double, 2> velocity(double x, double y) const {
+    const double X = (x - x_m) / diameter_m, Y = (y - y_m) / diameter_m, g = amplitude_m_s * std::exp(-(X * X + Y * Y));
+    return {-Y * g, X * g};
+  }
+};
+inline StartVortex startVortex(double centre_x_m, double centre_y_m, double diameter_m, double eps, double u_ref_m_s) {
+  return {centre_x_m + 1.5 * diameter_m, centre_y_m, diameter_m, eps * u_ref_m_s * std::sqrt(std::exp(1.0) / 2)};
+}
 
 }  // namespace mmval::simulate

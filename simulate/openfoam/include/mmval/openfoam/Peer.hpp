@@ -163,10 +163,6 @@ struct Coefficients {
 };
 std::vector<Coefficients> readCoefficients(const std::filesystem::path& file);
 
-/// Strouhal number from a lift history by zero crossings over the last
-/// `periods` periods; returns nullopt without a clear oscillation.
-std::optional<double> strouhalFromLift(const std::vector<Coefficients>& history, double l_ref, double u_ref, int periods = 4);
-
 /// An unsteady cylinder's c_D max / mean, c_L max and St from its force history, as mmval's own
 /// unsteady kind computes them: over the last (up to 4) whole c_L periods after
 /// scene.statistics_from (half the end time when negative), St = f D / u_ref; no St without a
