@@ -32,6 +32,8 @@
 // ratios from one run.
 //
 // Usage: bench_tracking_decode [--frames N] [--threads N] [--dir DIR] [--formats rgba,tiff16,mp4]
+//                              [--detect-only REPEATS]
+// --detect-only: only detection on frames in memory, one thread, REPEATS passes (CPU time).
 // DIR holds (or receives) one folder per format, as mmval synth writes them.
 #include <algorithm>
 #include <atomic>
@@ -144,6 +146,34 @@ double detectAndLink(const fs::path& input, int threads, const TrackRun& run, do
   return wall;
 }
 
+/// Detection alone, one thread, `repeats` passes over every frame of `input` held in memory
+/// (decoded first, not timed) against a tracking run's background and polarity: prints each
+/// pass's CPU time, then the fastest. The steadier number for comparing two builds of the
+/// detector on a shared machine (`--detect-only REPEATS`).
+void detectOnly(const fs::path& input, int repeats) {
+  TrackRun run;
+  {
+    FrameSource src(input.string());
+    run = runTracker(src, defaults(1), true);
+  }
+  FrameSource src(input.string());
+  std::vector<cv::Mat> frames;
+  cv::Mat f;
+  for (int index = 0; src.next(f, index);) frames.push_back(f.clone());
+  const TrackConfig c = defaults(1);
+  double best = 0;
+  std::size_t found = 0;
+  for (int k = 0; k < repeats; ++k) {
+    found = 0;
+    const std::clock_t cpu0 = std::clock();
+    for (const cv::Mat& frame : frames) found += detect(frame, run.background, run.polarity, c.detect).size();
+    const double cpu = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
+    best = k == 0 ? cpu : std::min(best, cpu);
+    std::printf("detection alone, 1 thread, pass %d: %.3f s CPU (%zu detections in %zu frames)\n", k + 1, cpu, found, frames.size());
+  }
+  std::printf("detection alone, 1 thread: fastest of %d passes %.3f s CPU\n", repeats, best);
+}
+
 /// A tracking run's own account: its stages' wall times and the time its threads spent decoding.
 struct RunStages {
   std::vector<std::pair<std::string, double>> stages, stages_cpu;
@@ -184,14 +214,21 @@ int main(int argc, char** argv) {
   int frames = 300, threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   fs::path root = fs::temp_directory_path() / "mmval-bench-decode";
   std::string formats = "rgba,tiff16,mp4";
+  int detect_only = 0;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--frames") frames = std::atoi(argv[i + 1]);
     else if (a == "--threads") threads = std::atoi(argv[i + 1]);
     else if (a == "--dir") root = argv[i + 1];
     else if (a == "--formats") formats = argv[i + 1];
+    else if (a == "--detect-only") detect_only = std::atoi(argv[i + 1]);
   }
   cv::setNumThreads(1);  // one core per tracker thread, as the tracking bench does
+  if (detect_only > 0) {
+    std::stringstream list(formats);
+    for (std::string format; std::getline(list, format, ',');) detectOnly(inputOf(prepare(root, format, frames)), detect_only);
+    return 0;
+  }
   std::printf("%-7s %6s %10s %10s %10s %10s %10s %8s %9s %9s\n", "format", "frames", "decode-1", "decode-N", "track-1", "track-N", "old-1",
               "old/new", "dec.share", "decodes");
   std::printf("%-7s %6s %10s %10s %10s %10s %10s %8s %9s %9s\n", "", "", "frames/s", "frames/s", "frames/s", "frames/s", "frames/s", "1 thread",

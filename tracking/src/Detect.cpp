@@ -543,15 +543,18 @@ std::vector<Detection> detect(const cv::Mat& frame, const cv::Mat& background, P
     if (polarity == Polarity::dark) cv::subtract(cv::Scalar(level), frame, signal);
     else cv::subtract(frame, cv::Scalar(level), signal);
   }
-  thread_local cv::Mat before_high_pass;
+  // The spots' quality is measured on the signal before the high-pass, which carves a
+  // negative ring around every spot (measureSpot takes its own local background): with a
+  // high-pass, `signal` is the high-passed image and `before_high_pass` the other buffer.
+  thread_local cv::Mat signal_high_passed;
+  cv::Mat before_high_pass;
   if (o.local_background > 0) {
-    // The spots' quality is measured on the signal before the high-pass, which carves a
-    // negative ring around every spot (measureSpot takes its own local background).
-    signal.copyTo(before_high_pass);
     // Spatial high-pass: what is left of uneven illumination and slow background
     // drift varies over more than a particle; a boxcar mean wider than the particle removes it.
     cv::blur(signal, local, cv::Size(2 * o.local_background + 1, 2 * o.local_background + 1), cv::Point(-1, -1), cv::BORDER_REFLECT);
-    cv::subtract(signal, local, signal);
+    cv::subtract(signal, local, signal_high_passed);
+    before_high_pass = signal;
+    cv::swap(signal, signal_high_passed);
   }
   if (o.blur_sigma > 0) cv::GaussianBlur(signal, smooth_buf, cv::Size(0, 0), o.blur_sigma);
   else signal.copyTo(smooth_buf);

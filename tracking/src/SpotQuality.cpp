@@ -198,9 +198,9 @@ void measureSpot(const cv::Mat& zero_mean, const cv::Mat& frame, double sigma0, 
       level = std::isnan(bg) ? 0.0 : bg;
       levels[n_levels++] = {r, level};
     }
-    const double a = 1 / (2 * m * m);
-    gaussianRow(ex, 2 * r + 1, cx - r, d.x, a);
-    gaussianRow(ey, 2 * r + 1, cy - r, d.y, a);
+    const double a = 1 / (2 * m * m), c = std::exp(-2 * a);  // (gaussianRow's own c, once for both rows)
+    gaussianRow(ex, 2 * r + 1, cx - r, d.x, a, c);
+    gaussianRow(ey, 2 * r + 1, cy - r, d.y, a, c);
     const WindowMoments mom = windowMoments(zero_mean, cx, cy, r, d.x, d.y, level, ex, ey);
     const double s0 = mom.s0, sxx = mom.sxx, syy = mom.syy, sxy = mom.sxy;
     if (!(s0 > 0)) break;
