@@ -19,6 +19,13 @@ using detail::secondsSince;
 
 /// Unknowns from which the serial LU orders by METIS (see solve()).
 constexpr long long kMetisUnknowns = 100000;
+/// The ordering of an analysis kept for a whole run (setKeptAnalysis), from kMetisUnknowns:
+/// UMFPACK's BEST, the least fill of AMD, METIS and CHOLMOD's nested dissection, its search paid
+/// once. Pore2Chip at 1 cell per pixel (~750k unknowns, the opt-in WarmResolve benchmark with
+/// MMVAL_BENCH_FIXED, OpenBLAS with 1 thread, alternating on the shared 2-core machine): a re-solve
+/// 4.57-4.79 s CPU against 4.82-5.03 s with METIS; k the same to 3e-12, the velocities to 1.1e-8
+/// of the largest (METIS against another METIS-ordered LU of the same matrix: 1.6e-9).
+constexpr const char* kKeptOrdering = "BEST";
 
 struct CoupledSystem::Impl {
   SolverOptions opt;
@@ -45,6 +52,8 @@ struct CoupledSystem::Impl {
   /// the KSP's LU (its ordering and symbolic analysis) was computed from a matrix of that pattern.
   std::vector<PetscInt> held_start, held_cols;
   bool pc_fits = true;
+  bool csr_same = false;  ///< A's compressed rows are (held_start, held_cols) (see insert)
+  bool kept_analysis = false;  ///< see setKeptAnalysis
 
   ~Impl() {
     if (ksp != nullptr) KSPDestroy(&ksp);
@@ -142,22 +151,45 @@ struct CoupledSystem::Impl {
     check(MatGetOwnershipRange(A, &lo, &hi), "ownership");
     RowTerms row;
     std::vector<std::pair<int, double>> entries;
+    bool miss = false;  // a row beyond the operator's kept pattern
     row_start.assign(1, 0);
     cols.clear();
     vals.clear();
     rhs.clear();
     for (PetscInt r = lo; r < hi; ++r) {
       rhs.push_back(op.linearRow(static_cast<int>(r), mode, state, row, entries));
+      miss = miss || !op.rowFitsPattern(static_cast<int>(r), entries.size());
       for (const auto& [c, v] : entries) {
         cols.push_back(c);
         vals.push_back(v);
       }
       row_start.push_back(static_cast<PetscInt>(cols.size()));
     }
+    if (op.pattern() != nullptr) {  // every rank throws, or none
+      int mine = miss ? 1 : 0, any = 0;
+      MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, comm);
+      if (any != 0) throw PatternMiss("a row has entries beyond the kept matrix pattern");
+    }
   }
 
   /// Writes the linearised rows into A and b (A keeps its earlier entries' pattern, zeroed).
-  void insert() {
+  /// in_place: the rows have the pattern of A's last assembly (warm start, patternChanged() false);
+  /// when A's compressed rows are known to be exactly (row_start, cols), the values are written
+  /// into them directly: the bytes MatZeroEntries and MatSetValues(ADD_VALUES) leave (0 + v).
+  void insert(bool in_place = false) {
+    if (in_place && csr_same) {
+      PetscScalar* a = nullptr;
+      check(MatSeqAIJGetArrayWrite(A, &a), "MatSeqAIJGetArrayWrite");
+      for (std::size_t k = 0; k < vals.size(); ++k) a[k] = 0.0 + vals[k];
+      check(MatSeqAIJRestoreArrayWrite(A, &a), "MatSeqAIJRestoreArrayWrite");
+      check(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY), "assembly");  // new values: the next PCSetUp factorises
+      check(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY), "assembly");
+      PetscScalar* bb = nullptr;
+      check(VecGetArrayWrite(b, &bb), "VecGetArrayWrite");
+      std::copy(rhs.begin(), rhs.end(), bb);
+      check(VecRestoreArrayWrite(b, &bb), "VecRestoreArrayWrite");
+      return;
+    }
     check(MatZeroEntries(A), "MatZeroEntries");
     check(VecSet(b, 0.0), "VecSet");
     PetscInt lo = 0, hi = 0;
@@ -172,6 +204,22 @@ struct CoupledSystem::Impl {
     check(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY), "assembly");
     check(VecAssemblyBegin(b), "vec assembly");
     check(VecAssemblyEnd(b), "vec assembly");
+    csr_same = warm && csrIsRows();  // warm start only: a plain solve never writes in place
+  }
+
+  /// Whether A is a serial AIJ matrix whose compressed rows are exactly (row_start, cols).
+  bool csrIsRows() const {
+    PetscBool seq = PETSC_FALSE;
+    check(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(A), MATSEQAIJ, &seq), "type");
+    if (!seq) return false;
+    PetscInt n = 0;
+    const PetscInt *ia = nullptr, *ja = nullptr;
+    PetscBool done = PETSC_FALSE;
+    check(MatGetRowIJ(A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done), "MatGetRowIJ");
+    bool same = done && static_cast<std::size_t>(n) + 1 == row_start.size() && std::equal(row_start.begin(), row_start.end(), ia) &&
+                std::equal(cols.begin(), cols.end(), ja);
+    check(MatRestoreRowIJ(A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done), "MatRestoreRowIJ");
+    return same;
   }
 
   /// Hands A to the KSP and sets up what the first factorisation needs (MUMPS workspace, the Schur preconditioner).
@@ -264,19 +312,23 @@ struct CoupledSystem::Impl {
     // A matrix of another pattern (the sharp method's solid nodes, cut stencils and merged cells
     // follow the geometry) is a new matrix, assembled as a new solver assembles it: zeroed
     // entries of the old pattern would stay in A and change the LU's ordering.
-    if (!held_start.empty() && patternChanged()) {
+    const bool changed = held_start.empty() || patternChanged();
+    if (changed && !held_start.empty()) {
       check(MatDestroy(&A), "MatDestroy");
       createMatrix(op);
       pc_fits = false;
+      csr_same = false;
     }
-    held_start = row_start;
-    held_cols = cols;
-    insert();
+    if (changed) {
+      held_start = row_start;
+      held_cols = cols;
+    }
+    insert(!changed);
     PetscInt lo = 0, hi = 0;
     check(MatGetOwnershipRange(A, &lo, &hi), "ownership");
     stats.assemble_seconds += secondsSince(ta);
     const auto t0 = std::chrono::steady_clock::now();
-    const detail::ScopedDefaultOption ordering("-fluid_mat_umfpack_ordering", "METIS", wantsMetis(op));
+    const detail::ScopedDefaultOption ordering("-fluid_mat_umfpack_ordering", kept_analysis ? kKeptOrdering : "METIS", wantsMetis(op));
     warm_its = 0;
     warm_factorised = refactor || warm_max_its == 0;
     setOperators(op);
@@ -412,6 +464,8 @@ void CoupledSystem::setWarmStart(int max_iterations, double rtol) {
   m->lag_max_its = 0;
   m->refactor = true;
 }
+
+void CoupledSystem::setKeptAnalysis() { m->kept_analysis = true; }
 
 int CoupledSystem::lastWarmIterations() const { return m->warm_its; }
 

@@ -5,6 +5,7 @@
 // solve per time step), so both use the same linear solvers and options.
 #pragma once
 #include <memory>
+#include <stdexcept>
 #include <vector>
 
 #include <mpi.h>
@@ -12,6 +13,12 @@
 #include "FlowOperator.hpp"
 
 namespace mmval::simulate {
+
+/// Thrown by CoupledSystem::solve when a row's own entries do not lie within the operator's
+/// kept pattern (FlowOperator::setPattern); nothing has been changed then (the system, `state`).
+struct PatternMiss : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
 
 class CoupledSystem {
  public:
@@ -26,7 +33,8 @@ class CoupledSystem {
   /// Assembles the system linearised at `state` and overwrites `state` with
   /// its solution (on every rank). Adds timings and iterations to `stats`.
   /// Throws FlowFailure if the solve fails or the result is not finite, std::runtime_error on
-  /// a PETSc error (`state` is then left unchanged).
+  /// a PETSc error (`state` is then left unchanged), PatternMiss when the operator has a kept
+  /// pattern that a row does not fit (found while assembling, before anything changed).
   void solve(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats);
 
   /// Direct solver only: keep the LU factorisation of an earlier matrix and use
@@ -62,6 +70,9 @@ class CoupledSystem {
   /// reached `rtol` (relative to the preconditioned right-hand side) within that budget.
   /// The first solve factorises.
   void setWarmStart(int max_iterations, double rtol);
+  /// Warm start whose ordering and symbolic analysis serve a whole run (SolverOptions::fixed_pattern):
+  /// large systems are ordered for the least fill, whatever the search costs (see kKeptOrdering).
+  void setKeptAnalysis();
   /// Warm start: GMRES iterations of the last solve (0 when it went straight to the LU) and
   /// whether it factorised.
   int lastWarmIterations() const;

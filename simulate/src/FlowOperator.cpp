@@ -608,20 +608,6 @@ RowPattern FlowOperator::keptPattern() const {
   return P;
 }
 
-bool FlowOperator::fitsPattern(const RowPattern& P) const {
-  if (P.rows() != unknowns()) return false;
-  const std::vector<double> zero(static_cast<std::size_t>(unknowns()), 0.0);
-  RowTerms R;
-  std::vector<std::pair<int, double>> entries;
-  for (int r = 0; r < unknowns(); ++r) {
-    ownRow(r, Linearisation::stokes, zero, R, entries);
-    const auto first = P.cols.begin() + P.start[static_cast<std::size_t>(r)], last = P.cols.begin() + P.start[static_cast<std::size_t>(r) + 1];
-    for (const auto& en : entries)
-      if (!std::binary_search(first, last, en.first)) return false;
-  }
-  return true;
-}
-
 double FlowOperator::ownRow(int r, Linearisation mode, const std::vector<double>& state, RowTerms& R,
                             std::vector<std::pair<int, double>>& entries) const {
   R.clear();

@@ -5,6 +5,7 @@
 // linearisations, and the residual of the unmodified balance used for forces.
 #pragma once
 #include <array>
+#include <cstddef>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -77,11 +78,17 @@ class FlowOperator {
   /// entries a neighbour as its new master needs when its master closes (its continuity row: the
   /// neighbours' pressures; the neighbours' rows: its faces; its faces' rows: the neighbours' pressures).
   RowPattern keptPattern() const;
-  /// Whether every Stokes row of this operator has its entries within `pattern`.
-  bool fitsPattern(const RowPattern& pattern) const;
   /// Rows are returned in `pattern` (explicit zeros where this operator has no entry, so that the
-  /// assembled matrix keeps that pattern); null: the operator's own entries (the default).
+  /// assembled matrix keeps that pattern); null: the operator's own entries (the default). Whether
+  /// the rows fit is found while they are built: a row of linearRow that fits has exactly the
+  /// pattern's entries (its own are a subset), one that does not has more (see rowFitsPattern).
   void setPattern(std::shared_ptr<const RowPattern> pattern) { m_pattern = std::move(pattern); }
+  const RowPattern* pattern() const { return m_pattern.get(); }
+  /// With a pattern set: whether row r as linearRow returned it (`entries`, `count` of them) lies within the pattern.
+  bool rowFitsPattern(int r, std::size_t count) const {
+    return m_pattern == nullptr ||
+           count == static_cast<std::size_t>(m_pattern->start[static_cast<std::size_t>(r) + 1] - m_pattern->start[static_cast<std::size_t>(r)]);
+  }
 
   /// Unsteady hook: adds coef * vol * u (coef = rho a0 / dt) to every momentum
   /// row and vol * old[r] to its right-hand side (old: rho times the history terms / dt per unknown).

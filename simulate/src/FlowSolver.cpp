@@ -128,15 +128,25 @@ struct SteadyFlowSolver::Impl {
       }
       sys = std::make_unique<CoupledSystem>(op, opt, comm);
       if (warm() || fixed()) sys->setWarmStart(fixed() ? 0 : opt.warm_max_iterations, opt.warm_rtol);
+      if (fixed()) sys->setKeptAnalysis();
     }
     if (fixed() && !fits) {  // rows beyond the kept pattern: a new solver for this problem, the kept one parked
       parked = std::move(sys);
       sys = std::make_unique<CoupledSystem>(op, opt, comm);
     }
-    const int factorised_before = sys->factorisations();
+    int factorised_before = sys->factorisations();
     // Warm start: the last solution is the GMRES initial guess; otherwise start from rest.
     if (!warm() || opt.warm_max_iterations <= 0 || state.size() != static_cast<std::size_t>(op.unknowns())) state.assign(static_cast<std::size_t>(op.unknowns()), 0.0);
-    linearSolve(Linearisation::stokes);
+    try {
+      linearSolve(Linearisation::stokes);
+    } catch (const PatternMiss&) {  // fixed pattern: rows beyond it; a new solver for this problem, the kept one parked
+      fits = false;
+      op.setPattern(nullptr);
+      parked = std::move(sys);
+      sys = std::make_unique<CoupledSystem>(op, opt, comm);
+      factorised_before = 0;
+      linearSolve(Linearisation::stokes);
+    }
     if (op.problem().inertia) {
       for (int k = 0; k < opt.max_newton; ++k) {
         const std::vector<double> old = state;
@@ -172,7 +182,9 @@ struct SteadyFlowSolver::Impl {
     if (!ok) throw std::invalid_argument("SteadyFlowSolver::update: the new problem must keep the grid, the boundary types and the inertia setting");
     op = FlowOperator(std::move(problem));
     if (fixed() && kept) {
-      fits = op.fitsPattern(*kept);
+      // Whether the rows fit in the kept pattern is found while the solve assembles them
+      // (CoupledSystem throws PatternMiss before it changes anything; see solve).
+      fits = kept->rows() == op.unknowns();
       if (fits) op.setPattern(kept);
       return;
     }

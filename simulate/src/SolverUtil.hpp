@@ -53,19 +53,25 @@ class ScopedDefaultOption {
 /// Throws FlowFailure (a NumericalFailure: the input is valid, the numerics failed) naming
 /// `what` (and leaves `out` as it was) when any is not finite.
 inline void gatherToAll(Vec v, long long n, std::vector<double>& out, const std::string& what) {
-  VecScatter sc;
-  Vec all;
-  check(VecScatterCreateToAll(v, &sc, &all), "scatter");
-  check(VecScatterBegin(sc, v, all, INSERT_VALUES, SCATTER_FORWARD), "scatter");
-  check(VecScatterEnd(sc, v, all, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+  int ranks = 1;
+  MPI_Comm_size(PetscObjectComm(reinterpret_cast<PetscObject>(v)), &ranks);
+  VecScatter sc = nullptr;
+  Vec all = v;  // one rank: v holds every entry already
+  if (ranks > 1) {
+    check(VecScatterCreateToAll(v, &sc, &all), "scatter");
+    check(VecScatterBegin(sc, v, all, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+    check(VecScatterEnd(sc, v, all, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+  }
   const PetscScalar* a = nullptr;
   VecGetArrayRead(all, &a);
   bool finite = true;
   for (long long k = 0; k < n; ++k) finite = finite && std::isfinite(a[k]);
   if (finite) out.assign(a, a + n);
   VecRestoreArrayRead(all, &a);
-  VecScatterDestroy(&sc);
-  VecDestroy(&all);
+  if (ranks > 1) {
+    VecScatterDestroy(&sc);
+    VecDestroy(&all);
+  }
   if (!finite) throw FlowFailure(what + " is not finite (NaN or Inf)", "refine the grid");
 }
 

@@ -15,17 +15,23 @@
 // DISABLED_ benchmark replays a deposit sequence on the full Pore2Chip mask (minutes; run with
 // --gtest_also_run_disabled_tests; MMVAL_BENCH_STEPS re-solves, MMVAL_BENCH_ITS GMRES budget,
 // MMVAL_BENCH_CPP cells per pixel, MMVAL_BENCH_SAME_PATTERN aperture-only steps, MMVAL_BENCH_FIXED the
-// clean chip's pattern kept (SolverOptions::fixed_pattern) by the warm solver; measurements in
+// clean chip's pattern kept (SolverOptions::fixed_pattern) by the warm solver, MMVAL_BENCH_WARM_ONLY
+// no direct solves, MMVAL_BENCH_SAVE / MMVAL_BENCH_REF a file the warm re-solves' k and velocities
+// are written to / compared with (another build's answers); measurements in
 // docs/validation/particle-physics.md, "Cost of the fluid re-solves").
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <ctime>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <memory>
 #include <random>
+#include <vector>
 
 #include "GrainMask.hpp"
 #include "mmval/particles/DepositGrid.hpp"
@@ -161,6 +167,55 @@ TEST(WarmResolve, UpdateRejectsAnotherGrid) {
   EXPECT_THROW(s.update(q), std::invalid_argument);
 }
 
+/// A 40 x 20 cell depth-averaged channel (5 um cells) driven by 1 Pa from west to east, around `circles`.
+simulate::FlowProblem channelAround(std::vector<simulate::Circle> circles) {
+  simulate::FlowProblem p;
+  p.x = simulate::uniformAxis(0, 40 * kPixel, 40);
+  p.y = simulate::uniformAxis(0, 20 * kPixel, 20);
+  p.boundary[0].type = p.boundary[1].type = simulate::BoundaryType::pressure;
+  p.boundary[0].pressure = 1.0;
+  p.boundary[2].type = p.boundary[3].type = simulate::BoundaryType::no_slip;
+  p.depth = kDepth;
+  p.method = simulate::ImmersedMethod::sharp;
+  if (!circles.empty()) p.shape = std::make_shared<simulate::Circles>(std::move(circles));
+  return p;
+}
+
+TEST(WarmResolve, FixedPatternFallsBackToANewSolverWhenRowsDoNotFitAndKeepsItsOwn) {
+  // The kept pattern is the empty channel's; cylinders cut stencils and merge the cells whose
+  // centres they cover into neighbours, entries the empty channel's rows may not hold, so the
+  // re-solve must be a new solver's (found while assembling: CoupledSystem throws PatternMiss
+  // before it changes anything). Reference: a solver built for the cylinder alone, the same
+  // path (own pattern, new ordering): the same bytes. Then the empty channel again fits, and is
+  // solved by the kept solver (its LU of the kept pattern, not the parked one's): the first
+  // solve's bytes, since the same matrix is factorised numerically in the same analysis.
+  simulate::SolverOptions so;
+  so.keep_factorisation = true;
+  so.fixed_pattern = true;
+  simulate::SteadyFlowSolver fixed(channelAround({}), so);
+  EXPECT_FALSE(fixed.solve().pattern_kept);
+  const Eigen::ArrayXXd u0 = fixed.u();
+  const double q0 = fixed.flowRate(simulate::Side::east);
+  // A large cylinder, and a small one that covers the centre of cell (28, 10) and its east and north
+  // face nodes but not its west and south ones: the cell merges into a neighbour across one of
+  // them, and the other's momentum row then holds that neighbour's pressure, beyond the stencil.
+  const std::vector<simulate::Circle> cylinder{{12 * kPixel, 10 * kPixel, 4.3 * kPixel}, {28.6 * kPixel, 10.6 * kPixel, 0.56 * kPixel}};
+  fixed.update(channelAround(cylinder));
+  const simulate::FlowStats& st = fixed.solve();
+  EXPECT_FALSE(st.pattern_kept);
+  EXPECT_EQ(st.factorisations, 1);
+  simulate::SteadyFlowSolver alone(channelAround(cylinder));
+  alone.solve();
+  const double q = fixed.flowRate(simulate::Side::east);
+  EXPECT_LT(q, 0.99 * q0);  // the cylinder blocks 43 % of the width
+  EXPECT_EQ(q, alone.flowRate(simulate::Side::east));
+  EXPECT_TRUE((fixed.u() == alone.u()).all() && (fixed.v() == alone.v()).all());
+  fixed.update(channelAround({}));
+  EXPECT_TRUE(fixed.solve().pattern_kept);
+  EXPECT_EQ(fixed.flowRate(simulate::Side::east), q0);
+  EXPECT_TRUE((fixed.u() == u0).all());
+}
+
 /// Benchmark (opt-in): the full Pore2Chip mask at the full scene's settings (10 um/px, 20 um deep,
 /// 0.5 cells per pixel), deposits of 5 um parcels added until 0.5 % of the pore columns are lost
 /// (coupling.resolve_threshold of cases/particles-micromodel-full.toml), then a warm and a direct re-solve
@@ -182,6 +237,12 @@ TEST(WarmResolve, DISABLED_BenchmarkPore2Chip) {
   const double pore = static_cast<double>((solid == false).count()), parcel = 241 * M_PI / 6 * 125e-18;
   std::uniform_int_distribution<int> col(2, static_cast<int>(solid.cols()) - 3), row(0, static_cast<int>(solid.rows()) - 1);
   double warm_s = 0, direct_s = 0;
+  const bool warm_only = std::getenv("MMVAL_BENCH_WARM_ONLY") != nullptr;
+  // Another build's answers: per re-solve k, then the node velocities (raw doubles, this machine's layout).
+  std::ofstream save;
+  std::ifstream ref;
+  if (const char* path = std::getenv("MMVAL_BENCH_SAVE")) save.open(path, std::ios::binary);
+  if (const char* path = std::getenv("MMVAL_BENCH_REF")) ref.open(path, std::ios::binary);
   for (int step = 0; step < (std::getenv("MMVAL_BENCH_STEPS") ? std::atoi(std::getenv("MMVAL_BENCH_STEPS")) : 12); ++step) {
     const double target = d.lostColumns() + 5e-3 * pore;
     for (int n = 0; d.lostColumns() < target; ++n) {
@@ -197,6 +258,31 @@ TEST(WarmResolve, DISABLED_BenchmarkPore2Chip) {
     const std::clock_t c0 = std::clock();
     const FlowSolveResult w = same_pattern ? warm.solve({}, thinner) : warm.solve(d.closed(), d.aperture());
     const std::clock_t c1 = std::clock();
+    if (save.is_open()) {
+      save.write(reinterpret_cast<const char*>(&w.permeability), sizeof(double));
+      save.write(reinterpret_cast<const char*>(warm.nodeUx().data()), static_cast<std::streamsize>(warm.nodeUx().size() * sizeof(double)));
+      save.write(reinterpret_cast<const char*>(warm.nodeUy().data()), static_cast<std::streamsize>(warm.nodeUy().size() * sizeof(double)));
+    }
+    if (ref.is_open()) {
+      double k_ref = 0;
+      std::vector<double> ux(warm.nodeUx().size()), uy(warm.nodeUy().size());
+      ref.read(reinterpret_cast<char*>(&k_ref), sizeof(double));
+      ref.read(reinterpret_cast<char*>(ux.data()), static_cast<std::streamsize>(ux.size() * sizeof(double)));
+      ref.read(reinterpret_cast<char*>(uy.data()), static_cast<std::streamsize>(uy.size() * sizeof(double)));
+      ASSERT_TRUE(ref.good()) << "the reference file has fewer re-solves or other sizes";
+      double dmax = 0, umax = 0;
+      for (std::size_t k = 0; k < ux.size(); ++k) {
+        dmax = std::max({dmax, std::abs(warm.nodeUx()[k] - ux[k]), std::abs(warm.nodeUy()[k] - uy[k])});
+        umax = std::max({umax, std::abs(ux[k]), std::abs(uy[k])});
+      }
+      std::printf("re-solve %2d against the reference: k/k_ref - 1 = %.2g, velocity deviation %.2g\n", step, w.permeability / k_ref - 1, dmax / umax);
+    }
+    if (warm_only) {
+      std::printf("re-solve %2d: warm %.2f s wall, %.2f s CPU (process, BLAS threads included), %s%s\n", step, w.seconds,
+                  static_cast<double>(c1 - c0) / CLOCKS_PER_SEC, w.factorised ? "factorised" : "kept", w.pattern_kept ? ", kept pattern" : "");
+      warm_s += w.seconds;
+      continue;
+    }
     const FlowSolveResult f = same_pattern ? direct.solve({}, thinner) : direct.solve(d.closed(), d.aperture());
     const std::clock_t c2 = std::clock();
     std::printf("re-solve %2d CPU (process, BLAS threads included): warm %.2f s, direct %.2f s\n", step,
