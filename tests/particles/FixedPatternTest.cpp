@@ -104,14 +104,7 @@ TEST(FixedPattern, ReSolvesEqualRebuiltSolvesWithOneSymbolicFactorisation) {
 
 /// A 40 x 20 pixel depth-averaged channel, 1 cell per pixel, driven by 1 Pa from west to east, with `closed` pixels.
 simulate::FlowProblem channel(const PixelMask& closed) {
-  simulate::FlowProblem p;
-  p.x = simulate::uniformAxis(0, 40 * kPixel, 40);
-  p.y = simulate::uniformAxis(0, 20 * kPixel, 20);
-  p.boundary[0].type = p.boundary[1].type = simulate::BoundaryType::pressure;
-  p.boundary[0].pressure = 1.0;
-  p.boundary[2].type = p.boundary[3].type = simulate::BoundaryType::no_slip;
-  p.depth = kDepth;
-  p.method = simulate::ImmersedMethod::sharp;
+  simulate::FlowProblem p = test_support::pressureDrivenChannel40x20(kPixel, kDepth);
   // Closed pixels as the micromodel closes deposit pixels: squares solid on their edges too.
   p.shape = poreShape(PixelMask::Constant(closed.rows(), closed.cols(), false), closed, kPixel);
   return p;

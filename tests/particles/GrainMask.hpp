@@ -8,6 +8,8 @@
 
 #include "mmval/particles/DepositGrid.hpp"
 #include "mmval/particles/MicromodelFlow.hpp"
+#include "mmval/simulate/FlowSolver.hpp"
+#include "mmval/simulate/Grid.hpp"
 
 namespace mmval::particles::test_support {
 
@@ -44,6 +46,20 @@ inline double velocityDeviation(const MicromodelFlow& a, const MicromodelFlow& b
     umax = std::max({umax, std::abs(b.nodeUx()[k]), std::abs(b.nodeUy()[k])});
   }
   return dmax / umax;
+}
+
+/// A 40 x 20 cell depth-averaged channel of square cells `cell` wide and `depth` deep, driven by
+/// 1 Pa from west to east between no-slip sides, sharp immersed boundary, no shape yet.
+inline simulate::FlowProblem pressureDrivenChannel40x20(double cell, double depth) {
+  simulate::FlowProblem p;
+  p.x = simulate::uniformAxis(0, 40 * cell, 40);
+  p.y = simulate::uniformAxis(0, 20 * cell, 20);
+  p.boundary[0].type = p.boundary[1].type = simulate::BoundaryType::pressure;
+  p.boundary[0].pressure = 1.0;
+  p.boundary[2].type = p.boundary[3].type = simulate::BoundaryType::no_slip;
+  p.depth = depth;
+  p.method = simulate::ImmersedMethod::sharp;
+  return p;
 }
 
 }  // namespace mmval::particles::test_support

@@ -169,14 +169,7 @@ TEST(WarmResolve, UpdateRejectsAnotherGrid) {
 
 /// A 40 x 20 cell depth-averaged channel (5 um cells) driven by 1 Pa from west to east, around `circles`.
 simulate::FlowProblem channelAround(std::vector<simulate::Circle> circles) {
-  simulate::FlowProblem p;
-  p.x = simulate::uniformAxis(0, 40 * kPixel, 40);
-  p.y = simulate::uniformAxis(0, 20 * kPixel, 20);
-  p.boundary[0].type = p.boundary[1].type = simulate::BoundaryType::pressure;
-  p.boundary[0].pressure = 1.0;
-  p.boundary[2].type = p.boundary[3].type = simulate::BoundaryType::no_slip;
-  p.depth = kDepth;
-  p.method = simulate::ImmersedMethod::sharp;
+  simulate::FlowProblem p = test_support::pressureDrivenChannel40x20(kPixel, kDepth);
   if (!circles.empty()) p.shape = std::make_shared<simulate::Circles>(std::move(circles));
   return p;
 }
