@@ -298,4 +298,21 @@ TEST(Cli, ResumeRunsAgainACaseWhoseInputRunWasRunAgain) {
       << changed.output;
 }
 
+TEST(Cli, MicromodelRunShowsItsProgressAndQuietSilencesIt) {
+  // A micromodel run of many minutes said nothing until its metrics table. Off a terminal the
+  // progress is one line per tenth of the output frames (Progress), then a final "took" line.
+  const fs::path d = scratch("micromodel-progress");
+  const fs::path c = fs::path(MMVAL_SOURCE_DIR) / "cases" / "particles-micromodel.toml";
+  const Outcome o = mmval("run " + c.string() + " --set run.duration=1s --out " + (d / "loud").string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  std::size_t lines = 0;
+  for (std::size_t at = o.output.find("(output frames)"); at != std::string::npos; at = o.output.find("(output frames)", at + 1)) ++lines;
+  EXPECT_GE(lines, 11U) << o.output;  // one per tenth, and the final line
+  EXPECT_THAT(o.output, HasSubstr("particles-micromodel (output frames) [##############################]")) << o.output;
+  EXPECT_THAT(o.output, HasSubstr(" took ")) << o.output;
+  const Outcome q = mmval("run " + c.string() + " --quiet --set run.duration=1s --out " + (d / "quiet").string());
+  ASSERT_EQ(q.status, 0) << q.output;
+  EXPECT_THAT(q.output, ::testing::Not(HasSubstr("(output frames)"))) << q.output;
+}
+
 }  // namespace

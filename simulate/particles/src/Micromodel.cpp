@@ -21,6 +21,7 @@
 #include "mmval/core/Case.hpp"
 #include "mmval/core/DetailFields.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/Progress.hpp"
 #include "mmval/core/OutputTables.hpp"
 #include "mmval/core/Tracks.hpp"
 #include "mmval/core/VtkWriter.hpp"
@@ -500,6 +501,11 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   // stops, the frame is written and the run ends (Micromodel.hpp, "The pump").
   std::optional<PumpStall> stall;
   const bool final_resolve = c.flag("coupling.final_resolve");
+  // Output frames still to run (a resumed run counts from its checkpoint): a bar on a terminal,
+  // a line per tenth otherwise.
+  const std::int64_t first_frame = s.next_frame;
+  Progress progress(fmt::format("{} (output frames)", c.name()), static_cast<std::size_t>(std::max<std::int64_t>(0, run.frames + 1 - first_frame)),
+                    ctx.quiet || !primaryRank());
   for (std::int64_t k = s.next_frame; k <= run.frames; ++k) {
     const double t = k * run.dt_out;
     ClassParticles ps = transport(classes, k, t);
@@ -514,9 +520,11 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
     }
     if (!stall) insertDue(classes, *flow.field(), set.schedule, k, t, ps, s.next_id);
     recordFrame(classes, ps, k, t, {set.geo.pixel, set.geo.height}, run.dt_out, s);
+    progress.update(static_cast<std::size_t>(k - first_frame + 1));
     if (stall) break;
     checkpointIfDue(run, k, wall_now(), ckpt, fp, s, classes, deposits, flow);
   }
+  progress.finish();
   const double wall = wall_now();
 
   double largest = 0;
