@@ -113,6 +113,13 @@ struct SteadyFlowSolver::Impl {
     return m;
   }
 
+  /// Fixed pattern, rows beyond it: this problem gets a new solver; the kept one is parked and
+  /// serves the next problem (solve hands it back).
+  void parkKeptSolver() {
+    parked = std::move(sys);
+    sys = std::make_unique<CoupledSystem>(op, opt, comm);
+  }
+
   void solve() {
     stats = {};
     stats.unknowns = op.unknowns();
@@ -130,20 +137,16 @@ struct SteadyFlowSolver::Impl {
       if (warm() || fixed()) sys->setWarmStart(fixed() ? 0 : opt.warm_max_iterations, opt.warm_rtol);
       if (fixed()) sys->setKeptAnalysis();
     }
-    if (fixed() && !fits) {  // rows beyond the kept pattern: a new solver for this problem, the kept one parked
-      parked = std::move(sys);
-      sys = std::make_unique<CoupledSystem>(op, opt, comm);
-    }
+    if (fixed() && !fits) parkKeptSolver();
     int factorised_before = sys->factorisations();
     // Warm start: the last solution is the GMRES initial guess; otherwise start from rest.
     if (!warm() || opt.warm_max_iterations <= 0 || state.size() != static_cast<std::size_t>(op.unknowns())) state.assign(static_cast<std::size_t>(op.unknowns()), 0.0);
     try {
       linearSolve(Linearisation::stokes);
-    } catch (const PatternMiss&) {  // fixed pattern: rows beyond it; a new solver for this problem, the kept one parked
+    } catch (const PatternMiss&) {  // the rows, as assembled, go beyond the kept pattern
       fits = false;
       op.setPattern(nullptr);
-      parked = std::move(sys);
-      sys = std::make_unique<CoupledSystem>(op, opt, comm);
+      parkKeptSolver();
       factorised_before = 0;
       linearSolve(Linearisation::stokes);
     }

@@ -49,16 +49,8 @@ int symbolicFactorisations() {
 
 PixelMask grains() { return test_support::roundGrains120x60(); }
 
-MicromodelFlowOptions options(bool fixed) {
-  MicromodelFlowOptions o;
-  o.pixel = kPixel;
-  o.depth = kDepth;
-  o.darcy_velocity = 1e-4;
-  o.cells_per_pixel = 1;
-  o.warm_start = fixed;  // rebuild: a new solver per solve
-  o.fixed_pattern = fixed;
-  return o;
-}
+// rebuild (fixed false): a new solver per solve
+MicromodelFlowOptions options(bool fixed) { return test_support::flowOptions(kPixel, kDepth, 1, fixed, fixed); }
 
 void depositSome(DepositGrid& d, const PixelMask& solid, std::mt19937& rng, int n) {
   test_support::depositSome(d, solid, rng, n, kPixel, kDepth);

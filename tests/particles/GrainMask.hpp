@@ -62,4 +62,17 @@ inline simulate::FlowProblem pressureDrivenChannel40x20(double cell, double dept
   return p;
 }
 
+/// Micromodel flow options for the tests: `pixel` x `depth` pixels at a Darcy velocity of
+/// 1e-4 m/s and `cells_per_pixel`, warm re-solves and the kept pattern as given.
+inline MicromodelFlowOptions flowOptions(double pixel, double depth, double cells_per_pixel, bool warm_start, bool fixed_pattern) {
+  MicromodelFlowOptions o;
+  o.pixel = pixel;
+  o.depth = depth;
+  o.darcy_velocity = 1e-4;
+  o.cells_per_pixel = cells_per_pixel;
+  o.warm_start = warm_start;
+  o.fixed_pattern = fixed_pattern;
+  return o;
+}
+
 }  // namespace mmval::particles::test_support

@@ -50,16 +50,8 @@ constexpr double kAgreeVelocity = 1e-7;  ///< warm against fresh direct: velocit
 
 PixelMask grains() { return test_support::roundGrains120x60(); }
 
-MicromodelFlowOptions options(bool warm) {
-  MicromodelFlowOptions o;
-  o.pixel = kPixel;
-  o.depth = kDepth;
-  o.darcy_velocity = 1e-4;
-  o.cells_per_pixel = 0.5;
-  o.warm_start = warm;
-  o.fixed_pattern = false;  // the kept pattern (FixedPatternTest) is equal to rounding only; these tests compare bits
-  return o;
-}
+// Not the kept pattern: it equals a new solver to rounding only (FixedPatternTest); these tests compare bits.
+MicromodelFlowOptions options(bool warm) { return test_support::flowOptions(kPixel, kDepth, 0.5, warm, false); }
 
 void depositSome(DepositGrid& d, const PixelMask& solid, std::mt19937& rng, int n) {
   test_support::depositSome(d, solid, rng, n, kPixel, kDepth);
