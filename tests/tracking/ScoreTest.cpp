@@ -1,4 +1,6 @@
 // Tracking scores (Score.hpp) on tracks whose scores follow from their definition.
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include "mmval/tracking/Score.hpp"
@@ -32,6 +34,34 @@ TEST(Score, PerfectAndShiftedTracks) {
   const Scores h = scoreTracks(t, half);
   EXPECT_NEAR(h.jaccard_points, 20.0 / 30.0, 1e-12);
   EXPECT_NEAR(h.jaccard_tracks, 2.0 / 3.0, 1e-12);
+}
+
+TEST(Score, ASwapIsAGrossErrorNotALocalisationError) {
+  // Two particles 4 px apart, tracked 0.3 px off in x; for frames 3-5 the two estimated
+  // tracks follow each other's particle (a swap). Pairing stays identity (a swap costs
+  // 3 x 4.01 px per track, the other pairing 7 x 4.01), so 14 points are 0.3 px off and
+  // 6 are hypot(0.3, 4) off: the challenge's RMSE takes both, the localisation RMSE the 14.
+  Tracks t, est;
+  for (int p = 0; p < 2; ++p)
+    for (int f = 0; f < 10; ++f) {
+      TrackPoint q;
+      q.frame = f;
+      q.particle = p;
+      q.x_px = 10 + 2 * f;
+      q.y_px = 10 + 4 * p;
+      t.points.push_back(q);
+      const bool swapped = f >= 3 && f <= 5;
+      q.x_px += 0.3;
+      q.y_px = 10 + 4 * (swapped ? 1 - p : p);
+      est.points.push_back(q);
+    }
+  const Scores s = scoreTracks(t, est);
+  const double far2 = 0.3 * 0.3 + 16;
+  EXPECT_EQ(s.tp, 20);
+  EXPECT_EQ(s.gross_points, 6);
+  EXPECT_NEAR(s.rmse_px, std::sqrt((14 * 0.09 + 6 * far2) / 20), 1e-12);
+  EXPECT_NEAR(s.rmse_localisation_px, 0.3, 1e-12);
+  EXPECT_EQ(s.paired_tracks, 2);
 }
 
 }  // namespace

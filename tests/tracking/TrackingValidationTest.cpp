@@ -76,9 +76,9 @@ TEST(TrackingValidation, MicromodelSnr4MeetsIssueTargets) {
       const TrackStats stats = analyseTracks(run.tracks, c.analysis);
       const double recall = immobileRecall(truth.truth, truth.immobile_ids, run.tracks, stats);
       std::printf("micromodel SNR 4, seed %d, %s linker (fastest truth step %.2f px/frame): JSC %.4f JSC_theta %.4f alpha %.4f beta %.4f "
-                  "RMSE %.3f px immobile recall %.3f (%d stuck found)\n",
+                  "RMSE %.3f px (localisation %.3f px, %lld points off by >= 1 px) immobile recall %.3f (%d stuck found)\n",
                   static_cast<int>(seed), method == Linker::global ? "global" : "paper", fastest, s.jaccard_points, s.jaccard_tracks, s.alpha,
-                  s.beta, s.rmse_px, recall, run.stuck_found);
+                  s.beta, s.rmse_px, s.rmse_localisation_px, s.gross_points, recall, run.stuck_found);
       EXPECT_GE(fastest, 4.5);  // the scene really reaches ~5 px/frame
       if (method != Linker::global) continue;  // the paper's rule is reported, the targets are the global linker's
       // The targets: JSC >= 0.95, JSC_theta >= 0.85, immobile recall >= 0.95 (met:
@@ -86,13 +86,21 @@ TEST(TrackingValidation, MicromodelSnr4MeetsIssueTargets) {
       EXPECT_GE(s.jaccard_points, 0.95);
       EXPECT_GE(s.jaccard_tracks, 0.85);
       EXPECT_GE(recall, 0.95);
-      // RMSE of the positions as detected, frame by frame: 0.33 px. The Cramer-Rao bound
-      // for one Gaussian spot's position at peak SNR 4 (rendered sigma 1.3 px, summed over
-      // the pixels) is 0.282 px in 2D, 0.288 px with the noise of a 40-frame median
-      // background; isolated moving particles reach 0.323 px (1.12x the bound), and pairs
-      // travelling closer than ~2 px add the rest (no single-frame estimator separates them
-      // at this SNR). Guarded at the measured level plus a small margin.
-      EXPECT_LE(s.rmse_px, 0.34);
+      // The positions as detected, frame by frame. Localisation (matched points within
+      // 1 px of the truth): 0.294-0.299 px over the three seeds. The Cramer-Rao bound for one
+      // Gaussian spot's position at peak SNR 4 (rendered sigma 1.3 px, summed over the
+      // pixels) is 0.282 px in 2D, 0.288 px with the noise of a 40-frame median
+      // background; pairs travelling closer than ~2 px add the rest (no single-frame
+      // estimator separates them at this SNR). Guarded at the bound + 8 %.
+      EXPECT_LE(s.rmse_localisation_px, 0.31);
+      // Matched points 1 px or more off (close pairs 1-2 px off, and a paired track on a
+      // neighbour for a few frames, 3-5 px off): 71-125 of ~14,700 (0.5-0.85 %) over the
+      // seeds and fit variants. Guarded at 1.2 %.
+      EXPECT_LE(static_cast<double>(s.gross_points), 0.012 * static_cast<double>(s.tp));
+      // The challenge's RMSE takes both (0.327-0.346 px over the seeds and fit variants,
+      // whose localisation RMSE agrees to 1e-4 px: the spread is a few such events, one
+      // 9-frame event at ~4 px adds ~0.01 px). Guarded at the largest measured + 0.015 px.
+      EXPECT_LE(s.rmse_px, 0.36);
       // The target RMSE <= 0.3 px comes from using the track: a quadratic fit along each
       // moving track over 5 frames (link.smooth_frames = 2, what the case sets) averages
       // independent frame errors (variance x 17/35 at the centre). Measured 0.258-0.262 px

@@ -9,7 +9,9 @@ namespace {
 void jaccardAndRmse(Schema& s) {
   s.metric("jaccard_points", "1", "Jaccard index of the detections: TP / (TP + FP + FN) under the score gate");
   s.metric("jaccard_tracks", "1", "Jaccard index of whole tracks paired by optimal assignment");
-  s.metric("rmse", "1", "RMS position error of the matched points, px");
+  s.metric("rmse", "1", "RMS position error of the matched points (error under the score gate), px: the challenge's, localisation and wrong-particle errors together");
+  s.metric("rmse_localisation", "1", "RMS position error of the matched points within 1 px of the truth, px: the localisation error alone");
+  s.metric("gross_points", "1", "Matched points 1 px or more from the truth (a track on a neighbour for a few frames)");
 }
 
 void alphaBeta(Schema& s) {

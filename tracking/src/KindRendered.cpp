@@ -93,13 +93,10 @@ void registerRenderedKind(CaseKindRegistry& registry) {
     }
     const TrackStats truth_stats = analyseTracks(video.truth, cfg.analysis), ours = analyseTracks(run.tracks, cfg.analysis);
     nlohmann::json extra = {{"trajectories", file.string()},
-                            {"scores", {{"alpha", sc.alpha}, {"beta", sc.beta}, {"jaccard_points", sc.jaccard_points},
-                                        {"jaccard_tracks", sc.jaccard_tracks}, {"rmse_px", sc.rmse_px}, {"tp", sc.tp}, {"fp", sc.fp}, {"fn", sc.fn}}}};
+                            {"scores", scoresJson(sc)}};
     RunOutput out;
     out.files = writeTrackOutputs(run, cfg, ctx.out_dir, extra);
-    out.metrics["jaccard_points"] = sc.jaccard_points;
-    out.metrics["jaccard_tracks"] = sc.jaccard_tracks;
-    out.metrics["rmse"] = sc.rmse_px;
+    addScoreMetrics(sc, out.metrics, false);
     if (truth_stats.mean_speed > 0) out.metrics["mean_speed_relative_error"] = (ours.mean_speed - truth_stats.mean_speed) / truth_stats.mean_speed;
     out.metrics["frames_per_second"] = run.frame_index.size() / std::max(run.seconds, 1e-9);
     out.units["frames_per_second"] = "Hz";

@@ -300,13 +300,8 @@ RunOutput runTrackingVideo(const Case& c, const RunContext& ctx) {
         p.y_px = p.y / cfg.pixel_size;
       }
     const Scores sc = scoreTracks(truth_px, run.tracks, c.real("score.gate"));
-    extra["scores"] = {{"alpha", sc.alpha}, {"beta", sc.beta}, {"jaccard_points", sc.jaccard_points}, {"jaccard_tracks", sc.jaccard_tracks},
-                       {"rmse_px", sc.rmse_px}, {"tp", sc.tp}, {"fp", sc.fp}, {"fn", sc.fn}};
-    out.metrics["alpha"] = sc.alpha;
-    out.metrics["beta"] = sc.beta;
-    out.metrics["jaccard_points"] = sc.jaccard_points;
-    out.metrics["jaccard_tracks"] = sc.jaccard_tracks;
-    out.metrics["rmse"] = sc.rmse_px;
+    extra["scores"] = scoresJson(sc);
+    addScoreMetrics(sc, out.metrics, true);
   }
   addSceneDecisions(run, extra);
   out.files = writeTrackOutputs(run, cfg, ctx.out_dir, extra);
@@ -436,18 +431,12 @@ void registerTrackingKinds(CaseKindRegistry& registry) {
     markDeposits(scored, cfg.analysis);
     const TrackStats truth_stats = analyseTracks(scored, cfg.analysis);
     const TrackStats ours = analyseTracks(run.tracks, cfg.analysis);
-    nlohmann::json extra = {{"scores", {{"alpha", sc.alpha}, {"beta", sc.beta}, {"jaccard_points", sc.jaccard_points},
-                                        {"jaccard_tracks", sc.jaccard_tracks}, {"rmse_px", sc.rmse_px}, {"tp", sc.tp}, {"fp", sc.fp},
-                                        {"fn", sc.fn}, {"truth_tracks", sc.truth_tracks}, {"estimated_tracks", sc.estimated_tracks}}}};
+    nlohmann::json extra = {{"scores", scoresJson(sc)}};
     RunOutput out;
     addSceneDecisions(run, extra);
     out.files = writeTrackOutputs(run, cfg, ctx.out_dir / "tracks", extra);
     for (auto& f : out.files) f = "tracks/" + f;
-    out.metrics["alpha"] = sc.alpha;
-    out.metrics["beta"] = sc.beta;
-    out.metrics["jaccard_points"] = sc.jaccard_points;
-    out.metrics["jaccard_tracks"] = sc.jaccard_tracks;
-    out.metrics["rmse"] = sc.rmse_px;
+    addScoreMetrics(sc, out.metrics, true);
     out.units["rmse"] = "1";
     out.metrics["mean_speed_relative_error"] = std::abs(ours.mean_speed - truth_stats.mean_speed) / truth_stats.mean_speed;
     out.metrics["immobile_found"] = ours.immobile;

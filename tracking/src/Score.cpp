@@ -33,7 +33,7 @@ std::vector<TrackView> views(const Tracks& t) {
 
 }  // namespace
 
-Scores scoreTracks(const Tracks& truth, const Tracks& estimated, double gate) {
+Scores scoreTracks(const Tracks& truth, const Tracks& estimated, double gate, double localisation_gate) {
   const auto X = views(truth), Y = views(estimated);
   Scores s;
   s.truth_tracks = static_cast<int>(X.size());
@@ -96,7 +96,7 @@ Scores scoreTracks(const Tracks& truth, const Tracks& estimated, double gate) {
     for (int k = 0; k < r; ++k)
       if (a[k] >= 0 && a[k] < c) pair_of[rows[k]] = cols[a[k]];
   }
-  double dXY = 0, dX0 = 0, dY0 = 0, se = 0;
+  double dXY = 0, dX0 = 0, dY0 = 0, se = 0, se_local = 0;
   std::vector<char> y_paired(m, 0);
   long long truth_points = 0, est_points = 0;
   for (const auto& x : X) truth_points += static_cast<long long>(x.at.size());
@@ -117,6 +117,10 @@ Scores scoreTracks(const Tracks& truth, const Tracks& estimated, double gate) {
       if (e < gate) {
         ++s.tp;
         se += e * e;
+        if (e < localisation_gate)
+          se_local += e * e;
+        else
+          ++s.gross_points;
       }
     }
   }
@@ -131,7 +135,36 @@ Scores scoreTracks(const Tracks& truth, const Tracks& estimated, double gate) {
   const int unpaired_x = n - s.paired_tracks;
   s.jaccard_tracks = n + unpaired_y > 0 ? static_cast<double>(s.paired_tracks) / (s.paired_tracks + unpaired_x + unpaired_y) : 0;
   s.rmse_px = s.tp > 0 ? std::sqrt(se / static_cast<double>(s.tp)) : 0;
+  const long long local = s.tp - s.gross_points;
+  s.rmse_localisation_px = local > 0 ? std::sqrt(se_local / static_cast<double>(local)) : 0;
   return s;
+}
+
+nlohmann::json scoresJson(const Scores& s) {
+  return {{"alpha", s.alpha},
+          {"beta", s.beta},
+          {"jaccard_points", s.jaccard_points},
+          {"jaccard_tracks", s.jaccard_tracks},
+          {"rmse_px", s.rmse_px},
+          {"rmse_localisation_px", s.rmse_localisation_px},
+          {"gross_points", s.gross_points},
+          {"tp", s.tp},
+          {"fp", s.fp},
+          {"fn", s.fn},
+          {"truth_tracks", s.truth_tracks},
+          {"estimated_tracks", s.estimated_tracks}};
+}
+
+void addScoreMetrics(const Scores& s, std::map<std::string, double>& metrics, bool with_alpha) {
+  if (with_alpha) {
+    metrics["alpha"] = s.alpha;
+    metrics["beta"] = s.beta;
+  }
+  metrics["jaccard_points"] = s.jaccard_points;
+  metrics["jaccard_tracks"] = s.jaccard_tracks;
+  metrics["rmse"] = s.rmse_px;
+  metrics["rmse_localisation"] = s.rmse_localisation_px;
+  metrics["gross_points"] = static_cast<double>(s.gross_points);
 }
 
 double immobileRecall(const Tracks& truth, const std::vector<std::int64_t>& immobile_ids, const Tracks& estimated, const TrackStats& stats,

@@ -136,6 +136,11 @@ struct Spot {
   std::array<float, kMaxWindow> ex{}, ey{};  // sigma sm: the centroid's mask and the joint fit's model
 };
 
+/// A spot's move over one pass of the joint fit, px.
+struct Step {
+  double dx = 0, dy = 0;
+};
+
 /// Neighbour lists (spots closer than FitGeometry::reach) in compressed rows: spot i's are
 /// list[first[i]] .. list[first[i + 1] - 1].
 struct Neighbours {
@@ -272,9 +277,10 @@ class JointFit {
   void tables(const Detection& d, Spot& s) const;
   void render(const Spot& s, float sign);
   double amplitude(const Spot& s) const;
-  double refit(std::size_t i);
+  double refit(std::size_t i, int iterations);
   Neighbours neighbours() const;
   void sweep();
+  void extrapolate(std::size_t i, const Step& before, const Step& after);
   BlobMoments blobMoments(std::size_t i) const;
   void shapeRows(const Detection& d, const Spot& s, int cx, int cy, Rows& w) const;
   double shapedRss(int cx, int cy, std::size_t ia, const std::size_t* ib, double noise, double& energy) const;
@@ -364,15 +370,15 @@ double JointFit::amplitude(const Spot& s) const {
   return sgg > 0 ? sd / sgg : 0.0;
 }
 
-// Refits spot i on R + its own model; leaves R with the new model subtracted. Returns the
-// largest step, px.
-double JointFit::refit(std::size_t i) {
+// Refits spot i on R + its own model, at most `iterations` masked-centroid steps; leaves
+// R with the new model subtracted. Returns the largest step, px.
+double JointFit::refit(std::size_t i, int iterations) {
   Detection& d = m_dets[i];
   Spot& s = m_spots[i];
   const double omega = m_g.omega;
   render(s, 1.0f);
   double moved = 0;
-  for (int it = 0; it < kTune.refit_iterations; ++it) {
+  for (int it = 0; it < iterations; ++it) {
     double sw = 0, sx = 0, sy = 0;
     maskedSums(m_R, s.cx, s.cy, m_g.r, s.ex.data(), s.ey.data(), sw, sx, sy);
     if (sw <= 0) break;
@@ -405,14 +411,52 @@ Neighbours JointFit::neighbours() const {
 }
 
 // Gauss-Seidel sweeps over the spots that have neighbours, in index order, until none
-// moves by sweep_converged_px (at most sweep_passes sweeps).
+// moves by sweep_converged_px (at most sweep_passes sweeps). Coupled spots converge
+// geometrically and slowly (each pass repeats a fraction of the last pass's step), so
+// after every extrapolate_every-th plain pass each spot jumps towards the limit of its
+// steps (extrapolate).
 void JointFit::sweep() {
+  const std::size_t n = m_dets.size();
+  std::vector<Step> last(n), now(n);
+  int plain = 0;
   for (int pass = 0; pass < kTune.sweep_passes; ++pass) {
     double moved = 0;
-    for (std::size_t i = 0; i < m_dets.size(); ++i)
-      if (!m_nb.none(i)) moved = std::max(moved, refit(i));
+    for (std::size_t i = 0; i < n; ++i) {
+      if (m_nb.none(i)) continue;
+      const double x0 = m_dets[i].x, y0 = m_dets[i].y;
+      moved = std::max(moved, refit(i, kTune.refit_iterations));
+      now[i] = {m_dets[i].x - x0, m_dets[i].y - y0};
+    }
     if (moved < kTune.sweep_converged_px) break;
+    if (++plain == kTune.extrapolate_every) {
+      for (std::size_t i = 0; i < n; ++i)
+        if (!m_nb.none(i)) extrapolate(i, last[i], now[i]);
+      plain = 0;
+    }
+    std::swap(last, now);
   }
+}
+
+// Aitken's delta-squared process per spot: when its step `after` repeats a fraction rho of
+// the step `before` (the two last plain passes), the rest of the sequence adds
+// rho / (1 - rho) x `after`. Only steps that keep their direction (rho > 0) are
+// extrapolated, rho is capped at extrapolate_max_ratio, and a jump over refit_lost_px is
+// not taken. The spot's amplitude is refitted at its new position.
+void JointFit::extrapolate(std::size_t i, const Step& before, const Step& after) {
+  const double bb = before.dx * before.dx + before.dy * before.dy;
+  if (bb <= 0) return;
+  const double rho = std::min((after.dx * before.dx + after.dy * before.dy) / bb, kTune.extrapolate_max_ratio);
+  if (rho <= 0) return;
+  const double f = rho / (1 - rho);
+  if (f * std::hypot(after.dx, after.dy) > kTune.refit_lost_px) return;
+  Detection& d = m_dets[i];
+  Spot& s = m_spots[i];
+  render(s, 1.0f);
+  d.x += f * after.dx;
+  d.y += f * after.dy;
+  tables(d, s);
+  s.a = amplitude(s);
+  render(s, -1.0f);
 }
 
 // Residual, smoothed as the seeds were: a maximum above the seeds' level within `sep`
@@ -712,9 +756,9 @@ bool JointFit::splitMergedPairs(double level, double noise) {
     render(spots[k], -1.0f);
     // Refitted in a fixed order, the new spot first: as two arguments of one std::max the
     // order would be the compiler's (GCC and clang differ, and so would the positions).
-    for (int pass = 0; pass < kTune.sweep_passes; ++pass) {
-      const double moved_k = refit(k);
-      const double moved_i = refit(i);
+    for (int pass = 0; pass < kTune.split_passes; ++pass) {
+      const double moved_k = refit(k, kTune.split_refit_iterations);
+      const double moved_i = refit(i, kTune.split_refit_iterations);
       if (std::max(moved_i, moved_k) < kTune.sweep_converged_px) break;
     }
     double pair_energy = 0;
