@@ -20,7 +20,8 @@
 //                joins, analysis, outputs; and the CPU time its threads spent decoding
 //                (FrameSource::decodeSeconds), summed over threads, next to the run's CPU time;
 //                detect + link alone: the same frames decoded into memory first, detected
-//                with N threads against the run's background and polarity, then linked (wall and CPU)
+//                by N threads against the run's background and polarity while the main thread
+//                links them in frame order as they complete, as the tracker does (wall and CPU)
 //   old-1        emulated old path, one thread: the old samplers read the video twice
 //                more in order (background: every frame up to its 60th sample; polarity:
 //                up to its 24th) before the main pass decoded every frame: track-1 plus
@@ -38,11 +39,13 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <functional>
+#include <mutex>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -129,18 +132,39 @@ double detectAndLink(const fs::path& input, int threads, const TrackRun& run, do
   LinkOptions link = c.link;
   link.predict = Prediction::none;
   const std::clock_t cpu0 = std::clock();
+  // As the tracker does it on image files (Pipeline.cpp, detectFilesInParallel): `threads`
+  // workers detect frames taken from a shared counter while this thread links them in
+  // frame order as they complete. With one thread: detect, then link, frame by frame.
   const double wall = seconds([&] {
     std::vector<std::vector<Detection>> found(frames.size());
+    TrackLinker linker(link);
+    if (threads <= 1) {
+      for (std::size_t k = 0; k < frames.size(); ++k) linker.push(static_cast<int>(k), detect(frames[k], run.background, run.polarity, c.detect));
+      return;
+    }
+    std::vector<char> done(frames.size(), 0);
+    std::mutex m;
+    std::condition_variable ready;
     std::atomic<std::size_t> next{0};
     auto work = [&] {
-      for (std::size_t k; (k = next++) < frames.size();) found[k] = detect(frames[k], run.background, run.polarity, c.detect);
+      for (std::size_t k; (k = next++) < frames.size();) {
+        std::vector<Detection> d = detect(frames[k], run.background, run.polarity, c.detect);
+        const std::lock_guard<std::mutex> lock(m);
+        found[k] = std::move(d);
+        done[k] = 1;
+        ready.notify_all();
+      }
     };
     std::vector<std::thread> pool;
-    for (int t = 1; t < threads; ++t) pool.emplace_back(work);
-    work();
+    for (int t = 0; t < threads; ++t) pool.emplace_back(work);
+    for (std::size_t k = 0; k < frames.size(); ++k) {
+      std::unique_lock<std::mutex> lock(m);
+      ready.wait(lock, [&] { return done[k] != 0; });
+      const std::vector<Detection> d = std::move(found[k]);
+      lock.unlock();
+      linker.push(static_cast<int>(k), d);
+    }
     for (auto& t : pool) t.join();
-    TrackLinker linker(link);
-    for (std::size_t k = 0; k < frames.size(); ++k) linker.push(static_cast<int>(k), found[k]);
   });
   cpu = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
   return wall;
