@@ -110,7 +110,7 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const Cylind
   RunOutput out;
   out.details["solver"] = std::string(kSolverName) + (projection ? ", unsteady BDF2, pressure correction" : ", unsteady BDF2");
   out.details["time_scheme"] = std::string("BDF2 (variable step), convection linearised about the extrapolated velocity; adaptive dt (Courant limit); ") +
-                               (projection ? "incremental pressure correction (velocity predictor, BoomerAMG pressure Poisson solve, correction)"
+                               (projection ? "incremental pressure correction (velocity predictor, pressure Poisson solve: LU made once on one rank, CG + BoomerAMG on several; correction)"
                                            : "one coupled velocity-pressure solve per step (lagged LU + GMRES)");
   nlohmann::json ladder = nlohmann::json::array();
   SheddingStats last_stats;

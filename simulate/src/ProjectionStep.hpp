@@ -7,7 +7,7 @@
 // It is split algebraically (Perot 1993, "An analysis of the fractional step method"; the
 // incremental form of Van Kan 1986 with the pressure of the last step in the predictor):
 //   1. velocity predictor   A u' = f - G p^n                    (GMRES, ILU(0))
-//   2. pressure correction  -D M^-1 G dp = g - D u' - C p^n       (CG, BoomerAMG)
+//   2. pressure correction  -D M^-1 G dp = g - D u' - C p^n       (LU made once; CG, BoomerAMG on several ranks)
 //   3. velocity correction  u = u' - M^-1 G dp,  p = p^n + dp  [- mu div u']
 // with M = (rho a0 / dt) V, the transient term's diagonal (V: the rows' control volumes, as
 // the momentum rows weigh them). D u + C p = g holds to the pressure solve's tolerance after
@@ -25,7 +25,8 @@
 // pressure, p^n + w (p^n - p^{n-1}), cut the Taylor-Green split error 300x but made the unconfined
 // Re 100 cylinder drift (docs/validation/cylinder-unsteady.md, 2026-12-05): not kept.
 // The pressure matrix -D M^-1 G depends on the geometry only, up to the factor rho a0 / dt,
-// so its multigrid hierarchy is built once (and after setShape). Pinned cells and merged
+// so it is factorised once (one rank: an LU, two triangular solves per step) or its multigrid
+// hierarchy is built once (several ranks), and again after setShape. Pinned cells and merged
 // cells' own pressures carry no continuity flux: they enter the pressure solve as identity
 // rows, and a merged cell takes its master's increment afterwards.
 #pragma once
@@ -42,8 +43,9 @@ struct ProjectionTimings {
   double assemble_seconds = 0;  ///< linearising the rows and filling the velocity matrix
   double velocity_seconds = 0;  ///< predictor solve
   double pressure_seconds = 0;  ///< pressure-correction solve
+  /// Krylov iterations; a direct pressure solve counts 1 per solve.
   long long velocity_iterations = 0, pressure_iterations = 0;
-  double setup_seconds = 0;     ///< the pressure matrix and its multigrid hierarchy
+  double setup_seconds = 0;     ///< the pressure matrix and its factorisation or multigrid hierarchy
 };
 
 class ProjectionStep {
@@ -75,8 +77,8 @@ class ProjectionStep {
 
   const ProjectionTimings& timings() const;
   /// The last step's pressure change p^{n+1} - p^n (zero on pinned and merged cells), the next
-  /// step's initial guess; part of a restart state (empty before the first
-  /// step and after a start-up step swept to a tolerance).
+  /// step's initial guess for an iterative pressure solve (the direct one needs none); part of a
+  /// restart state (empty before the first step and after a start-up step swept to a tolerance).
   const std::vector<double>& lastIncrement() const;
   void setLastIncrement(std::vector<double> dp);
 

@@ -107,7 +107,8 @@ struct UnsteadyFlowSolver::Impl {
 
   double step(double dt_max) {
     if (!(dt_max > 0) || !std::isfinite(dt_max)) throw std::invalid_argument(fmt::format("time step must be positive and finite, got {}", dt_max));
-    double dt = std::min(dt_max, stableTimeStep());  // the Courant limit of the current velocity
+    const double stable = stableTimeStep();  // the Courant limit of the current velocity
+    double dt = std::min(dt_max, stable);
     if (steps.steps > 0) dt = std::min(dt, uopt.max_growth * steps.last_dt);
     const double w = steps.steps == 0 ? 0.0 : dt / steps.last_dt;
     const double a0 = (1 + 2 * w) / (1 + w), a1 = 1 + w, a2 = w * w / (1 + w);
@@ -122,10 +123,10 @@ struct UnsteadyFlowSolver::Impl {
     const double prev_coef = coef;
     coef = rho * a0 / dt;
     op->setTransient(coef, &hist);
-    const double stable = stableTimeStep();
     const double rate_before = std::isfinite(stable) ? uopt.max_courant / stable : 0.0;
     const int factorisations_before = sys ? sys->factorisations() : 0;
-    std::vector<double> basis = next;  // the state this step's matrix is linearised at
+    std::vector<double> basis;  // the state this step's matrix is linearised at (the coupled method's lagged LU)
+    if (sys) basis = next;
     try {
       if (proj) {
         // The first step sweeps until its pressure has settled to 1e-8 (at most 30 sweeps).
