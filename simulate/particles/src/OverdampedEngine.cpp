@@ -4,7 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <unordered_map>
+#include <utility>
 
 #include <fmt/format.h>
 #include <gsl/gsl_randist.h>
@@ -22,6 +24,74 @@ struct OverdampedEngine::Rng {
 };
 
 namespace {
+
+/// The flow seen through a memo of its point queries. Per particle and step the engine asks the
+/// flow about the same point several times (the drift's velocity, lag, attraction and wall normal;
+/// the wall check and the attachment after the move, which is the next step's drift point), and
+/// near grain walls each velocity and distance query searches the wall cells (GriddedFlow's
+/// near-wall layer velocity bisects along the wall normal). The memo returns the flow's own value
+/// for a point (x, y) it has seen at the flow's current version() and asks the flow otherwise, so
+/// results are bit for bit those of the flow; a re-solve bumps version() and empties it.
+/// Direct-mapped, 2^12 points: a few hundred mobile particles keep two points each.
+class FlowQueryMemo final : public FlowField {
+ public:
+  explicit FlowQueryMemo(std::shared_ptr<const FlowField> flow) : m_flow(std::move(flow)), m_slots(kSlots) {}
+  Vec2 meanVelocity(double x, double y) const override {
+    Entry& e = at(x, y);
+    if (!(e.have & kVelocity)) e.u = m_flow->meanVelocity(x, y), e.have |= kVelocity;
+    return e.u;
+  }
+  double depth(double x, double y) const override {
+    Entry& e = at(x, y);
+    if (!(e.have & kDepth)) e.h = m_flow->depth(x, y), e.have |= kDepth;
+    return e.h;
+  }
+  bool isSolid(double x, double y) const override {
+    Entry& e = at(x, y);
+    if (!(e.have & kSolid)) e.solid = m_flow->isSolid(x, y), e.have |= kSolid;
+    return e.solid;
+  }
+  double wallDistance(double x, double y) const override {
+    Entry& e = at(x, y);
+    if (!(e.have & kDistance)) e.d = m_flow->wallDistance(x, y), e.have |= kDistance;
+    return e.d;
+  }
+  Vec2 wallNormal(double x, double y) const override {
+    Entry& e = at(x, y);
+    if (!(e.have & kNormal)) e.n = m_flow->wallNormal(x, y), e.have |= kNormal;
+    return e.n;
+  }
+  std::uint64_t version() const override { return m_flow->version(); }
+  Bounds2 bounds() const override { return m_flow->bounds(); }
+
+ private:
+  static constexpr std::size_t kSlots = 4096;
+  enum : std::uint8_t { kVelocity = 1, kDepth = 2, kSolid = 4, kDistance = 8, kNormal = 16 };
+  struct Entry {
+    std::uint64_t bx = 0, by = 0, version = 0;
+    std::uint8_t have = 0;  // which of the values below are the flow's at (bx, by, version)
+    bool solid = false;
+    double h = 0, d = 0;
+    Vec2 u = Vec2::Zero(), n = Vec2::Zero();
+  };
+  Entry& at(double x, double y) const {
+    std::uint64_t bx = 0, by = 0;
+    std::memcpy(&bx, &x, sizeof bx);
+    std::memcpy(&by, &y, sizeof by);
+    const std::uint64_t v = m_flow->version();
+    const std::uint64_t hash = (bx * 0x9E3779B97F4A7C15ULL) ^ (by * 0xC2B2AE3D27D4EB4FULL);
+    Entry& e = m_slots[(hash >> 40) % kSlots];
+    if (e.have == 0 || e.bx != bx || e.by != by || e.version != v) {
+      e.bx = bx;
+      e.by = by;
+      e.version = v;
+      e.have = 0;
+    }
+    return e;
+  }
+  std::shared_ptr<const FlowField> m_flow;
+  mutable std::vector<Entry> m_slots;
+};
 
 /// The attachment of one surface type from its DLVO profile (Dlvo.hpp); ~20 ms.
 SurfaceChemistry surfaceChemistry(const DlvoParameters& p) {
@@ -49,7 +119,7 @@ SurfaceChemistry surfaceChemistry(const DlvoParameters& p) {
 }  // namespace
 
 OverdampedEngine::OverdampedEngine(std::shared_ptr<const FlowField> flow, SceneConfig config)
-    : m_flow(std::move(flow)), m_cfg(std::move(config)), m_model(m_flow, m_cfg) {
+    : m_flow(flow ? std::make_shared<const FlowQueryMemo>(std::move(flow)) : nullptr), m_cfg(std::move(config)), m_model(m_flow, m_cfg) {
   const auto& p = m_cfg.particle;
   if (!(p.diameter > 0) || !(p.density > 0) || !(m_cfg.fluid.viscosity > 0) || !(m_cfg.fluid.temperature > 0))
     throw InputError(keyLocation("particles"), "diameter, densities, viscosity and temperature must be > 0");
@@ -446,12 +516,16 @@ void OverdampedEngine::resolveContacts() {
   for (std::size_t k = 0; k < m_mobile.size(); ++k) start[k] = m_particles[m_mobile[k]].x;
   // A few Heyes-Melrose sweeps: each removes every overlap found; new ones made
   // by a push are caught by the next sweep. Dilute scenes need one. Mobile
-  // particles are hashed per sweep; deposited ones sit in a persistent hash
-  // (they never move), so the cost scales with the mobile count only.
+  // particles are indexed per sweep, as (cell key, index) pairs sorted by key
+  // then index in one buffer for all sweeps; deposited ones sit in a persistent
+  // hash (they never move), so the cost scales with the mobile count only.
+  std::vector<std::pair<std::int64_t, int>> cells;
+  cells.reserve(m_mobile.size());
   for (int sweep = 0; sweep < 4; ++sweep) {
-    std::unordered_map<std::int64_t, std::vector<int>> cells;
+    cells.clear();
     for (const int i : m_mobile)
-      if (m_particles[i].status == ParticleStatus::mobile) cells[cellKey(m_particles[i].x)].push_back(i);
+      if (m_particles[i].status == ParticleStatus::mobile) cells.emplace_back(cellKey(m_particles[i].x), i);
+    std::sort(cells.begin(), cells.end());
     bool any = false;
     const auto visit = [&](ParticleState& p, int i, int j) {
       if (j == i) return;
@@ -481,8 +555,8 @@ void OverdampedEngine::resolveContacts() {
       for (auto ix = x0; ix <= x1; ++ix)
         for (auto iy = y0; iy <= y1; ++iy) {
           const std::int64_t key = (ix * 73856093) ^ (iy * 19349663);
-          if (const auto it = cells.find(key); it != cells.end())
-            for (int j : it->second) visit(p, i, j);
+          const auto first = std::lower_bound(cells.begin(), cells.end(), std::pair<std::int64_t, int>(key, std::numeric_limits<int>::min()));
+          for (auto it = first; it != cells.end() && it->first == key; ++it) visit(p, i, it->second);
           if (const auto it = m_dep_cells.find(key); it != m_dep_cells.end())
             for (int j : it->second) visit(p, i, j);
         }
