@@ -23,7 +23,9 @@ struct PatternMiss : std::runtime_error {
 class CoupledSystem {
  public:
   /// options.linear: "direct" (UMFPACK serial, ordered by METIS from 1e5 unknowns; MUMPS parallel) or "iterative"
-  /// (FGMRES + Schur fieldsplit with GAMG, at most options.linear_max_iterations); "auto" is "direct" here
+  /// (FGMRES + Schur fieldsplit, at most options.linear_max_iterations: depth-averaged Stokes by the LU of
+  /// B diag(A)^-1 B^T and a Gauss-Seidel sweep on A, prefix "fluidh_"; plane Stokes by the scaled pressure
+  /// mass matrix, prefix "fluidm_"; inertia by GAMG, prefix "fluid_"); "auto" is "direct" here
   /// (SteadyFlowSolver resolves it before; time stepping keeps its LU); throws std::invalid_argument otherwise.
   CoupledSystem(const FlowOperator& op, const SolverOptions& options, MPI_Comm comm);
   ~CoupledSystem();

@@ -41,6 +41,11 @@ struct SteadyFlowSolver::Impl {
     if (!automatic) choice = {opt.linear, "requested"};
   }
 
+  /// "iterative" requested for depth-averaged Stokes (the friction split of CoupledSystem): a solve
+  /// whose FGMRES does not converge is solved again by the direct LU (said on stderr), and the
+  /// next solve tries the split again.
+  bool frictionSplit() const { return !automatic && choice.solver == "iterative" && !op.problem().inertia && op.problem().depth > 0; }
+
   bool warm() const { return opt.keep_factorisation && opt.linear == "direct" && !op.problem().inertia; }
   bool fixed() const { return opt.fixed_pattern && opt.linear == "direct" && !op.problem().inertia; }
 
@@ -68,17 +73,24 @@ struct SteadyFlowSolver::Impl {
     std::fprintf(stderr, "%s\n", line.c_str());
   }
 
-  /// An "auto"-chosen iterative solve failed: the direct LU solves instead, once, when its measured
-  /// memory per cell fits within the default memory limit. Returns whether it switched.
+  /// An "auto"-chosen iterative solve, or the friction split's, failed: the direct LU solves instead,
+  /// once, when its measured memory per cell fits within the default memory limit. Returns whether it switched.
   bool fallBack(const FlowFailure& e) {
-    if (!automatic || fell_back || opt.linear != "iterative") return false;
+    const bool split = frictionSplit();
+    if ((!automatic && !split) || fell_back || opt.linear != "iterative") return false;
     const double need = detail::steadyFlowBytes(static_cast<double>(op.nx()) * op.ny(), false);
     if (need > defaultMaxMemoryBytes()) return false;
     fell_back = true;
     opt.linear = "direct";
     choice.reason += fmt::format("; the iterative solve failed ({}), so the direct LU solved instead", e.cause());
     sys = std::make_unique<CoupledSystem>(op, opt, comm);
-    announce(fmt::format("mmval: linear solver: the auto-chosen iterative solve failed ({}); solved again with the direct LU", e.cause()));
+    if (split) {
+      int rank = 0;
+      MPI_Comm_rank(comm, &rank);
+      if (rank == 0) std::fprintf(stderr, "mmval: fluid solve: the block-preconditioned FGMRES did not converge: %s; solved again with the direct LU\n", e.cause().c_str());
+    } else {
+      announce(fmt::format("mmval: linear solver: the auto-chosen iterative solve failed ({}); solved again with the direct LU", e.cause()));
+    }
     return true;
   }
 
@@ -125,6 +137,12 @@ struct SteadyFlowSolver::Impl {
     stats.unknowns = op.unknowns();
     stats.cells = static_cast<long long>(op.nx()) * op.ny();
     if (parked) sys = std::move(parked);  // an earlier solve on a new solver threw before handing back
+    if (fell_back && !automatic) {  // the friction split fell back last time: this solve tries it again
+      opt.linear = "iterative";
+      choice = {opt.linear, "requested"};
+      fell_back = false;
+      sys.reset();
+    }
     const bool first = !sys;
     if (!sys) {
       choose();

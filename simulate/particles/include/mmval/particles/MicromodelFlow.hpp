@@ -53,7 +53,11 @@ struct MicromodelFlowOptions {
   /// a numeric factorisation with the kept ordering and symbolic analysis; closed pixels change the
   /// sharp solve's pattern, and then the re-solve orders and analyses the new matrix as a new
   /// solver does, the direct answer bit for bit. false ("direct") builds a new solver per solve.
-  /// The first solve is the same either way.
+  /// The first solve is the same either way. Grids of 40,000 cells and more whose Hele-Shaw
+  /// friction dominates (cells at least ~0.41 of the depth) are not solved by the LU at all but by
+  /// the friction split (block-preconditioned FGMRES, MicromodelFlow.cpp kSplitCells), from rest,
+  /// with nothing kept between solves: these options and numerics.resolve / resolve_pattern then
+  /// do not apply.
   bool warm_start = true;
   /// Warm start: > 0 first runs GMRES from the last field, preconditioned by the kept LU factors
   /// of an earlier geometry, factorising only when it has not converged (1e-12 of the
