@@ -231,19 +231,7 @@ struct CoupledSystem::Impl {
   }
 
   /// Whether A is a serial AIJ matrix whose compressed rows are exactly (row_start, cols).
-  bool csrIsRows() const {
-    PetscBool seq = PETSC_FALSE;
-    check(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(A), MATSEQAIJ, &seq), "type");
-    if (!seq) return false;
-    PetscInt n = 0;
-    const PetscInt *ia = nullptr, *ja = nullptr;
-    PetscBool done = PETSC_FALSE;
-    check(MatGetRowIJ(A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done), "MatGetRowIJ");
-    bool same = done && static_cast<std::size_t>(n) + 1 == row_start.size() && std::equal(row_start.begin(), row_start.end(), ia) &&
-                std::equal(cols.begin(), cols.end(), ja);
-    check(MatRestoreRowIJ(A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done), "MatRestoreRowIJ");
-    return same;
-  }
+  bool csrIsRows() const { return detail::seqAijRowsAre(A, row_start, cols); }
 
   /// Hands A to the KSP and sets up what the first factorisation needs (MUMPS workspace, the Schur preconditioner).
   void setOperators(const FlowOperator& op) {

@@ -204,6 +204,13 @@ struct ProjectionStep::Impl {
     createMultigridPressureSolver(rtol);
   }
 
+  /// kp: a new KSP on K with the pressure solve's options prefix ("projp_").
+  void newPressureKsp() {
+    check(KSPCreate(comm, &kp), "KSPCreate");
+    check(KSPSetOptionsPrefix(kp, "projp_"), "prefix");
+    check(KSPSetOperators(kp, K, K), "operators");
+  }
+
   /// One rank: K's LU factorisation (PETSc's own, nested-dissection ordering), made once. K is the
   /// same at every step (the factor coef is applied to the right-hand side), so a solve is one
   /// forward and one back substitution, exact to rounding (no initial guess, no tolerance). On 2D-2
@@ -213,9 +220,7 @@ struct ProjectionStep::Impl {
   /// Cholesky no faster, CHOLMOD stopped on a pivot it judged not positive.
   /// Returns false (the multigrid solver takes over) when the factorisation fails.
   bool createDirectPressureSolver() {
-    check(KSPCreate(comm, &kp), "KSPCreate");
-    check(KSPSetOptionsPrefix(kp, "projp_"), "prefix");
-    check(KSPSetOperators(kp, K, K), "operators");
+    newPressureKsp();
     check(KSPSetType(kp, KSPPREONLY), "preonly");
     PC pc;
     check(KSPGetPC(kp, &pc), "pc");
@@ -231,9 +236,7 @@ struct ProjectionStep::Impl {
 
   /// Several ranks (or a failed factorisation): CG with BoomerAMG, its hierarchy built once.
   void createMultigridPressureSolver(double rtol) {
-    check(KSPCreate(comm, &kp), "KSPCreate");
-    check(KSPSetOptionsPrefix(kp, "projp_"), "prefix");
-    check(KSPSetOperators(kp, K, K), "operators");
+    newPressureKsp();
     check(KSPSetType(kp, KSPCG), "cg");
     PC pc;
     check(KSPGetPC(kp, &pc), "pc");
@@ -382,20 +385,7 @@ struct ProjectionStep::Impl {
   /// Whether Au is a sequential AIJ matrix whose rows hold exactly the columns of `rows`, in
   /// order, so that its value array lines up with `rows.base` (a velocity row's columns are
   /// sorted and distinct: cacheRows looks the convective columns up by bisection).
-  bool patternIsRows() {
-    PetscBool seq = PETSC_FALSE;
-    check(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(Au), MATSEQAIJ, &seq), "type");
-    if (!seq) return false;
-    PetscInt n = 0;
-    const PetscInt *ia = nullptr, *ja = nullptr;
-    PetscBool done = PETSC_FALSE;
-    check(MatGetRowIJ(Au, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done), "MatGetRowIJ");
-    bool same = done && n == own_hi - own_lo && static_cast<std::size_t>(n) + 1 == rows.start.size();
-    for (PetscInt q = 0; same && q <= n; ++q) same = static_cast<std::size_t>(ia[q]) == rows.start[static_cast<std::size_t>(q)];
-    for (std::size_t q = 0; same && q < rows.cols.size(); ++q) same = ja[q] == rows.cols[q];
-    check(MatRestoreRowIJ(Au, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done), "MatRestoreRowIJ");
-    return same;
-  }
+  bool patternIsRows() { return detail::seqAijRowsAre(Au, rows.start, rows.cols); }
 
   void fill(Vec v, const std::vector<double>& x, std::size_t off) {
     PetscInt lo = 0, hi = 0;

@@ -2,7 +2,9 @@
 // codes as exceptions, default options the user may override, a distributed
 // solution gathered on every rank, and wall-clock seconds since a time point.
 #pragma once
+#include <algorithm>
 #include <chrono>
+#include <cstddef>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -10,6 +12,7 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <petscmat.h>
 #include <petscvec.h>
 
 #include "mmval/simulate/FlowSolver.hpp"
@@ -77,6 +80,25 @@ inline void gatherToAll(Vec v, long long n, std::vector<double>& out, const std:
 
 inline double secondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// Whether A is a sequential AIJ matrix whose compressed rows are exactly (start, cols) (row
+/// offsets and column indices, in order): its value array then lines up with values laid out by
+/// them, and a caller may write them in place (MatSeqAIJGetArray) instead of through MatSetValues.
+template <typename Offset>
+bool seqAijRowsAre(Mat A, const std::vector<Offset>& start, const std::vector<PetscInt>& cols) {
+  PetscBool seq = PETSC_FALSE;
+  check(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(A), MATSEQAIJ, &seq), "type");
+  if (!seq) return false;
+  PetscInt n = 0;
+  const PetscInt *ia = nullptr, *ja = nullptr;
+  PetscBool done = PETSC_FALSE;
+  check(MatGetRowIJ(A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done), "MatGetRowIJ");
+  bool same = done && static_cast<std::size_t>(n) + 1 == start.size();
+  for (std::size_t q = 0; same && q < start.size(); ++q) same = static_cast<std::size_t>(ia[q]) == static_cast<std::size_t>(start[q]);
+  same = same && static_cast<std::size_t>(ia[n]) == cols.size() && std::equal(cols.begin(), cols.end(), ja);
+  check(MatRestoreRowIJ(A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done), "MatRestoreRowIJ");
+  return same;
 }
 
 }  // namespace mmval::simulate::detail

@@ -37,29 +37,19 @@ class FlowQueryMemo final : public FlowField {
  public:
   explicit FlowQueryMemo(std::shared_ptr<const FlowField> flow) : m_flow(std::move(flow)), m_slots(kSlots) {}
   Vec2 meanVelocity(double x, double y) const override {
-    Entry& e = at(x, y);
-    if (!(e.have & kVelocity)) e.u = m_flow->meanVelocity(x, y), e.have |= kVelocity;
-    return e.u;
+    return remembered(x, y, kVelocity, &Entry::u, [&] { return m_flow->meanVelocity(x, y); });
   }
   double depth(double x, double y) const override {
-    Entry& e = at(x, y);
-    if (!(e.have & kDepth)) e.h = m_flow->depth(x, y), e.have |= kDepth;
-    return e.h;
+    return remembered(x, y, kDepth, &Entry::h, [&] { return m_flow->depth(x, y); });
   }
   bool isSolid(double x, double y) const override {
-    Entry& e = at(x, y);
-    if (!(e.have & kSolid)) e.solid = m_flow->isSolid(x, y), e.have |= kSolid;
-    return e.solid;
+    return remembered(x, y, kSolid, &Entry::solid, [&] { return m_flow->isSolid(x, y); });
   }
   double wallDistance(double x, double y) const override {
-    Entry& e = at(x, y);
-    if (!(e.have & kDistance)) e.d = m_flow->wallDistance(x, y), e.have |= kDistance;
-    return e.d;
+    return remembered(x, y, kDistance, &Entry::d, [&] { return m_flow->wallDistance(x, y); });
   }
   Vec2 wallNormal(double x, double y) const override {
-    Entry& e = at(x, y);
-    if (!(e.have & kNormal)) e.n = m_flow->wallNormal(x, y), e.have |= kNormal;
-    return e.n;
+    return remembered(x, y, kNormal, &Entry::n, [&] { return m_flow->wallNormal(x, y); });
   }
   std::uint64_t version() const override { return m_flow->version(); }
   Bounds2 bounds() const override { return m_flow->bounds(); }
@@ -74,6 +64,17 @@ class FlowQueryMemo final : public FlowField {
     double h = 0, d = 0;
     Vec2 u = Vec2::Zero(), n = Vec2::Zero();
   };
+  /// The flow's value of one query at (x, y): the entry's `slot` when its `bit` says it holds it,
+  /// else `ask()`, kept there.
+  template <typename T, typename Ask>
+  T remembered(double x, double y, std::uint8_t bit, T Entry::*slot, Ask ask) const {
+    Entry& e = at(x, y);
+    if (!(e.have & bit)) {
+      e.*slot = ask();
+      e.have |= bit;
+    }
+    return e.*slot;
+  }
   Entry& at(double x, double y) const {
     std::uint64_t bx = 0, by = 0;
     std::memcpy(&bx, &x, sizeof bx);
