@@ -167,6 +167,9 @@ struct KindSources {
   std::vector<Region> regions;
 };
 
+/// The tracking kinds' scores against the truth, filled by one helper (Score.cpp).
+const Region kScoreMetrics{"tracking/src/Score.cpp", "void addScoreMetrics(", "double immobileRecall("};
+
 const std::map<std::string, KindSources>& sources() {
   static const std::map<std::string, KindSources> s = {
       {"channel", {{{"simulate/src/Kinds.cpp", "", ""}}}},
@@ -175,9 +178,9 @@ const std::map<std::string, KindSources>& sources() {
       {"cylinder-channel", {{{"simulate/src/KindsCylinder.cpp", "", ""}, {"simulate/src/KindsCylinderUnsteady.cpp", "", ""}}}},
       {"image-permeability",
        {{{"simulate/src/KindsPorous.cpp", "", "CaseKind periodicArrayKind()"}, {"simulate/src/KindsPorous.cpp", "CaseKind imagePermeabilityKind()", ""}}}},
-      {"tracking-video", {{{"tracking/src/Kinds.cpp", "RunOutput runTrackingVideo(", "void registerTrackingKinds("}}}},
-      {"tracking-synthetic", {{{"tracking/src/Kinds.cpp", "k.name = \"tracking-synthetic\"", ""}}}},
-      {"tracking-rendered", {{{"tracking/src/KindRendered.cpp", "", ""}}}},
+      {"tracking-video", {{{"tracking/src/Kinds.cpp", "RunOutput runTrackingVideo(", "void registerTrackingKinds("}, kScoreMetrics}}},
+      {"tracking-synthetic", {{{"tracking/src/Kinds.cpp", "k.name = \"tracking-synthetic\"", ""}, kScoreMetrics}}},
+      {"tracking-rendered", {{{"tracking/src/KindRendered.cpp", "", ""}, kScoreMetrics}}},
       {"particles-channel", {{{"simulate/particles/src/Kinds.cpp", "", ""}}}},
       {"particles-micromodel", {{{"simulate/particles/src/Micromodel.cpp", "", ""}}}},
       {"particles-resolved", {{{"simulate/particles/src/Resolved.cpp", "", ""}, {"simulate/particles/src/ResolvedStages.cpp", "", ""}}}},

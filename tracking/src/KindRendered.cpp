@@ -96,7 +96,7 @@ void registerRenderedKind(CaseKindRegistry& registry) {
                             {"scores", scoresJson(sc)}};
     RunOutput out;
     out.files = writeTrackOutputs(run, cfg, ctx.out_dir, extra);
-    addScoreMetrics(sc, out.metrics, false);
+    addScoreMetrics(sc, out.metrics);
     if (truth_stats.mean_speed > 0) out.metrics["mean_speed_relative_error"] = (ours.mean_speed - truth_stats.mean_speed) / truth_stats.mean_speed;
     out.metrics["frames_per_second"] = run.frame_index.size() / std::max(run.seconds, 1e-9);
     out.units["frames_per_second"] = "Hz";

@@ -301,7 +301,9 @@ RunOutput runTrackingVideo(const Case& c, const RunContext& ctx) {
       }
     const Scores sc = scoreTracks(truth_px, run.tracks, c.real("score.gate"));
     extra["scores"] = scoresJson(sc);
-    addScoreMetrics(sc, out.metrics, true);
+    out.metrics["alpha"] = sc.alpha;
+    out.metrics["beta"] = sc.beta;
+    addScoreMetrics(sc, out.metrics);
   }
   addSceneDecisions(run, extra);
   out.files = writeTrackOutputs(run, cfg, ctx.out_dir, extra);
@@ -436,7 +438,9 @@ void registerTrackingKinds(CaseKindRegistry& registry) {
     addSceneDecisions(run, extra);
     out.files = writeTrackOutputs(run, cfg, ctx.out_dir / "tracks", extra);
     for (auto& f : out.files) f = "tracks/" + f;
-    addScoreMetrics(sc, out.metrics, true);
+    out.metrics["alpha"] = sc.alpha;
+    out.metrics["beta"] = sc.beta;
+    addScoreMetrics(sc, out.metrics);
     out.units["rmse"] = "1";
     out.metrics["mean_speed_relative_error"] = std::abs(ours.mean_speed - truth_stats.mean_speed) / truth_stats.mean_speed;
     out.metrics["immobile_found"] = ours.immobile;

@@ -155,11 +155,7 @@ nlohmann::json scoresJson(const Scores& s) {
           {"estimated_tracks", s.estimated_tracks}};
 }
 
-void addScoreMetrics(const Scores& s, std::map<std::string, double>& metrics, bool with_alpha) {
-  if (with_alpha) {
-    metrics["alpha"] = s.alpha;
-    metrics["beta"] = s.beta;
-  }
+void addScoreMetrics(const Scores& s, std::map<std::string, double>& metrics) {
   metrics["jaccard_points"] = s.jaccard_points;
   metrics["jaccard_tracks"] = s.jaccard_tracks;
   metrics["rmse"] = s.rmse_px;

@@ -40,9 +40,9 @@ struct Scores {
 Scores scoreTracks(const Tracks& truth, const Tracks& estimated, double gate = 5.0, double localisation_gate = 1.0);
 
 /// The scores as a result.json object ("scores") and as a case's metrics (jaccard_points,
-/// jaccard_tracks, rmse, rmse_localisation, gross_points; with_alpha adds alpha and beta).
+/// jaccard_tracks, rmse, rmse_localisation, gross_points; alpha and beta are the caller's).
 nlohmann::json scoresJson(const Scores& s);
-void addScoreMetrics(const Scores& s, std::map<std::string, double>& metrics, bool with_alpha);
+void addScoreMetrics(const Scores& s, std::map<std::string, double>& metrics);
 
 /// Share of the truth particles `immobile_ids` (stuck all video long) on which an
 /// estimated track flagged immobile by `stats` sits: its first point within
