@@ -254,6 +254,19 @@ std::vector<std::string> writeComparison(const Comparison& c, const std::filesys
   series("sigma_x_time_um.csv", [](const TimeSeries& s) -> const std::vector<double>& { return s.sigma_x; });
   series("sigma_y_time_um.csv", [](const TimeSeries& s) -> const std::vector<double>& { return s.sigma_y; });
   {
+    // The paper's Eq. 18 frame by frame, the values the two files above average per bin: for
+    // each side and frame, the moving particles in it (analyseTracks: no immobile track, no
+    // deposited particle's resting tail), their mean position and population standard
+    // deviation. Frames with one particle have sigma 0 and are left out of the bins' means.
+    std::string out = "side,frame,t_s,count,mean_x_um,mean_y_um,sigma_x_um,sigma_y_um\n";
+    for (const auto& [side, stats] : {std::pair{"experiment", &c.experiment}, std::pair{"simulation", &c.simulation}})
+      for (const auto& f : stats->frames)
+        out += fmt::format("{},{},{:.9g},{},{:.9g},{:.9g},{:.9g},{:.9g}\n", side, f.frame, f.t, f.count, f.mean_x * 1e6, f.mean_y * 1e6,
+                           f.sigma_x * 1e6, f.sigma_y * 1e6);
+    writeFileAtomic(dir / "dispersion_frames.csv", out);
+    files.push_back("dispersion_frames.csv");
+  }
+  {
     std::string out = "t_s,experiment,simulation\n";
     const auto& a = c.retention_experiment;
     const auto& b = c.retention_simulation;

@@ -100,7 +100,17 @@ void registerCompareKinds(CaseKindRegistry& registry) {
     const Comparison cmp = compareScene(exp.tracks, sim.tracks, spec, o);
     RunOutput out;
     out.files = writeComparison(cmp, ctx.out_dir);
-    out.evaluated = cmp.metrics;
+    // A metric the comparison only reports (speed_wasserstein1, the KS statistics) is judged by
+    // the case's own [[acceptance]] on it when there is one: its value goes through out.metrics,
+    // where the run applies the entry (core/Run.cpp evaluateMetrics), and not also as an info row.
+    for (const auto& m : cmp.metrics) {
+      if (!m.pass.has_value() && c.acceptanceFor(m.name) != nullptr) {
+        out.metrics[m.name] = m.value * parseUnit(m.unit).to_si;
+        out.units[m.name] = m.unit;
+      } else {
+        out.evaluated.push_back(m);
+      }
+    }
     out.details = cmp.toJson();
     out.details.erase("metrics");
     out.details["inputs"] = {{"experiment_format", trackFormatName(exp.format)}, {"experiment_note", exp.note},

@@ -286,6 +286,7 @@ TEST(OutputDocs, ComparisonRetentionHasTheDocumentedColumns) {
   fs::remove_all(dir);
   compare::writeComparison(c, dir);
   expectColumns(dir / "retention_time.csv");
+  expectColumns(dir / "dispersion_frames.csv");
   const auto r = columns(dir / "retention_time.csv");
   ASSERT_FALSE(r.at("t_s").empty());
   for (std::size_t i = 0; i < r.at("t_s").size(); ++i)

@@ -79,7 +79,8 @@ std::vector<std::string> failedMetrics(const Comparison& c);
 
 /// Writes metrics.json, the time series (mean_speed_time_um_per_s.csv,
 /// median_speed_time_um_per_s.csv, sigma_x_time_um.csv, sigma_y_time_um.csv,
-/// retention_time.csv), speed_histogram.csv, streamlines.png (experiment |
+/// retention_time.csv), dispersion_frames.csv (the paper's Eq. 18 per frame and
+/// side: count, mean and sigma of the moving particles' x and y), speed_histogram.csv, streamlines.png (experiment |
 /// simulation | overlay), with regions region_speeds.csv and regions.png, and
 /// registration.png when the experiment was registered to the mask.
 std::vector<std::string> writeComparison(const Comparison& c, const std::filesystem::path& dir);
