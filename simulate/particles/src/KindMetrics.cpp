@@ -35,7 +35,11 @@ void micromodelMetrics(Schema& s) {
   s.metric("pressure_drop_final", "Pa", "Pressure drop the set flow rate needed at the last fluid solve that found a flow path");
   s.metric("pump_stall_time", "s", "Time the pump stalled (pressure above flow.max_pressure, or no flow path left): injection stopped and the run ended (absent when it never stalled)");
   s.metric("pump_stall_pressure", "Pa", "Pressure drop the set rate needed when the pump stalled at its limit (absent otherwise, and when no flow path was left)");
-  s.metric("retained", "1", "Simulated particles deposited");
+  s.metric("retained", "1", "Simulated particles retained: attached + strained");
+  s.metric("attached", "1", "Retained particles held by a surface (plates, grains, deposits, closed cells)");
+  s.metric("strained", "1",
+           "Retained particles held by the flow in a passage narrower than themselves (deposition.straining; 0 when it is off)");
+  s.metric("strained_fraction", "1", "Strained over injected particles (part of retained_fraction)");
   s.metric("left", "1", "Simulated particles that left through the outlet");
   s.metric("inside", "1", "Simulated particles still moving at the end");
   s.metric("represented_particles", "1", "Physical particles the injected ones stand for (injected / particles.sample_fraction)");

@@ -329,6 +329,7 @@ ClassTally tallyClasses(const std::vector<SizeClass>& classes, const Schedule& s
     a.n.inside += nc.inside;
     a.n.deposited += nc.deposited;
     a.n.left += nc.left;
+    a.n.strained += nc.strained;
     a.st.steps += e.steps;
     a.st.particle_steps += e.particle_steps;
     a.st.wall_seconds += e.wall_seconds;
@@ -340,7 +341,7 @@ ClassTally tallyClasses(const std::vector<SizeClass>& classes, const Schedule& s
     a.scheduled += sched;
     a.per_class.push_back({{"diameter_um", cl.diameter * 1e6}, {"fraction", cl.fraction}, {"scheduled", sched}, {"injected", nc.injected},
                            {"never_injected", sched - nc.injected}, {"not_yet_placed", cl.deferred}, {"retained", nc.deposited},
-                           {"left", nc.left}, {"inside", nc.inside}});
+                           {"attached", nc.attached()}, {"strained", nc.strained}, {"left", nc.left}, {"inside", nc.inside}});
   }
   return a;
 }
@@ -354,6 +355,11 @@ void reportCounts(const ClassTally& a, double sample, RunOutput& out) {
   out.metrics["count_balance_error"] = static_cast<double>(n.injected - n.inside - n.deposited - n.left);
   out.metrics["injected"] = inj;
   out.metrics["retained"] = static_cast<double>(n.deposited);
+  // Retained = attached + strained (deposition.straining): held by a surface, or by the flow in a
+  // throat narrower than the particle.
+  out.metrics["attached"] = static_cast<double>(n.attached());
+  out.metrics["strained"] = static_cast<double>(n.strained);
+  out.metrics["strained_fraction"] = n.injected ? n.strained / inj : 0.0;
   out.metrics["left"] = static_cast<double>(n.left);
   out.metrics["inside"] = static_cast<double>(n.inside);
   out.metrics["represented_particles"] = inj / sample;
@@ -363,7 +369,8 @@ void reportCounts(const ClassTally& a, double sample, RunOutput& out) {
   out.metrics["scheduled"] = static_cast<double>(a.scheduled);
   out.metrics["never_injected"] = static_cast<double>(a.scheduled - n.injected);
   out.details["counts"] = {{"scheduled", a.scheduled}, {"injected", n.injected}, {"never_injected", a.scheduled - n.injected},
-                           {"inside", n.inside}, {"deposited", n.deposited}, {"left", n.left}};
+                           {"inside", n.inside}, {"deposited", n.deposited}, {"attached", n.attached()},
+                           {"strained", n.strained}, {"left", n.left}};
 }
 
 /// Particles due but never placed (the inlet strip stayed full to the end): they

@@ -59,6 +59,17 @@ void declareMicromodel(Schema& s) {
            "SceneSelection.hpp); overdamped: forced, with the automatic choice recorded")
       .def("auto");
   declarePhysicsAndDeposition(s, 1e-20);
+  const StrainingModel straining;
+  s.boolean("deposition.straining",
+            "Straining: a particle the flow holds in a passage narrower than itself (its moves refused, or pushed off two walls "
+            "closing in ahead of it) for deposition.straining_time is retained there, counted as strained (its own surface, next "
+            "to the attached ones) and a deposit like them; false: it stays mobile and counts as inside")
+      .def(straining.enabled);
+  s.quantity("deposition.straining_time", "s",
+             "How long a particle must stay held in a throat before it counts as strained (default 1 s: ~300 times the time to "
+             "advect a radius at the chip's pore velocity, < 0.1 % of the run)")
+      .def(straining.time)
+      .positive();
   s.choice("coupling.mode", {"four-way", "one-way"},
            "four-way: deposits close pixel columns or thin the aperture and the flow is solved again; one-way: the flow never changes")
       .def("four-way");

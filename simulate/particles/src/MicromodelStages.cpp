@@ -133,6 +133,8 @@ SceneConfig readScene(const Case& c, const EngineChoice& choice, const SceneGeom
   scene.particle.density = c.quantity("particles.density");
   scene.gravity = c.quantity("physics.gravity");
   physicsAndDepositionFromCase(c, choice, scene);
+  scene.straining.enabled = c.flag("deposition.straining");
+  scene.straining.time = c.quantity("deposition.straining_time");
   scene.outlet_x = geo.width;
   scene.max_step_fraction = c.real("numerics.max_step_fraction");
   return scene;

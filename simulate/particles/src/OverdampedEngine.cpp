@@ -315,6 +315,7 @@ void OverdampedEngine::advance(double t_end) {
         auto& p = m_particles[i];
         if (p.status != ParticleStatus::mobile) continue;
         decideAttachment(p, m_touch[i]);
+        updateStraining(p, (m_touch[i] & kPinned) != 0, m_t + dt);
         if (p.status != ParticleStatus::deposited) continue;
         if (overlapsDeposit(p, fresh)) {
           p.status = ParticleStatus::mobile;  // a push undone at a grain left an overlap: try again next step
@@ -351,6 +352,57 @@ std::int64_t OverdampedEngine::captureInSolid() {
   return n;
 }
 
+namespace {
+/// A wall position is admissible at a wall distance >= (1 - kWallTolerance) a: the walls are
+/// exact (pixel edges, GridWalls::cells / brinkman; analytic fields), so only round-off of the
+/// pushes is forgiven. Particles pass gaps wider than (2 - kWallTolerance) a and stop at narrower.
+constexpr double kWallTolerance = 1e-3;
+/// Normal pushes per move; curved walls and corners settle in two or three.
+constexpr int kWallPasses = 3;
+/// Slides along a wall at a shallower angle than this to the other wall (sin, ~3 deg) are not
+/// tried: the walls are parallel and the gap between them is what it is.
+constexpr double kMinSlideSine = 0.05;
+/// Largest slide, radii (a slide that long is a different place, not a settled contact).
+constexpr double kMaxSlide = 0.5;
+
+double cross(const Vec2& u, const Vec2& v) { return u.x() * v.y() - u.y() * v.x(); }
+
+/// The drift u is held by walls of these normals: -u lies strictly inside the cone of two of
+/// them (u = -(l1 n1 + l2 n2), l1, l2 > 0), so every direction that leaves both walls goes
+/// against the drift.
+bool heldAgainst(const Vec2& u, const std::vector<Vec2>& normals) {
+  for (std::size_t i = 0; i < normals.size(); ++i)
+    for (std::size_t j = i + 1; j < normals.size(); ++j) {
+      const double det = cross(normals[i], normals[j]);
+      if (std::abs(det) < 1e-9) continue;
+      const double l1 = cross(-u, normals[j]) / det, l2 = cross(normals[i], -u) / det;
+      if (l1 > 0 && l2 > 0) return true;
+    }
+  return false;
+}
+}  // namespace
+
+bool OverdampedEngine::slideBetweenWalls(ParticleState& p, const Vec3& before, const Vec2& last, std::vector<Vec2>& normals) const {
+  const double a = m_radius, accept = (1 - kWallTolerance) * a;
+  const double d = m_flow->wallDistance(p.x.x(), p.x.y());
+  const Vec2 n = m_flow->wallNormal(p.x.x(), p.x.y());
+  normals.push_back(n);
+  // Along the last wall (planar: its distance stays a) towards the side the other wall recedes.
+  Vec2 t(-last.y(), last.x());
+  double c = t.dot(n);
+  if (c < 0) t = -t, c = -c;
+  if (c < kMinSlideSine) return false;
+  const double s = (a - d) / c;
+  if (s > kMaxSlide * a) return false;
+  const Vec2 q = Vec2(p.x.x(), p.x.y()) + s * t;
+  const Vec2 mid = 0.5 * (q + Vec2(before.x(), before.y()));
+  for (const Vec2& r : {q, mid})
+    if (m_flow->isSolid(r.x(), r.y()) || m_flow->wallDistance(r.x(), r.y()) < accept) return false;
+  p.x.x() = q.x();
+  p.x.y() = q.y();
+  return true;
+}
+
 std::uint8_t OverdampedEngine::applyWalls(ParticleState& p, const Vec3& before) {
   const double a = m_radius;
   std::uint8_t touched = 0;
@@ -369,20 +421,29 @@ std::uint8_t OverdampedEngine::applyWalls(ParticleState& p, const Vec3& before) 
   double d = m_flow->wallDistance(p.x.x(), p.x.y());
   if (d < a) {
     // Pushed out along the wall normal; a few passes settle curved walls and
-    // corners. Where no push helps (a throat narrower than the particle: walls on
+    // corners, and a slide along the last wall settles two walls closing in at an
+    // angle. Where nothing helps (a throat narrower than the particle: walls on
     // both sides) the move is refused, so a particle never squeezes through a gap
     // smaller than itself.
     touched |= kGrain;
-    for (int pass = 0; pass < 3 && d < a; ++pass) {
+    std::vector<Vec2> normals;
+    for (int pass = 0; pass < kWallPasses && d < a; ++pass) {
       const Vec2 n = m_flow->wallNormal(p.x.x(), p.x.y());
+      normals.push_back(n);
       p.x.x() += n.x() * (a - d);
       p.x.y() += n.y() * (a - d);
       d = m_flow->isSolid(p.x.x(), p.x.y()) ? 0.0 : m_flow->wallDistance(p.x.x(), p.x.y());
     }
-    if (d < 0.9 * a) {
+    const double accept = (1 - kWallTolerance) * a;
+    const bool settled = d >= accept || (!m_flow->isSolid(p.x.x(), p.x.y()) && slideBetweenWalls(p, before, normals.back(), normals));
+    if (!settled) {
       p.x.x() = before.x();
       p.x.y() = before.y();
     }
+    // Held by the walls: refused, or pushed off two walls that close in ahead of its drift, with
+    // the drift beating diffusion over a radius (else Brownian motion, not the flow, decides).
+    const Vec2 u(p.v.x(), p.v.y());
+    if (u.norm() * a >= m_model.diffusivity() && (!settled || heldAgainst(u, normals))) touched |= kPinned;
   }
   const double h = m_flow->depth(p.x.x(), p.x.y());
   if (p.x.z() < a) {
@@ -394,6 +455,25 @@ std::uint8_t OverdampedEngine::applyWalls(ParticleState& p, const Vec3& before) 
     touched |= kTop;
   }
   return touched;
+}
+
+void OverdampedEngine::updateStraining(ParticleState& p, bool pinned, double t) const {
+  const StrainingModel& sm = m_cfg.straining;
+  if (!sm.enabled || p.status != ParticleStatus::mobile) return;
+  const double moved = std::hypot(p.x.x() - p.pin_anchor.x(), p.x.y() - p.pin_anchor.y());
+  const bool anchored = !std::isnan(p.pinned_since) && moved <= sm.anchor_fraction * m_radius;
+  if (!anchored) p.pinned_since = std::numeric_limits<double>::quiet_NaN();
+  if (!pinned) return;
+  if (!anchored) {
+    p.pinned_since = t;
+    p.pin_anchor = p.x;
+    return;
+  }
+  if (t - p.pinned_since >= sm.time * (1 - 1e-12)) {
+    p.status = ParticleStatus::deposited;
+    p.held_by = Surface::strained;
+    p.secondary = false;
+  }
 }
 
 void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched) {
@@ -586,7 +666,7 @@ void OverdampedEngine::resolveContacts() {
 }
 
 void OverdampedEngine::saveState(CheckpointWriter& w) const {
-  w.putString("overdamped-v3");
+  w.putString("overdamped-v4");
   w.put(m_t);
   w.put(m_stats);
   w.put<std::uint64_t>(m_particles.size());
@@ -602,6 +682,8 @@ void OverdampedEngine::saveState(CheckpointWriter& w) const {
     w.put(p.rejected);
     w.put(static_cast<std::uint8_t>(p.held_by));
     w.put(static_cast<std::uint8_t>(p.secondary));
+    w.put(p.pinned_since);
+    w.put(p.pin_anchor.x()); w.put(p.pin_anchor.y()); w.put(p.pin_anchor.z());
   }
   w.putVector(m_dep_order);
   w.putString(gsl_rng_name(m_rng->r));
@@ -609,7 +691,10 @@ void OverdampedEngine::saveState(CheckpointWriter& w) const {
 }
 
 void OverdampedEngine::loadState(CheckpointReader& r) {
-  if (r.getString() != "overdamped-v3") throw std::runtime_error("checkpoint " + r.name() + ": not an overdamped-engine state");
+  // v3: written before straining (no pinned clock; every particle starts unpinned).
+  const std::string format = r.getString();
+  if (format != "overdamped-v4" && format != "overdamped-v3") throw std::runtime_error("checkpoint " + r.name() + ": not an overdamped-engine state");
+  const bool with_pins = format == "overdamped-v4";
   m_t = r.get<double>();
   m_stats = r.get<EngineStats>();
   const auto n = r.get<std::uint64_t>();
@@ -629,9 +714,14 @@ void OverdampedEngine::loadState(CheckpointReader& r) {
     p.arrivals = r.get<std::uint32_t>();
     p.rejected = r.get<std::uint8_t>();
     const auto held = r.get<std::uint8_t>();
-    if (held > static_cast<std::uint8_t>(Surface::solid)) throw std::runtime_error("checkpoint " + r.name() + ": bad surface of a deposit");
+    if (held > static_cast<std::uint8_t>(Surface::strained)) throw std::runtime_error("checkpoint " + r.name() + ": bad surface of a deposit");
     p.held_by = static_cast<Surface>(held);
     p.secondary = r.get<std::uint8_t>() != 0;
+    if (with_pins) {
+      p.pinned_since = r.get<double>();
+      const double ax = r.get<double>(), ay = r.get<double>(), az = r.get<double>();
+      p.pin_anchor = Vec3(ax, ay, az);
+    }
   }
   const auto order = r.getVector<int>();
   if (r.getString() != gsl_rng_name(m_rng->r)) throw std::runtime_error("checkpoint " + r.name() + ": other random generator");
@@ -687,6 +777,9 @@ nlohmann::json OverdampedEngine::describe() const {
           {"contacts", "hard spheres, Heyes-Melrose overlap removal"},
           {"ito_drift", c.ito_drift},
           {"attachment_rule", c.attachment.rule == AttachmentModel::Rule::dlvo ? "dlvo" : "capture"},
+          {"straining", c.straining.enabled ? nlohmann::json{{"time_s", c.straining.time}, {"anchor_radii", c.straining.anchor_fraction}}
+                                            : nlohmann::json("off")},
+          {"wall_tolerance_radii", kWallTolerance},
           {"deposited_by_surface", by_surface}};
   if (m_plate_chem) {
     j["dlvo"] = {{"assumed_chemistry",

@@ -23,7 +23,10 @@ Counts countParticles(const std::vector<ParticleState>& ps) {
   c.injected = static_cast<std::int64_t>(ps.size());
   for (const auto& p : ps) {
     if (p.status == ParticleStatus::mobile) ++c.inside;
-    else if (p.status == ParticleStatus::deposited) ++c.deposited;
+    else if (p.status == ParticleStatus::deposited) {
+      ++c.deposited;
+      if (p.held_by == Surface::strained) ++c.strained;
+    }
     else ++c.left;
   }
   return c;

@@ -18,9 +18,13 @@
 // (Heyes & Melrose 1993, J. Non-Newtonian Fluid Mech. 46:1), so no contact
 // stiffness limits the step. The step is chosen so that no particle moves more
 // than `max_step_fraction` radii (flow, forces and Brownian rms), not by tau_p.
-// A move (or a contact push) that leaves a particle overlapping a grain after
-// three pushes along the wall normal is refused: particles never squeeze
-// through a throat narrower than themselves (straining).
+// A move that leaves a particle closer than a radius to a grain after three
+// pushes along the wall normal (and one slide along the last wall when two walls
+// close in at an angle) is refused: particles never squeeze through a throat
+// narrower than themselves, to the wall distance's accuracy (kWallTolerance).
+// Straining (SceneConfig::straining): a particle pinned there by its drift (its
+// move refused, or pushed off two walls that close in ahead of it) for the set
+// time is deposited with Surface::strained.
 // Attachment is decided after the contacts of the step are resolved, so that a
 // particle never attaches overlapping a deposit: a particle whose gap to a sticky
 // surface falls below the capture distance, that would have penetrated it, or that
@@ -102,11 +106,18 @@ class OverdampedEngine final : public ParticleEngine {
  private:
   void step(double dt);
   /// Surfaces a particle touched in a step (bits of m_touch).
-  enum Touch : std::uint8_t { kGrain = 1, kBottom = 2, kTop = 4, kDeposit = 8 };
+  /// kPinned: the walls held it against its drift (a refused move, or two walls closing in ahead).
+  enum Touch : std::uint8_t { kGrain = 1, kBottom = 2, kTop = 4, kDeposit = 8, kPinned = 16 };
   void resolveContacts();
   /// Grains, side walls, outlet and plates: pushes the particle back into the fluid and
   /// returns the Touch bits of the surfaces it hit (or marks it left).
   std::uint8_t applyWalls(ParticleState& p, const Vec3& before);
+  /// Two walls closer than a radius: from p (a radius from the wall of normal `last`), the slide
+  /// along that wall that puts it a radius from the other as well; p moved and true when the slid
+  /// position (and the way there from `before`) keeps a radius from every wall.
+  bool slideBetweenWalls(ParticleState& p, const Vec3& before, const Vec2& last, std::vector<Vec2>& normals) const;
+  /// Straining: the pinned particle's clock (StrainingModel); deposits it as strained at time t.
+  void updateStraining(ParticleState& p, bool pinned, double t) const;
   /// After contacts: attaches a particle that arrived at a sticky surface (either rule).
   void decideAttachment(ParticleState& p, std::uint8_t touched);
   /// dlvo rule: one draw for an arrival on surface `s`; true when the particle attaches. A
