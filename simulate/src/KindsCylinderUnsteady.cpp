@@ -2,6 +2,8 @@
 // (UnsteadyFlowSolver, BDF2): Schaefer & Turek (1996) 2D-2 and the paper's
 // Re 100 set-up. Metrics over the last whole shedding periods: c_D max / min /
 // mean, c_L max / min, Strouhal number f D / U_ref. Force history as CSV.
+#include <sys/resource.h>
+
 #include <cmath>
 #include <optional>
 
@@ -27,6 +29,23 @@ namespace mmval::simulate::detail {
 
 namespace {
 constexpr const char* kCheckpointFormat = "mmval-unsteady-cylinder-checkpoint-1";
+
+/// User and system CPU seconds this process has used so far (getrusage): a level's cost on a
+/// shared machine, where the wall time depends on the load.
+double processCpuSeconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+  return seconds(u.ru_utime) + seconds(u.ru_stime);
+}
+
+/// The case's first acceptance entry on `metric` with a single, nonzero reference value (2D-2's
+/// c_D max: FEATFLOW level 6, listed after the 1996 interval), or none.
+const Acceptance* pointReference(const Case& c, const std::string& metric) {
+  for (const Acceptance& a : c.acceptance())
+    if (a.metric == metric && !a.reference.isInterval() && a.reference.value != 0) return &a;
+  return nullptr;
+}
 
 std::string snapshotName(long long k) { return fmt::format("fields/fields-{:04d}.vtr", k); }
 
@@ -143,8 +162,11 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const Cylind
       throw cannotResume(e);
     }
   }
+  // A row's value is its c_D max; its error is against the case's first single-value reference on it.
+  const Acceptance* reference = pointReference(c, "c_D_max");
   for (std::size_t li = first_level; li < levels.size(); ++li) {
     const auto t0 = std::chrono::steady_clock::now();
+    const double cpu0 = processCpuSeconds();
     UnsteadyFlowSolver solver(make_problem(levels[li]), solverOptions(c), uo);
     ForceHistory hist;
     double wall_before = 0;  // this level's wall time before a resume
@@ -247,6 +269,8 @@ RunOutput runUnsteadyCylinder(const Case& c, const RunContext& ctx, const Cylind
                           {"c_L_max", st.cl_max},
                           {"c_L_amplitude_drift", st.cl_amplitude_drift},
                           {"value", st.cd_max}};
+    if (resumed_from == 0 || li != first_level) row["cpu_seconds"] = processCpuSeconds() - cpu0;  // rank 0's; none for a level resumed part-way
+    if (reference != nullptr) row["error"] = (st.cd_max - reference->reference.value) / reference->reference.value;
     ladder.push_back(row);
     if (!ctx.out_dir.empty()) {
       const std::string name = final_level ? "forces.csv" : fmt::format("forces-level{}.csv", li);

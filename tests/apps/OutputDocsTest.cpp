@@ -416,7 +416,7 @@ TEST(OutputDocs, EveryDocumentedTableIsCheckedHere) {
   const std::set<std::string> checked = {"retention.csv", "permeability.csv", "detections.csv", "track_summary.csv", "velocities.csv",
                                          "dispersion.csv", "msd.csv", "speed_time.csv", "track_diffusion.csv", "van_hove.csv",
                                          "diffusion_histogram.csv", "summary.json", "forces.csv", "grain-sizes.csv", "throat-sizes.csv",
-                                         "chip.json", "retention_time.csv", "coverage.csv", "deposits.csv", "collector-interception.csv",
+                                         "chip.json", "retention_time.csv", "dispersion_frames.csv", "coverage.csv", "deposits.csv", "collector-interception.csv",
                                          "collector-diffusion.csv", "diffusion-penetration.csv", "dlvo-profile.csv",
                                          "attachment-vs-ionic-strength.csv", "near-wall-shear.csv", "hindered_diffusion.csv",
                                          "height_histogram.csv", "settling-deposition.csv", "settling-particles.csv"};

@@ -276,6 +276,15 @@ TEST(Results, SheddingStatisticsUseTheCasesWindowAndWholePeriods) {
   EXPECT_FALSE(steady.strouhal.has_value());
 }
 
+TEST(Results, ExecutionTimeIsTheSolversLastOne) {
+  // pimpleFoam prints its CPU seconds so far after every step; the last one is the solve's.
+  const std::string log = "Time = 0.01\n\nsmoothSolver:  Solving for Ux\nExecutionTime = 0.05 s  ClockTime = 0 s\n\n"
+                          "Time = 0.02\n\nExecutionTime = 93.51 s  ClockTime = 116 s\n\nEnd\n";
+  ASSERT_TRUE(executionTime(log).has_value());
+  EXPECT_DOUBLE_EQ(*executionTime(log), 93.51);
+  EXPECT_FALSE(executionTime("Time = 0.01\nFOAM FATAL ERROR\n").has_value());
+}
+
 TEST(Results, FatalMessageIsExtracted) {
   const std::string log = "Create time\n\n--> FOAM FATAL ERROR:\ncannot find file \"0/U\"\n\n    From function x\n\n\nFOAM exiting\n";
   EXPECT_THAT(fatalMessage(log), HasSubstr("cannot find file \"0/U\""));

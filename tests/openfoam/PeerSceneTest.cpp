@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <thread>
 #include <vector>
 
 #include "mmval/core/Error.hpp"
@@ -60,6 +61,104 @@ TEST(PeerScene, SchaeferTurek2D2IsUnsteadyAtRe100) {
   EXPECT_DOUBLE_EQ(s.dt, 2e-4);
   EXPECT_DOUBLE_EQ(s.inflow_max, 1.5);
   EXPECT_NEAR(s.u_ref * s.diameter / s.nu, 100.0, 1e-9);  // Re = Ubar D / nu
+}
+
+TEST(PeerScene, SchaeferTurek2D2LadderJudgesCDMaxAgainstFeatflowAtTheSolversCpuTime) {
+  // cases/fluid-schaefer-turek-2d2.toml: the same window and start as mmval's own run, forces
+  // scaled by Ubar = 2/3 x 1.5 = 1 m/s and D = 0.1 m (c = 2 F / (rho Ubar^2 D), the benchmark's).
+  const Case c = load("fluid-schaefer-turek-2d2.toml");
+  const Scene s = peerScene(c);
+  EXPECT_DOUBLE_EQ(s.statistics_from, 6.5);
+  EXPECT_DOUBLE_EQ(s.initial_perturbation, 0.3);
+  EXPECT_NEAR(s.u_ref, 1.0, 1e-15);
+  EXPECT_DOUBLE_EQ(s.l_ref, 0.1);
+  // A canned level (the values pimpleFoam gave at 64 cells around): the row's value is c_D max,
+  // its error against FEATFLOW level 6's 3.22739 (the case lists the 1996 interval first, which
+  // gives no relative error): (3.153023 - 3.22739) / 3.22739 = -0.0230424; its CPU seconds are
+  // the solver's ExecutionTime, not the 116 s of wall time.
+  PeerRunOptions o;
+  o.levels = std::vector<int>{64};
+  o.runner = [](const Scene&, const fs::path&, int) {
+    Result r;
+    r.ok = true;
+    r.c_d = 3.117;
+    r.c_d_max = 3.153023;
+    r.c_d_mean = 3.133877;
+    r.c_l_max = 0.883511;
+    r.strouhal = 0.283089;
+    r.shedding_periods = 4;
+    r.solve_seconds = 116.24;
+    r.cpu_seconds = 93.51;
+    return r;
+  };
+  const RunOutput out = runPeer(c, RunContext{fs::temp_directory_path(), true, false, 0}, o);
+  const auto& row = out.details.at("ladder").at(0);
+  EXPECT_DOUBLE_EQ(row.at("value").get<double>(), 3.153023);
+  EXPECT_NEAR(row.at("error").get<double>(), -0.0230424, 1e-7);
+  EXPECT_DOUBLE_EQ(row.at("cpu_seconds").get<double>(), 93.51);
+  EXPECT_DOUBLE_EQ(row.at("St").get<double>(), 0.283089);
+}
+
+TEST(PeerScene, UnsteadyLaddersOfBothSolversJudgeCDMaxAgainstTheSameReference) {
+  // 2D-2 cut to 12 cells around and 0.15 s (a few seconds): mmval's own unsteady ladder row and
+  // the peer's (a canned level with mmval's c_D max) carry the same error, c_D max against
+  // FEATFLOW level 6's 3.22739 (reference-data/schaefer-turek-2d.toml), so the speed-against-error
+  // plot compares like with like; mmval's row also has its CPU seconds, which one rank cannot
+  // make exceed its wall time times the cores.
+  Case c = load("fluid-schaefer-turek-2d2.toml");
+  c.set("numerics.cells_around", std::int64_t{12});
+  c.set("numerics.end_time", 0.15);         // s
+  c.set("numerics.statistics_from", 0.05);  // s
+  const fs::path dir = fs::path(MMVAL_BINARY_DIR) / "test-output" / "peer-scene-unsteady-rows";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  static const CaseKindRegistry kinds = [] {
+    CaseKindRegistry r;
+    simulate::registerFluidKinds(r);
+    return r;
+  }();
+  const RunOutput own = kinds.find("cylinder-channel")->run(c, RunContext{dir, true, false, 0});
+  const auto& own_row = own.details.at("ladder").at(0);
+  const double cd_max = own_row.at("c_D_max").get<double>();
+  ASSERT_TRUE(std::isfinite(cd_max));
+  EXPECT_DOUBLE_EQ(own_row.at("value").get<double>(), cd_max);
+  EXPECT_NEAR(own_row.at("error").get<double>(), (cd_max - 3.22739) / 3.22739, 1e-12);
+  const double cpu = own_row.at("cpu_seconds").get<double>(), wall = own_row.at("wall_seconds").get<double>();
+  EXPECT_GT(cpu, 0.0);
+  EXPECT_LE(cpu, wall * std::max(1U, std::thread::hardware_concurrency()) + 0.05);
+  PeerRunOptions o;
+  o.levels = std::vector<int>{16};
+  o.runner = [&](const Scene&, const fs::path&, int) {
+    Result r;
+    r.ok = true;
+    r.c_d_max = cd_max;
+    r.c_d_mean = 0.99 * cd_max;
+    return r;
+  };
+  const RunOutput peer = runPeer(c, RunContext{dir, true, false, 0}, o);
+  EXPECT_DOUBLE_EQ(peer.details.at("ladder").at(0).at("error").get<double>(), own_row.at("error").get<double>());
+}
+
+TEST(PeerScene, UnconfinedCylinderLadderKeepsTheMeanDragAgainstPark) {
+  // cases/fluid-cylinder-unconfined-re100.toml judges c_D mean against Park et al.'s 1.33 and has no
+  // single value for c_D max: the row's value stays c_D mean, (1.3151 - 1.33) / 1.33 = -0.0112030.
+  const Case c = load("fluid-cylinder-unconfined-re100.toml");
+  PeerRunOptions o;
+  o.levels = std::vector<int>{48};
+  o.runner = [](const Scene&, const fs::path&, int) {
+    Result r;
+    r.ok = true;
+    r.c_d_max = 1.3370;
+    r.c_d_mean = 1.3151;
+    r.strouhal = 0.15438;
+    r.shedding_periods = 4;
+    return r;
+  };
+  const RunOutput out = runPeer(c, RunContext{fs::temp_directory_path(), true, false, 0}, o);
+  const auto& row = out.details.at("ladder").at(0);
+  EXPECT_DOUBLE_EQ(row.at("value").get<double>(), 1.3151);
+  EXPECT_NEAR(row.at("error").get<double>(), -0.0112030, 1e-7);
+  EXPECT_FALSE(row.contains("cpu_seconds"));  // a log without ExecutionTime
 }
 
 TEST(PeerScene, SquareArrayRadiusFollowsTheSolidFraction) {

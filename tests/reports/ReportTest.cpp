@@ -422,5 +422,42 @@ TEST(Report, SpeedAgainstErrorHasOnePlotPerFamilyWithEverySolverOnIt) {
   EXPECT_FALSE(fs::exists(dir / "report" / "figures" / "speed-vs-error.svg")) << "the single cross-family plot is gone";
 }
 
+TEST(Report, SpeedAgainstErrorPlotsTheUnsteadyCylindersCpuTimeOfBothSolvers) {
+  // 2D-2 through mmval and its OpenFOAM peer, each level with CPU seconds (half its wall time: a
+  // shared machine) and an error; a third unsteady run recorded wall time only. One plot for the
+  // unsteady cylinder: both solvers at their CPU seconds and |error|, the third marked "wall time".
+  const fs::path dir = fs::path(MMVAL_BINARY_DIR) / "test-output" / "report-speed-error-unsteady";
+  fs::remove_all(dir);
+  const auto ladder = [](const std::string& solver, const std::vector<double>& cpu, const std::vector<double>& err, bool with_cpu) {
+    nlohmann::json rows = nlohmann::json::array();
+    for (std::size_t k = 0; k < cpu.size(); ++k) {
+      nlohmann::json row = {{"level", k}, {"value", 3.2}, {"error", err[k]}, {"wall_seconds", 2 * cpu[k]}};
+      if (with_cpu) row["cpu_seconds"] = cpu[k];
+      rows.push_back(row);
+    }
+    return nlohmann::json{{"solver", solver}, {"ladder", rows}};
+  };
+  const auto unsteady = [&](const std::string& name, const nlohmann::json& details) {
+    fakeRun(dir / "runs" / name, name, "cylinder-channel", nlohmann::json::array(), details);
+    nlohmann::json r = nlohmann::json::parse(slurp(dir / "runs" / name / "result.json"));
+    r["resolved_case"] = {{"numerics", {{"mode", "unsteady"}}}};
+    std::ofstream(dir / "runs" / name / "result.json") << r.dump(2);
+  };
+  unsteady("st2d2", ladder("mmval sharp", {40, 150, 500}, {0.012, 0.004, 0.002}, true));
+  unsteady("st2d2-peer", ladder("openfoam v1912", {90, 300, 800}, {-0.030, -0.013, -0.0067}, true));
+  unsteady("st2d2-old", ladder("mmval sharp", {60}, {0.005}, false));
+  writeReport(collect({dir}), dir / "report");
+  if (!gnuplotAvailable()) GTEST_SKIP() << "no gnuplot";
+  const fs::path file = dir / "report" / "figures" / "speed-vs-error-cylinder-channel-unsteady.csv";
+  ASSERT_TRUE(fs::exists(file));
+  const std::string csv = slurp(file);
+  EXPECT_THAT(csv, ::testing::HasSubstr("x: CPU time (s); wall time for the series marked so"));
+  EXPECT_THAT(csv, ::testing::HasSubstr("\"st2d2 (mmval sharp)\",500,0.002\n"));        // CPU seconds, not the 1000 s of wall time
+  EXPECT_THAT(csv, ::testing::HasSubstr("\"st2d2-peer (openfoam v1912)\",800,0.0067\n"));  // |error| of a level below the reference
+  EXPECT_THAT(csv, ::testing::HasSubstr("\"st2d2-old (mmval sharp) (wall time)\",120,0.005\n"));
+  EXPECT_THAT(csv, ::testing::Not(::testing::HasSubstr(",1000,")));
+  EXPECT_FALSE(fs::exists(dir / "report" / "figures" / "speed-vs-error-cylinder-channel-steady.csv"));
+}
+
 }  // namespace
 }  // namespace mmval::reports

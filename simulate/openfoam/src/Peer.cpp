@@ -560,6 +560,17 @@ std::vector<double> lastRow(const fs::path& file) {
 
 }  // namespace
 
+std::optional<double> executionTime(const std::string& solver_log) {
+  static const std::string key = "\nExecutionTime = ";
+  const std::size_t at = solver_log.rfind(key);
+  if (at == std::string::npos) return std::nullopt;
+  const char* begin = solver_log.c_str() + at + key.size();
+  char* end = nullptr;
+  const double v = std::strtod(begin, &end);
+  if (end == begin) return std::nullopt;
+  return v;
+}
+
 Result runCase(const Scene& s, const fs::path& dir, int ranks) {
   const Installation inst = detect();
   if (!inst.available) {
@@ -638,6 +649,7 @@ Result runWrittenCase(const Scene& s, const fs::path& dir, int ranks) {
   r.solve_seconds = r.steps.back().wall_seconds;
   const std::string log = readText(dir / "log.solver");
   r.iterations = lastIteration(log);
+  r.cpu_seconds = executionTime(log);
   if (!s.unsteady) {
     const SimpleConvergence conv = simpleConvergence(log, s.residual);
     r.converged = conv.converged;

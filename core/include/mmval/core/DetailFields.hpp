@@ -42,6 +42,7 @@ enum class DetailField {
   ladder_error,
   ladder_observed_order,
   ladder_wall_seconds,
+  ladder_cpu_seconds,
   ladder_cells,
   ladder_time_steps,
   ladder_c_D_max,

@@ -110,6 +110,9 @@ struct Result {
   long long cells = 0;
   int ranks = 1;
   double mesh_seconds = 0, solve_seconds = 0;
+  /// The solver's own CPU time: the last "ExecutionTime" of its log (rank 0's in a parallel run);
+  /// absent when the log has none. solve_seconds is the wall time of the same step.
+  std::optional<double> cpu_seconds;
   std::vector<StepTiming> steps;
   int iterations = 0;
   /// Steady: simpleFoam met its residualControl (numerics.residual) before its iteration cap
@@ -168,6 +171,10 @@ std::vector<Coefficients> readCoefficients(const std::filesystem::path& file);
 /// scene.statistics_from (half the end time when negative), St = f D / u_ref; no St without a
 /// whole period (Result::shedding_periods 0).
 void addSheddingStatistics(const Scene& scene, const std::vector<Coefficients>& history, Result& r);
+
+/// The last "ExecutionTime = X s" of an OpenFOAM solver's log: the CPU seconds the solver had used
+/// by its last time step or iteration; nothing when the log has no such line.
+std::optional<double> executionTime(const std::string& solver_log);
 
 /// How a steady SIMPLE solve ended, read from simpleFoam's log: converged when the log says
 /// "SIMPLE solution converged" (residualControl met) or every field's initial residual in the last
