@@ -82,6 +82,9 @@ void registerRenderedKind(CaseKindRegistry& registry) {
     TrackConfig cfg = trackerConfig(c);
     cfg.pixel_size = geometry_pixel / ro.scale;
     cfg.fps = video.fps;
+    // The rendering's own grains at the video's size: a grain as small as a particle would read
+    // as a particle at rest in the median background (TrackConfig::solids).
+    cv::resize(grains, cfg.solids, cv::Size(), ro.scale, ro.scale, cv::INTER_NEAREST);
     FrameSource source((ctx.out_dir / "video" / "frames").string());
     TrackRun run = runTracker(source, cfg, ctx.quiet);
     const Scores sc = scoreTracks(video.truth, run.tracks, c.real("score.gate"));

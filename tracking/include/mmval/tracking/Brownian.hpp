@@ -143,7 +143,16 @@ ImmobileTest immobileTest(const CveEstimate& e, double d_ensemble, double frame_
 /// rms drift per frame exceeds `peclet` times the rms drift-corrected step (noise of the
 /// ensemble mean removed); or when nothing diffuses: the correlation is not above the
 /// -1/2 of localisation noise about fixed places by `z_directed` standard errors (a
-/// video of stuck particles stays with flow, the default). Otherwise Brownian.
+/// video of stuck particles stays with flow, the default); or when more tracks keep
+/// their direction than diffusion allows: per track of n >= 4 successive steps, R =
+/// |sum of steps|^2 / sum of |step|^2 is exactly (1 - R / n)^(n - 1) likely to be
+/// exceeded for Gaussian diffusive steps (F(2, 2(n - 1)) tail; the +0.25 correlation of
+/// full-frame exposure widens it by at most 1 + 2 x 0.25, localisation noise and rests
+/// only narrow it), so a track is persistent above the R that diffusion exceeds with
+/// probability `persistent_alpha`, and the count of persistent tracks is flow when
+/// diffusion would give it with less than the one-sided normal tail of `z_directed`
+/// (exact binomial). This judges the tracks that move, whatever share of the steps
+/// deposits at rest contribute. Otherwise Brownian.
 struct MotionDecision {
   MotionModel requested = MotionModel::flow;
   MotionModel model = MotionModel::flow;
@@ -155,6 +164,10 @@ struct MotionDecision {
   double drift_peclet = kNaN;
   long long step_pairs = 0;
   int tracks = 0;
+  double persistent_alpha = 0.01;    ///< a diffusing track's chance to count as persistent
+  int persistence_tracks = 0;        ///< tracks with >= 4 successive steps, judged for persistence
+  int persistent_tracks = 0;         ///< of them, persistent
+  double persistent_p = kNaN;        ///< binomial chance of as many persistent tracks under diffusion
   bool relinked = false;  ///< the tracker linked again without prediction after deciding Brownian
 };
 MotionDecision decideMotion(const Tracks& tracks, double z_directed = 3.0, double peclet = 1.0);

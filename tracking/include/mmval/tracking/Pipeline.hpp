@@ -32,6 +32,12 @@ struct TrackConfig {
   /// block of that many frames, blended between blocks (Background.hpp).
   double background_quantile = 0.5;
   int background_window = 0;
+  /// The static scene's solids (grains, walls) where known: CV_8U of the frames' size,
+  /// non-zero on solid pixels (a rendered video's mask, a chip design registered to the
+  /// video); empty: unknown. A grain as small as a particle is, in the median background,
+  /// a particle at rest all along (detect.find_stuck): a spot centred on or beside a solid
+  /// pixel is taken as the scene instead (a particle's centre lies a radius into the pores).
+  cv::Mat solids;
 };
 
 struct TrackRun {
@@ -55,6 +61,7 @@ struct TrackRun {
   /// machine steadier than the wall time, and CPU / wall tells how well a stage used the cores.
   std::vector<std::pair<std::string, double>> stage_cpu_seconds;
   int stuck_found = 0;  ///< particles found in the background (stuck all along)
+  int stuck_on_solids = 0;  ///< spots of the background centred on TrackConfig::solids: the scene, left out
   /// Particles that arrived, deposited and stayed long enough to be part of the median
   /// background: joined to the track that brought them (it continues, at rest, to the end
   /// of the video, its points from the stop on labelled "deposited"), or found without one.
