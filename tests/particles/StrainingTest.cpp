@@ -3,7 +3,9 @@
 // w < 2a and passes when w > 2a (the geometric reference: a rigid sphere fits through a slot
 // only if the slot is wider than its diameter), to the wall distance's accuracy; one that stops
 // is counted once, as strained, after deposition.straining_time and not before; with straining
-// off it stays mobile, as before straining existed.
+// off it stays mobile, as before straining existed. A particle held by a deposited particle and
+// a wall in a passable throat (a cake at a blocked throat) is strained too; one held head-on by a
+// single deposited particle in open flow is not.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -21,6 +23,13 @@ namespace {
 /// same flux through both parts (u = U W / width).
 class StepChannel final : public FlowField {
  public:
+  /// While set, a disc of radius 0.1 um around `at` is solid (captureInSolid deposits a particle
+  /// there: how these tests fix a deposited particle where they want it).
+  void setMarker(const Vec2& at, bool on) {
+    m_marker = at;
+    m_marker_on = on;
+    ++m_version;
+  }
   StepChannel(double length, double wide, double narrow, double step_x, double depth, double u)
       : m_L(length), m_W(wide), m_w(narrow), m_xs(step_x), m_h(depth), m_u(u) {}
   Vec2 meanVelocity(double x, double y) const override {
@@ -29,6 +38,7 @@ class StepChannel final : public FlowField {
   }
   double depth(double, double) const override { return m_h; }
   bool isSolid(double x, double y) const override {
+    if (m_marker_on && std::hypot(x - m_marker.x(), y - m_marker.y()) < 0.1e-6) return true;
     return std::abs(y) >= 0.5 * m_W || (x >= m_xs && std::abs(y) >= 0.5 * m_w);
   }
   double wallDistance(double x, double y) const override {
@@ -38,11 +48,14 @@ class StepChannel final : public FlowField {
     const double to_step = std::hypot(std::max(m_xs - x, 0.0), std::max(0.5 * m_w - std::abs(y), 0.0));
     return std::min(side, to_step);
   }
-  std::uint64_t version() const override { return 1; }
+  std::uint64_t version() const override { return m_version; }
   Bounds2 bounds() const override { return {0.0, m_L, -0.5 * m_W, 0.5 * m_W}; }
 
  private:
   double m_L, m_W, m_w, m_xs, m_h, m_u;
+  Vec2 m_marker = Vec2::Zero();
+  bool m_marker_on = false;
+  std::uint64_t m_version = 1;
 };
 
 constexpr double kDiameter = 5e-6, kRadius = 2.5e-6;
@@ -162,6 +175,89 @@ TEST(StrainingTest, HeldAgainstOneWallIsNotStraining) {
   auto e = engineWithGap(1.2, true, 10e-6 - 1.1 * kRadius, 0.05);
   e->advance(3.0);
   EXPECT_EQ(e->counts().strained, 0);
+}
+
+/// A channel narrowing at kStepX to a slot `gap_diameters` d wide, a deposited particle fixed at
+/// `deposit` (x, y; mid-depth), and a mobile particle 6 radii before the step at `dy`, same depth.
+struct DepositScene {
+  std::shared_ptr<StepChannel> flow;
+  std::unique_ptr<OverdampedEngine> engine;
+};
+DepositScene sceneWithDeposit(double gap_diameters, const Vec2& deposit, double dy, double straining_time) {
+  DepositScene s;
+  s.flow = std::make_shared<StepChannel>(80e-6, 20e-6, gap_diameters * kDiameter, kStepX, 20e-6, 100e-6);
+  s.engine = std::make_unique<OverdampedEngine>(s.flow, quietScene(true, straining_time));
+  s.engine->insert({Vec3(deposit.x(), deposit.y(), 10e-6)});
+  s.flow->setMarker(deposit, true);
+  EXPECT_EQ(s.engine->captureInSolid(), 1);
+  s.flow->setMarker(deposit, false);
+  s.engine->insert({Vec3(kStepX - 6 * kRadius, dy, 10e-6)});
+  return s;
+}
+
+// (d) A cake at a blocked throat. The slot is 1.5 d wide (walls y = +-1.5 a): a particle passes it
+// alone (checked). With a deposited particle against its upper wall (centre y = +0.5 a, 6 radii in)
+// the gap left below is a = 0.5 d: a follower entering at y = -0.4 a meets the deposit, is pushed
+// along the line of centres onto the lower wall and stops touching both, at (x_d - sqrt(3) a,
+// -0.5 a) (centres 2 a apart, vertical offset a). There the drift (+x) lies in the cone of the
+// two contact normals (wall +y; deposit (-sqrt(3)/2, -1/2)), so it is held: strained after the
+// set time, not before. Tolerances: the contact push off the deposit comes last in a step, so the
+// particle ends exactly 2 a from the deposit's centre (1e-3 a: the sweeps' accuracy) but may press
+// into the wall by part of the step's move (the move is <= 0.1 a; the engine refuses positions
+// below 0.9 a from a wall), so its place is the contact point within 0.1 a; times within the
+// 10 ms sampling plus a step (0.1 a / 267 um/s in the slot, < 1 ms).
+TEST(StrainingTest, ParticleHeldByADepositAndAWallIsStrained) {
+  const double T = 0.5;
+  const Vec2 dep(kStepX + 6 * kRadius, 0.5 * kRadius);
+  {
+    auto alone = engineWithGap(1.5, true, -0.4 * kRadius, T);
+    alone->advance(2.0);
+    EXPECT_EQ(alone->counts().left, 1);  // the slot alone is passable
+  }
+  auto s = sceneWithDeposit(1.5, dep, -0.4 * kRadius, T);
+  auto& e = *s.engine;
+  ASSERT_EQ(e.particles().at(0).status, ParticleStatus::deposited);
+  double t_stop = -1;
+  Vec3 last(0, 0, 0);
+  for (double t = 0.01; t < 1.0 && t_stop < 0; t += 0.01) {
+    e.advance(t);
+    const Vec3 x = e.particles().at(1).x;
+    if ((x - last).norm() < 1e-12) t_stop = t - 0.01;
+    last = x;
+  }
+  ASSERT_GT(t_stop, 0.0);
+  const auto held = e.particles().at(1);
+  EXPECT_NEAR(std::hypot(held.x.x() - dep.x(), held.x.y() - dep.y()), 2 * kRadius, 1e-3 * kRadius);
+  EXPECT_NEAR(held.x.x(), dep.x() - std::sqrt(3.0) * kRadius, 0.1 * kRadius);
+  EXPECT_NEAR(held.x.y(), -0.5 * kRadius, 0.1 * kRadius);
+  EXPECT_GE(s.flow->wallDistance(held.x.x(), held.x.y()), 0.9 * kRadius);
+  e.advance(t_stop + T - 0.02);
+  EXPECT_EQ(e.particles().at(1).status, ParticleStatus::mobile);
+  e.advance(t_stop + T + 0.02);
+  const auto p = e.particles().at(1);
+  ASSERT_EQ(p.status, ParticleStatus::deposited);
+  EXPECT_EQ(p.held_by, Surface::strained);
+  EXPECT_NEAR(p.t_event, t_stop + T, 0.02);
+  EXPECT_EQ(e.counts().strained, 1);
+}
+
+// (e) One deposited particle in open flow (the channel 4 d wide throughout: a "slot" as wide as
+// the channel, so no step) is one contact normal, no cone: a follower driven exactly head-on
+// (no Brownian motion, so nothing breaks the symmetry) stays pressed against it but is never
+// strained, however long; one a tenth of a radius off the line of centres slides round it and
+// leaves.
+TEST(StrainingTest, HeldHeadOnByOneDepositIsNotStraining) {
+  const Vec2 dep(kStepX - 2 * kRadius, 0.0);
+  auto head_on = sceneWithDeposit(4.0, dep, 0.0, 0.05);
+  head_on.engine->advance(3.0);
+  const auto p = head_on.engine->particles().at(1);
+  EXPECT_EQ(p.status, ParticleStatus::mobile);
+  EXPECT_NEAR(p.x.x(), dep.x() - 2 * kRadius, 0.01 * kRadius);  // it is pressed against the deposit
+  EXPECT_EQ(head_on.engine->counts().strained, 0);
+  auto off = sceneWithDeposit(4.0, dep, 0.1 * kRadius, 0.05);
+  off.engine->advance(3.0);
+  EXPECT_EQ(off.engine->counts().left, 1);
+  EXPECT_EQ(off.engine->counts().strained, 0);
 }
 
 }  // namespace

@@ -310,12 +310,13 @@ void OverdampedEngine::advance(double t_end) {
       // Attachment only once every overlap of the step is removed: a particle attached
       // earlier would be left out of the contact sweeps and could stay inside a deposit.
       resolveContacts();
+      std::sort(m_deposit_contacts.begin(), m_deposit_contacts.end());
       std::vector<int> fresh;  // deposited in this step, not yet in m_dep_cells
       for (const int i : m_mobile) {
         auto& p = m_particles[i];
         if (p.status != ParticleStatus::mobile) continue;
         decideAttachment(p, m_touch[i]);
-        updateStraining(p, (m_touch[i] & kPinned) != 0, m_t + dt);
+        updateStraining(p, (m_touch[i] & kPinned) != 0 || heldByDeposits(p, i), m_t + dt);
         if (p.status != ParticleStatus::deposited) continue;
         if (overlapsDeposit(p, fresh)) {
           p.status = ParticleStatus::mobile;  // a push undone at a grain left an overlap: try again next step
@@ -476,6 +477,30 @@ void OverdampedEngine::updateStraining(ParticleState& p, bool pinned, double t) 
   }
 }
 
+bool OverdampedEngine::heldByDeposits(const ParticleState& p, int i) const {
+  if (!m_cfg.straining.enabled || p.status != ParticleStatus::mobile || (m_touch[i] & kDeposit) == 0) return false;
+  const double a = m_radius;
+  const Vec2 u(p.v.x(), p.v.y());
+  if (u.norm() * a < m_model.diffusivity()) return false;  // diffusion, not the flow, decides
+  // In-plane contact normals, from each deposit touched in this step's contact sweeps to the
+  // particle (one per deposit, at its final position), and the nearest wall's when the wall is
+  // within one step's travel (max_step_fraction radii: the drift presses it there again next step).
+  std::vector<Vec2> normals;
+  const auto range = std::equal_range(m_deposit_contacts.begin(), m_deposit_contacts.end(), std::pair<int, int>(i, 0),
+                                      [](const std::pair<int, int>& l, const std::pair<int, int>& r) { return l.first < r.first; });
+  int last = -1;
+  for (auto it = range.first; it != range.second; ++it) {
+    if (it->second == last) continue;
+    last = it->second;
+    const Vec3& q = m_particles[it->second].x;
+    const Vec2 n(p.x.x() - q.x(), p.x.y() - q.y());
+    if (n.norm() > 1e-9 * a) normals.push_back(n / n.norm());
+  }
+  if (!m_flow->isSolid(p.x.x(), p.x.y()) && m_flow->wallDistance(p.x.x(), p.x.y()) < (1 + m_cfg.max_step_fraction) * a)
+    normals.push_back(m_flow->wallNormal(p.x.x(), p.x.y()));
+  return heldAgainst(u, normals);
+}
+
 void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched) {
   const auto& at = m_cfg.attachment;
   if (!(at.capture_distance > 0)) return;
@@ -600,6 +625,7 @@ void OverdampedEngine::resolveContacts() {
   // particles are indexed per sweep, as (cell key, index) pairs sorted by key
   // then index in one buffer for all sweeps; deposited ones sit in a persistent
   // hash (they never move), so the cost scales with the mobile count only.
+  m_deposit_contacts.clear();
   std::vector<std::pair<std::int64_t, int>> cells;
   cells.reserve(m_mobile.size());
   for (int sweep = 0; sweep < 4; ++sweep) {
@@ -622,6 +648,7 @@ void OverdampedEngine::resolveContacts() {
       if (q.status == ParticleStatus::deposited) {
         p.x += r * overlap;
         m_touch[i] |= kDeposit;  // an arrival on a deposit, decided after the sweeps
+        if (m_cfg.straining.enabled) m_deposit_contacts.emplace_back(i, j);
       } else {
         p.x += 0.5 * overlap * r;
         q.x -= 0.5 * overlap * r;

@@ -24,7 +24,8 @@
 // narrower than themselves, to the wall distance's accuracy (kWallTolerance).
 // Straining (SceneConfig::straining): a particle pinned there by its drift (its
 // move refused, or pushed off two walls that close in ahead of it) for the set
-// time is deposited with Surface::strained.
+// time is deposited with Surface::strained. So is one held there by deposits (strained or
+// attached particles) and walls together: a cake building upstream of a blocked throat.
 // Attachment is decided after the contacts of the step are resolved, so that a
 // particle never attaches overlapping a deposit: a particle whose gap to a sticky
 // surface falls below the capture distance, that would have penetrated it, or that
@@ -118,6 +119,13 @@ class OverdampedEngine final : public ParticleEngine {
   bool slideBetweenWalls(ParticleState& p, const Vec3& before, const Vec2& last, std::vector<Vec2>& normals) const;
   /// Straining: the pinned particle's clock (StrainingModel); deposits it as strained at time t.
   void updateStraining(ParticleState& p, bool pinned, double t) const;
+  /// Straining at deposits: after the contact sweeps, the drift of mobile particle i is held by
+  /// the contact normals of the deposits it touched in this step and of a wall within one step's
+  /// travel (the cone test of the walls' kPinned: two normals whose cone holds -drift; one
+  /// deposit head-on is not a hold, the particle slides round it), with the drift beating
+  /// diffusion over a radius. Deposit normals are taken in the plane: a particle that can ride
+  /// over or under the deposit in z moves on and leaves the straining anchor.
+  bool heldByDeposits(const ParticleState& p, int i) const;
   /// After contacts: attaches a particle that arrived at a sticky surface (either rule).
   void decideAttachment(ParticleState& p, std::uint8_t touched);
   /// dlvo rule: one draw for an arrival on surface `s`; true when the particle attaches. A
@@ -142,6 +150,8 @@ class OverdampedEngine final : public ParticleEngine {
   std::vector<int> m_mobile;  ///< indices of mobile particles, ascending
   std::unordered_map<std::int64_t, std::vector<int>> m_dep_cells;  ///< deposited particles by contact cell
   std::vector<std::uint8_t> m_touch;  ///< Touch bits of this step, by particle index
+  /// (mobile, deposited) pairs pushed apart in this step's contact sweeps, sorted after them (straining only)
+  std::vector<std::pair<int, int>> m_deposit_contacts;
   std::unique_ptr<SurfaceChemistry> m_plate_chem, m_deposit_chem;  ///< dlvo rule only
   std::vector<int> m_dep_order;  ///< deposited particles in the order they were indexed (restores m_dep_cells exactly)
   double m_t = 0.0;
