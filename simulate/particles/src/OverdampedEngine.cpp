@@ -427,7 +427,8 @@ std::uint8_t OverdampedEngine::applyWalls(ParticleState& p, const Vec3& before) 
     // both sides) the move is refused, so a particle never squeezes through a gap
     // smaller than itself.
     touched |= kGrain;
-    std::vector<Vec2> normals;
+    std::vector<Vec2>& normals = m_normals;  // reused: no allocation per wall contact
+    normals.clear();
     for (int pass = 0; pass < kWallPasses && d < a; ++pass) {
       const Vec2 n = m_flow->wallNormal(p.x.x(), p.x.y());
       normals.push_back(n);
@@ -485,7 +486,8 @@ bool OverdampedEngine::heldByDeposits(const ParticleState& p, int i) const {
   // In-plane contact normals, from each deposit touched in this step's contact sweeps to the
   // particle (one per deposit, at its final position), and the nearest wall's when the wall is
   // within one step's travel (max_step_fraction radii: the drift presses it there again next step).
-  std::vector<Vec2> normals;
+  std::vector<Vec2>& normals = m_normals;  // reused: no allocation per contact
+  normals.clear();
   const auto range = std::equal_range(m_deposit_contacts.begin(), m_deposit_contacts.end(), std::pair<int, int>(i, 0),
                                       [](const std::pair<int, int>& l, const std::pair<int, int>& r) { return l.first < r.first; });
   int last = -1;

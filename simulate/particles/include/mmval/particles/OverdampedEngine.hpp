@@ -126,6 +126,8 @@ class OverdampedEngine final : public ParticleEngine {
   /// diffusion over a radius. Deposit normals are taken in the plane: a particle that can ride
   /// over or under the deposit in z moves on and leaves the straining anchor.
   bool heldByDeposits(const ParticleState& p, int i) const;
+  /// Scratch for the contact normals of applyWalls / heldByDeposits (one particle at a time).
+  mutable std::vector<Vec2> m_normals;
   /// After contacts: attaches a particle that arrived at a sticky surface (either rule).
   void decideAttachment(ParticleState& p, std::uint8_t touched);
   /// dlvo rule: one draw for an arrival on surface `s`; true when the particle attaches. A
