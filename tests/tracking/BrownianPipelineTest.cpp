@@ -111,7 +111,15 @@ TEST(BrownianPipeline, AutoPicksFlowForAFlowVideoAndKeepsItsOutputs) {
   const auto files = writeTrackOutputs(run, c, dir / "out", nlohmann::json::object());
   for (const char* f : {"tracks.csv", "velocities.csv", "retention.csv", "speed_map.png", "velocity_overlay.png", "summary.json"})
     EXPECT_NE(std::find(files.begin(), files.end(), f), files.end()) << f;
-  EXPECT_EQ(summaryOf(dir / "out")["motion"]["model"], "flow");
+  const auto j = summaryOf(dir / "out");
+  EXPECT_EQ(j["motion"]["model"], "flow");
+  // The persistence counts are numbers in summary.json, the decision's own.
+  const auto& n = j["motion"]["numbers"];
+  ASSERT_TRUE(n.contains("persistence_tracks")) << n.dump();
+  EXPECT_EQ(n["persistence_tracks"].get<int>(), run.motion.persistence_tracks);
+  EXPECT_EQ(n["persistent_tracks"].get<int>(), run.motion.persistent_tracks);
+  EXPECT_NEAR(n["persistent_expected"].get<double>(), 0.01 * run.motion.persistence_tracks, 1e-12);
+  EXPECT_GT(run.motion.persistence_tracks, 0);
 }
 
 namespace {

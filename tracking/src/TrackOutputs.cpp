@@ -145,6 +145,15 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
                                     {"z_diffusing", run.motion.z_diffusing},
                                     {"drift_peclet", std::isfinite(run.motion.drift_peclet) ? nlohmann::json(run.motion.drift_peclet) : nlohmann::json(nullptr)},
                                     {"step_pairs", run.motion.step_pairs}, {"tracks", run.motion.tracks}};
+  if (run.motion.persistence_tracks > 0) {
+    // The persistence test's counts (MotionDecision.cpp): tracks judged, persistent, the count
+    // diffusion would give by chance, and the binomial chance of at least as many.
+    auto& n = summary["motion"]["numbers"];
+    n["persistence_tracks"] = run.motion.persistence_tracks;
+    n["persistent_tracks"] = run.motion.persistent_tracks;
+    n["persistent_expected"] = run.motion.persistent_alpha * run.motion.persistence_tracks;
+    n["persistent_p"] = std::isfinite(run.motion.persistent_p) ? nlohmann::json(run.motion.persistent_p) : nlohmann::json(nullptr);
+  }
   summary["frames"] = run.frame_index.size();
   if (!brownian) {
     summary["tracks"] = s.particles;
