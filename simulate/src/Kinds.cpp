@@ -1,6 +1,8 @@
 #include "mmval/simulate/ThroatCheck.hpp"
 #include "mmval/simulate/Kinds.hpp"
 
+#include <sys/resource.h>
+
 #include <cmath>
 
 #include <fmt/format.h>
@@ -71,7 +73,14 @@ std::string immersedLabel(const Case& c) {
   return m == "sharp" ? m + " (" + c.text("numerics.cut_cells") + " cut cells)" : m;
 }
 
-nlohmann::json ladderRow(std::size_t index, int resolution, const SteadyFlowSolver& s, double wall_seconds, double value, const Acceptance* primary) {
+double processCpuSeconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+  return seconds(u.ru_utime) + seconds(u.ru_stime);
+}
+
+nlohmann::json ladderRow(std::size_t index, int resolution, const SteadyFlowSolver& s, const LevelClock& clock, double value, const Acceptance* primary) {
   const FlowStats& st = s.stats();
   nlohmann::json row = {{"level", index},
                         {"resolution", resolution},
@@ -79,7 +88,8 @@ nlohmann::json ladderRow(std::size_t index, int resolution, const SteadyFlowSolv
                         {"nx", s.nx()},
                         {"ny", s.ny()},
                         {"unknowns", st.unknowns},
-                        {"wall_seconds", wall_seconds},
+                        {"wall_seconds", clock.wallSeconds()},
+                        {"cpu_seconds", clock.cpuSeconds()},
                         {"assemble_seconds", st.assemble_seconds},
                         {"solve_seconds", st.solve_seconds},
                         {"linear_iterations", st.linear_iterations},
@@ -154,7 +164,7 @@ CaseKind channelKind() {
     double value = 0, q = 0, grad = 0;
     for (std::size_t li = 0; li < levels.size(); ++li) {
       const int n = levels[li];
-      const auto t0 = std::chrono::steady_clock::now();
+      const LevelClock clock;
       FlowProblem p;
       p.y = uniformAxis(0, W, n);
       p.viscosity = mu;
@@ -186,7 +196,7 @@ CaseKind channelKind() {
       } else {
         value = hd > 0 ? q / plates : q;
       }
-      ladder.push_back(ladderRow(li, n, *last, secondsSince(t0), value, primary));
+      ladder.push_back(ladderRow(li, n, *last, clock, value, primary));
       progress.update(li + 1);
     }
     progress.finish();

@@ -28,8 +28,19 @@ SolverOptions solverOptions(const Case& c, bool quiet = false);
 void setImmersed(const Case& c, FlowProblem& p);
 /// result.json's details.immersed: "penalized", or "sharp" with the cut-cell treatment.
 std::string immersedLabel(const Case& c);
-/// One ladder row: cells, unknowns, timings, iterations, memory, value and error against `primary`.
-nlohmann::json ladderRow(std::size_t index, int resolution, const SteadyFlowSolver& s, double wall_seconds, double value,
+/// User and system CPU seconds this process has used so far (getrusage; on several ranks, this
+/// rank's): a level's cost on a shared machine, where the wall time depends on the load.
+double processCpuSeconds();
+/// A level's clock: wall and process CPU seconds since it was made.
+struct LevelClock {
+  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+  double cpu0 = processCpuSeconds();
+  double wallSeconds() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
+  double cpuSeconds() const { return processCpuSeconds() - cpu0; }
+};
+/// One ladder row: cells, unknowns, timings (wall and CPU since `clock` was made), iterations,
+/// memory, value and error against `primary`.
+nlohmann::json ladderRow(std::size_t index, int resolution, const SteadyFlowSolver& s, const LevelClock& clock, double value,
                          const Acceptance* primary);
 /// Writes fields.vtr and speed.png of `s` into ctx.out_dir (rank 0 only) and lists them in out.files.
 void writeFields(const SteadyFlowSolver& s, const RunContext& ctx, const std::string& stem, RunOutput& out);

@@ -156,7 +156,7 @@ CaseKind cylinderChannelKind() {
     }
     Progress progress("fluid " + c.name(), levels.size(), ctx.quiet);
     for (std::size_t li = 0; li < levels.size(); ++li) {
-      const auto t0 = std::chrono::steady_clock::now();
+      const LevelClock clock;
       const double h = surfaceSpacing(scene, levels[li]);
       const FlowProblem p = makeProblem(levels[li]);
       last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c, ctx.quiet));
@@ -167,7 +167,7 @@ CaseKind cylinderChannelKind() {
         const auto& b = scene.pressure_probes[1];
         dp = last->pressureAt(a[0], a[1]) - last->pressureAt(b[0], b[1]);
       }
-      auto row = ladderRow(li, levels[li], *last, secondsSince(t0), coef * load.force.x(), primary);
+      auto row = ladderRow(li, levels[li], *last, clock, coef * load.force.x(), primary);
       row["h_over_D"] = h / D;
       row["c_L"] = coef * load.force.y();
       // The lift error per level: at h ~ D/15-D/30 it scatters by several % with the sub-cell

@@ -30,15 +30,6 @@ namespace mmval::simulate::detail {
 namespace {
 constexpr const char* kCheckpointFormat = "mmval-unsteady-cylinder-checkpoint-1";
 
-/// User and system CPU seconds this process has used so far (getrusage): a level's cost on a
-/// shared machine, where the wall time depends on the load.
-double processCpuSeconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
-  return seconds(u.ru_utime) + seconds(u.ru_stime);
-}
-
 /// The case's first acceptance entry on `metric` with a single, nonzero reference value (2D-2's
 /// c_D max: FEATFLOW level 6, listed after the 1996 interval), or none.
 const Acceptance* pointReference(const Case& c, const std::string& metric) {

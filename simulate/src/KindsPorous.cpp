@@ -279,7 +279,7 @@ CaseKind periodicArrayKind() {
     double fstar = 0, force_check = 0;
     const double G = 1.0;  // Pa/m; Stokes is linear, F* does not depend on it
     for (std::size_t li = 0; li < levels.size(); ++li) {
-      const auto t0 = std::chrono::steady_clock::now();
+      const LevelClock clock;
       FlowProblem p = squareArrayProblem(L, levels[li], phi, mu, G);
       setImmersed(c, p);
       p.supersample = static_cast<int>(c.integer("numerics.supersample"));
@@ -289,7 +289,7 @@ CaseKind periodicArrayKind() {
       // Sangani & Acrivos: F = G L^2 per unit length, F* = F / (mu U_darcy).
       fstar = G * L * L / (mu * last->superficialVelocity());
       force_check = last->bodyLoads()[0].force.x() / (G * L * L);
-      auto row = ladderRow(li, levels[li], *last, secondsSince(t0), fstar, primary);
+      auto row = ladderRow(li, levels[li], *last, clock, fstar, primary);
       row["cells_per_side"] = levels[li];
       row["spacing_m"] = L / levels[li];
       row["force_over_GL2"] = force_check;
@@ -429,7 +429,7 @@ CaseKind imagePermeabilityKind() {
       std::vector<double> h, ks;
       std::vector<int> nxs;
       for (std::size_t li = 0; li < levels.size(); ++li) {
-        const auto t0 = std::chrono::steady_clock::now();
+        const LevelClock clock;
         FlowProblem p = imageProblem(geo, levels[li], mu, dp, m == "2d" ? 0.0 : depth);
         setImmersed(c, p);
         ThroatFound throat;
@@ -444,7 +444,7 @@ CaseKind imagePermeabilityKind() {
         // Darcy: k = mu Q L / (A dp), per unit depth in 2D (Q per depth, A = height).
         const double q = last->flowRate(Side::east);
         const double kk = mu * q * geo.width_m / (geo.height_m * dp);
-        auto row = ladderRow(li, last->nx(), *last, secondsSince(t0), kk, primary);
+        auto row = ladderRow(li, last->nx(), *last, clock, kk, primary);
         row["depth_model"] = m;
         row["cells_per_pixel"] = levels[li];
         row["permeability_D"] = kk / kDarcy;

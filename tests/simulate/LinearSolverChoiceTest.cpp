@@ -103,6 +103,16 @@ TEST(LinearSolverChoice, PeriodicArrayKindRecordsTheChoice) {
   EXPECT_NE(la[1].at("linear_solver_reason").get<std::string>().find("unknowns"), std::string::npos);
   EXPECT_EQ(la[1].at("linear_solver_fallback"), false);
   EXPECT_GT(la[1].at("linear_iterations").get<int>(), 1);
+  // Each level records its CPU time (the speed-vs-error figure's axis) beside its wall time: positive,
+  // and on this one-rank run not above the wall time by more than the process's threads could add
+  // (PETSc and BLAS run here on one thread: 1.5x with 10 ms of clock granularity). The larger level
+  // solves ~10^4 unknowns: it cannot take zero CPU.
+  for (const auto& row : la) {
+    const double cpu = row.at("cpu_seconds").get<double>(), wall = row.at("wall_seconds").get<double>();
+    EXPECT_GE(cpu, 0.0);
+    EXPECT_LE(cpu, 1.5 * wall + 0.01) << row.dump();
+  }
+  EXPECT_GT(la[1].at("cpu_seconds").get<double>(), 0.0);
   const auto& ld = d.details.at("ladder");
   EXPECT_EQ(ld[1].at("linear_solver"), "direct");
   EXPECT_EQ(ld[1].at("linear_solver_reason"), "requested");
