@@ -391,4 +391,11 @@ double secondaryMinimumCaptureProbability(double depth_kT) {
   return std::erf(std::sqrt(x)) - 2.0 * std::sqrt(x / kPi) * std::exp(-x);
 }
 
+double patchwiseEfficiency(double favourable_fraction, double alpha_unfavourable) {
+  const auto in_unit = [](double v) { return v >= 0 && v <= 1; };
+  if (!in_unit(favourable_fraction)) throw std::invalid_argument("favourable fraction " + std::to_string(favourable_fraction) + " outside [0, 1]");
+  if (!in_unit(alpha_unfavourable)) throw std::invalid_argument("attachment efficiency " + std::to_string(alpha_unfavourable) + " outside [0, 1]");
+  return favourable_fraction + (1 - favourable_fraction) * alpha_unfavourable;
+}
+
 }  // namespace mmval::particles

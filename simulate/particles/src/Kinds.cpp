@@ -358,6 +358,16 @@ void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {
              "Composite contact modulus K = 4/3 / ((1 - nu1^2)/E1 + (1 - nu2^2)/E2); default polystyrene (3.4 GPa, 0.33) on glass (70 GPa, 0.22)")
       .def("4.84 GPa").positive();
   declareChemistry(s, false);  // the temperature is fluid.temperature
+  // Attachment only (the particle kinds' dlvo rule), so not in the shared chemistry block.
+  s.real("chemistry.favourable_fraction",
+         "deposition.model = \"dlvo\": area fraction lambda of favourable (barrier-free, attractive) patches on the glass, plates "
+         "and grains (deposits are latex and keep their own chemistry): patchwise heterogeneity (Song, Johnson & Elimelech 1994). "
+         "Per arrival a favourable patch with probability lambda (primary-minimum attachment), else the unfavourable DLVO rule: "
+         "alpha = lambda + (1 - lambda) alpha_unfavourable. An assumption the experiment does not constrain "
+         "(reference-data/dlvo-materials.toml); 0: homogeneous glass")
+      .def(AttachmentModel{}.favourable_fraction)
+      .min(0)
+      .max(1);
 }
 
 std::int64_t outputFrames(const Case& c) {
@@ -410,6 +420,10 @@ void physicsAndDepositionFromCase(const Case& c, const EngineChoice& choice, Sce
     if (s.attachment.torque_balance) conflict("deposition.plate_rule", "torque-balance", "\"capture\"");
     s.attachment.rule = AttachmentModel::Rule::dlvo;
     s.attachment.chemistry = chemistryFromCase(c, "fluid.temperature");
+    s.attachment.favourable_fraction = c.real("chemistry.favourable_fraction");
+  } else if (c.real("chemistry.favourable_fraction") > 0) {
+    throw InputError(c.where("chemistry.favourable_fraction"), "applies to deposition.model = \"dlvo\" only (the capture rule has no chemistry)",
+                     fmt::format("{:g}", c.real("chemistry.favourable_fraction")), "0, or deposition.model = \"dlvo\"");
   }
 }
 

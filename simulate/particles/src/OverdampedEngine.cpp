@@ -564,7 +564,19 @@ void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched) 
 }
 
 bool OverdampedEngine::dlvoArrival(ParticleState& p, Surface s, const SurfaceChemistry& sc) {
-  const double u = arrivalDraw(p.id, ++p.arrivals);
+  double u = arrivalDraw(p.id, ++p.arrivals);
+  // Patchwise heterogeneity of the glass (Song, Johnson & Elimelech 1994; deposits are latex): the
+  // arrival lands on a favourable patch with probability lambda and attaches in the primary
+  // minimum; otherwise the same draw, rescaled to [0, 1) on the rest, decides by the unfavourable
+  // rule below (lambda = 0: the draw is left as it is).
+  const double lambda = s == Surface::deposit ? 0.0 : m_cfg.attachment.favourable_fraction;
+  if (lambda > 0) {
+    if (u < lambda) {
+      p.secondary = false;
+      return true;
+    }
+    u = (u - lambda) / (1 - lambda);
+  }
   if (u < sc.alpha) {  // over the barrier into the primary minimum
     p.secondary = false;
     return true;
@@ -815,6 +827,12 @@ nlohmann::json OverdampedEngine::describe() const {
                   "the experiment gives no solution chemistry: ionic strength, valence, zeta potentials and Hamaker constant are "
                   "assumptions (case inputs), not measurements"},
                  {"plates_and_grains", m_plate_chem->describe()},
+                 {"charge_heterogeneity",
+                  {{"model", "patchwise (Song, Johnson & Elimelech 1994): plates and grains only; per arrival, a favourable patch "
+                             "(primary-minimum attachment) with probability favourable_fraction, else the unfavourable rule"},
+                   {"favourable_fraction", c.attachment.favourable_fraction},
+                   {"primary_attachment_efficiency", patchwiseEfficiency(c.attachment.favourable_fraction, m_plate_chem->alpha)},
+                   {"assumption", "the experiment does not constrain the favourable fraction: a case input, not a measurement"}}},
                  {"deposits", m_deposit_chem->describe()},
                  {"deposited_in_secondary_minimum", secondary}};
   }

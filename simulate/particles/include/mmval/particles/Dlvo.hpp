@@ -222,4 +222,12 @@ double barrierSlopeWithIonicStrength(const DlvoInteraction& v, const DlvoProfile
 /// 2007, Environ. Sci. Technol. 41). 0 for depth <= 0.
 double secondaryMinimumCaptureProbability(double depth_kT);
 
+/// Attachment efficiency of a surface with patchwise charge heterogeneity (Song, Johnson &
+/// Elimelech 1994, Environ. Sci. Technol. 28:1164): a fraction `favourable_fraction` (lambda) of
+/// its area is favourable (no barrier: every arrival there attaches, alpha = 1), the rest follows
+/// the unfavourable profile with `alpha_unfavourable`; patches larger than the particle's
+/// interaction zone add as areas: lambda + (1 - lambda) alpha_unfavourable. Throws
+/// std::invalid_argument unless both lie in [0, 1].
+double patchwiseEfficiency(double favourable_fraction, double alpha_unfavourable);
+
 }  // namespace mmval::particles

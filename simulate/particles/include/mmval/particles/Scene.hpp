@@ -41,6 +41,15 @@ struct AttachmentModel {
   /// particle_potential is the particle's zeta potential and collector_potential the chip's
   /// (plates and grains). The radii are set by the engine.
   DlvoParameters chemistry;
+  /// dlvo rule, glass only (plates and grains; deposits are latex and keep their own chemistry):
+  /// lambda, the area fraction of favourable (barrier-free, attractive) patches on the glass, the
+  /// patchwise heterogeneity model of Song, Johnson & Elimelech (1994, Environ. Sci. Technol.
+  /// 28:1164). An arrival lands on a favourable patch with probability lambda and attaches in the
+  /// primary minimum; otherwise the unfavourable rule above decides, so the efficiency per arrival
+  /// is lambda + (1 - lambda) alpha_unfavourable (patchwiseEfficiency, Dlvo.hpp). Same draw per
+  /// arrival as that rule: 0 leaves every result as without the model. An assumption: nothing in
+  /// the experiment constrains it (reference-data/dlvo-materials.toml).
+  double favourable_fraction = 0.0;
   double capture_distance = 0.1e-6;  ///< m; <= 0 switches attachment off
   bool bottom = true;                ///< the chip's bottom plate (z = 0) is sticky
   bool top = false;                  ///< the top plate (z = h)
