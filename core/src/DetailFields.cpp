@@ -72,7 +72,7 @@ std::vector<DetailFieldDecl> makeDeclarations() {
       {F::ladder_linear_solver_reason, "linear_solver_reason", F::ladder, T::string, none, 0, "-",
        "why that solver: `requested`, or the rule `auto` applied (problem class, unknowns, ranks) and any fallback", kSteadyMmvalKinds},
       {F::ladder_linear_solver_fallback, "linear_solver_fallback", F::ladder, T::boolean, none, 0, "-",
-       "true when an auto-chosen iterative solve did not converge and the direct LU solved the level instead", kSteadyMmvalKinds},
+       "true when an auto-chosen solver failed and the other solved the level instead (an iterative solve that did not converge: the direct LU; a direct LU its library could not factorise: the iterative solver)", kSteadyMmvalKinds},
       {F::runs, "runs", top, T::array, T::object, 0, "-", "every solved level of every depth model (the ladder holds one model's)", "image-permeability"},
       {F::runs_3d, "runs_3d", top, T::array, T::object, 0, "-", "the levels of the coarse 3D Stokes solve", "image-permeability (depth_model 3d or all)"},
       {F::grid_convergence, "grid_convergence", top, T::object, none, 0, "-",

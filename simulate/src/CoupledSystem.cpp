@@ -56,6 +56,40 @@ struct CoupledSystem::Impl {
   bool csr_same = false;  ///< A's compressed rows are (held_start, held_cols) (see insert)
   bool kept_analysis = false;  ///< see setKeptAnalysis
 
+  /// KSPSolve of the assembled system; a failure inside the solver's library (UMFPACK's or MUMPS's
+  /// factorisation out of memory, an allocation) becomes a LinearSolverFailure naming the solver,
+  /// the size and the keys to change; any other PETSc error stays an internal one.
+  void kspSolve() {
+    const PetscErrorCode ierr = KSPSolve(ksp, b, x);
+    const bool direct = opt.linear == "direct";
+    if (ierr == 0) {
+      // A factorisation that failed without a PETSc error (MUMPS: its workspace or memory limit)
+      // leaves the KSP diverged with the PC failed; a zero pivot stays the caller's FlowFailure.
+      KSPConvergedReason reason;
+      KSPGetConvergedReason(ksp, &reason);
+      if (!direct || reason != KSP_DIVERGED_PC_FAILED) return;
+      PC pc;
+      PCFailedReason why = PC_NOERROR;
+      if (KSPGetPC(ksp, &pc) != 0 || PCGetFailedReason(pc, &why) != 0 || (why != PC_FACTOR_OUTMEMORY && why != PC_FACTOR_OTHER)) return;
+    } else if (ierr != PETSC_ERR_LIB && ierr != PETSC_ERR_MEM) {
+      check(ierr, "KSPSolve");
+    }
+    PetscInt n = 0;
+    MatGetSize(A, &n, nullptr);
+    PC fpc;
+    MatSolverType used = solver;  // the one a PETSc option chose, if any
+    if (direct && KSPGetPC(ksp, &fpc) == 0) PCFactorGetMatSolverType(fpc, &used);
+    const std::string what = direct ? fmt::format("the direct LU ({}) could not factorise the {} unknowns", used != nullptr ? used : solver, static_cast<long long>(n))
+                                    : fmt::format("the iterative solver's preconditioner failed on the {} unknowns", static_cast<long long>(n));
+    const std::string how = ierr == 0 ? "the factorisation failed inside the solver's library, typically out of memory or workspace"
+                            : fmt::format("PETSc error {}: {} inside the solver's library", static_cast<int>(ierr),
+                                          ierr == PETSC_ERR_MEM ? "out of memory" : "a failure, typically out of memory,");
+    throw LinearSolverFailure(fmt::format("{} ({})", what, how),
+                              direct ? "numerics.linear_solver = \"iterative\" (or \"auto\", which then tries it), or fewer cells (numerics.cells_per_pixel)"
+                                     : "numerics.linear_solver = \"direct\", or fewer cells",
+                              direct);
+  }
+
   ~Impl() {
     if (ksp != nullptr) KSPDestroy(&ksp);
     if (Sp != nullptr) MatDestroy(&Sp);
@@ -294,7 +328,7 @@ struct CoupledSystem::Impl {
       check(KSPSetReusePreconditioner(ksp, refactor ? PETSC_FALSE : PETSC_TRUE), "reuse pc");
     }
     if (opt.linear == "direct" && (lag_max_its == 0 || refactor)) ++factorisations;
-    check(KSPSolve(ksp, b, x), "KSPSolve");
+    kspSolve();
     KSPConvergedReason reason;
     KSPGetConvergedReason(ksp, &reason);
     if (reason < 0 && lag_max_its > 0 && !refactor) {
@@ -303,7 +337,7 @@ struct CoupledSystem::Impl {
       ++factorisations;
       setGuess(state, lo, hi);
       check(KSPSetReusePreconditioner(ksp, PETSC_FALSE), "reuse pc");
-      check(KSPSolve(ksp, b, x), "KSPSolve");
+      kspSolve();
       KSPGetConvergedReason(ksp, &reason);
     }
     PetscInt its = 0;
@@ -354,7 +388,7 @@ struct CoupledSystem::Impl {
       check(KSPSetInitialGuessNonzero(ksp, PETSC_TRUE), "initial guess");
       check(KSPSetReusePreconditioner(ksp, PETSC_TRUE), "reuse pc");
       setGuess(state, lo, hi);
-      check(KSPSolve(ksp, b, x), "KSPSolve");
+      kspSolve();
       KSPConvergedReason reason;
       KSPGetConvergedReason(ksp, &reason);
       PetscInt its = 0;
@@ -372,7 +406,7 @@ struct CoupledSystem::Impl {
       check(KSPSetInitialGuessNonzero(ksp, PETSC_FALSE), "initial guess");
       check(KSPSetReusePreconditioner(ksp, PETSC_FALSE), "reuse pc");
       ++factorisations;
-      check(KSPSolve(ksp, b, x), "KSPSolve");
+      kspSolve();
       KSPConvergedReason reason;
       KSPGetConvergedReason(ksp, &reason);
       if (reason < 0) throw FlowFailure(fmt::format("the fluid linear solve failed ({})", KSPConvergedReasons[reason]), "refine the grid");

@@ -76,6 +76,7 @@ struct SteadyFlowSolver::Impl {
   /// An "auto"-chosen iterative solve, or the friction split's, failed: the direct LU solves instead,
   /// once, when its measured memory per cell fits within the default memory limit. Returns whether it switched.
   bool fallBack(const FlowFailure& e) {
+    if (const auto* lib = dynamic_cast<const LinearSolverFailure*>(&e); lib != nullptr && lib->direct()) return fallBackToIterative(*lib);
     const bool split = frictionSplit();
     if ((!automatic && !split) || fell_back || opt.linear != "iterative") return false;
     const double need = detail::steadyFlowBytes(static_cast<double>(op.nx()) * op.ny(), false);
@@ -94,6 +95,23 @@ struct SteadyFlowSolver::Impl {
     return true;
   }
 
+  /// An "auto"-chosen direct LU that its library could not factorise (UMFPACK out of memory:
+  /// Pore2Chip at 2 cells per pixel, 3.0M unknowns, 2026-12-05): the iterative solver tries once,
+  /// said on stderr and in the ladder's reason; if it does not converge either, the run stops
+  /// naming both failures.
+  bool fallBackToIterative(const LinearSolverFailure& e) {
+    if (!automatic || fell_back || opt.linear != "direct") return false;
+    fell_back = true;
+    opt.linear = "iterative";
+    opt.linear_max_iterations = std::min(opt.linear_max_iterations, kAutoIterativeMaxIterations);
+    choice.solver = "iterative";
+    choice.reason += fmt::format("; the direct LU failed ({}), so the iterative solver solved instead", e.cause());
+    sys.reset();  // the failed LU's memory goes before the iterative solver's is taken
+    sys = std::make_unique<CoupledSystem>(op, opt, comm);
+    announce(fmt::format("mmval: linear solver: the auto-chosen direct LU failed ({}); solving with the iterative solver", e.cause()));
+    return true;
+  }
+
   void linearSolve(Linearisation mode) {
     try {
       try {
@@ -102,6 +120,8 @@ struct SteadyFlowSolver::Impl {
         if (!fallBack(e)) throw;
         sys->solve(op, mode, state, stats);
       }
+    } catch (const LinearSolverFailure&) {
+      throw;  // the solver's library failed (memory): its own advice names the solver to change, not the grid
     } catch (const FlowFailure& e) {  // not finite, or the linear solver diverged: say whether the grid resolves the flow path
       throw FlowFailure(e.cause() + throatDiagnosis(), "refine the grid until every throat of the flow path is at least 2 cells wide");
     }

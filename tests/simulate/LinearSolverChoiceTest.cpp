@@ -8,6 +8,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <petscsys.h>
 
 #include "mmval/core/Run.hpp"
 #include "mmval/simulate/FlowSolver.hpp"
@@ -87,6 +88,56 @@ TEST(LinearSolverChoice, AutoSolvesMaskDirectly) {
   EXPECT_FALSE(sa.stats().linear_fallback);
   EXPECT_EQ(sd.stats().linear_reason, "requested");
   EXPECT_EQ(sa.flowRate(Side::east), sd.flowRate(Side::east));
+}
+
+namespace {
+/// PETSc options for the duration of a scope: the serial direct LU by MUMPS limited to 1 MB of
+/// working memory (ICNTL(23)), so its factorisation fails as UMFPACK's did on 3.0M unknowns
+/// (out of memory, 2026-12-05), on a problem that solves in milliseconds.
+struct StarvedLu {
+  StarvedLu() {
+    PetscOptionsSetValue(nullptr, "-fluid_pc_factor_mat_solver_type", "mumps");
+    PetscOptionsSetValue(nullptr, "-fluid_mat_mumps_icntl_23", "1");
+  }
+  ~StarvedLu() {
+    PetscOptionsClearValue(nullptr, "-fluid_pc_factor_mat_solver_type");
+    PetscOptionsClearValue(nullptr, "-fluid_mat_mumps_icntl_23");
+  }
+};
+}  // namespace
+
+// A direct LU its library cannot factorise (out of memory) is not an internal error: "auto" solves
+// with the iterative solver instead (the same flow rate as an unstarved LU to 1e-6: FGMRES to a
+// relative residual of 1e-10 on a well-conditioned 40 x 40 mask), and a requested "direct" stops
+// with a numerical failure naming numerics.linear_solver (exit 5), not PETSc's error number alone.
+TEST(LinearSolverChoice, DirectLuOutOfMemoryFallsBackToIterativeOrSaysWhatToChange) {
+  SteadyFlowSolver ref(maskProblem(), SolverOptions{});
+  ref.solve();
+  SolverOptions a;
+  a.linear = "auto";
+  {
+    const StarvedLu starved;
+    SteadyFlowSolver sa(maskProblem(), a);
+    sa.solve();
+    EXPECT_TRUE(sa.stats().linear_fallback);
+    EXPECT_EQ(sa.stats().linear_solver, "iterative");
+    EXPECT_NE(sa.stats().linear_reason.find("the direct LU failed"), std::string::npos) << sa.stats().linear_reason;
+    EXPECT_NEAR(sa.flowRate(Side::east) / ref.flowRate(Side::east), 1.0, 1e-6);
+    SteadyFlowSolver sd(maskProblem(), SolverOptions{});
+    try {
+      sd.solve();
+      ADD_FAILURE() << "a starved direct LU solved";
+    } catch (const FlowFailure& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("could not factorise"), std::string::npos) << what;
+      EXPECT_NE(what.find("mumps"), std::string::npos) << what;
+      EXPECT_NE(what.find("numerics.linear_solver = \"iterative\""), std::string::npos) << what;
+    }
+  }
+  SteadyFlowSolver again(maskProblem(), a);  // the options are gone: the LU solves again
+  again.solve();
+  EXPECT_FALSE(again.stats().linear_fallback);
+  EXPECT_EQ(again.flowRate(Side::east), ref.flowRate(Side::east));
 }
 
 // The periodic-array kind with the default numerics.linear_solver: direct at 32^2 (3072 unknowns),

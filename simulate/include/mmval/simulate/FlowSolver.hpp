@@ -199,7 +199,7 @@ struct FlowStats {
   int factorisations = 0;        ///< LU factorisations in this solve (direct solver)
   std::string linear_solver;     ///< the linear solver that produced the solution: "direct" or "iterative"
   std::string linear_reason;     ///< why (numerics.linear_solver = "auto": the rule that chose it; else "requested")
-  bool linear_fallback = false;  ///< "auto" chose iterative, it did not converge, the direct LU solved instead
+  bool linear_fallback = false;  ///< "auto"'s choice failed and the other solver solved instead (iterative -> direct, or direct -> iterative)
   /// fixed_pattern: the solve factorised into the kept pattern, numerically only (not the first
   /// solve, nor one whose rows did not fit and took a new solver).
   bool pattern_kept = false;
