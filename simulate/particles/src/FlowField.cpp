@@ -1,11 +1,34 @@
 #include "mmval/particles/FlowField.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 
 namespace mmval::particles {
+
+namespace {
+/// Stamps of GriddedFlow states (construction, each update), unique in the process.
+std::atomic<std::uint64_t> g_field_stamps{0};
+std::uint64_t nextFieldStamp() { return ++g_field_stamps; }
+
+/// nearestWallPoint's answers for the last two points asked, per thread, keyed by the field's
+/// stamp and the bits of (x, y), so that a hit is the search's own result for that field state.
+/// Two points: an engine asks the distance, normal and velocity of one point in a row, and a
+/// bigger, hashed memo costs more in cache misses than the searches it saves.
+struct NearestWallMemo {
+  struct Entry {
+    std::uint64_t stamp = 0, bx = 0, by = 0;
+    double d2 = 0;
+    Vec2 q = Vec2::Zero();
+    bool found = false;
+  };
+  Entry slots[2];
+  int next = 0;  ///< the slot the next miss overwrites
+};
+}  // namespace
 
 double poiseuilleProfile(double z, double h) {
   if (z <= 0.0 || z >= h) return 0.0;
@@ -51,7 +74,7 @@ double HeleShawChannel::wallDistance(double, double y) const {
 Vec2 HeleShawChannel::wallNormal(double, double y) const { return y < 0.5 * m_width ? Vec2(0, 1) : Vec2(0, -1); }
 
 GriddedFlow::GriddedFlow(int nx, int ny, double x0, double y0, double dx, double dy, GridWalls walls, double resolved_m)
-    : m_nx(nx), m_ny(ny), m_x0(x0), m_y0(y0), m_dx(dx), m_dy(dy), m_walls(walls), m_resolved(resolved_m) {
+    : m_nx(nx), m_ny(ny), m_x0(x0), m_y0(y0), m_dx(dx), m_dy(dy), m_walls(walls), m_resolved(resolved_m), m_stamp(nextFieldStamp()) {
   if (nx < 2 || ny < 2 || !(dx > 0) || !(dy > 0)) throw std::invalid_argument("GriddedFlow: need nx, ny >= 2 and dx, dy > 0");
   if (!(resolved_m >= 0) || !std::isfinite(resolved_m))
     throw std::invalid_argument("GriddedFlow: the resolved distance must be finite and >= 0 m, got " + std::to_string(resolved_m));
@@ -163,6 +186,7 @@ void GriddedFlow::update(const std::vector<double>& ux, const std::vector<double
   }
   if (m_walls != GridWalls::nodes) indexWallCells();
   ++m_version;
+  m_stamp = nextFieldStamp();
 }
 
 void GriddedFlow::indexWallCells() {
@@ -226,6 +250,28 @@ bool GriddedFlow::fluidBilinear(const std::vector<double>& a, double x, double y
 }
 
 bool GriddedFlow::nearestWallPoint(double x, double y, double& d2, Vec2& q) const {
+  thread_local NearestWallMemo memo;
+  std::uint64_t bx = 0, by = 0;
+  std::memcpy(&bx, &x, sizeof bx);
+  std::memcpy(&by, &y, sizeof by);
+  const auto hit = [&](const NearestWallMemo::Entry& s) { return s.stamp == m_stamp && s.bx == bx && s.by == by; };
+  NearestWallMemo::Entry* slot = hit(memo.slots[0]) ? &memo.slots[0] : hit(memo.slots[1]) ? &memo.slots[1] : nullptr;
+  if (slot == nullptr) {
+    slot = &memo.slots[memo.next];
+    memo.next ^= 1;
+    auto& e = *slot;
+    e.stamp = m_stamp;
+    e.bx = bx;
+    e.by = by;
+    e.q = Vec2::Zero();  // the search leaves q as it is when no wall cell is in the block (callers then ignore it)
+    e.found = searchNearestWall(x, y, e.d2, e.q);
+  }
+  d2 = slot->d2;
+  q = slot->q;
+  return slot->found;
+}
+
+bool GriddedFlow::searchNearestWall(double x, double y, double& d2, Vec2& q) const {
   const std::size_t k = static_cast<std::size_t>(nearestNode((y - m_y0) / m_dy, m_ny)) * m_nx + nearestNode((x - m_x0) / m_dx, m_nx);
   const double hx = 0.5 * m_dx, hy = 0.5 * m_dy;
   d2 = std::numeric_limits<double>::infinity();
@@ -246,7 +292,7 @@ bool GriddedFlow::nearestWallPoint(double x, double y, double& d2, Vec2& q) cons
   return d2 <= reach * reach;
 }
 
-bool GriddedFlow::nearestWallIsAt(const Vec2& p, double s) const {
+bool GriddedFlow::nearestWallIsAt(const Vec2& p, double s, std::pair<int, int>& hint) const {
   // nearestWallPoint(p) && sqrt(d2) >= s (1 - 1e-9), as a test over the cells: sqrt is monotone, so
   // the minimum's root is the roots' minimum, and the first cell nearer than that settles it.
   if (isSolid(p.x(), p.y())) return false;
@@ -256,13 +302,23 @@ bool GriddedFlow::nearestWallIsAt(const Vec2& p, double s) const {
   const double reach = m_reach * std::min(m_dx, m_dy), t = s * (1 - 1e-9);
   // Above t^2 (1 + 1e-9) the root is above t whatever its rounding: no square root needed.
   const double t2 = t * t * (1 + 1e-9);
+  const auto nearer = [&](int i, int j, double& e2) {
+    const double cx = m_x0 + i * m_dx, cy = m_y0 + j * m_dy;
+    const double px = std::clamp(x, cx - hx, cx + hx), py = std::clamp(y, cy - hy, cy + hy);
+    e2 = (x - px) * (x - px) + (y - py) * (y - py);
+    return e2 < t2 && std::sqrt(e2) < t;
+  };
+  // The ray's last wall cell nearer than s usually still is (bisection probes on one ray): tried
+  // first, it settles a false answer without the block's scan.
+  double e2 = 0;
+  if (hint.first >= 0 && nearer(hint.first, hint.second, e2)) return false;
   bool within = false;
   for (std::size_t e = m_wall_start[k]; e < m_wall_start[k + 1]; ++e) {
     const int i = m_wall_cells[2 * e], j = m_wall_cells[2 * e + 1];
-    const double cx = m_x0 + i * m_dx, cy = m_y0 + j * m_dy;
-    const double px = std::clamp(x, cx - hx, cx + hx), py = std::clamp(y, cy - hy, cy + hy);
-    const double e2 = (x - px) * (x - px) + (y - py) * (y - py);
-    if (e2 < t2 && std::sqrt(e2) < t) return false;
+    if (nearer(i, j, e2)) {
+      hint = {i, j};
+      return false;
+    }
     within = within || e2 <= reach * reach;
   }
   return within;
@@ -298,7 +354,8 @@ Vec2 GriddedFlow::layerVelocity(double x, double y, double d, const Vec2& q, dou
   // q + s n (the distance along the ray grows as s until the ray meets the medial axis, and
   // stays below s after it), by bisection to 1e-3 of a spacing.
   double D = std::numeric_limits<double>::infinity(), s_match = d_target;
-  const auto qNearest = [&](double s) { return nearestWallIsAt(q + s * n, s); };
+  std::pair<int, int> hint(-1, -1);
+  const auto qNearest = [&](double s) { return nearestWallIsAt(q + s * n, s, hint); };
   if (!qNearest(d_target)) {
     double lo = d, hi = d_target;
     while (hi - lo > 1e-3 * std::min(m_dx, m_dy)) {

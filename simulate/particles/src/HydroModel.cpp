@@ -40,6 +40,8 @@ HydroModel::HydroModel(std::shared_ptr<const FlowField> flow, const SceneConfig&
     const double g = std::exp(kLogGapMin + (kLogGapMax - kLogGapMin) * i / (kTable - 1));
     m_perp_table[i] = brennerPerpendicular(1.0, 1.0 + g);
   }
+  m_perp_log.resize(kTable);
+  for (int i = 0; i < kTable; ++i) m_perp_log[i] = std::log(m_perp_table[i]);
 }
 
 double HydroModel::perpendicularFactor(double gap) const {
@@ -49,7 +51,7 @@ double HydroModel::perpendicularFactor(double gap) const {
   const int i = std::clamp(static_cast<int>(f), 0, kTable - 2);
   const double w = f - i;
   // log-linear: the factor behaves like a / gap near contact
-  return std::exp((1 - w) * std::log(m_perp_table[i]) + w * std::log(m_perp_table[i + 1]));
+  return std::exp((1 - w) * m_perp_log[i] + w * m_perp_log[i + 1]);
 }
 
 std::pair<double, double> HydroModel::hindrance(double z, double h) const {

@@ -12,6 +12,7 @@
 #pragma once
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -178,11 +179,19 @@ class GriddedFlow final : public FlowField {
   bool fluidBilinear(const std::vector<double>& a, double x, double y, double& value) const;
   /// GridWalls::cells: squared distance to the nearest solid cell within reach and the
   /// nearest point on it; false when none is within kExactCells cells.
+  /// The answer is remembered per thread for the last points asked of this update (by the
+  /// exact bits of x and y), so that the distance, the normal and the velocity of one point
+  /// search the wall cells once: the engines ask all three at each particle's position.
   bool nearestWallPoint(double x, double y, double& d2, Vec2& q) const;
+  /// nearestWallPoint's search, without the memo.
+  bool searchNearestWall(double x, double y, double& d2, Vec2& q) const;
   /// GridWalls::brinkman: whether the ray point p = q + s n still has q as its nearest wall
   /// point (p fluid, a wall within reach, none nearer than s (1 - 1e-9)); the same answer as
-  /// nearestWallPoint's distance tested against s, without finding the minimum.
-  bool nearestWallIsAt(const Vec2& p, double s) const;
+  /// nearestWallPoint's distance tested against s, without finding the minimum. `hint`: a wall
+  /// cell (i, j) nearer than s at an earlier point of the same ray, tried first ({-1, -1}: none),
+  /// set to the cell that answered false; the answer is the same with any hint (a wall cell nearer
+  /// than s <= the match distance lies in the searched block).
+  bool nearestWallIsAt(const Vec2& p, double s, std::pair<int, int>& hint) const;
   int nearestNode(double f, int n) const;
   /// GridWalls::cells, brinkman: fills m_wall_start and m_wall_cells from m_edge and m_reach.
   void indexWallCells();
@@ -205,6 +214,8 @@ class GriddedFlow final : public FlowField {
   std::vector<std::size_t> m_wall_start;
   std::vector<std::int32_t> m_wall_cells;  ///< pairs (i, j)
   std::uint64_t m_version = 0;
+  /// Unique in the process per constructed or updated field (nearestWallPoint's memo key).
+  std::uint64_t m_stamp = 0;
 };
 
 }  // namespace mmval::particles

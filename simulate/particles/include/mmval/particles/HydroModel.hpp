@@ -101,6 +101,7 @@ class HydroModel {
   bool m_near_wall_shear = true, m_near_contact_drag = true;
   std::shared_ptr<const DlvoInteraction> m_wall_dlvo;  ///< dlvo rule: sphere-plate profile of plates and grains
   std::vector<double> m_perp_table;
+  std::vector<double> m_perp_log;  ///< log of m_perp_table, entry by entry (interpolated per call)
 };
 
 }  // namespace mmval::particles
