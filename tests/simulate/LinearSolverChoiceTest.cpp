@@ -3,9 +3,11 @@
 // Stokes on a periodic array of circles from kAutoIterativeUnknowns unknowns or on more than one
 // rank; the choice and its reason in result.json's ladder; one direct retry when an auto-chosen
 // iterative solve does not converge. 1 MPI rank; grids up to 96^2 cells (about 2 s in all).
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <string>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <petscsys.h>
@@ -155,13 +157,13 @@ TEST(LinearSolverChoice, PeriodicArrayKindRecordsTheChoice) {
   EXPECT_EQ(la[1].at("linear_solver_fallback"), false);
   EXPECT_GT(la[1].at("linear_iterations").get<int>(), 1);
   // Each level records its CPU time (the speed-vs-error figure's axis) beside its wall time: positive,
-  // and on this one-rank run not above the wall time by more than the process's threads could add
-  // (PETSc and BLAS run here on one thread: 1.5x with 10 ms of clock granularity). The larger level
-  // solves ~10^4 unknowns: it cannot take zero CPU.
+  // and not above what the machine's cores could spend in the wall time (the process's helper
+  // threads run beside the solve: 0.23 s CPU in 0.115 s wall was measured on an idle 2-core machine),
+  // with 20 ms of clock granularity. The larger level solves ~10^4 unknowns: it cannot take zero CPU.
   for (const auto& row : la) {
     const double cpu = row.at("cpu_seconds").get<double>(), wall = row.at("wall_seconds").get<double>();
     EXPECT_GE(cpu, 0.0);
-    EXPECT_LE(cpu, 1.5 * wall + 0.01) << row.dump();
+    EXPECT_LE(cpu, std::max(1u, std::thread::hardware_concurrency()) * wall + 0.02) << row.dump();
   }
   EXPECT_GT(la[1].at("cpu_seconds").get<double>(), 0.0);
   const auto& ld = d.details.at("ladder");
