@@ -62,13 +62,13 @@ struct CoupledSystem::Impl {
   void kspSolve() {
     const PetscErrorCode ierr = KSPSolve(ksp, b, x);
     const bool direct = opt.linear == "direct";
+    PC pc = nullptr;
     if (ierr == 0) {
       // A factorisation that failed without a PETSc error (MUMPS: its workspace or memory limit)
       // leaves the KSP diverged with the PC failed; a zero pivot stays the caller's FlowFailure.
       KSPConvergedReason reason;
       KSPGetConvergedReason(ksp, &reason);
       if (!direct || reason != KSP_DIVERGED_PC_FAILED) return;
-      PC pc;
       PCFailedReason why = PC_NOERROR;
       if (KSPGetPC(ksp, &pc) != 0 || PCGetFailedReason(pc, &why) != 0 || (why != PC_FACTOR_OUTMEMORY && why != PC_FACTOR_OTHER)) return;
     } else if (ierr != PETSC_ERR_LIB && ierr != PETSC_ERR_MEM) {
@@ -76,9 +76,8 @@ struct CoupledSystem::Impl {
     }
     PetscInt n = 0;
     MatGetSize(A, &n, nullptr);
-    PC fpc;
     MatSolverType used = solver;  // the one a PETSc option chose, if any
-    if (direct && KSPGetPC(ksp, &fpc) == 0) PCFactorGetMatSolverType(fpc, &used);
+    if (direct && (pc != nullptr || KSPGetPC(ksp, &pc) == 0)) PCFactorGetMatSolverType(pc, &used);
     const std::string what = direct ? fmt::format("the direct LU ({}) could not factorise the {} unknowns", used != nullptr ? used : solver, static_cast<long long>(n))
                                     : fmt::format("the iterative solver's preconditioner failed on the {} unknowns", static_cast<long long>(n));
     const std::string how = ierr == 0 ? "the factorisation failed inside the solver's library, typically out of memory or workspace"
