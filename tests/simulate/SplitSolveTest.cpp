@@ -1,10 +1,10 @@
 // The friction split (SolverOptions::linear = "iterative" on a depth-averaged Stokes problem):
-// FGMRES preconditioned by the block upper-triangular Schur factorisation, the Schur complement
+// GMRES preconditioned on the right by the block upper-triangular Schur factorisation, the Schur complement
 // by the LU of B diag(A)^-1 B^T and the velocity block by a Gauss-Seidel sweep (CoupledSystem).
 // Reference: the direct LU of the same saddle-point matrix (the solver every micromodel solve
 // used). A grain mask at the micromodel's scales (10 um pixels, 20 um deep, 1 cell per pixel)
 // with a thinned aperture in part of the pore space (deposit layers), 96 x 48 cells.
-// Tolerances: FGMRES (right preconditioning) stops when the true residual is 1e-12 of the right-
+// Tolerances: GMRES (right preconditioning) stops when the true residual is 1e-12 of the right-
 // hand side; the velocity error is that times the condition number of the scaled system, which
 // on this mask is measured at ~1e-11 of the largest velocity; the test allows 1e-8 (the largest
 // velocity deviation measured on the full Pore2Chip chip at 750k unknowns, where the LU's own
