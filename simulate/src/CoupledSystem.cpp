@@ -108,7 +108,11 @@ struct CoupledSystem::Impl {
   /// factorisation out of memory, an allocation) becomes a LinearSolverFailure naming the solver,
   /// the size and the keys to change; any other PETSc error stays an internal one.
   void kspSolve() {
+    // PETSc's handler would print its traceback even for a failure recovered below (the direct
+    // LU's fallback): errors come back as codes here, and an unrecovered one carries PETSc's text.
+    PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
     const PetscErrorCode ierr = KSPSolve(ksp, b, x);
+    PetscPopErrorHandler();
     const bool direct = opt.linear == "direct";
     PC pc = nullptr;
     if (ierr == 0) {
@@ -120,7 +124,11 @@ struct CoupledSystem::Impl {
       PCFailedReason why = PC_NOERROR;
       if (KSPGetPC(ksp, &pc) != 0 || PCGetFailedReason(pc, &why) != 0 || (why != PC_FACTOR_OUTMEMORY && why != PC_FACTOR_OTHER)) return;
     } else if (ierr != PETSC_ERR_LIB && ierr != PETSC_ERR_MEM) {
-      check(ierr, "KSPSolve");
+      const char* text = nullptr;
+      char* specific = nullptr;
+      PetscErrorMessage(static_cast<int>(ierr), &text, &specific);
+      throw std::runtime_error(fmt::format("PETSc error {} in KSPSolve: {}{}{}", static_cast<int>(ierr), text != nullptr ? text : "",
+                                           specific != nullptr && *specific != 0 ? ": " : "", specific != nullptr ? specific : ""));
     }
     PetscInt n = 0;
     MatGetSize(A, &n, nullptr);
