@@ -178,6 +178,16 @@ nlohmann::json convergenceJson(const GridConvergence& g, const nlohmann::json& r
                       {"method", "Celik et al. 2008 (J. Fluids Eng. 130, 078001): observed order from the three finest levels, Richardson "
                                  "extrapolation, GCI = Fs |e21| / (r21^p - 1), Fs = 1.25 (3 without an observed order)"}};
   j["observed_order"] = g.has_order ? nlohmann::json(g.observed_order) : nlohmann::json(g.status);
+  if (g.has_fit)
+    j["least_squares"] = {{"levels", g.fit_levels},
+                          {"order", g.fit_order},
+                          {"permeability_extrapolated_D", darcy(g.fit_extrapolated)},
+                          {"scatter_D", darcy(g.fit_scatter)},
+                          {"uncertainty", std::isfinite(g.fit_uncertainty) ? nlohmann::json(g.fit_uncertainty) : nlohmann::json(nullptr)},
+                          {"order_used", g.fit_order_used},
+                          {"method", "Eca & Hoekstra 2014 (J. Comput. Phys. 262, 104): f = f0 + a h^p fitted to every level; uncertainty of "
+                                     "the finest Fs |f1 - f0| + scatter + |f1 - fit(h1)|, Fs 1.25 for 0.5 <= p <= 2.1, else the formal "
+                                     "order's fit with Fs 3"}};
   return j;
 }
 
@@ -463,7 +473,7 @@ CaseKind imagePermeabilityKind() {
       std::vector<double> ks_darcy;
       for (const double v : ks) ks_darcy.push_back(v / kDarcy);
       GridConvergence g = gridConvergence(h, ks_darcy, geo.formal_order);
-      for (double* v : {&g.fine, &g.extrapolated, &g.band_lo, &g.band_hi}) *v *= kDarcy;
+      for (double* v : {&g.fine, &g.extrapolated, &g.band_lo, &g.band_hi, &g.fit_extrapolated, &g.fit_scatter}) *v *= kDarcy;
       convergence[m] = convergenceJson(g, rows);
       if (levels.size() >= 2) addConvergenceMetrics(m, g, out, ctx.quiet);
       if ((m == "depth-averaged" || !want_da) && levels.size() >= 2) out.details["ladder"] = rows;

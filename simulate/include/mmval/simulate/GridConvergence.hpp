@@ -14,6 +14,17 @@
 // grows on refinement) has no observed order: the result says so, carries no extrapolated value,
 // and its GCI falls back to the two-grid form: Fs = 3 with the scheme's formal order. Two grids
 // give that form too.
+//
+// Four or more grids: also a least-squares fit f = f0 + a h^p over every level, after Eca & Hoekstra
+// (2014), "A procedure for the estimation of the numerical uncertainty of CFD calculations based on
+// grid refinement studies", J. Comput. Phys. 262, 104-130. It stands where three grids cannot: a
+// ladder whose level-to-level scatter (the geometry's alignment with each grid) is as large as the
+// finest differences, where the three-grid order swings with the choice of levels. f0 and a are the
+// linear least-squares fit for each p, p minimises the residual over (0, 8]; the scatter is the
+// residuals' standard deviation sqrt(sum r^2 / (n - 3)); the uncertainty of the finest level is
+// Fs |f1 - f0| + scatter + |f1 - fit(h1)| with Fs = 1.25 when 0.5 <= p <= 2.1 (Eca & Hoekstra's
+// range of a credible order for a second-order scheme), else that of the fit at the formal order
+// with Fs = 3 (this simplifies their procedure, which also weighs the levels and compares fits).
 #pragma once
 #include <limits>
 #include <string>
@@ -35,6 +46,14 @@ struct GridConvergence {
   double gci = nan;              ///< relative GCI of the finest level (fraction of |fine|)
   double band_lo = nan, band_hi = nan;  ///< fine -/+ gci |fine|
   std::string note;              ///< one sentence for people (why no order, ...)
+  /// Least-squares fit over every level (four or more levels; see the header's comment).
+  bool has_fit = false;
+  int fit_levels = 0;
+  double fit_order = nan;         ///< p of the best fit (an end of (0, 8] when it runs there)
+  double fit_extrapolated = nan;  ///< f0 of the best fit
+  double fit_scatter = nan;       ///< standard deviation of the residuals (units of f)
+  double fit_uncertainty = nan;   ///< relative uncertainty of the finest level (fraction of |fine|)
+  double fit_order_used = nan;    ///< p of the fit the uncertainty uses (the formal order outside [0.5, 2.1])
 };
 
 /// `h` the grid spacings (or 1 / resolution) of the levels, `f` their values, in the same order;
