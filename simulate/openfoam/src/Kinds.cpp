@@ -183,6 +183,11 @@ void addImageConvergence(const Scene& s, const std::vector<double>& cpp, const n
                                      {"gci", num(g.gci)}, {"order_used", num(g.order_used)},
                                      {"method", "Celik et al. 2008 (J. Fluids Eng. 130, 078001): observed order from the three finest levels, "
                                                 "Richardson extrapolation, GCI = Fs |e21| / (r21^p - 1)"}};
+  if (g.has_fit)
+    out.details["grid_convergence"]["least_squares"] = {{"levels", g.fit_levels}, {"order", g.fit_order},
+                                                        {"permeability_extrapolated_D", num(g.fit_extrapolated)}, {"scatter_D", num(g.fit_scatter)},
+                                                        {"uncertainty", num(g.fit_uncertainty)}, {"order_used", g.fit_order_used},
+                                                        {"method", "Eca & Hoekstra 2014 (J. Comput. Phys. 262, 104), as mmval's image kind"}};
   if (std::isfinite(g.extrapolated)) {
     out.metrics["permeability_2d_extrapolated"] = g.extrapolated * kDarcy;
     out.units["permeability_2d_extrapolated"] = "D";
