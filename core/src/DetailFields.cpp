@@ -76,7 +76,10 @@ std::vector<DetailFieldDecl> makeDeclarations() {
       {F::runs, "runs", top, T::array, T::object, 0, "-", "every solved level of every depth model (the ladder holds one model's)", "image-permeability"},
       {F::runs_3d, "runs_3d", top, T::array, T::object, 0, "-", "the levels of the coarse 3D Stokes solve", "image-permeability (depth_model 3d or all)"},
       {F::grid_convergence, "grid_convergence", top, T::object, none, 0, "-",
-       "per depth model: observed order, extrapolated value, GCI band and a status (`monotone`, `two levels`, ...)", "image-permeability, `mmval peer openfoam`"},
+       "per depth model: observed order, extrapolated value, GCI band and a status (`monotone`, `least squares`, `two levels`, ...); with four or "
+       "more levels also `least_squares` (order, extrapolated permeability, scatter and uncertainty of a fit f0 + a h^p to every level, after "
+       "Eca & Hoekstra 2014, which stands for the ladder where the three finest levels give no credible order)",
+       "image-permeability, `mmval peer openfoam`"},
       {F::narrowest_throat, "narrowest_throat", top, T::object, none, 0, "-",
        "the mask's narrowest inlet-to-outlet throat: `x_px`, `y_px` (y down), `width_px`, `width_m`", "image-permeability"},
       {F::depth_model_throat, "depth_model_throat", top, T::object, none, 0, "-",

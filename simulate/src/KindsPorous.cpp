@@ -176,7 +176,8 @@ nlohmann::json convergenceJson(const GridConvergence& g, const nlohmann::json& r
                       {"safety_factor", std::isfinite(g.safety_factor) ? nlohmann::json(g.safety_factor) : nlohmann::json(nullptr)},
                       {"order_used", std::isfinite(g.order_used) ? nlohmann::json(g.order_used) : nlohmann::json(nullptr)},
                       {"method", "Celik et al. 2008 (J. Fluids Eng. 130, 078001): observed order from the three finest levels, Richardson "
-                                 "extrapolation, GCI = Fs |e21| / (r21^p - 1), Fs = 1.25 (3 without an observed order)"}};
+                                 "extrapolation, GCI = Fs |e21| / (r21^p - 1), Fs = 1.25 (3 without an observed order); four or more levels: the "
+                                 "least-squares fit below stands for the ladder (status \"least squares\")"}};
   j["observed_order"] = g.has_order ? nlohmann::json(g.observed_order) : nlohmann::json(g.status);
   if (g.has_fit)
     j["least_squares"] = {{"levels", g.fit_levels},

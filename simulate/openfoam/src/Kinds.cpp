@@ -182,7 +182,8 @@ void addImageConvergence(const Scene& s, const std::vector<double>& cpp, const n
                                      {"observed_order", g.has_order ? nlohmann::json(g.observed_order) : nlohmann::json(g.status)},
                                      {"gci", num(g.gci)}, {"order_used", num(g.order_used)},
                                      {"method", "Celik et al. 2008 (J. Fluids Eng. 130, 078001): observed order from the three finest levels, "
-                                                "Richardson extrapolation, GCI = Fs |e21| / (r21^p - 1)"}};
+                                                "Richardson extrapolation, GCI = Fs |e21| / (r21^p - 1); four or more levels: the least-squares "
+                                                "fit stands for the ladder (status \"least squares\")"}};
   if (g.has_fit)
     out.details["grid_convergence"]["least_squares"] = {{"levels", g.fit_levels}, {"order", g.fit_order},
                                                         {"permeability_extrapolated_D", num(g.fit_extrapolated)}, {"scatter_D", num(g.fit_scatter)},

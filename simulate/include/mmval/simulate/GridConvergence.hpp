@@ -20,11 +20,16 @@
 // grid refinement studies", J. Comput. Phys. 262, 104-130. It stands where three grids cannot: a
 // ladder whose level-to-level scatter (the geometry's alignment with each grid) is as large as the
 // finest differences, where the three-grid order swings with the choice of levels. f0 and a are the
-// linear least-squares fit for each p, p minimises the residual over (0, 8]; the scatter is the
-// residuals' standard deviation sqrt(sum r^2 / (n - 3)); the uncertainty of the finest level is
+// linear least-squares fit for each p, p minimises the residual over (0, 8]; as theirs, two fits,
+// the levels weighed alike and weighed by 1 / h, the one with the smaller standard deviation
+// sqrt(n sum w r^2 / (n - 3)) kept (the scatter below); the uncertainty of the finest level is
 // Fs |f1 - f0| + scatter + |f1 - fit(h1)| with Fs = 1.25 when 0.5 <= p <= 2.1 (Eca & Hoekstra's
 // range of a credible order for a second-order scheme), else that of the fit at the formal order
 // with Fs = 3 (this simplifies their procedure, which also weighs the levels and compares fits).
+// The three finest levels decide while their order is credible (0.5 to twice the formal order).
+// Where they give no order or one beyond that, and the fitted order lies inside (0.05, 7.9), the fit
+// stands for the ladder: status "least squares", observed_order, extrapolated and gci (then this
+// uncertainty) are the fit's, and the note keeps what the three finest levels alone say.
 #pragma once
 #include <limits>
 #include <string>
@@ -34,10 +39,11 @@ namespace mmval::simulate {
 
 struct GridConvergence {
   static constexpr double nan = std::numeric_limits<double>::quiet_NaN();
-  /// "monotone" (order observed), "oscillatory", "diverging", "unchanged" (the finest two
-  /// values are equal), "two levels" or "one level".
+  /// "least squares" (four or more levels, fitted), "monotone" (order observed from the three
+  /// finest), "oscillatory", "diverging", "unchanged" (the finest two values are equal), "two
+  /// levels" or "one level".
   std::string status;
-  bool has_order = false;        ///< status "monotone"
+  bool has_order = false;        ///< status "monotone" or "least squares"
   double observed_order = nan;   ///< p from the three finest levels (has_order only)
   double order_used = nan;       ///< p in the GCI: observed, else the formal order given
   double safety_factor = nan;    ///< Fs: 1.25 with an observed order, else 3
@@ -48,6 +54,7 @@ struct GridConvergence {
   std::string note;              ///< one sentence for people (why no order, ...)
   /// Least-squares fit over every level (four or more levels; see the header's comment).
   bool has_fit = false;
+  bool fit_weighted = false;      ///< the fit weighing levels by 1 / h had the smaller standard deviation
   int fit_levels = 0;
   double fit_order = nan;         ///< p of the best fit (an end of (0, 8] when it runs there)
   double fit_extrapolated = nan;  ///< f0 of the best fit
