@@ -30,6 +30,11 @@ class StepChannel final : public FlowField {
     m_marker_on = on;
     ++m_version;
   }
+  /// The slot's depth from now on (the plates close in: mobile particles are held within it).
+  void setDepth(double h) {
+    m_h = h;
+    ++m_version;
+  }
   StepChannel(double length, double wide, double narrow, double step_x, double depth, double u)
       : m_L(length), m_W(wide), m_w(narrow), m_xs(step_x), m_h(depth), m_u(u) {}
   Vec2 meanVelocity(double x, double y) const override {
@@ -183,16 +188,20 @@ struct DepositScene {
   std::shared_ptr<StepChannel> flow;
   std::unique_ptr<OverdampedEngine> engine;
 };
-DepositScene sceneWithDeposit(double gap_diameters, const Vec2& deposit, double dy, double straining_time) {
+/// The same with the deposit and the follower anywhere (x, y, z).
+DepositScene sceneWithDepositAt(double gap_diameters, const Vec3& deposit, const Vec3& follower, double straining_time) {
   DepositScene s;
   s.flow = std::make_shared<StepChannel>(80e-6, 20e-6, gap_diameters * kDiameter, kStepX, 20e-6, 100e-6);
   s.engine = std::make_unique<OverdampedEngine>(s.flow, quietScene(true, straining_time));
-  s.engine->insert({Vec3(deposit.x(), deposit.y(), 10e-6)});
-  s.flow->setMarker(deposit, true);
+  s.engine->insert({deposit});
+  s.flow->setMarker(deposit.head<2>(), true);
   EXPECT_EQ(s.engine->captureInSolid(), 1);
-  s.flow->setMarker(deposit, false);
-  s.engine->insert({Vec3(kStepX - 6 * kRadius, dy, 10e-6)});
+  s.flow->setMarker(deposit.head<2>(), false);
+  s.engine->insert({follower});
   return s;
+}
+DepositScene sceneWithDeposit(double gap_diameters, const Vec2& deposit, double dy, double straining_time) {
+  return sceneWithDepositAt(gap_diameters, Vec3(deposit.x(), deposit.y(), 10e-6), Vec3(kStepX - 6 * kRadius, dy, 10e-6), straining_time);
 }
 
 // (d) A cake at a blocked throat. The slot is 1.5 d wide (walls y = +-1.5 a): a particle passes it
@@ -258,6 +267,89 @@ TEST(StrainingTest, HeldHeadOnByOneDepositIsNotStraining) {
   off.engine->advance(3.0);
   EXPECT_EQ(off.engine->counts().left, 1);
   EXPECT_EQ(off.engine->counts().strained, 0);
+}
+
+// Stacked in the 20 um deep slot (4 diameters). The throat is 0.95 d wide, so a sphere stops where
+// it touches both corners, sqrt(a^2 - w^2/4) = 0.31 a before the step, whatever its height (the
+// grains are prisms through the depth). A deposited particle sits there on the bottom plate (centre
+// z = a; 0.01 a further upstream, so that it can be placed a radius from the walls).
+constexpr double kThroat = 0.95;
+double throatStopX(double gap = kThroat) { return kStepX - std::sqrt(kRadius * kRadius - 0.25 * std::pow(gap * kDiameter, 2)); }
+Vec3 depositInThroat(double gap = kThroat) { return Vec3(throatStopX(gap) - 0.01 * kRadius, 0.0, kRadius); }
+
+/// Advances in 10 ms samples until particle `k` stops moving; returns that time (-1 if it never did by 1 s).
+double timeItStops(OverdampedEngine& e, int k) {
+  Vec3 last(0, 0, 0);
+  for (double t = 0.01; t < 1.0; t += 0.01) {
+    e.advance(t);
+    const Vec3 x = e.particles().at(k).x;
+    if ((x - last).norm() < 1e-12) return t - 0.01;
+    last = x;
+  }
+  return -1;
+}
+
+// (f) A follower at z = 3 a passes over the deposit (centres 2 a apart in z: they touch only where
+// they are stacked) and stops in the throat right above it, at the same in-plane place: the walls
+// hold it as they held the one below, and it is strained after the set time, not before.
+// Tolerances: its height is exact (no force in z); in-plane it stops within a step (0.1 a) of the
+// corners' contact point; times within the 10 ms sampling plus a step.
+TEST(StrainingTest, FollowerStackedOverADepositInAThroatIsStrained) {
+  const double T = 0.5;
+  const Vec3 dep = depositInThroat();
+  auto s = sceneWithDepositAt(kThroat, dep, Vec3(kStepX - 6 * kRadius, 0.0, 3 * kRadius), T);
+  auto& e = *s.engine;
+  const double t_stop = timeItStops(e, 1);
+  ASSERT_GT(t_stop, 0.0);
+  const auto held = e.particles().at(1);
+  EXPECT_NEAR(held.x.z() - dep.z(), 2 * kRadius, 1e-9 * kRadius);  // stacked, touching
+  EXPECT_NEAR(held.x.x(), throatStopX(), 0.1 * kRadius);
+  EXPECT_NEAR(held.x.y(), 0.0, 0.01 * kRadius);
+  e.advance(t_stop + T - 0.02);
+  EXPECT_EQ(e.particles().at(1).status, ParticleStatus::mobile);
+  e.advance(t_stop + T + 0.02);
+  const auto p = e.particles().at(1);
+  ASSERT_EQ(p.status, ParticleStatus::deposited);
+  EXPECT_EQ(p.held_by, Surface::strained);
+  EXPECT_NEAR(p.t_event, t_stop + T, 0.02);
+}
+
+// (g) The same deposit in open flow (the slot as wide as the channel: no throat) with a follower at
+// z = 2.9 a: it meets the deposit (centres 1.9 a apart in z), is pushed up along the line of
+// centres, rides over it (the slot is 4 d deep: room above) and leaves. Nothing holds it: not
+// strained, however short the straining time.
+TEST(StrainingTest, StackedFollowerWithAFreePathIsNotHeld) {
+  auto s = sceneWithDepositAt(4.0, Vec3(kStepX, 0.0, kRadius), Vec3(kStepX - 6 * kRadius, 0.0, 2.9 * kRadius), 0.05);
+  s.engine->advance(3.0);
+  EXPECT_EQ(s.engine->counts().left, 1);
+  EXPECT_EQ(s.engine->counts().strained, 0);
+}
+
+// (h) Overlaps the pushes cannot remove. The follower of (f), stopped stacked over the deposit, and
+// then the plates close in to a depth of 3.6 a: it is held at z = h - a = 2.6 a, 1.6 a above the
+// deposit's centre, inside it. Pushed along the (vertical) line of centres it meets the top plate,
+// so it is moved back against its drift to where it touches the deposit at that height: in-plane
+// distance sqrt((2 a)^2 - (1.6 a)^2) = 1.2 a upstream. There it is pressed head-on into one deposit
+// under a plate, which does not hold it (it would slide round): it stays mobile, not strained.
+// Tolerances: the distance of centres 2 a to the contact sweeps' 1e-3; the place to a hundredth of
+// a radius (the deposit's own 0.01 a offset from the stop point, the step's travel into it).
+TEST(StrainingTest, FollowerPushedIntoADepositByThePlatesBacksOutAlongItsWay) {
+  const Vec3 dep = depositInThroat();
+  auto s = sceneWithDepositAt(kThroat, dep, Vec3(kStepX - 6 * kRadius, 0.0, 3 * kRadius), 5.0);
+  auto& e = *s.engine;
+  ASSERT_GT(timeItStops(e, 1), 0.0);
+  s.flow->setDepth(3.6 * kRadius);
+  e.advance(e.time() + 0.5);
+  const auto p = e.particles().at(1);
+  EXPECT_EQ(p.status, ParticleStatus::mobile);
+  EXPECT_NEAR(p.x.z(), 2.6 * kRadius, 1e-9 * kRadius);
+  EXPECT_GE((p.x - dep).norm(), 2 * kRadius * (1 - 1e-3));
+  EXPECT_NEAR(p.x.x(), dep.x() - 1.2 * kRadius, 0.02 * kRadius);
+  EXPECT_NEAR(p.x.y(), 0.0, 0.01 * kRadius);
+  e.advance(e.time() + 6.0);
+  EXPECT_EQ(e.particles().at(1).status, ParticleStatus::mobile);
+  EXPECT_EQ(e.counts().strained, 0);
+  EXPECT_NEAR(e.particles().at(1).x.x(), dep.x() - 1.2 * kRadius, 0.02 * kRadius);
 }
 
 }  // namespace

@@ -318,7 +318,11 @@ void OverdampedEngine::advance(double t_end) {
         decideAttachment(p, m_touch[i]);
         updateStraining(p, (m_touch[i] & kPinned) != 0 || heldByDeposits(p, i), m_t + dt);
         if (p.status != ParticleStatus::deposited) continue;
-        if (overlapsDeposit(p, fresh)) {
+        // An attachment that overlaps a deposit waits for the next step's pushes. A strained particle
+        // does not: it has been held in place for the straining time, pushes that never removed the
+        // overlap (stopped by a plate, undone at the walls, no place to back out to) will not now,
+        // and as a mobile particle it would stay there, stepped, to the end of the run.
+        if (p.held_by != Surface::strained && overlapsDeposit(p, fresh)) {
           p.status = ParticleStatus::mobile;  // a push undone at a grain left an overlap: try again next step
           p.held_by = Surface::none;
           p.secondary = false;
@@ -463,7 +467,12 @@ void OverdampedEngine::updateStraining(ParticleState& p, bool pinned, double t) 
   const StrainingModel& sm = m_cfg.straining;
   if (!sm.enabled || p.status != ParticleStatus::mobile) return;
   const double moved = std::hypot(p.x.x() - p.pin_anchor.x(), p.x.y() - p.pin_anchor.y());
-  const bool anchored = !std::isnan(p.pinned_since) && moved <= sm.anchor_fraction * m_radius;
+  // A held particle's place after the contact pushes varies by up to one step's travel: the drift
+  // moves it up to max_step_fraction radii into its contacts and a deposit pushes it back along
+  // the line of centres, not the way it came (a refused move at the walls returns it exactly). So
+  // the anchor allows at least one step's travel, else a fast particle held by deposits (0.5 a
+  // per step in the micromodel scenes against a quarter radius) restarts its clock again and again.
+  const bool anchored = !std::isnan(p.pinned_since) && moved <= std::max(sm.anchor_fraction, m_cfg.max_step_fraction) * m_radius;
   if (!anchored) p.pinned_since = std::numeric_limits<double>::quiet_NaN();
   if (!pinned) return;
   if (!anchored) {
@@ -704,6 +713,59 @@ void OverdampedEngine::resolveContacts() {
       p.x.y() = start[k].y();
     }
   }
+  if (m_cfg.straining.enabled)
+    for (const int i : m_mobile)
+      if (m_particles[i].status == ParticleStatus::mobile) backOutOfDeposits(m_particles[i]);
+}
+
+void OverdampedEngine::backOutOfDeposits(ParticleState& p) const {
+  // Overlaps the sweeps leave with deposits: a particle stacked over or under a deposit at a
+  // throat (in-plane offset ~0) is pushed along z, where the plate (or a deposit on its other
+  // side) stops it, and in the plane the walls undo the push. It is moved back against its
+  // in-plane drift, the way it came, by the least distance at its height that clears every
+  // deposit: for a deposit at in-plane offset w and height difference dz the particle must be
+  // s >= 0 along e with |w + s e|^2 >= (2a)^2 - dz^2. Kept only where the particle fits by the
+  // contact pushes' rule (0.9 a from the walls, resolveContacts), at the end and halfway.
+  const double a = m_radius, d = 2 * a;
+  const Vec2 u(p.v.x(), p.v.y());
+  if (u.norm() * a < m_model.diffusivity()) return;  // no drift to say where it came from
+  if (!overlapsDeposit(p, {})) return;
+  const Vec2 e = -u / u.norm();
+  const double reach = 2 * d;  // the farthest a back-out goes: past one deposit and a second behind it
+  std::vector<int>& near = m_near;
+  near.clear();
+  const double cs4 = 4 * a, r = d + reach;
+  const auto x0 = static_cast<std::int64_t>(std::floor((p.x.x() - r) / cs4)), x1 = static_cast<std::int64_t>(std::floor((p.x.x() + r) / cs4));
+  const auto y0 = static_cast<std::int64_t>(std::floor((p.x.y() - r) / cs4)), y1 = static_cast<std::int64_t>(std::floor((p.x.y() + r) / cs4));
+  for (auto ix = x0; ix <= x1; ++ix)
+    for (auto iy = y0; iy <= y1; ++iy)
+      if (const auto it = m_dep_cells.find((ix * 73856093) ^ (iy * 19349663)); it != m_dep_cells.end())
+        for (const int j : it->second) {
+          const Vec3 w = p.x - m_particles[j].x;
+          if (std::abs(w.z()) < d && w.head<2>().norm() < r) near.push_back(j);
+        }
+  double s = 0;
+  bool clear = false;
+  for (int pass = 0; pass < 8 && !clear; ++pass) {
+    double next = s;
+    for (const int j : near) {
+      const Vec3 w3 = p.x - m_particles[j].x;
+      const Vec2 w = w3.head<2>();
+      const double c2 = d * d - w3.z() * w3.z(), b = w.dot(e);
+      const double disc = b * b - (w.squaredNorm() - c2);
+      if (disc <= 0) continue;  // the line at this height passes clear of it
+      const double lo = -b - std::sqrt(disc), hi = -b + std::sqrt(disc);  // inside for lo < s < hi
+      if (next > lo && next < hi - 1e-9 * a) next = hi;
+    }
+    clear = next == s;
+    s = next;
+  }
+  if (!clear || s <= 0 || s > reach) return;
+  const Vec2 from(p.x.x(), p.x.y()), to = from + s * e, mid = from + 0.5 * s * e;
+  for (const Vec2& q : {to, mid})
+    if (m_flow->isSolid(q.x(), q.y()) || m_flow->wallDistance(q.x(), q.y()) < 0.9 * a) return;
+  p.x.x() = to.x();
+  p.x.y() = to.y();
 }
 
 void OverdampedEngine::saveState(CheckpointWriter& w) const {
@@ -818,7 +880,7 @@ nlohmann::json OverdampedEngine::describe() const {
           {"contacts", "hard spheres, Heyes-Melrose overlap removal"},
           {"ito_drift", c.ito_drift},
           {"attachment_rule", c.attachment.rule == AttachmentModel::Rule::dlvo ? "dlvo" : "capture"},
-          {"straining", c.straining.enabled ? nlohmann::json{{"time_s", c.straining.time}, {"anchor_radii", c.straining.anchor_fraction}}
+          {"straining", c.straining.enabled ? nlohmann::json{{"time_s", c.straining.time}, {"anchor_radii", std::max(c.straining.anchor_fraction, c.max_step_fraction)}}
                                             : nlohmann::json("off")},
           {"wall_tolerance_radii", kWallTolerance},
           {"deposited_by_surface", by_surface}};

@@ -26,6 +26,11 @@
 // move refused, or pushed off two walls that close in ahead of it) for the set
 // time is deposited with Surface::strained. So is one held there by deposits (strained or
 // attached particles) and walls together: a cake building upstream of a blocked throat.
+// "There" is within max(anchor_fraction, max_step_fraction) radii of where it was first held
+// (a deposit's push does not return it the way it came). An overlap with deposits the contact
+// sweeps leave (a particle stacked over or under one in a throat, its push along z stopped by a
+// plate) is removed by moving it back against its drift (backOutOfDeposits); a held particle
+// that still overlaps one after the straining time is strained where it is.
 // Attachment is decided after the contacts of the step are resolved, so that a
 // particle never attaches overlapping a deposit: a particle whose gap to a sticky
 // surface falls below the capture distance, that would have penetrated it, or that
@@ -124,8 +129,18 @@ class OverdampedEngine final : public ParticleEngine {
   /// travel (the cone test of the walls' kPinned: two normals whose cone holds -drift; one
   /// deposit head-on is not a hold, the particle slides round it), with the drift beating
   /// diffusion over a radius. Deposit normals are taken in the plane: a particle that can ride
-  /// over or under the deposit in z moves on and leaves the straining anchor.
+  /// over or under the deposit in z moves on and leaves the straining anchor. Where it cannot (a
+  /// plate or a deposit closes z) this is the three-dimensional test: -u = sum l_k n_k with l_k > 0
+  /// over three independent 3D normals, one of them a plate's (no in-plane part), leaves -u_xy a
+  /// positive sum of the other two normals' in-plane parts, which is this cone (a stacked deposit's
+  /// in-plane part has the direction of the offset, whatever its length). A 3D cone test added to
+  /// it changed no bit of the paper strip's 240 s run (2026-12-05, issue 26), so there is none.
   bool heldByDeposits(const ParticleState& p, int i) const;
+  /// Straining only: a mobile particle the contact sweeps left overlapping deposits (stacked over
+  /// or under one, its push stopped by a plate and undone by the walls) is moved back against its
+  /// in-plane drift by the least distance that clears them, where it fits.
+  void backOutOfDeposits(ParticleState& p) const;
+  mutable std::vector<int> m_near;  ///< scratch of backOutOfDeposits
   /// Scratch for the contact normals of applyWalls / heldByDeposits (one particle at a time).
   mutable std::vector<Vec2> m_normals;
   /// After contacts: attaches a particle that arrived at a sticky surface (either rule).

@@ -98,6 +98,8 @@ struct StrainingModel {
   /// still count as held there; beyond it the clock starts again. 0.25 radius: the drift presses a
   /// held particle into the throat, so its Brownian excursions against it are ~D / u (0.1 nm for a
   /// 5 um sphere at 1 mm/s); a particle that moves on along a path leaves it within a step or two.
+  /// The overdamped engine allows at least one step's travel (max_step_fraction radii; the contact
+  /// pushes move a held particle by up to that) and reports the radius it uses as anchor_radii.
   double anchor_fraction = 0.25;
 };
 
