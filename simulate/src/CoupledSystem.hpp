@@ -21,19 +21,6 @@ struct PatternMiss : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// Thrown by CoupledSystem's solves when the linear solver's library fails inside PETSc (PETSc
-/// errors PETSC_ERR_LIB or PETSC_ERR_MEM: UMFPACK's or MUMPS's factorisation out of memory, a
-/// failed allocation), instead of an unnamed PETSc error: the run says which solver failed on
-/// how many unknowns and what to change (exit 5), and "auto" can try the other solver.
-class LinearSolverFailure : public FlowFailure {
- public:
-  LinearSolverFailure(std::string cause, std::string advice, bool direct) : FlowFailure(std::move(cause), std::move(advice)), m_direct(direct) {}
-  bool direct() const noexcept { return m_direct; }
-
- private:
-  bool m_direct;
-};
-
 class CoupledSystem {
  public:
   /// options.linear: "direct" (UMFPACK serial, ordered by METIS from 1e5 unknowns; MUMPS parallel) or "iterative"

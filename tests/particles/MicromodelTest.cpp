@@ -10,6 +10,8 @@
 #include <cmath>
 #include <random>
 
+#include <petscsys.h>
+
 #include "mmval/core/Error.hpp"
 #include "mmval/particles/DepositGrid.hpp"
 #include "mmval/particles/HydroModel.hpp"
@@ -123,6 +125,32 @@ TEST(Micromodel, FlowThroughThinnedAperturesFollowsTheReynoldsEquation) {
     for (int c = 0; c < 20; ++c) ap[static_cast<std::size_t>(r * 20 + c)] = c < 10 ? 20e-6 : 10e-6;
   EXPECT_NEAR(flow.solve({}, ap).permeability / k0, 1.0 / 4.5, 1e-10);
   EXPECT_THROW(flow.solve({}, std::vector<double>(3, 1e-6)), std::invalid_argument);
+}
+
+TEST(MicromodelBadInput, ALuThatCannotFactoriseNamesCellsPerPixel) {
+  // The micromodel picks its linear solver itself (no numerics.linear_solver key in this kind), so a
+  // direct LU its library cannot factorise (out of memory; here MUMPS starved to 1 MB of working
+  // memory by PETSc options) must say to change numerics.cells_per_pixel, not a key the kind refuses.
+  // 60 x 120 cells: under the friction split's 40,000 (the LU), over what 1 MB factorises.
+  const PixelMask open = PixelMask::Constant(60, 120, false);
+  MicromodelFlowOptions o;
+  o.pixel = 10e-6;
+  o.depth = 20e-6;
+  o.darcy_velocity = 1e-4;
+  MicromodelFlow flow(open, o);
+  EXPECT_GT(flow.solve({}).permeability, 0.0);  // unstarved: solves (and PETSc is up for the options below)
+  PetscOptionsSetValue(nullptr, "-fluid_pc_factor_mat_solver_type", "mumps");
+  PetscOptionsSetValue(nullptr, "-fluid_mat_mumps_icntl_23", "1");
+  MicromodelFlow starved(open, o);
+  try {
+    starved.solve({});
+    ADD_FAILURE() << "a starved LU solved";
+  } catch (const NumericalFailure& e) {
+    EXPECT_EQ(e.key(), "numerics.cells_per_pixel") << e.what();
+    EXPECT_EQ(std::string(e.what()).find("linear_solver"), std::string::npos) << e.what();
+  }
+  PetscOptionsClearValue(nullptr, "-fluid_pc_factor_mat_solver_type");
+  PetscOptionsClearValue(nullptr, "-fluid_mat_mumps_icntl_23");
 }
 
 TEST(Micromodel, PassableDiameterOfStraightChannelsAndAThroat) {

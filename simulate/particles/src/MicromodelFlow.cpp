@@ -295,7 +295,16 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
     }
   }
   simulate::SteadyFlowSolver& solver = m_opt.warm_start ? *m_solver : *fresh;
-  const simulate::FlowStats& stats = solver.solve();
+  const simulate::FlowStats& stats = [&]() -> const simulate::FlowStats& {
+    try {
+      return solver.solve();
+    } catch (const simulate::LinearSolverFailure& e) {
+      // This kind chooses its linear solver itself (the friction split where cells are coarse
+      // against the depth, else the direct LU with its kept re-solves): fewer cells is the change.
+      throw NumericalFailure(e.cause(), "numerics.cells_per_pixel",
+                             fmt::format("fewer cells per pixel (this grid has {} x {} cells; the kind picks its linear solver itself)", nx, ny));
+    }
+  }();
   FlowSolveResult r;
   r.pattern_kept = stats.pattern_kept;
   r.factorised = stats.factorisations > 0;

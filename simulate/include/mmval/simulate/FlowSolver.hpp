@@ -88,6 +88,19 @@ class FlowFailure : public NumericalFailure {
   std::string m_cause, m_advice;
 };
 
+/// Thrown by the coupled solves (CoupledSystem) when the linear solver's library fails inside PETSc (PETSc
+/// errors PETSC_ERR_LIB or PETSC_ERR_MEM: UMFPACK's or MUMPS's factorisation out of memory, a
+/// failed allocation), instead of an unnamed PETSc error: the run says which solver failed on
+/// how many unknowns and what to change (exit 5), and "auto" can try the other solver.
+class LinearSolverFailure : public FlowFailure {
+ public:
+  LinearSolverFailure(std::string cause, std::string advice, bool direct) : FlowFailure(std::move(cause), std::move(advice)), m_direct(direct) {}
+  bool direct() const noexcept { return m_direct; }
+
+ private:
+  bool m_direct;
+};
+
 enum class Side { west = 0, east = 1, south = 2, north = 3 };
 
 enum class BoundaryType {
