@@ -103,15 +103,21 @@ TEST(Micromodel, PlateLayerThinsTheApertureAndConservesVolume) {
   EXPECT_THROW(DepositGrid(grains, px, h, 0.5, DepositLayerModel{0.4, h}), std::invalid_argument);
 }
 
+/// An open slot's flow options: 10 um pixels, 20 um deep, Darcy velocity 0.1 mm/s.
+MicromodelFlowOptions slotOptions() {
+  MicromodelFlowOptions o;
+  o.pixel = 10e-6;
+  o.depth = 20e-6;
+  o.darcy_velocity = 1e-4;
+  return o;
+}
+
 TEST(Micromodel, FlowThroughThinnedAperturesFollowsTheReynoldsEquation) {
   // An open 20 x 10 px slot (10 um px, 20 um deep, slip sides): k = h^3 / (12 h_ref)
   // with q per unit reference depth; uniform flow has no in-plane shear, so
   // these are exact (round-off tolerance).
   const PixelMask open = PixelMask::Constant(10, 20, false);
-  MicromodelFlowOptions o;
-  o.pixel = 10e-6;
-  o.depth = 20e-6;
-  o.darcy_velocity = 1e-4;
+  const MicromodelFlowOptions o = slotOptions();
   MicromodelFlow flow(open, o);
   const double k0 = flow.solve({}).permeability;
   EXPECT_NEAR(k0 / (o.depth * o.depth / 12), 1.0, 1e-10);
@@ -133,10 +139,7 @@ TEST(MicromodelBadInput, ALuThatCannotFactoriseNamesCellsPerPixel) {
   // memory by PETSc options) must say to change numerics.cells_per_pixel, not a key the kind refuses.
   // 60 x 120 cells: under the friction split's 40,000 (the LU), over what 1 MB factorises.
   const PixelMask open = PixelMask::Constant(60, 120, false);
-  MicromodelFlowOptions o;
-  o.pixel = 10e-6;
-  o.depth = 20e-6;
-  o.darcy_velocity = 1e-4;
+  const MicromodelFlowOptions o = slotOptions();
   MicromodelFlow flow(open, o);
   EXPECT_GT(flow.solve({}).permeability, 0.0);  // unstarved: solves (and PETSc is up for the options below)
   PetscOptionsSetValue(nullptr, "-fluid_pc_factor_mat_solver_type", "mumps");

@@ -204,6 +204,18 @@ DepositScene sceneWithDeposit(double gap_diameters, const Vec2& deposit, double 
   return sceneWithDepositAt(gap_diameters, Vec3(deposit.x(), deposit.y(), 10e-6), Vec3(kStepX - 6 * kRadius, dy, 10e-6), straining_time);
 }
 
+/// Particle `k` is still mobile 20 ms before `t` and strained at `t` (within 20 ms: the 10 ms
+/// sampling of the stop plus a step) 20 ms after.
+void expectStrainedAt(OverdampedEngine& e, int k, double t) {
+  e.advance(t - 0.02);
+  EXPECT_EQ(e.particles().at(k).status, ParticleStatus::mobile);
+  e.advance(t + 0.02);
+  const auto p = e.particles().at(k);
+  ASSERT_EQ(p.status, ParticleStatus::deposited);
+  EXPECT_EQ(p.held_by, Surface::strained);
+  EXPECT_NEAR(p.t_event, t, 0.02);
+}
+
 // (d) A cake at a blocked throat. The slot is 1.5 d wide (walls y = +-1.5 a): a particle passes it
 // alone (checked). With a deposited particle against its upper wall (centre y = +0.5 a, 6 radii in)
 // the gap left below is a = 0.5 d: a follower entering at y = -0.4 a meets the deposit, is pushed
@@ -240,13 +252,7 @@ TEST(StrainingTest, ParticleHeldByADepositAndAWallIsStrained) {
   EXPECT_NEAR(held.x.x(), dep.x() - std::sqrt(3.0) * kRadius, 0.1 * kRadius);
   EXPECT_NEAR(held.x.y(), -0.5 * kRadius, 0.1 * kRadius);
   EXPECT_GE(s.flow->wallDistance(held.x.x(), held.x.y()), 0.9 * kRadius);
-  e.advance(t_stop + T - 0.02);
-  EXPECT_EQ(e.particles().at(1).status, ParticleStatus::mobile);
-  e.advance(t_stop + T + 0.02);
-  const auto p = e.particles().at(1);
-  ASSERT_EQ(p.status, ParticleStatus::deposited);
-  EXPECT_EQ(p.held_by, Surface::strained);
-  EXPECT_NEAR(p.t_event, t_stop + T, 0.02);
+  expectStrainedAt(e, 1, t_stop + T);
   EXPECT_EQ(e.counts().strained, 1);
 }
 
@@ -305,13 +311,7 @@ TEST(StrainingTest, FollowerStackedOverADepositInAThroatIsStrained) {
   EXPECT_NEAR(held.x.z() - dep.z(), 2 * kRadius, 1e-9 * kRadius);  // stacked, touching
   EXPECT_NEAR(held.x.x(), throatStopX(), 0.1 * kRadius);
   EXPECT_NEAR(held.x.y(), 0.0, 0.01 * kRadius);
-  e.advance(t_stop + T - 0.02);
-  EXPECT_EQ(e.particles().at(1).status, ParticleStatus::mobile);
-  e.advance(t_stop + T + 0.02);
-  const auto p = e.particles().at(1);
-  ASSERT_EQ(p.status, ParticleStatus::deposited);
-  EXPECT_EQ(p.held_by, Surface::strained);
-  EXPECT_NEAR(p.t_event, t_stop + T, 0.02);
+  expectStrainedAt(e, 1, t_stop + T);
 }
 
 // (g) The same deposit in open flow (the slot as wide as the channel: no throat) with a follower at
