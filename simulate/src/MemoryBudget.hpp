@@ -25,8 +25,11 @@ inline constexpr double kStartupBytes = 120e6;
 /// Steady coupled (u, v, p) solve, direct LU (UMFPACK): periodic-array phi 0.2 peaked at 156 MB
 /// (64^2 cells), 254 MB (128^2), 687 MB (256^2): 8.0 then 8.8 kB per added cell.
 inline constexpr double kDirectBytesPerCell = 8.8e3;
-/// The same with numerics.linear_solver = "iterative" (FGMRES + fieldsplit/GAMG): 415 MB at 256^2.
-inline constexpr double kIterativeBytesPerCell = 4.5e3;
+/// The same with numerics.linear_solver = "iterative" (GMRES + Schur fieldsplit), measured 2026-12-05
+/// after its exact preallocation: square array 2.9 kB per cell (1448^2 and 2048^2); Pore2Chip plane 2D
+/// 3.4 kB (3 cells/px) and 3.6 kB (4 cells/px, 14.6 GB); depth-averaged friction split 2.4 kB (1
+/// cell/px). 3.8 kB keeps a margin over the largest (was 4.5 kB, FGMRES with 24 entries per row).
+inline constexpr double kIterativeBytesPerCell = 3.8e3;
 /// The coarse 3D Stokes model of image-permeability (FGMRES + lsc Schur, the default): the Pore2Chip
 /// mask at cells_per_pixel_3d 0.25 peaked at 342 MB (125 x 125 x 4 cells) and 585 MB (x 8): 3.9 kB per cell.
 inline constexpr double kStokes3DBytesPerCell = 3.9e3;
