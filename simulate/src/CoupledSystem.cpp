@@ -572,8 +572,7 @@ struct CoupledSystem::Impl {
     check(VecGetArrayRead(x, &a), "VecGetArrayRead");
     MPI_Allgatherv(a, mine, MPI_DOUBLE, all.data(), counts.data(), starts.data(), MPI_DOUBLE, comm);
     check(VecRestoreArrayRead(x, &a), "VecRestoreArrayRead");
-    for (const double v : all)
-      if (!std::isfinite(v)) throw FlowFailure("the fluid solution is not finite (NaN or Inf)", "refine the grid");
+    detail::requireFinite(all.data(), static_cast<long long>(all.size()), "the fluid solution");
     state.resize(all.size());
     for (std::size_t g = 0; g < all.size(); ++g) state[static_cast<std::size_t>(to_natural[g])] = all[g];
   }

@@ -55,6 +55,12 @@ class ScopedDefaultOption {
 /// The first `n` entries of the distributed vector `v`, on every rank, into `out`.
 /// Throws FlowFailure (a NumericalFailure: the input is valid, the numerics failed) naming
 /// `what` (and leaves `out` as it was) when any is not finite.
+/// Throws FlowFailure naming `what` unless the n values are all finite.
+inline void requireFinite(const double* a, long long n, const std::string& what) {
+  for (long long k = 0; k < n; ++k)
+    if (!std::isfinite(a[k])) throw FlowFailure(what + " is not finite (NaN or Inf)", "refine the grid");
+}
+
 inline void gatherToAll(Vec v, long long n, std::vector<double>& out, const std::string& what) {
   int ranks = 1;
   MPI_Comm_size(PetscObjectComm(reinterpret_cast<PetscObject>(v)), &ranks);
