@@ -15,13 +15,15 @@ std::string readBinaryFile(const std::filesystem::path& file) {
   return s.str();
 }
 
-std::string checkpointFingerprint(const Case& c) {
+nlohmann::json checkpointFingerprintJson(const Case& c) {
   nlohmann::json j = c.resolvedJson();
   if (j.contains("run"))
-    for (const char* key : {"checkpoint_every", "checkpoint_minutes", "stop_after_frames", "stop_after_steps"}) j["run"].erase(key);
+    for (const char* key : {"checkpoint_every", "checkpoint_minutes", "stop_after_frames", "stop_after_steps", "stop_after_levels"}) j["run"].erase(key);
   j.erase("case");
   j.erase("acceptance");
-  return j.dump();
+  return j;
 }
+
+std::string checkpointFingerprint(const Case& c) { return checkpointFingerprintJson(c).dump(); }
 
 }  // namespace mmval

@@ -94,6 +94,8 @@ std::vector<DetailFieldDecl> makeDeclarations() {
       {F::time_steps, "time_steps", top, T::integer, none, 0, "1", "time steps of the finest level", "cylinder-channel (unsteady)"},
       {F::resumed_from_step, "resumed_from_step", top, T::integer, none, 0, "1", "time step of the checkpoint the run resumed from (0: a fresh run)",
        "cylinder-channel (unsteady)"},
+      {F::resumed_levels, "resumed_levels", top, T::integer, none, 0, "1",
+       "ladder levels taken from the checkpoint of a stopped run (`mmval run --resume`; 0: every level solved by this run)", "image-permeability"},
 
       {F::resumed_from_frame, "resumed_from_frame", top, T::integer, none, 0, "1", "output frame of the checkpoint the run resumed from (0: a fresh run)",
        "particles-micromodel, particles-resolved"},

@@ -7,6 +7,9 @@
 
 #include "KindsCommon.hpp"
 #include "MemoryBudget.hpp"
+#include "mmval/core/AtomicFile.hpp"
+#include "mmval/core/Checkpoint.hpp"
+#include "mmval/core/DetailFields.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ImageHeader.hpp"
 #include "mmval/core/Progress.hpp"
@@ -28,6 +31,59 @@ using namespace detail;
 
 namespace {
 constexpr double kDarcy = 9.869233e-13;  // m2
+
+/// The levels a ladder has solved, in `checkpoint-levels.json` of the run's staging folder: written
+/// after every solved level and read by `mmval run --resume`, so that a run stopped at a later level
+/// (killed, out of memory, a solver failure) keeps the levels it had finished. A level's answer does
+/// not depend on the ladder's other levels, the linear solver (each row names the solver that gave
+/// it; they agree to numerics.residual) or the run's resource limits, so these may change between
+/// the stop and the resume; any other key may not.
+class LadderCheckpoint {
+ public:
+  LadderCheckpoint(const Case& c, const RunContext& ctx)
+      : m_file(ctx.out_dir.empty() ? std::filesystem::path{} : ctx.out_dir / "checkpoint-levels.json") {
+    nlohmann::json f = checkpointFingerprintJson(c);
+    if (f.contains("numerics"))
+      for (const char* key : {"cells_per_pixel_levels", "linear_solver"}) f["numerics"].erase(key);
+    if (f.contains("run"))
+      for (const char* key : {"max_memory", "threads"}) f["run"].erase(key);
+    m_fingerprint = f.dump();
+    if (!ctx.resume || m_file.empty() || !std::filesystem::exists(m_file)) return;
+    try {
+      const nlohmann::json j = nlohmann::json::parse(readBinaryFile(m_file));
+      if (j.at("format") != kFormat) throw std::runtime_error("not an image-permeability ladder checkpoint");
+      if (j.at("fingerprint") != m_fingerprint) throw std::runtime_error("it belongs to another version of this case");
+      m_rows = j.at("rows");
+      if (!m_rows.is_array()) throw std::runtime_error("its rows are not a list");
+    } catch (const std::exception& e) {
+      throw InputError(c.where("numerics.cells_per_pixel_levels"), fmt::format("cannot resume from {}: {}", m_file.string(), e.what()), {},
+                       "delete the .partial folder to start afresh");
+    }
+  }
+  /// The row the stopped run solved for `model` at `cells_per_pixel`, or null.
+  const nlohmann::json* find(const std::string& model, double cells_per_pixel) const {
+    for (const auto& r : m_rows)
+      if (r.value("depth_model", "") == model && r.value("cells_per_pixel", -1.0) == cells_per_pixel) return &r;
+    return nullptr;
+  }
+  /// Records a solved level (rank 0 writes the file, replacing it whole).
+  void add(const nlohmann::json& row) {
+    m_rows.push_back(row);
+    if (m_file.empty() || PetscSession::rank() != 0) return;
+    writeFileAtomic(m_file, nlohmann::json{{"format", kFormat}, {"fingerprint", m_fingerprint}, {"rows", m_rows}}.dump());
+  }
+  const std::filesystem::path& file() const { return m_file; }
+  void remove() const {
+    std::error_code ec;
+    if (!m_file.empty() && PetscSession::rank() == 0) std::filesystem::remove(m_file, ec);
+  }
+
+ private:
+  static constexpr const char* kFormat = "mmval-image-permeability-levels-1";
+  std::filesystem::path m_file;
+  std::string m_fingerprint;
+  nlohmann::json m_rows = nlohmann::json::array();
+};
 
 /// The coarse 3D model of image-permeability: the (isolated-pore-free) mask block-averaged onto
 /// the 3D grid and extruded between no-slip plates; one solve per cells_z level. Adds
@@ -368,6 +424,11 @@ CaseKind imagePermeabilityKind() {
              "selfp: B diag(A)^-1 B^T with AMG, iterations grow ~linearly with cells_z; mass: pressure mass matrix / mu, fails to converge on thin chips)")
         .def("lsc");
     declareSolverKeys(s, true);
+    s.integer("run.stop_after_levels",
+              "Stop (as if killed) after this many solved levels, keeping them in checkpoint-levels.json; `mmval run --resume` "
+              "continues with the next level and a resumed run does not stop again (0: run to the end; tests)")
+        .def(0)
+        .min(0);
   };
   k.run = [](const Case& c, const RunContext& ctx) {
     const std::filesystem::path file = c.path("geometry.mask");
@@ -432,7 +493,10 @@ CaseKind imagePermeabilityKind() {
     std::unique_ptr<SteadyFlowSolver> last;
     const Acceptance* primary = c.acceptanceFor("permeability");
     Progress progress("fluid " + c.name(), levels.size() * ((want_2d ? 1 : 0) + (want_da ? 1 : 0)), ctx.quiet);
-    std::size_t done = 0;
+    std::size_t done = 0, solved = 0;
+    int resumed_levels = 0;
+    LadderCheckpoint checkpoint(c, ctx);
+    const long long stop_after = c.integer("run.stop_after_levels");
     for (const std::string m : {"2d", "depth-averaged"}) {
       if ((m == "2d" && !want_2d) || (m == "depth-averaged" && !want_da)) continue;
       const bool first_model = runs.empty();
@@ -449,6 +513,21 @@ CaseKind imagePermeabilityKind() {
           FlowProblem pc = p;
           pc.shape = geo.pixels;
           checkThroats(pc, res_key, levels[li], out, ctx.quiet, kWarnImageThroatCells, px, &throat);
+        }
+        // The final level of the final model is always solved: its solver writes the fields.
+        const bool final_solve = li + 1 == levels.size() && (m == "depth-averaged" || !want_da);
+        if (const nlohmann::json* kept = final_solve ? nullptr : checkpoint.find(m, levels[li])) {
+          nlohmann::json row = *kept;
+          row["level"] = li;
+          rows.push_back(row);
+          runs.push_back(row);
+          const int nx = row.at("nx").get<int>();
+          h.push_back(geo.width_m / nx);
+          ks.push_back(row.at("value").get<double>());
+          nxs.push_back(nx);
+          ++resumed_levels;
+          progress.update(++done);
+          continue;
         }
         last = std::make_unique<SteadyFlowSolver>(p, solverOptions(c, ctx.quiet));
         solveNamingKey(*last, res_key);
@@ -467,6 +546,10 @@ CaseKind imagePermeabilityKind() {
         ks.push_back(kk);
         nxs.push_back(last->nx());
         progress.update(++done);
+        checkpoint.add(row);
+        if (stop_after > 0 && resumed_levels == 0 && ++solved == static_cast<std::size_t>(stop_after) && !final_solve)
+          throw RunStopped(fmt::format("stopped after {} solved levels as asked (run.stop_after_levels); {} holds them, continue with `mmval run --resume`",
+                                       stop_after, checkpoint.file().string()));
       }
       addObservedOrder(rows, nxs);
       k_of[m] = ks.back();
@@ -481,6 +564,7 @@ CaseKind imagePermeabilityKind() {
     }
     progress.finish();
     out.details["runs"] = runs;
+    setDetail(out.details, DetailField::resumed_levels, resumed_levels);
     if (levels.size() >= 2) out.details["grid_convergence"] = convergence;
     if (last) out.details["cells"] = last->stats().cells;
     const Throat narrowest = narrowestThroat(geo.pixels->mask(), px);
@@ -505,6 +589,7 @@ CaseKind imagePermeabilityKind() {
     out.metrics["porosity_connected"] = pores.porosity_connected;
     out.details["darcy_m2"] = kDarcy;
     if (last) writeFields(*last, ctx, "fields", out);
+    checkpoint.remove();  // complete: the results replace it
     return out;
   };
   return k;

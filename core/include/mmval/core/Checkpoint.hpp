@@ -91,9 +91,11 @@ std::string readBinaryFile(const std::filesystem::path& file);
 
 /// What a checkpoint must match to be resumed: the resolved case without its
 /// [case] table, its acceptance entries and the run-control keys (run.checkpoint_every,
-/// run.checkpoint_minutes, run.stop_after_frames, run.stop_after_steps), which change
-/// neither the physics nor the numerics.
+/// run.checkpoint_minutes, run.stop_after_frames, run.stop_after_steps, run.stop_after_levels),
+/// which change neither the physics nor the numerics.
 std::string checkpointFingerprint(const Case& c);
+/// The same as JSON, for a runner that leaves out keys of its own (e.g. a ladder's level list).
+nlohmann::json checkpointFingerprintJson(const Case& c);
 
 /// Thrown when a run stops on purpose (run.stop_after_frames, run.stop_after_steps:
 /// tests of checkpoint and restart); the checkpoint is on disk.

@@ -60,6 +60,7 @@ enum class DetailField {
   shedding_periods,
   time_steps,
   resumed_from_step,
+  resumed_levels,
   // Particle runs.
   resumed_from_frame,
   end_time_s,
