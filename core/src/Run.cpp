@@ -35,6 +35,12 @@ long long peakMemoryBytes() {
   return static_cast<long long>(usage.ru_maxrss) * 1024;  // Linux reports KiB
 }
 
+double processCpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
 nlohmann::json provenanceJson() {
   char host[256] = {0};
   gethostname(host, sizeof host - 1);

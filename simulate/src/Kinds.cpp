@@ -1,7 +1,6 @@
 #include "mmval/simulate/ThroatCheck.hpp"
 #include "mmval/simulate/Kinds.hpp"
 
-#include <sys/resource.h>
 
 #include <cmath>
 
@@ -71,13 +70,6 @@ void setImmersed(const Case& c, FlowProblem& p) {
 std::string immersedLabel(const Case& c) {
   const std::string m = c.text("numerics.immersed");
   return m == "sharp" ? m + " (" + c.text("numerics.cut_cells") + " cut cells)" : m;
-}
-
-double processCpuSeconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
-  return seconds(u.ru_utime) + seconds(u.ru_stime);
 }
 
 nlohmann::json ladderRow(std::size_t index, int resolution, const SteadyFlowSolver& s, const LevelClock& clock, double value, const Acceptance* primary) {

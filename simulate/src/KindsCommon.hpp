@@ -9,6 +9,7 @@
 
 #include "mmval/core/Case.hpp"
 #include "mmval/core/CaseKind.hpp"
+#include "mmval/core/Run.hpp"
 #include "mmval/simulate/CylinderScene.hpp"
 #include "mmval/simulate/FlowSolver.hpp"
 
@@ -28,9 +29,6 @@ SolverOptions solverOptions(const Case& c, bool quiet = false);
 void setImmersed(const Case& c, FlowProblem& p);
 /// result.json's details.immersed: "penalized", or "sharp" with the cut-cell treatment.
 std::string immersedLabel(const Case& c);
-/// User and system CPU seconds this process has used so far (getrusage; on several ranks, this
-/// rank's): a level's cost on a shared machine, where the wall time depends on the load.
-double processCpuSeconds();
 /// A level's clock: wall and process CPU seconds since it was made.
 struct LevelClock {
   std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();

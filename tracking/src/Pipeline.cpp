@@ -21,6 +21,7 @@
 #include "PipelineDetail.hpp"
 #include "TrackerTuning.hpp"
 #include "mmval/core/Progress.hpp"
+#include "mmval/core/Run.hpp"
 #include "mmval/tracking/Background.hpp"
 #include "mmval/tracking/LargeDiscs.hpp"
 #include "mmval/tracking/SceneDecisions.hpp"
@@ -50,11 +51,6 @@ class StageClock {
   double total() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count(); }
 
  private:
-  static double processCpuSeconds() {
-    timespec t{};
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-  }
   std::chrono::steady_clock::time_point m_start, m_lap;
   double m_cpu_lap;
 };

@@ -57,6 +57,10 @@ std::filesystem::path fileOrRunFile(const Case& c, const RunContext& ctx, const 
 /// Peak resident memory of this process so far, bytes (getrusage).
 long long peakMemoryBytes();
 
+/// CPU seconds (user + system, every thread) this process has used so far; on several MPI
+/// ranks, this rank's. A stage's cost on a shared machine, where wall time depends on the load.
+double processCpuSeconds();
+
 /// Versions, git hash, compiler, host: the provenance block of result.json.
 nlohmann::json provenanceJson();
 
