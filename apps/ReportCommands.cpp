@@ -130,7 +130,8 @@ void runReport(const ReportCli& r) {
   StagedDirectory staged(r.out);
   const int figures = reports::writeReport(input, staged.path());
   staged.commit();
-  std::printf("report: %zu run(s), %zu comparison(s), %d figure(s) -> %s\n", input.summary.results.size(), input.comparisons.size(), figures,
+  std::printf("report: %zu run(s), %zu comparison(s), %zu sweep(s), %d figure(s) -> %s\n", input.summary.results.size(), input.comparisons.size(),
+              input.sweeps.size(), figures,
               (staged.finalPath() / "index.html").string().c_str());
 }
 

@@ -1,6 +1,8 @@
 #include "SweepCommand.hpp"
 
+#include <map>
 #include <memory>
+#include <string>
 
 #include "mmval/validate/Sweep.hpp"
 
@@ -18,6 +20,16 @@ void registerSweepCommand(CLI::App& app, const CaseKindRegistry& registry) {
   sw->add_option("--metric", o->metrics, "Show (and plot the first) only these metrics (repeatable; default: show all)");
   sw->add_flag("--resume", o->resume, "Keep the complete runs already in the output folder and resume interrupted ones");
   sw->add_flag("--quiet", o->quiet, "No progress output from the runs");
+  sw->add_option("--grid", o->grid_key, "A --vary key (numeric values) that is the grid resolution: its two finest levels (and the order from three) give each metric's grid part");
+  sw->add_option("--step", o->step_key, "A --vary key (numeric values) that is the step size: the step part, as --grid");
+  const std::map<std::string, validate::Finer> finer = {{"larger", validate::Finer::larger}, {"smaller", validate::Finer::smaller}};
+  sw->add_option("--grid-finer", o->grid_finer, "Which values of --grid are finer: larger (cells per pixel; default) or smaller (a cell size)")
+      ->transform(CLI::CheckedTransformer(finer, CLI::ignore_case));
+  sw->add_option("--step-finer", o->step_finer, "Which values of --step are finer: smaller (a step; default) or larger (steps per unit)")
+      ->transform(CLI::CheckedTransformer(finer, CLI::ignore_case));
+  sw->add_option("--converged-within", o->converged_within,
+                 "[METRIC=]VALUE: absolute tolerance in the metric's unit (0.02: 2 points of a fraction) of the verdict whether the grid and step parts are "
+                 "within it; without METRIC for the --metric metrics (all when none is named) without their own (repeatable)");
   sw->callback([o, &registry] { validate::runSweep(*o, registry); });
 }
 

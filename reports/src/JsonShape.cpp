@@ -182,6 +182,61 @@ void checkCompareShape(const json& doc, const std::filesystem::path& file) {
   if (const json* a = s.maybe(doc, "", "alignment", kObject)) checkAlignment(s, *a);
 }
 
+void checkSweepShape(const json& doc, const std::filesystem::path& file) {
+  const Shape s(file);
+  s.check(doc, "", kObject);
+  s.need(doc, "", "schema", kString);
+  s.schema(doc, "mmval-sweep/1");
+  s.need(s.need(doc, "", "case", kObject), "case", "name", kString);
+  const json& axes = s.need(doc, "", "axes", kArray);
+  for (std::size_t i = 0; i < axes.size(); ++i) {
+    const std::string at = "axes[" + std::to_string(i) + "]";
+    s.need(s.check(axes[i], at, kObject), at, "key", kString);
+    s.eachMaybe(axes[i], at, "values", kString);
+  }
+  const json& groups = s.need(doc, "", "groups", kArray);
+  for (std::size_t i = 0; i < groups.size(); ++i) {
+    const std::string at = "groups[" + std::to_string(i) + "]";
+    s.check(groups[i], at, kObject);
+    for (const auto& [key, value] : s.need(groups[i], at, "setting", kObject).items()) s.check(value, at + ".setting." + key, kString);
+    for (const auto& [name, stats] : s.need(groups[i], at, "metrics", kObject).items()) {
+      s.check(stats, at + ".metrics." + name, kObject);
+      s.need(stats, at + ".metrics." + name, "n", kNumber);
+      for (const char* key : {"mean", "se"}) s.need(stats, at + ".metrics." + name, key, kNumber | kNull);
+    }
+  }
+  s.eachMaybe(doc, "", "metrics_shown", kString);
+  if (const json* d = s.maybe(doc, "", "discretisation", kObject))
+    for (const char* axis : {"grid", "step"})
+      if (const json* a = s.maybe(*d, "discretisation", axis, kObject | kNull); a != nullptr && a->is_object())
+        s.need(*a, std::string("discretisation.") + axis, "key", kString);
+  if (const json* u = s.maybe(doc, "", "uncertainty", kObject))
+    for (const auto& [name, m] : u->items()) {
+      const std::string at = "uncertainty." + name;
+      s.check(m, at, kObject);
+      s.need(m, at, "unit", kString);
+      const json& list = s.need(m, at, "settings", kArray);
+      for (std::size_t i = 0; i < list.size(); ++i) {
+        const std::string e = at + ".settings[" + std::to_string(i) + "]";
+        s.check(list[i], e, kObject);
+        for (const char* key : {"value", "seed_se", "combined"}) s.need(list[i], e, key, kNumber | kNull);
+        s.need(list[i], e, "n", kNumber);
+        for (const char* key : {"setting", "at"}) s.need(list[i], e, key, kObject);
+        s.need(list[i], e, "verdict", kString);
+        s.need(list[i], e, "converged", kBoolean | kNull);
+        for (const char* axis : {"grid", "step"}) {
+          const json& p = s.need(list[i], e, axis, kObject | kNull);
+          if (p.is_null()) continue;
+          const std::string pa = e + "." + axis;
+          for (const char* key : {"key", "method", "note"}) s.need(p, pa, key, kString);
+          for (const char* key : {"part", "difference", "difference_se", "observed_order"}) s.need(p, pa, key, kNumber | kNull);
+          s.need(p, pa, "resolved", kBoolean);
+          s.need(p, pa, "levels", kArray);
+        }
+      }
+    }
+}
+
 void checkMetricsListShape(const json& doc, const std::filesystem::path& file) {
   const Shape s(file);
   s.check(doc, "", kObject);

@@ -118,6 +118,63 @@ std::string metricsTable(const nlohmann::json& metrics, const nlohmann::json& de
 }
 
 
+/// index.html's list of sweeps: each with its case, runs and how many metrics' verdicts say converged.
+std::string sweepSummaryHtml(const ReportInput& input) {
+  std::string html = "<h2 id=\"sweeps\">Sweeps</h2>\n<table id=\"sweep-list\"><tr><th class=\"l\">sweep</th><th class=\"l\">case</th><th>runs</th>"
+                     "<th>seeds per setting</th><th class=\"l\">grid / step axis</th><th>metrics converged (of those with a verdict)</th></tr>\n";
+  for (const auto& sw : input.sweeps) {
+    const nlohmann::json& doc = sw.sweep;
+    int judged = 0, converged = 0;
+    const nlohmann::json uncertainty = doc.value("uncertainty", nlohmann::json::object());
+    for (const auto& [name, u] : uncertainty.items())
+      for (const auto& e : u["settings"])
+        if (e["converged"].is_boolean()) {
+          ++judged;
+          converged += e["converged"].get<bool>();
+        }
+    const nlohmann::json d = doc.value("discretisation", nlohmann::json::object());
+    const auto key = [&](const char* axis) { return d.contains(axis) && d[axis].is_object() ? d[axis]["key"].get<std::string>() : std::string("-"); };
+    html += fmt::format("<tr><td class=\"l\"><a href=\"cases/{}\">{}</a></td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td class=\"l\">{} / {}</td><td>{}</td></tr>\n",
+                        htmlEscape(casePageName(sweepPageKey(sw))), htmlEscape(sw.name), htmlEscape(doc["case"]["name"].get<std::string>()), doc.value("runs", 0),
+                        doc.value("seeds_per_setting", 0), htmlEscape(key("grid")), htmlEscape(key("step")),
+                        judged == 0 ? std::string("no verdict asked") : fmt::format("{} of {}", converged, judged));
+  }
+  return html + "</table>\n";
+}
+
+/// A sweep's page: what was varied, the uncertainty table and the figures, with links to its files.
+void writeSweepPage(const SweepInput& sw, const Parts& parts, const Provenance& prov, const fs::path& out) {
+  const fs::path page_dir = out / "cases";
+  const std::string key = sweepPageKey(sw);
+  const nlohmann::json& doc = sw.sweep;
+  std::string html = pageHead("Sweep " + sw.name + ": " + doc["case"]["name"].get<std::string>(), "../");
+  html += provenanceHtml(prov);
+  std::string axes;
+  for (const auto& a : doc["axes"]) {
+    std::string values;
+    for (const auto& v : a.value("values", nlohmann::json::array())) values += (values.empty() ? "" : ", ") + v.get<std::string>();
+    axes += (axes.empty() ? "" : "; ") + a["key"].get<std::string>() + " = " + values;
+  }
+  html += fmt::format("<p>Case {} run over {} ({} runs, {} seed(s) per setting, {} numerical failure(s)). The provenance above is the first run's.</p>\n",
+                      htmlEscape(doc["case"]["name"].get<std::string>()), htmlEscape(axes.empty() ? std::string("no axis") : axes), doc.value("runs", 0),
+                      doc.value("seeds_per_setting", 0), doc.value("failed_runs", 0));
+  html += "<h2>Files</h2>\n<ul id=\"files\">\n";
+  html += fmt::format("<li>sweep folder: <a href=\"{}/\">{}</a></li>\n", htmlEscape(relativeLink(sw.dir, page_dir)), htmlEscape(fs::absolute(sw.dir).lexically_normal().string()));
+  for (const char* f : {"sweep.json", "sweep.csv", "sweep.svg"})
+    if (fs::exists(sw.dir / f)) html += fmt::format("<li><a href=\"{}\">{}</a></li>\n", htmlEscape(relativeLink(sw.dir / f, page_dir)), f);
+  html += "</ul>\n";
+  for (const auto& [owner, t] : parts.sweep_tables)
+    if (owner == key) html += t.html();
+  bool any = false;
+  for (const auto& f : parts.figures)
+    if (f.owner == key) {
+      if (!any) html += "<h2>Figures</h2>\n";
+      any = true;
+      html += figureHtml(f, "../");
+    }
+  writeFileAtomic(page_dir / casePageName(key), html + pageFoot());
+}
+
 }  // namespace
 
 /// A path as an href: relative to the page's folder, with ' ', '#', '%' and '?' percent-encoded.
@@ -137,6 +194,8 @@ std::string pageKey(const nlohmann::json& run) {
   }
   return run["case"]["name"].get<std::string>();
 }
+
+std::string sweepPageKey(const SweepInput& sweep) { return "sweep-" + sweep.name; }
 
 std::string casePageName(const std::string& name) {
   std::string out = name;
@@ -217,7 +276,9 @@ void writePages(const ReportInput& input, const Parts& parts, const fs::path& ou
                           e.status(), e.status(), htmlEscape(e.page), htmlEscape(e.name), htmlEscape(e.kind), e.passed, e.judged, failing.empty() ? "-" : failing,
                           e.run.is_null() ? "-" : fmt::format("{:.1f}", e.run["cost"]["wall_seconds"].get<double>()), htmlEscape(e.what));
     }
-    html += "</table>\n<h2 id=\"sources\">Sources of the references</h2>\n<ul>\n";
+    html += "</table>\n";
+    if (!input.sweeps.empty()) html += sweepSummaryHtml(input);
+    html += "<h2 id=\"sources\">Sources of the references</h2>\n<ul>\n";
     std::map<std::string, std::set<std::string>> sources;
     for (const auto& e : entries)
       for (const auto& m : e.metrics)
@@ -248,6 +309,8 @@ void writePages(const ReportInput& input, const Parts& parts, const fs::path& ou
       if (f.owner.empty()) html += figureHtml(f, "");
     writeFileAtomic(out / "paper.html", html + pageFoot());
   }
+
+  for (const auto& sw : input.sweeps) writeSweepPage(sw, parts, sw.first_run.is_null() ? prov : provenanceOf(sw.first_run), out);
 
   // One page per case.
   for (const auto& e : entries) {

@@ -2,6 +2,7 @@
 // ReportStages.hpp in order; diffMetrics() compares two metrics documents.
 #include "mmval/reports/Report.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <functional>
@@ -47,6 +48,19 @@ bool isComparison(const nlohmann::json& j) {
   return j.is_object() && j.contains("schema") && j["schema"].is_string() && j["schema"].get<std::string>() == "mmval-compare/1";
 }
 
+/// result.json of a sweep's first complete run (its provenance stands for the sweep's), or null.
+nlohmann::json firstRunOfSweep(const fs::path& dir) {
+  std::vector<fs::path> runs;
+  if (fs::is_directory(dir / "runs"))
+    for (const auto& e : fs::directory_iterator(dir / "runs"))
+      if (fs::exists(e.path() / "result.json")) runs.push_back(e.path() / "result.json");
+  if (runs.empty()) return nullptr;
+  const fs::path first = *std::min_element(runs.begin(), runs.end());
+  nlohmann::json j = readJsonFile(first);
+  checkResultShape(j, first);
+  return j;
+}
+
 }  // namespace
 
 ReportInput collect(const std::vector<fs::path>& dirs) {
@@ -68,8 +82,19 @@ ReportInput collect(const std::vector<fs::path>& dirs) {
         found = true;
       }
     }
+    // A sweep is one entry: its runs (dozens of one case) are read through its sweep.json, not listed one by one.
+    const bool sweep = fs::exists(d / "sweep.json");
+    if (sweep) {
+      const auto j = readJsonFile(d / "sweep.json");
+      checkSweepShape(j, d / "sweep.json");
+      fs::path dir = d.lexically_normal();
+      if (dir.filename().empty()) dir = dir.parent_path();
+      input.sweeps.push_back({fs::absolute(dir).filename().string(), d, j, nullptr});
+      input.sweeps.back().first_run = firstRunOfSweep(d);
+      found = true;
+    }
     for (const char* sub : {"runs", "compare"})
-      if (fs::is_directory(d / sub)) {
+      if (fs::is_directory(d / sub) && !(sweep && std::string(sub) == "runs")) {
         std::vector<fs::path> children;
         for (const auto& e : fs::directory_iterator(d / sub))
           if (e.is_directory() && e.path().extension() != ".partial") children.push_back(e.path());
@@ -79,7 +104,7 @@ ReportInput collect(const std::vector<fs::path>& dirs) {
     return found;
   };
   for (const auto& d : dirs)
-    if (!visit(d)) throw InputError({d.string(), 0, 0, {}}, "no result.json, compare metrics.json or runs/ found", {}, "a folder written by `mmval run`, `mmval compare` or `mmval validate`");
+    if (!visit(d)) throw InputError({d.string(), 0, 0, {}}, "no result.json, compare metrics.json, sweep.json or runs/ found", {}, "a folder written by `mmval run`, `mmval compare`, `mmval validate` or `mmval sweep`");
   return input;
 }
 
@@ -100,6 +125,8 @@ int writeReport(const ReportInput& input, const fs::path& out) {
   parts.tables = paperTables(input, reference_dir, paper.reduction_rows);
   parts.case_tables = regionTables(input);
   parts.alignments = alignmentNotes(input);
+  parts.sweep_tables = sweepTables(input);
+  sweepFigures(input, sink);
 
   physicsFigures(input, reference_dir, sink);
   runImages(input, sink);

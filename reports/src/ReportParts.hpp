@@ -26,6 +26,7 @@ struct Parts {
   std::vector<Figure> figures;
   std::vector<Table> tables;
   std::vector<std::pair<std::string, Table>> case_tables;  ///< tables of one case's page: (case, table)
+  std::vector<std::pair<std::string, Table>> sweep_tables; ///< each sweep's uncertainty table: (its page key, sweepPageKey)
   std::vector<std::string> alignments;
   bool plots = true;
 };
@@ -40,6 +41,9 @@ std::string pageKey(const nlohmann::json& run);
 
 /// A path as an href from `from_dir`: relative, with ' ', '#', '%' and '?' percent-encoded.
 std::string relativeLink(const std::filesystem::path& target, const std::filesystem::path& from_dir);
+
+/// The key of a sweep's page and figures: "sweep-<folder name>".
+std::string sweepPageKey(const SweepInput& sweep);
 
 /// File name of a case's page under cases/.
 std::string casePageName(const std::string& name);

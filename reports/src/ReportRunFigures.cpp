@@ -1,6 +1,11 @@
 // writeReport's figure stages of single runs and comparisons: comparison
 // plots and images, the paper's permeability and retention figures, physics
 // checks, and the images runs wrote.
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <map>
+
 #include <fmt/format.h>
 
 #include "mmval/reports/PaperFigures.hpp"
@@ -133,6 +138,97 @@ void physicsFigures(const ReportInput& input, const fs::path& reference_dir, Fig
       f.data_label = cf.data.filename().string() + " (CSV)";
       sink.addRendered(std::move(f));
     }
+}
+
+void sweepFigures(const ReportInput& input, FigureSink& sink) {
+  if (!sink.plots()) return;
+  for (const auto& sw : input.sweeps) {
+    const nlohmann::json& doc = sw.sweep;
+    if (doc["axes"].empty() || doc["groups"].empty()) continue;
+    const nlohmann::json d = doc.value("discretisation", nlohmann::json::object());
+    const auto keyOf = [&](const char* axis) { return d.contains(axis) && d[axis].is_object() ? d[axis]["key"].get<std::string>() : std::string(); };
+    const std::string grid = keyOf("grid"), step = keyOf("step");
+    const std::string x_key = grid.empty() ? doc["axes"][0]["key"].get<std::string>() : grid;
+    // x: the axis value as a number; an axis of words is drawn by the index of its value.
+    std::vector<std::string> x_values;
+    for (const auto& v : doc["axes"])
+      if (v["key"] == x_key)
+        for (const auto& value : v["values"]) {
+          std::string text = value.get<std::string>();
+          if (text.size() >= 2 && text.front() == '"' && text.back() == '"') text = text.substr(1, text.size() - 2);
+          x_values.push_back(text);
+        }
+    bool numeric = true;
+    double lo = INFINITY, hi = -INFINITY;
+    for (const auto& v : x_values) {
+      char* end = nullptr;
+      const double x = std::strtod(v.c_str(), &end);
+      numeric = numeric && end != v.c_str() && x > 0;
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+    const auto xOf = [&](const std::string& v) {
+      const auto at = std::find(x_values.begin(), x_values.end(), v);
+      return numeric ? std::strtod(v.c_str(), nullptr) : static_cast<double>(at - x_values.begin());
+    };
+    std::vector<std::string> metrics;
+    for (const auto& m : doc.value("metrics_shown", nlohmann::json::array())) metrics.push_back(m.get<std::string>());
+    if (metrics.empty())  // every metric whose mean varies over the settings
+      for (const auto& [name, stats] : doc["groups"][0]["metrics"].items()) {
+        double a = INFINITY, b = -INFINITY;
+        for (const auto& g : doc["groups"])
+          if (g["metrics"].contains(name) && g["metrics"][name]["mean"].is_number()) {
+            a = std::min(a, g["metrics"][name]["mean"].get<double>());
+            b = std::max(b, g["metrics"][name]["mean"].get<double>());
+          }
+        if (b > a) metrics.push_back(name);
+      }
+    for (const auto& metric : metrics) {
+      std::map<std::string, Series> lines;
+      for (const auto& g : doc["groups"]) {
+        if (!g["metrics"].contains(metric) || !g["metrics"][metric]["mean"].is_number()) continue;
+        std::string label;
+        for (const auto& [k, v] : g["setting"].items())
+          if (k != x_key) label += (label.empty() ? "" : ", ") + k + "=" + v.get<std::string>();
+        Series& line = lines[label];
+        line.name = label.empty() ? metric : label;
+        line.style = "yerrorlines";
+        line.x.push_back(xOf(g["setting"][x_key].get<std::string>()));
+        line.y.push_back(g["metrics"][metric]["mean"].get<double>());
+        line.yerr.push_back(g["metrics"][metric]["se"].is_number() ? g["metrics"][metric]["se"].get<double>() : 0.0);
+      }
+      if (lines.empty()) continue;
+      std::string unit;
+      if (doc.contains("uncertainty") && doc["uncertainty"].contains(metric)) unit = doc["uncertainty"][metric]["unit"].get<std::string>();
+      Plot p;
+      p.title = sw.name + ": " + metric + " (mean +- standard error over seeds)";
+      p.xlabel = x_key + (grid.empty() ? "" : " (grid; finer: " + d["grid"].value("finer", std::string("?")) + ")");
+      if (!numeric) {
+        p.xlabel += " (";
+        for (std::size_t i = 0; i < x_values.size(); ++i) p.xlabel += (i ? ", " : "") + std::to_string(i) + ": " + x_values[i];
+        p.xlabel += ")";
+      }
+      p.ylabel = metric + (unit.empty() || unit == "1" ? "" : " (" + unit + ")");
+      // gnuplot's axis labels are enhanced text: "_" would start a subscript.
+      for (std::string* label : {&p.xlabel, &p.ylabel})
+        for (std::size_t at = 0; (at = label->find('_', at)) != std::string::npos; at += 2) label->insert(at, "\\");
+      p.logx = numeric && hi / lo >= 10;
+      // The lines are shifted sideways (up to 1.5 % of the axis) so that their error bars do not hide each other.
+      const double span = numeric ? (p.logx ? std::log(hi / lo) : hi - lo) : static_cast<double>(x_values.size() - 1);
+      const double count = static_cast<double>(lines.size());
+      double k = 0;
+      for (auto& [label, line] : lines) {
+        const double shift = count > 1 ? (k++ - (count - 1) / 2) / (count - 1) * 0.03 * span : 0.0;
+        for (double& x : line.x) x = p.logx ? x * std::exp(shift) : x + shift;
+        p.series.push_back(std::move(line));
+      }
+      sink.addPlot(sweepPageKey(sw) + "-" + metric,
+                   metric + " against " + x_key + (step.empty() ? "" : ", one line per " + step + " value") +
+                       " (and per setting of the other axes), the lines shifted sideways by up to 1.5 % of the axis so that their error bars can be told apart; "
+                       "error bars: standard error of the mean over the seeds. Sweep folder " + sw.name + ".",
+                   p, sweepPageKey(sw));
+    }
+  }
 }
 
 void runImages(const ReportInput& input, FigureSink& sink) {

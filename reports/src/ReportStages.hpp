@@ -3,8 +3,8 @@
 // what it makes; only FigureSink and the writers touch the output folder.
 //
 //   figures:  crossCaseFigures -> forceHistoryFigures -> comparisonFigures
-//             -> paperFigures -> physicsFigures -> runImages   (FigureSink)
-//   tables:   paperTables, regionTables, alignmentNotes             (Parts)
+//             -> paperFigures -> sweepFigures -> physicsFigures -> runImages   (FigureSink)
+//   tables:   paperTables, regionTables, alignmentNotes, sweepTables (Parts)
 //   files:    writeMetricsJson, writeMarkdown, writePages (Pages.cpp)
 #pragma once
 #include <filesystem>
@@ -82,6 +82,10 @@ PaperFigureResults paperFigures(const ReportInput& input, const std::filesystem:
 void physicsFigures(const ReportInput& input, const std::filesystem::path& reference_dir, FigureSink& sink);
 /// The PNG files each result.json lists; speed fields get a colour bar.
 void runImages(const ReportInput& input, FigureSink& sink);
+/// Each sweep's metrics against its grid axis (else its first axis), one series per
+/// step value and other setting, error bars the seeds' standard error: the metrics the
+/// sweep was asked to show (--metric), else every metric whose mean varies. On its page.
+void sweepFigures(const ReportInput& input, FigureSink& sink);
 
 // ---- tables and files (ReportWriters.cpp) ----
 
@@ -90,6 +94,9 @@ std::vector<Table> paperTables(const ReportInput& input, const std::filesystem::
                                const std::vector<std::vector<std::string>>& reduction_rows);
 /// Mean speed per region of each comparison that has regions: (page key, table).
 std::vector<std::pair<std::string, Table>> regionTables(const ReportInput& input);
+/// Each sweep's uncertainty (sweep.json): per metric and setting of the other axes, the
+/// value at the finest grid and step with its seed, grid and step parts, combined, and the verdict.
+std::vector<std::pair<std::string, Table>> sweepTables(const ReportInput& input);
 /// One line per comparison that registered its frames to the mask.
 std::vector<std::string> alignmentNotes(const ReportInput& input);
 /// <out>/metrics.json: every run's and comparison's metrics, `extra_metrics`, the tables.

@@ -1,5 +1,6 @@
 // writeReport's table stages and the files written from them: metrics.json
 // (runs, comparisons and tables together) and report.md.
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -54,6 +55,82 @@ std::vector<std::pair<std::string, Table>> regionTables(const ReportInput& input
                         cell(g["simulation"][steps])});
     }
     out.emplace_back(ownerOf(input, c), t);
+  }
+  return out;
+}
+
+namespace {
+
+std::string sweepNumber(const nlohmann::json& v, int digits = 4) { return v.is_number() ? fmt::format("{:.{}g}", v.get<double>(), digits) : std::string("-"); }
+
+/// A discretisation part as two cells: the part with its method, and the two finest levels' difference with its seed SE.
+std::array<std::string, 2> sweepPartCells(const nlohmann::json& p) {
+  if (p.is_null()) return {"-", "-"};
+  const std::string method = p["method"].get<std::string>();
+  if (method == "none") return {"- (" + p["note"].get<std::string>() + ")", "-"};
+  std::string part = sweepNumber(p["part"], 3) + " (" + method;
+  if (p["observed_order"].is_number()) part += fmt::format(", order {:.2g}", p["observed_order"].get<double>());
+  const auto& l = p["levels"];
+  const std::string diff = fmt::format("{:g} vs {:g}: {} +- {}{}", l[0]["level"].get<double>(), l[1]["level"].get<double>(),
+                                       p["difference"].is_number() ? fmt::format("{:+.3g}", p["difference"].get<double>()) : std::string("-"),
+                                       sweepNumber(p["difference_se"], 2), p["resolved"].get<bool>() ? "" : " (within seed noise)");
+  return {part + ")", diff};
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, Table>> sweepTables(const ReportInput& input) {
+  std::vector<std::pair<std::string, Table>> out;
+  for (const auto& sw : input.sweeps) {
+    const nlohmann::json& doc = sw.sweep;
+    Table t;
+    t.id = "sweep-table-" + fileId(sw.name);
+    t.title = "Uncertainty of " + doc["case"]["name"].get<std::string>() + " (sweep " + sw.name + ")";
+    const nlohmann::json d = doc.value("discretisation", nlohmann::json::object());
+    const auto axisText = [&](const char* axis) {
+      return d.contains(axis) && d[axis].is_object() ? d[axis]["key"].get<std::string>() + " (finer: " + d[axis].value("finer", std::string("?")) + ")" : std::string("none");
+    };
+    t.note = fmt::format("{} runs, {} seed(s) per setting. Grid axis: {}; step axis: {}. {}", doc.value("runs", 0), doc.value("seeds_per_setting", 0), axisText("grid"),
+                         axisText("step"), d.value("rule", std::string()));
+    t.header = {"metric", "setting", "value", "n", "seed SE", "grid part", "grid: two finest", "step part", "step: two finest", "combined", "verdict"};
+    if (!doc.contains("uncertainty")) {
+      t.note += " This sweep.json has no uncertainty block (written before mmval sweep computed one).";
+      out.emplace_back(sweepPageKey(sw), t);
+      continue;
+    }
+    // The metrics the sweep was asked to show first, then the rest by name.
+    std::vector<std::string> order;
+    for (const auto& m : doc.value("metrics_shown", nlohmann::json::array()))
+      if (doc["uncertainty"].contains(m.get<std::string>())) order.push_back(m.get<std::string>());
+    for (const auto& [name, u] : doc["uncertainty"].items())
+      if (std::find(order.begin(), order.end(), name) == order.end()) order.push_back(name);
+    // Every row is taken at the same finest grid and step: said once, in the note.
+    const auto label = [](const nlohmann::json& o) {
+      std::string text;
+      for (const auto& [k, v] : o.items()) text += (text.empty() ? "" : ", ") + k + "=" + v.get<std::string>();
+      return text.empty() ? std::string("-") : text;
+    };
+    bool other_axes = false;
+    for (const auto& name : order) {
+      const auto& settings = doc["uncertainty"][name]["settings"];
+      if (!settings.empty() && t.note.find("Values at ") == std::string::npos) t.note = "Values at " + label(settings[0]["at"]) + ". " + t.note;
+      for (const auto& e : settings) other_axes = other_axes || !e["setting"].empty();
+    }
+    for (const auto& name : order) {
+      const auto& u = doc["uncertainty"][name];
+      const std::string unit = u["unit"].get<std::string>();
+      for (const auto& e : u["settings"]) {
+        const auto grid = sweepPartCells(e["grid"]), step = sweepPartCells(e["step"]);
+        t.rows.push_back({name, label(e["setting"]), sweepNumber(e["value"], 5) + (unit.empty() || unit == "1" ? "" : " " + unit),
+                          std::to_string(e["n"].get<int>()), sweepNumber(e["seed_se"], 2), grid[0], grid[1], step[0], step[1], sweepNumber(e["combined"], 2),
+                          e["verdict"].get<std::string>().empty() ? "-" : e["verdict"].get<std::string>()});
+      }
+    }
+    if (!other_axes) {  // one setting: the column would only say "-"
+      t.header.erase(t.header.begin() + 1);
+      for (auto& row : t.rows) row.erase(row.begin() + 1);
+    }
+    out.emplace_back(sweepPageKey(sw), t);
   }
   return out;
 }
@@ -137,6 +214,7 @@ void writeMarkdown(const ReportInput& input, const Parts& parts, const fs::path&
                         m["tolerance"].is_null() ? "-" : m["tolerance"].get<std::string>(), m["pass"].is_null() ? "info" : (m["pass"].get<bool>() ? "pass" : "FAIL"));
   }
   for (const auto& t : parts.tables) md += t.markdown();
+  for (const auto& [key, t] : parts.sweep_tables) md += t.markdown();
   if (!parts.alignments.empty()) {
     md += "\n## Alignment of tracked frames and simulation\n\n";
     for (const auto& a : parts.alignments) md += "- " + a + "\n";

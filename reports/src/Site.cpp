@@ -79,6 +79,9 @@ Provenance provenanceOf(const nlohmann::json& result) {
 
 Provenance provenanceOf(const ReportInput& input) {
   if (input.summary.results.empty()) {
+    // A report of sweeps only: the first sweep's first run stands for them.
+    for (const auto& sw : input.sweeps)
+      if (!sw.first_run.is_null()) return provenanceOf(sw.first_run);
     Provenance p;
     p.report_date = nowUtc();
     p.gnuplot = gnuplotVersion();

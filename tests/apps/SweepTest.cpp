@@ -1,21 +1,31 @@
 // `mmval sweep`: the axes as the command line gives them, the statistics it
 // reports (checked against the runs' own result.json files and against a
-// plain `mmval run` of the same setting), resume, and the input errors.
+// plain `mmval run` of the same setting), resume, and the input errors; the
+// grid / step / seed uncertainty against analytic ladders (a test kind whose
+// metric is f0 + a h^2 + b dt + a fixed noise per seed), docs/outputs.md's
+// sweep tables against sweep.json, and the report's sweep page.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "../ResultJson.hpp"
 #include "RunMmval.hpp"
 #include "mmval/validate/Sweep.hpp"
+#include "mmval/core/CaseKind.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/reports/Plot.hpp"
+#include "mmval/reports/Report.hpp"
+#include "mmval/reports/Site.hpp"
 
 namespace {
 
@@ -120,6 +130,247 @@ TEST(Sweep, BadSweepsStopBeforeAnyRunNamingWhatIsWrong) {
   EXPECT_EQ(o.status, 2) << o.output;
   EXPECT_TRUE(fs::exists(dir / "mine" / "notes.txt"));
   EXPECT_FALSE(fs::exists(dir / "mine" / "runs"));
+}
+
+
+// ---- the uncertainty of a sweep ---------------------------------------------
+
+using mmval::validate::discretisationPart;
+using mmval::validate::Finer;
+using mmval::validate::LadderLevel;
+using mmval::validate::sampleStats;
+
+/// A level whose mean is `mean` with standard error `se` over 5 seeds.
+LadderLevel level(double value, double mean, double se) {
+  mmval::validate::SampleStats s;
+  s.n = 5;
+  s.mean = mean;
+  s.se = se;
+  s.sd = se * std::sqrt(5.0);
+  return {value, s};
+}
+
+TEST(SweepUncertainty, RichardsonOfAnAnalyticLadderGivesItsOrderAndLimit) {
+  // f = f0 + a h^2 with h = 1 / cells_per_pixel: order 2, the limit f0, and the finest level's
+  // error a h1^2 (exact algebra: round-off tolerances).
+  const double f0 = 0.15, a = 0.08;
+  const auto f = [&](double cpp) { return f0 + a / (cpp * cpp); };
+  auto p = discretisationPart({level(0.5, f(0.5), 1e-4), level(2, f(2), 1e-4), level(1, f(1), 1e-4)}, Finer::larger);
+  EXPECT_EQ(p.method, "richardson") << p.note;
+  EXPECT_NEAR(p.observed_order, 2.0, 1e-12);
+  EXPECT_NEAR(p.extrapolated, f0, 1e-12);
+  EXPECT_NEAR(p.part, a / 4, 1e-12);
+  EXPECT_NEAR(p.difference, f(2) - f(1), 1e-15);
+  EXPECT_NEAR(p.difference_se, std::sqrt(2.0) * 1e-4, 1e-15);
+  EXPECT_DOUBLE_EQ(p.levels.front().value, 2.0) << "finest first";
+  // Unequal ratios (1, 2, 3 cells per pixel: r = 1.5 and 2) need Celik's iteration; still order 2.
+  p = discretisationPart({level(1, f(1), 1e-4), level(2, f(2), 1e-4), level(3, f(3), 1e-4)}, Finer::larger);
+  EXPECT_EQ(p.method, "richardson") << p.note;
+  EXPECT_NEAR(p.observed_order, 2.0, 1e-9);
+  EXPECT_NEAR(p.extrapolated, f0, 1e-12);
+  // A step axis (finer: smaller) of a first-order scheme f = f0 + b dt: order 1.
+  const auto g = [&](double dt) { return f0 + 0.3 * dt; };
+  p = discretisationPart({level(0.4, g(0.4), 1e-4), level(0.2, g(0.2), 1e-4), level(0.1, g(0.1), 1e-4)}, Finer::smaller);
+  EXPECT_EQ(p.method, "richardson") << p.note;
+  EXPECT_NEAR(p.observed_order, 1.0, 1e-12);
+  EXPECT_NEAR(p.extrapolated, f0, 1e-12);
+  EXPECT_NEAR(p.part, 0.3 * 0.1, 1e-12);
+}
+
+TEST(SweepUncertainty, FallsBackToTheDifferenceAndSaysWhy) {
+  // Not monotone: 0.20, 0.10, 0.12 (coarse to fine).
+  auto p = discretisationPart({level(0.5, 0.20, 1e-3), level(1, 0.10, 1e-3), level(2, 0.12, 1e-3)}, Finer::larger);
+  EXPECT_EQ(p.method, "difference");
+  EXPECT_THAT(p.note, HasSubstr("not monotone"));
+  EXPECT_NEAR(p.part, 0.02, 1e-12);
+  EXPECT_TRUE(p.resolved);
+  // Monotone but the finest difference (0.004) is within 2 standard errors (2 x 0.0042).
+  p = discretisationPart({level(0.5, 0.20, 3e-3), level(1, 0.154, 3e-3), level(2, 0.150, 3e-3)}, Finer::larger);
+  EXPECT_EQ(p.method, "difference");
+  EXPECT_FALSE(p.resolved);
+  EXPECT_THAT(p.note, HasSubstr("within 2 standard errors"));
+  EXPECT_NEAR(p.part, 0.004, 1e-12);
+  // Two levels; a level without a value (n = 0) is left out.
+  mmval::validate::SampleStats none;
+  p = discretisationPart({level(1, 0.3, 0), {0.5, none}, level(2, 0.31, 0)}, Finer::larger);
+  EXPECT_EQ(p.method, "difference");
+  EXPECT_EQ(p.levels.size(), 2u);
+  EXPECT_NEAR(p.difference, 0.01, 1e-12);
+  EXPECT_EQ(discretisationPart({level(1, 0.3, 0)}, Finer::larger).method, "none");
+}
+
+TEST(SweepUncertainty, CombinedIsTheRootSumSquareAndTheVerdictReadsBothAxes) {
+  const auto seeds = sampleStats({0.10, 0.12, 0.14, 0.11, 0.13});
+  auto grid = discretisationPart({level(1, 0.15, 0.005), level(2, 0.14, 0.005)}, Finer::larger);    // part 0.01
+  auto step = discretisationPart({level(0.5, 0.125, 0.005), level(0.25, 0.12, 0.005)}, Finer::smaller);  // part 0.005
+  auto u = mmval::validate::metricUncertainty(seeds, grid, step, 0.02);
+  EXPECT_NEAR(u.seed_se, seeds.se, 1e-15);
+  EXPECT_NEAR(u.combined, std::sqrt(seeds.se * seeds.se + 0.01 * 0.01 + 0.005 * 0.005), 1e-14);
+  ASSERT_TRUE(u.converged.has_value());
+  EXPECT_TRUE(*u.converged);
+  EXPECT_FALSE(*u.converged_2se) << "grid part 0.01 + 2 x 0.0071 is beyond 0.02: " << u.verdict;
+  u = mmval::validate::metricUncertainty(seeds, grid, step, 0.008);
+  EXPECT_FALSE(*u.converged);
+  EXPECT_THAT(u.verdict, HasSubstr("NOT converged"));
+  EXPECT_THAT(u.verdict, HasSubstr("grid part"));
+  u = mmval::validate::metricUncertainty(seeds, std::nullopt, std::nullopt, NAN);
+  EXPECT_NEAR(u.combined, seeds.se, 1e-15);
+  EXPECT_FALSE(u.converged.has_value());
+}
+
+// A test kind with a known ladder: f = 0.15 + 0.08 h^2 + 0.05 dt + noise(seed), h = 1 / cells_per_pixel,
+// and g = 1 + 0.004 h^2 (no seed, no step dependence).
+constexpr double kNoise[] = {0.013, -0.007, 0.021, -0.015, 0.004};
+double ladderF(double cpp, double dt, int seed) { return 0.15 + 0.08 / (cpp * cpp) + 0.05 * dt + kNoise[seed - 1]; }
+
+const mmval::CaseKindRegistry& ladderKind() {
+  static const mmval::CaseKindRegistry registry = [] {
+    mmval::CaseKindRegistry r;
+    r.add({"test-ladder", "a metric with a known grid and step dependence",
+           [](mmval::Schema& s) {
+             s.real("numerics.cells_per_pixel", "grid").def(1.0);
+             s.real("numerics.step", "step").def(0.1);
+             s.integer("run.seed", "seed").def(1).min(1).max(5);
+           },
+           [](mmval::Schema& s) {
+             s.metric("f", "1", "f0 + a h^2 + b dt + noise");
+             s.metric("g", "1", "1 + 0.004 h^2");
+           },
+           [](const mmval::Case& c, const mmval::RunContext&) {
+             mmval::RunOutput o;
+             const double cpp = c.real("numerics.cells_per_pixel");
+             o.metrics["f"] = ladderF(cpp, c.real("numerics.step"), static_cast<int>(c.integer("run.seed")));
+             o.metrics["g"] = 1 + 0.004 / (cpp * cpp);
+             return o;
+           }});
+    return r;
+  }();
+  return registry;
+}
+
+/// Names in the first column of the first `| name | unit | meaning |` table after the line `marker` of docs/outputs.md.
+std::set<std::string> documentedNames(const std::string& marker) {
+  std::ifstream in(fs::path(MMVAL_SOURCE_DIR) / "docs" / "outputs.md");
+  std::string line;
+  while (std::getline(in, line) && line != marker) {
+  }
+  while (std::getline(in, line) && line != "| name | unit | meaning |") {
+  }
+  std::set<std::string> names;
+  while (std::getline(in, line) && line.starts_with("|")) {
+    const std::string first = line.substr(2, line.find(" |", 2) - 2);
+    if (first.size() > 2 && first.front() == '`') names.insert(first.substr(1, first.size() - 2));
+  }
+  return names;
+}
+
+std::set<std::string> keysOf(const nlohmann::json& j) {
+  std::set<std::string> keys;
+  for (const auto& [k, v] : j.items()) keys.insert(k);
+  return keys;
+}
+
+TEST(Sweep, UncertaintyOfAKnownLadderAndItsReportPage) {
+  const fs::path dir = mmval::test::freshTestFolder("sweep", "ladder");
+  std::ofstream(dir / "ladder.toml") << "[case]\nname = \"ladder\"\nkind = \"test-ladder\"\n";
+  mmval::validate::SweepOptions o;
+  o.file = (dir / "ladder.toml").string();
+  o.out = (dir / "sw").string();
+  o.vary = {"numerics.cells_per_pixel=0.5,1,2", "numerics.step=0.4,0.2"};
+  o.seeds = 5;
+  o.metrics = {"f", "g"};  // the bare tolerance 0.1 is for these two; f has its own
+  o.quiet = true;
+  o.grid_key = "numerics.cells_per_pixel";
+  o.step_key = "numerics.step";
+  o.converged_within = {"0.1", "f=0.05"};
+  mmval::validate::runSweep(o, ladderKind());
+  const nlohmann::json sw = readJson(dir / "sw" / "sweep.json");
+  EXPECT_FALSE(fs::exists(dir / "sw" / "result.json")) << "a sweep writes no result.json (docs/outputs.md says why)";
+  ASSERT_EQ(sw.at("uncertainty").at("f").at("settings").size(), 1u);
+  const auto& f = sw["uncertainty"]["f"]["settings"][0];
+  // At the finest grid (2) and step (0.2): the five seeds' values, their statistics computed here.
+  std::vector<double> finest;
+  for (int seed = 1; seed <= 5; ++seed) finest.push_back(ladderF(2, 0.2, seed));
+  const auto expected = sampleStats(finest);
+  EXPECT_NEAR(f["value"].get<double>(), expected.mean, 1e-12);
+  EXPECT_NEAR(f["seed_se"].get<double>(), expected.se, 1e-12);
+  EXPECT_EQ(f["at"]["numerics.cells_per_pixel"], "2");
+  EXPECT_EQ(f["at"]["numerics.step"], "0.2");
+  // Grid: the noise is the same at every level (same seeds), so the ladder is exact: order 2, part a h1^2 = 0.02,
+  // the limit 0.15 + b dt + mean noise.
+  EXPECT_EQ(f["grid"]["method"], "richardson") << f["grid"]["note"];
+  EXPECT_NEAR(f["grid"]["observed_order"].get<double>(), 2.0, 1e-9);
+  EXPECT_NEAR(f["grid"]["part"].get<double>(), 0.02, 1e-12);
+  EXPECT_NEAR(f["grid"]["extrapolated"].get<double>(), expected.mean - 0.02, 1e-12);
+  EXPECT_NEAR(f["grid"]["difference"].get<double>(), -0.06, 1e-12);
+  EXPECT_NEAR(f["grid"]["difference_se"].get<double>(), std::sqrt(2.0) * expected.se, 1e-12);
+  // Step: two levels, b (0.2 - 0.4) = -0.01.
+  EXPECT_EQ(f["step"]["method"], "difference");
+  EXPECT_NEAR(f["step"]["difference"].get<double>(), -0.01, 1e-12);
+  EXPECT_NEAR(f["combined"].get<double>(), std::sqrt(expected.se * expected.se + 0.02 * 0.02 + 0.01 * 0.01), 1e-12);
+  // f's own tolerance 0.05: the finest grid difference 0.06 is beyond it. g (0.1 for every metric): converged.
+  EXPECT_EQ(f["converged"], false) << f["verdict"];
+  const auto& g = sw["uncertainty"]["g"]["settings"][0];
+  EXPECT_EQ(g["converged"], true) << g["verdict"];
+  EXPECT_NEAR(g["grid"]["observed_order"].get<double>(), 2.0, 1e-9);
+  EXPECT_NEAR(g["grid"]["part"].get<double>(), 0.001, 1e-12);
+  EXPECT_TRUE(g["seed_se"].is_number() && g["seed_se"].get<double>() == 0.0) << "no seed dependence: zero spread";
+
+  // docs/outputs.md lists exactly what sweep.json holds.
+  EXPECT_EQ(documentedNames("### Sweep: `sweep.json`"), keysOf(sw));
+  EXPECT_EQ(documentedNames("### Sweep: an entry of `uncertainty.<metric>.settings`"), keysOf(f));
+  EXPECT_EQ(documentedNames("A part (`grid`, `step`):"), keysOf(f["grid"]));
+
+  // The report of the sweep folder: one sweep (its 30 runs not listed one by one), its page with the table and figure.
+  const auto input = mmval::reports::collect({dir / "sw"});
+  ASSERT_EQ(input.sweeps.size(), 1u);
+  EXPECT_TRUE(input.summary.results.empty());
+  mmval::reports::writeReport(input, dir / "report");
+  std::stringstream page, index, md;
+  page << std::ifstream(dir / "report" / "cases" / "sweep-sw.html").rdbuf();
+  index << std::ifstream(dir / "report" / "index.html").rdbuf();
+  md << std::ifstream(dir / "report" / "report.md").rdbuf();
+  EXPECT_THAT(index.str(), HasSubstr("cases/sweep-sw.html"));
+  EXPECT_THAT(index.str(), HasSubstr("1 of 2"));  // f not converged, g converged
+  EXPECT_THAT(page.str(), HasSubstr(fmt::format("{:.5g}", expected.mean)));
+  EXPECT_THAT(page.str(), HasSubstr("0.02 (richardson, order 2)"));
+  EXPECT_THAT(page.str(), HasSubstr("NOT converged within 0.05"));
+  EXPECT_THAT(md.str(), HasSubstr("Uncertainty of ladder (sweep sw)"));
+  if (mmval::reports::gnuplotAvailable()) {
+    EXPECT_THAT(page.str(), HasSubstr("<svg"));
+    EXPECT_TRUE(fs::exists(dir / "report" / "figures" / "sweep-sw-f.csv"));
+  }
+  EXPECT_TRUE(mmval::reports::brokenLinks(dir / "report").empty());
+}
+
+TEST(Sweep, DiscretisationAxesMustBeVariedNumbersBeforeAnyRun) {
+  const fs::path dir = mmval::test::freshTestFolder("sweep", "ladder-bad");
+  std::ofstream(dir / "ladder.toml") << "[case]\nname = \"ladder\"\nkind = \"test-ladder\"\n";
+  mmval::validate::SweepOptions o;
+  o.file = (dir / "ladder.toml").string();
+  o.out = (dir / "sw").string();
+  o.vary = {"numerics.cells_per_pixel=0.5,1,2"};
+  o.quiet = true;
+  const auto refused = [&](const char* option) {
+    try {
+      mmval::validate::runSweep(o, ladderKind());
+      ADD_FAILURE() << option << ": accepted";
+    } catch (const mmval::InputError& e) {
+      EXPECT_THAT(std::string(e.what()), HasSubstr(option));
+    }
+    EXPECT_FALSE(fs::exists(dir / "sw" / "runs")) << option;
+  };
+  o.grid_key = "numerics.step";  // not varied
+  refused("--grid");
+  o.grid_key = "numerics.cells_per_pixel";
+  o.vary = {"numerics.cells_per_pixel=0.5,1,\"two\""};
+  refused("--grid");
+  o.vary = {"numerics.cells_per_pixel=0.5,1,2"};
+  o.step_key = "numerics.cells_per_pixel";
+  refused("--step");
+  o.step_key.clear();
+  o.converged_within = {"-1"};
+  refused("--converged-within");
 }
 
 }  // namespace

@@ -25,6 +25,14 @@ namespace {
 
 constexpr int kMaxRuns = 1000;  ///< a guard against a mistyped product of axes
 
+/// What sweep.json's uncertainty is, in its own words (metricUncertainty, discretisationPart).
+constexpr const char* kUncertaintyRule =
+    "per metric and per setting of the axes that are neither grid nor step, at the finest grid and finest step: value = mean over the seeds, "
+    "seed_se = its standard error; grid and step parts = |mean(finest) - mean(next)| of that axis (the other one at its finest), or with three "
+    "levels whose differences have one sign, shrink towards the finest and are both beyond 2 standard errors the Richardson estimate "
+    "|difference| / (r^p - 1) with the observed order p (Celik et al. 2008); combined = sqrt(seed_se^2 + grid^2 + step^2) over the parts "
+    "estimated; converged = on every discretisation axis both |difference| and the part within converged_within, converged_2se = also part + 2 part_se";
+
 InputLocation option(const std::string& name) { return {"(command line)", 0, 0, name}; }
 
 /// One run of the sweep: its setting (one value per axis), its seed and its result.
@@ -67,6 +75,72 @@ std::vector<std::vector<std::string>> settings(const std::vector<SweepAxis>& axe
   return out;
 }
 
+/// The grid and step axes of a sweep (indices into its axes; -1: none), their values as numbers.
+struct Discretisation {
+  int grid = -1, step = -1;
+  Finer grid_finer = Finer::larger, step_finer = Finer::smaller;
+  std::vector<double> grid_values, step_values;
+  double tolerance = std::numeric_limits<double>::quiet_NaN();  ///< every metric without its own; NaN: no verdict
+  std::map<std::string, double> tolerances;                      ///< per metric
+  std::vector<std::string> shown;                                ///< --metric: the metrics `tolerance` is for (empty: all)
+  double toleranceOf(const std::string& metric) const {
+    const auto it = tolerances.find(metric);
+    if (it != tolerances.end()) return it->second;
+    return shown.empty() || std::find(shown.begin(), shown.end(), metric) != shown.end() ? tolerance : std::numeric_limits<double>::quiet_NaN();
+  }
+};
+
+/// A value of a discretisation axis as a number: a TOML number, or a quoted
+/// quantity ("0.01 s") whose unit text every value of the axis shares.
+/// `unit`: kUnsetUnit before the axis's first value, then that value's unit text.
+constexpr const char* kUnsetUnit = "\x01";
+double axisNumber(const std::string& option_name, const SweepAxis& axis, const std::string& value, std::string& unit) {
+  const std::string text = value.size() >= 2 && value.front() == '"' && value.back() == '"' ? value.substr(1, value.size() - 2) : value;
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  std::string rest = end == text.c_str() ? text : std::string(end);
+  rest.erase(0, rest.find_first_not_of(' '));
+  if (end == text.c_str() || !std::isfinite(v) || v <= 0 || (value.front() != '"' && !rest.empty()))
+    throw InputError(option(option_name), "a discretisation axis needs positive numbers", axis.key + "=" + value, "numbers such as 0.5,1,2");
+  if (unit == kUnsetUnit) unit = rest;
+  if (rest != unit)
+    throw InputError(option(option_name), "the values of a discretisation axis have different units", axis.key + "=" + value, "one unit for every value");
+  return v;
+}
+
+Discretisation discretisationOf(const SweepOptions& o, const std::vector<SweepAxis>& axes) {
+  Discretisation d;
+  d.shown = o.metrics;
+  d.grid_finer = o.grid_finer;
+  d.step_finer = o.step_finer;
+  const auto axisIndex = [&](const std::string& name, const std::string& key, std::vector<double>& values) {
+    if (key.empty()) return -1;
+    std::string keys;
+    for (std::size_t i = 0; i < axes.size(); ++i) {
+      keys += (i ? ", " : "") + axes[i].key;
+      if (axes[i].key != key) continue;
+      if (axes[i].values.size() < 2) throw InputError(option(name), "a discretisation axis needs at least two values", key, "--vary " + key + "=V1,V2[,V3]");
+      std::string unit = kUnsetUnit;
+      for (const auto& v : axes[i].values) values.push_back(axisNumber(name, axes[i], v, unit));
+      return static_cast<int>(i);
+    }
+    throw InputError(option(name), "the key is not one of the --vary keys", key, keys.empty() ? "--vary " + key + "=V1,V2,V3" : "one of: " + keys);
+  };
+  d.grid = axisIndex("--grid", o.grid_key, d.grid_values);
+  d.step = axisIndex("--step", o.step_key, d.step_values);
+  if (d.grid >= 0 && d.grid == d.step) throw InputError(option("--step"), "the grid axis is also the step axis", o.step_key, "two different --vary keys");
+  for (const auto& text : o.converged_within) {
+    const std::size_t eq = text.find('=');
+    const std::string value = eq == std::string::npos ? text : text.substr(eq + 1);
+    char* end = nullptr;
+    const double v = std::strtod(value.c_str(), &end);
+    if (end == value.c_str() || *end != '\0' || !(v > 0) || !std::isfinite(v) || eq == 0)
+      throw InputError(option("--converged-within"), "not a positive number or METRIC=number", text, "an absolute tolerance in the metric's unit, e.g. 0.02 or retained_fraction=0.02");
+    (eq == std::string::npos ? d.tolerance : d.tolerances[text.substr(0, eq)]) = v;
+  }
+  return d;
+}
+
 void readMetrics(const nlohmann::json& result, SweepRun& run, std::map<std::string, std::string>& units) {
   run.wall_seconds = result.at("cost").at("wall_seconds").get<double>();
   for (const auto& m : result.at("metrics")) {
@@ -92,6 +166,111 @@ std::string shown(const std::string& v) {
 
 std::string number(double v) { return std::isfinite(v) ? fmt::format("{:.9g}", v) : std::string(); }
 
+nlohmann::json orNull(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+
+nlohmann::json partJson(const DiscretisationPart& p, const std::string& key) {
+  nlohmann::json levels = nlohmann::json::array();
+  for (const auto& l : p.levels)
+    levels.push_back({{"level", l.value}, {"n", l.stats.n}, {"mean", orNull(l.stats.mean)}, {"se", l.stats.n > 1 ? orNull(l.stats.se) : nlohmann::json(nullptr)}});
+  return {{"key", key}, {"method", p.method}, {"note", p.note}, {"levels", levels}, {"difference", orNull(p.difference)},
+          {"difference_se", orNull(p.difference_se)}, {"resolved", p.resolved}, {"observed_order", orNull(p.observed_order)},
+          {"extrapolated", orNull(p.extrapolated)}, {"part", orNull(p.part)}, {"part_se", orNull(p.part_se)}};
+}
+
+/// Index of the finest value of an axis.
+std::size_t finestIndex(const std::vector<double>& values, Finer finer) {
+  const auto it = finer == Finer::larger ? std::max_element(values.begin(), values.end()) : std::min_element(values.begin(), values.end());
+  return static_cast<std::size_t>(it - values.begin());
+}
+
+/// Per setting (one value per axis, in the order of the groups): the statistics of every metric.
+struct GroupStats {
+  std::vector<std::vector<std::string>> values;
+  std::vector<std::map<std::string, SampleStats>> stats;
+};
+
+/// sweep.json's "uncertainty": per metric, per setting of the axes that are neither grid nor step.
+nlohmann::json uncertaintyJson(const std::vector<SweepAxis>& axes, const Discretisation& d, const GroupStats& g, const std::map<std::string, std::string>& units) {
+  const auto other = [&](const std::vector<std::string>& v) {
+    std::vector<std::string> o;
+    for (std::size_t a = 0; a < v.size(); ++a)
+      if (static_cast<int>(a) != d.grid && static_cast<int>(a) != d.step) o.push_back(v[a]);
+    return o;
+  };
+  std::vector<std::vector<std::string>> others;
+  for (const auto& v : g.values)
+    if (std::find(others.begin(), others.end(), other(v)) == others.end()) others.push_back(other(v));
+  const std::string fine_grid = d.grid >= 0 ? axes[d.grid].values[finestIndex(d.grid_values, d.grid_finer)] : std::string();
+  const std::string fine_step = d.step >= 0 ? axes[d.step].values[finestIndex(d.step_values, d.step_finer)] : std::string();
+  nlohmann::json out = nlohmann::json::object();
+  for (const auto& [name, unit] : units) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const auto& o : others) {
+      SampleStats finest;
+      std::vector<LadderLevel> grid_levels, step_levels;
+      nlohmann::json setting = nlohmann::json::object(), at = nlohmann::json::object();
+      for (std::size_t i = 0; i < g.values.size(); ++i) {
+        const auto& v = g.values[i];
+        if (other(v) != o) continue;
+        const bool grid_fine = d.grid < 0 || v[d.grid] == fine_grid, step_fine = d.step < 0 || v[d.step] == fine_step;
+        const auto it = g.stats[i].find(name);
+        const SampleStats s = it == g.stats[i].end() ? SampleStats{} : it->second;
+        if (grid_fine && step_fine) {
+          finest = s;
+          for (std::size_t a = 0; a < axes.size(); ++a)
+            (static_cast<int>(a) == d.grid || static_cast<int>(a) == d.step ? at : setting)[axes[a].key] = shown(v[a]);
+        }
+        const auto index = [&](int axis) { return static_cast<std::size_t>(std::find(axes[axis].values.begin(), axes[axis].values.end(), v[axis]) - axes[axis].values.begin()); };
+        if (d.grid >= 0 && step_fine) grid_levels.push_back({d.grid_values[index(d.grid)], s});
+        if (d.step >= 0 && grid_fine) step_levels.push_back({d.step_values[index(d.step)], s});
+      }
+      std::optional<DiscretisationPart> grid, step;
+      if (d.grid >= 0) grid = discretisationPart(grid_levels, d.grid_finer);
+      if (d.step >= 0) step = discretisationPart(step_levels, d.step_finer);
+      const MetricUncertainty u = metricUncertainty(finest, grid, step, d.toleranceOf(name));
+      list.push_back({{"setting", setting}, {"at", at}, {"value", finest.n ? orNull(finest.mean) : nlohmann::json(nullptr)}, {"n", finest.n},
+                      {"seed_se", orNull(u.seed_se)}, {"grid", grid ? partJson(*grid, axes[d.grid].key) : nlohmann::json(nullptr)},
+                      {"step", step ? partJson(*step, axes[d.step].key) : nlohmann::json(nullptr)}, {"combined", orNull(u.combined)},
+                      {"converged", u.converged ? nlohmann::json(*u.converged) : nlohmann::json(nullptr)},
+                      {"converged_2se", u.converged_2se ? nlohmann::json(*u.converged_2se) : nlohmann::json(nullptr)}, {"verdict", u.verdict}});
+    }
+    out[name] = {{"unit", unit}, {"tolerance", orNull(d.toleranceOf(name))}, {"settings", list}};
+  }
+  return out;
+}
+
+std::string numberOrDash(const nlohmann::json& v, int digits, bool sign = false) {
+  if (!v.is_number()) return "-";
+  return sign ? fmt::format("{:+.{}g}", v.get<double>(), digits) : fmt::format("{:.{}g}", v.get<double>(), digits);
+}
+
+/// One discretisation part in a line: "grid 0.004 (richardson, order 2.1; 2 vs 1: -0.004 +- 0.01, within seed noise)".
+std::string partText(const char* what, const nlohmann::json& p) {
+  if (p.is_null()) return {};
+  std::string t = fmt::format("; {} {}", what, numberOrDash(p["part"], 3));
+  if (p["method"] == "none") return t + " (" + p["note"].get<std::string>() + ")";
+  const auto& l = p["levels"];
+  t += fmt::format(" ({}{}; {:g} vs {:g}: {} +- {}{})", p["method"].get<std::string>(),
+                   p["observed_order"].is_number() ? fmt::format(", order {:.2g}", p["observed_order"].get<double>()) : std::string(), l[0]["level"].get<double>(),
+                   l[1]["level"].get<double>(), numberOrDash(p["difference"], 3, true), numberOrDash(p["difference_se"], 2),
+                   p["resolved"].get<bool>() ? "" : ", within seed noise");
+  return t;
+}
+
+/// The terminal lines of one metric's uncertainty.
+std::string uncertaintyText(const nlohmann::json& u) {
+  std::string t;
+  for (const auto& s : u["settings"]) {
+    std::string label;
+    for (const auto& [k, v] : s["at"].items()) label += (label.empty() ? "" : ", ") + k + "=" + v.get<std::string>();
+    for (const auto& [k, v] : s["setting"].items()) label += (label.empty() ? "" : ", ") + k + "=" + v.get<std::string>();
+    t += fmt::format("  uncertainty at {}: {} (n {}); seed SE {}{}{}; combined {}{}\n", label.empty() ? "(case as written)" : label,
+                     numberOrDash(s["value"], 5), s["n"].get<int>(), numberOrDash(s["seed_se"], 2), partText("grid", s["grid"]),
+                     partText("step", s["step"]), numberOrDash(s["combined"], 2), s["verdict"].get<std::string>().empty() ? "" : "; " + s["verdict"].get<std::string>());
+  }
+  return t;
+}
+
 struct Tables {
   std::string csv, text;
   nlohmann::json json;
@@ -100,7 +279,7 @@ struct Tables {
 /// sweep.csv (one row per run), sweep.json (per setting over seeds, the band
 /// over settings and each key's effect) and the terminal table.
 Tables tabulate(const std::vector<SweepAxis>& axes, const std::vector<SweepRun>& runs, const std::map<std::string, std::string>& units,
-                const std::vector<std::string>& chosen, int per_setting) {
+                const std::vector<std::string>& chosen, int per_setting, const Discretisation& d) {
   std::vector<std::string> names;
   for (const auto& [name, unit] : units) names.push_back(name);
   Tables t;
@@ -123,12 +302,16 @@ Tables tabulate(const std::vector<SweepAxis>& axes, const std::vector<SweepRun>&
   };
   nlohmann::json groups = nlohmann::json::array();
   std::map<std::string, std::vector<double>> means;
+  GroupStats group_stats;
   for (std::size_t g = 0; g * per_setting < runs.size(); ++g) {
     nlohmann::json setting = nlohmann::json::object(), stats = nlohmann::json::object();
     for (std::size_t a = 0; a < axes.size(); ++a) setting[axes[a].key] = shown(runs[g * per_setting].values[a]);
+    group_stats.values.push_back(runs[g * per_setting].values);
+    group_stats.stats.emplace_back();
     for (const auto& n : names) {
       const SampleStats s = sampleStats(column(n, g * per_setting, per_setting));
       stats[n] = s.toJson();
+      group_stats.stats.back()[n] = s;
       means[n].push_back(s.n > 0 ? s.mean : std::nan(""));
     }
     groups.push_back({{"setting", setting}, {"runs", per_setting}, {"metrics", stats}});
@@ -152,7 +335,8 @@ Tables tabulate(const std::vector<SweepAxis>& axes, const std::vector<SweepRun>&
       effects[axes[a].key][n] = m.n ? nlohmann::json(m.max - m.min) : nlohmann::json(nullptr);
     }
   }
-  t.json = {{"groups", groups}, {"band", band}, {"effects", effects}};
+  const nlohmann::json uncertainty = uncertaintyJson(axes, d, group_stats, units);
+  t.json = {{"groups", groups}, {"band", band}, {"effects", effects}, {"uncertainty", uncertainty}};
   // The terminal: the chosen metrics (all when none chosen) per setting, mean +- standard error.
   for (const auto& n : names) {
     if (!chosen.empty() && std::find(chosen.begin(), chosen.end(), n) == chosen.end()) continue;
@@ -166,27 +350,31 @@ Tables tabulate(const std::vector<SweepAxis>& axes, const std::vector<SweepRun>&
                                                    : fmt::format("{:.5g} +- {:.2g}", s["mean"].get<double>(), s["se"].get<double>()),
                             s["n"].get<int>());
     }
+    t.text += uncertaintyText(uncertainty[n]);
   }
   return t;
 }
 
-/// The first chosen metric against the first axis, one line per other setting, error bars = standard error over seeds.
+/// The first chosen metric against axis `x` (the grid axis, else the first), one line per other setting, error bars = standard error over seeds.
 std::optional<std::string> plotSvg(const std::vector<SweepAxis>& axes, const nlohmann::json& groups, const std::string& metric,
-                                   const std::string& unit) {
+                                   const std::string& unit, std::size_t x) {
   if (axes.empty() || !reports::gnuplotAvailable()) return std::nullopt;
   reports::Plot p;
   p.title = "mmval sweep: " + metric + " (mean +- standard error over seeds)";
-  p.xlabel = axes[0].key + " (";
-  for (std::size_t i = 0; i < axes[0].values.size(); ++i) p.xlabel += (i ? ", " : "") + std::to_string(i) + ": " + shown(axes[0].values[i]);
+  p.xlabel = axes[x].key + " (";
+  for (std::size_t i = 0; i < axes[x].values.size(); ++i) p.xlabel += (i ? ", " : "") + std::to_string(i) + ": " + shown(axes[x].values[i]);
   p.xlabel += ")";
   p.ylabel = metric + (unit.empty() || unit == "1" ? "" : " [" + unit + "]");
+  // gnuplot's axis labels are enhanced text: "_" would start a subscript.
+  for (std::string* label : {&p.xlabel, &p.ylabel})
+    for (std::size_t at = 0; (at = label->find('_', at)) != std::string::npos; at += 2) label->insert(at, "\\");
   std::map<std::string, reports::Series> lines;
   for (const auto& g : groups) {
     std::string rest;
     int index = 0;
     for (const auto& [k, v] : g["setting"].items()) {
-      if (k == axes[0].key) {
-        const auto& vals = axes[0].values;
+      if (k == axes[x].key) {
+        const auto& vals = axes[x].values;
         const std::string value = v.get<std::string>();  // a named copy: clang 14 cannot capture a structured binding
         index = static_cast<int>(std::find_if(vals.begin(), vals.end(), [&](const std::string& x) { return shown(x) == value; }) - vals.begin());
       } else {
@@ -218,6 +406,7 @@ void runSweep(const SweepOptions& o, const CaseKindRegistry& registry) {
   for (std::size_t i = 0; i < axes.size(); ++i)
     for (std::size_t j = 0; j < i; ++j)
       if (axes[i].key == axes[j].key) throw InputError(option("--vary"), "the key is varied twice", axes[i].key, "each key in one --vary");
+  const Discretisation disc = discretisationOf(o, axes);
   const std::string seed_key = o.seeds > 0 || !o.seed_key.empty() ? seedKeyOf(registry.schema(first.kind()), o.seed_key) : std::string();
   const int seeds = std::max(o.seeds, seed_key.empty() ? 0 : 1);
   const auto combos = settings(axes);
@@ -270,8 +459,12 @@ void runSweep(const SweepOptions& o, const CaseKindRegistry& registry) {
     if (result) readMetrics(*result, r, units);
   }
 
+  for (const auto& metric : o.metrics)
+    if (units.count(metric) == 0) std::fprintf(stderr, "sweep: no run reported %s (a metric some runs leave out when it did not happen)\n", metric.c_str());
+  for (const auto& [metric, tolerance] : disc.tolerances)
+    if (units.count(metric) == 0) std::fprintf(stderr, "sweep: --converged-within names %s, which no run reported (no verdict for it)\n", metric.c_str());
   const int per_setting = std::max(seeds, 1);
-  const Tables t = tabulate(axes, runs, units, o.metrics, per_setting);
+  const Tables t = tabulate(axes, runs, units, o.metrics, per_setting, disc);
   nlohmann::json doc = {{"schema", "mmval-sweep/1"}, {"case", {{"name", first.name()}, {"kind", first.kind()}, {"file", first.file().string()}}}};
   nlohmann::json ax = nlohmann::json::array();
   for (const auto& a : axes) ax.push_back({{"key", a.key}, {"values", a.values}});
@@ -279,6 +472,15 @@ void runSweep(const SweepOptions& o, const CaseKindRegistry& registry) {
   doc["seed_key"] = seed_key.empty() ? nlohmann::json(nullptr) : nlohmann::json(seed_key);
   doc["seeds_per_setting"] = seeds;
   doc["set"] = o.set;
+  doc["metrics_shown"] = o.metrics;
+  const auto axisJson = [&](int axis, Finer finer) {
+    return axis < 0 ? nlohmann::json(nullptr) : nlohmann::json{{"key", axes[axis].key}, {"finer", finer == Finer::larger ? "larger" : "smaller"}};
+  };
+  doc["discretisation"] = {{"grid", axisJson(disc.grid, disc.grid_finer)},
+                           {"step", axisJson(disc.step, disc.step_finer)},
+                           {"converged_within", orNull(disc.tolerance)},
+                           {"converged_within_metric", disc.tolerances},
+                           {"rule", kUncertaintyRule}};
   doc["runs"] = runs.size();
   doc["failed_runs"] = std::count_if(runs.begin(), runs.end(), [](const SweepRun& r) { return r.status.rfind("numerical", 0) == 0; });
   doc.update(t.json);
@@ -289,7 +491,7 @@ void runSweep(const SweepOptions& o, const CaseKindRegistry& registry) {
   writeFileAtomic(out / "sweep.json", doc.dump(2) + "\n");
   const std::string plotted = !o.metrics.empty() ? o.metrics.front() : std::string();
   if (!plotted.empty() && units.count(plotted) != 0) {
-    if (auto svg = plotSvg(axes, doc["groups"], plotted, units.at(plotted))) {
+    if (auto svg = plotSvg(axes, doc["groups"], plotted, units.at(plotted), disc.grid >= 0 ? static_cast<std::size_t>(disc.grid) : 0)) {
       writeFileAtomic(out / "sweep.svg", *svg);
       files.push_back("sweep.svg");
     }
@@ -334,33 +536,6 @@ SweepAxis parseSweepAxis(const std::string& text) {
     for (std::size_t j = 0; j < i; ++j)
       if (axis.values[i] == axis.values[j]) bad("the value " + axis.values[i] + " is listed twice");
   return axis;
-}
-
-nlohmann::json SampleStats::toJson() const {
-  if (n == 0) return {{"n", 0}, {"mean", nullptr}, {"sd", nullptr}, {"se", nullptr}, {"min", nullptr}, {"max", nullptr}};
-  return {{"n", n}, {"mean", mean}, {"sd", sd}, {"se", se}, {"min", min}, {"max", max}};
-}
-
-SampleStats sampleStats(const std::vector<double>& values) {
-  SampleStats s;
-  double sum = 0;
-  s.min = std::numeric_limits<double>::infinity();
-  s.max = -s.min;
-  for (double v : values) {
-    if (!std::isfinite(v)) continue;
-    ++s.n;
-    sum += v;
-    s.min = std::min(s.min, v);
-    s.max = std::max(s.max, v);
-  }
-  if (s.n == 0) return SampleStats{};
-  s.mean = sum / s.n;
-  double ss = 0;
-  for (double v : values)
-    if (std::isfinite(v)) ss += (v - s.mean) * (v - s.mean);
-  s.sd = s.n > 1 ? std::sqrt(ss / (s.n - 1)) : 0.0;  // sample standard deviation
-  s.se = s.sd / std::sqrt(static_cast<double>(s.n));
-  return s;
 }
 
 }  // namespace mmval::validate

@@ -24,6 +24,12 @@ std::vector<std::string> checkResultShape(const nlohmann::json& doc, const std::
 /// all_pass, regions and alignment. Throws InputError naming `file` and the field.
 void checkCompareShape(const nlohmann::json& doc, const std::filesystem::path& file);
 
+/// sweep.json of `mmval sweep` (schema mmval-sweep/1): case name, axes, groups
+/// (setting and per-metric statistics) and, when present, discretisation and
+/// uncertainty (per metric: unit and settings). Throws InputError naming `file`
+/// and the field.
+void checkSweepShape(const nlohmann::json& doc, const std::filesystem::path& file);
+
 /// A document `report --diff` reads: an object with a "metrics" list whose
 /// entries have name, value, pass and tolerance (and optionally case), as the
 /// report's metrics.json, compare's metrics.json and result.json do. A

@@ -23,16 +23,28 @@ struct ComparisonInput {
   bool also_run = false;   ///< the folder is also a run (a compare-tracks case): its metrics are the run's
 };
 
+/// A sweep folder written by `mmval sweep` (docs/outputs.md, "The sweep folder"):
+/// its sweep.json, read for each metric's value with its seed, grid and step parts.
+struct SweepInput {
+  std::string name;  ///< the folder's name
+  std::filesystem::path dir;
+  nlohmann::json sweep;      ///< its sweep.json (schema mmval-sweep/1)
+  nlohmann::json first_run;  ///< result.json of its first run (provenance), null when none is complete
+};
+
 struct ReportInput {
   Summary summary;                          ///< result.json of every run
   std::vector<ComparisonInput> comparisons;
+  std::vector<SweepInput> sweeps;
 };
 
-/// Finds runs (folders with result.json) and comparisons (metrics.json of
-/// schema mmval-compare/1) in the given folders and their runs/ subfolders.
+/// Finds runs (folders with result.json), comparisons (metrics.json of
+/// schema mmval-compare/1) and sweeps (sweep.json; a sweep's runs/ are read
+/// through it, not as runs) in the given folders and their runs/ subfolders.
 /// Throws InputError naming a folder that holds neither, and naming the file
 /// and field of a result.json or metrics.json that is unreadable, empty, not
 /// JSON, larger than kMaxInputBytes or of the wrong shape (JsonShape.hpp).
+/// Likewise a sweep.json (checkSweepShape).
 ReportInput collect(const std::vector<std::filesystem::path>& dirs);
 
 /// Writes index.html (summary, failures first), paper.html, cases/<run>.html

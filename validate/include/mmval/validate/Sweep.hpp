@@ -1,10 +1,13 @@
 // A sweep (`mmval sweep`): one case run over a grid of key values and seeds, with the
 // spread of every metric (per setting over seeds: mean, standard deviation,
 // standard error; over settings: the band of the means and each key's effect).
-// It is how a result gets its uncertainty: seeds for the stochastic part, a
-// grid key for discretisation, unknown inputs (chemistry) for the band.
+// It is how a result gets its uncertainty: seeds for the stochastic part, the
+// grid and step axes (--grid, --step) for discretisation, unknown inputs
+// (chemistry) for the band.
 #pragma once
+#include <limits>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -34,6 +37,59 @@ struct SampleStats {
 };
 SampleStats sampleStats(const std::vector<double>& values);
 
+/// Which way a discretisation axis gets finer: larger values (cells per pixel)
+/// or smaller ones (a step, a time step).
+enum class Finer { larger, smaller };
+
+/// One level of a discretisation ladder of a metric: the axis value as a
+/// number and the metric's statistics over the seeds there.
+struct LadderLevel {
+  double value = 0;
+  SampleStats stats;
+};
+
+/// The discretisation part of one axis for one metric: how far the finest
+/// level's mean may be from the converged value.
+///
+/// The levels are sorted finest first; h is the axis value (Finer::smaller)
+/// or its inverse (Finer::larger). `difference` is mean(finest) - mean(next),
+/// its standard error sqrt(se1^2 + se2^2) from the seeds; `resolved` when
+/// |difference| > 2 of them. With three levels whose two differences have one
+/// sign, shrink towards the finest and are both resolved, the observed order p
+/// and the Richardson estimate come from the three finest (ratios of h as they
+/// are, the fixed-point iteration of Celik et al. 2008, J. Fluids Eng. 130,
+/// 078001, eqs. 3-4): part = |difference| / (r21^p - 1) (method "richardson").
+/// Otherwise part = |difference| (method "difference") and `note` says why.
+/// Levels where the metric has no value (n = 0) are left out; fewer than two:
+/// method "none", part NaN.
+struct DiscretisationPart {
+  std::string method = "none", note;
+  std::vector<LadderLevel> levels;  ///< finest first
+  double difference = std::numeric_limits<double>::quiet_NaN(), difference_se = std::numeric_limits<double>::quiet_NaN();
+  bool resolved = false;
+  double observed_order = std::numeric_limits<double>::quiet_NaN(), extrapolated = std::numeric_limits<double>::quiet_NaN();
+  double part = std::numeric_limits<double>::quiet_NaN(), part_se = std::numeric_limits<double>::quiet_NaN();
+};
+DiscretisationPart discretisationPart(std::vector<LadderLevel> levels, Finer finer);
+
+/// The uncertainty of one metric at the finest grid and step: the seed part
+/// (the standard error of the mean at that setting, NaN with fewer than two
+/// values), the grid and step parts (DiscretisationPart; NaN when the sweep has
+/// no such axis) and their root-sum-square, the parts that are NaN left out.
+/// `converged` (with a tolerance): on every discretisation axis both |difference|
+/// and part are within it; `converged_2se`: also part + 2 part_se.
+struct MetricUncertainty {
+  SampleStats finest;
+  double seed_se = std::numeric_limits<double>::quiet_NaN();
+  std::optional<DiscretisationPart> grid, step;
+  double combined = std::numeric_limits<double>::quiet_NaN();
+  std::optional<bool> converged, converged_2se;
+  std::string verdict;
+};
+/// `tolerance`: NaN when no verdict was asked for (absolute, in the metric's unit).
+MetricUncertainty metricUncertainty(const SampleStats& finest, std::optional<DiscretisationPart> grid, std::optional<DiscretisationPart> step,
+                                    double tolerance);
+
 /// What `mmval sweep` was asked to do (apps/SweepCommand.cpp fills it from the command line).
 struct SweepOptions {
   std::string file, out;
@@ -41,11 +97,19 @@ struct SweepOptions {
   int seeds = 0;          ///< 0: the case's own seed only
   std::string seed_key;   ///< empty: the kind's one key named "*.seed"
   bool resume = false, quiet = false;
+  /// Discretisation axes: each one of the --vary keys with numeric values (empty: none).
+  std::string grid_key, step_key;
+  Finer grid_finer = Finer::larger, step_finer = Finer::smaller;
+  /// Tolerances of the verdict, absolute in the metric's unit: "METRIC=VALUE", or
+  /// "VALUE" for the metrics named in `metrics` (every metric when none is named)
+  /// that have none of their own. None: no verdict.
+  std::vector<std::string> converged_within;
 };
 
 /// Runs the sweep: every run's case checked first, then runs/run-NNN/ one by one
 /// (kept on resume when complete), then sweep.csv, sweep.json and sweep.svg in `out`,
-/// and the table printed. InputError on a bad option or case; a run's numerical
+/// and the table printed. sweep.json holds each metric's uncertainty per setting of
+/// the axes that are neither grid nor step (metricUncertainty; docs/outputs.md). InputError on a bad option or case; a run's numerical
 /// failure is recorded in its row, not thrown.
 void runSweep(const SweepOptions& options, const CaseKindRegistry& registry);
 
