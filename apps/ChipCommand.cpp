@@ -127,7 +127,11 @@ void registerChipCommand(CLI::App& app) {
   cmd->add_option("--mean-grain-um", s.mean_grain_um, "Mean grain diameter (fixed without targets, else the start; 0: estimated)")->capture_default_str();
   cmd->add_option("--grain-cv", s.grain_cv, "Coefficient of variation of the (lognormal) grain diameter")->capture_default_str();
   cmd->add_option("--min-throat-px", s.min_throat_px, "Smallest gap between grains and to the walls, px")->capture_default_str();
-  cmd->add_option("--wall-px", s.wall_px, "Solid wall rows at the top and bottom")->capture_default_str();
+  cmd->add_option("--wall-px", s.wall_px,
+                  "Solid wall rows at the top and bottom; 0: none, the sides are mirror planes (grains kept half the minimum gap "
+                  "from them, throats to them counted twice their distance; a strip of a wider chip, particles-micromodel's "
+                  "geometry.sides = \"slip\")")
+      ->capture_default_str();
   cmd->add_option("--port-um", s.port_um, "Grain-free inlet and outlet columns (0: one mean grain diameter)")->capture_default_str();
   cmd->add_option("--tile-mm", s.tile_mm, "Side of the square tile the grain scale is tuned on")->capture_default_str();
   cmd->add_option("--cells-per-pixel", s.cells_per_pixel, "Solver resolution at which the k target is met")->capture_default_str();

@@ -231,7 +231,7 @@ void validateChipSpec(const ChipSpec& s) {
   need(s.grain_cv >= 0 && s.grain_cv <= 1, "--grain-cv", s.grain_cv, "a coefficient of variation in [0, 1]");
   need(s.min_throat_px >= 2 && s.min_throat_px <= 100, "--min-throat-px", s.min_throat_px,
        "at least 2 px (a throat of 1 px is under one cell at 1 cell per pixel and off by ~200 % at that)");
-  need(s.wall_px >= 1 && s.wall_px <= 100, "--wall-px", s.wall_px, "a wall thickness in px, 1 to 100");
+  need(s.wall_px >= 0 && s.wall_px <= 100, "--wall-px", s.wall_px, "a wall thickness in px, 1 to 100, or 0 for mirror sides (no walls)");
   if (s.fit_depth && !(s.permeability_D > 0 && s.mean_throat_um > 0))
     throw InputError(opt("--depth-um"), "--depth-um fit solves for the depth that gives the k target at the grain scale set by the throat target",
                      fmt::format("fit with --permeability-D {:g} and --mean-throat-um {:g}", s.permeability_D, s.mean_throat_um),

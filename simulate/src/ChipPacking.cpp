@@ -86,7 +86,11 @@ struct CentreRange {
   double x0, x1, y0, y1;
 };
 CentreRange centreRange(const ChipDisc& c, const ChipPackingSpec& s) {
-  return {s.port_px + c.r, s.cols - s.port_px - c.r, s.wall_px + s.min_gap_px + c.r, s.rows - s.wall_px - s.min_gap_px - c.r};
+  // Mirror sides (wall_px 0): half the gap from the edge, so the throat to the disc's own mirror
+  // image is the gap, and every other disc's image is at least the gap away too (both centres
+  // are at least r + gap / 2 from the plane).
+  const double edge = s.wall_px > 0 ? s.wall_px + s.min_gap_px : 0.5 * s.min_gap_px;
+  return {s.port_px + c.r, s.cols - s.port_px - c.r, edge + c.r, s.rows - edge - c.r};
 }
 
 /// Keeps a disc inside the pattern: clear of the ports, and `gap` from the walls.
@@ -334,9 +338,53 @@ ChipWindowPorosity windowPorosity(const BoolArray& solid, const std::vector<Chip
   return w;
 }
 
+namespace {
+/// chipThroats with mirror sides: the throats between the discs and the mirror images of those
+/// near the edges, a disc's own image included (twice its distance to the edge), with the
+/// midpoint within the pattern (the mirrored pair of a throat across a plane is counted once).
+std::vector<ChipThroat> mirrorThroats(const std::vector<ChipDisc>& d, int rows, double max_width_px) {
+  std::vector<ChipThroat> out;
+  const double rmax = maxRadius(d), near = 2 * rmax + max_width_px;
+  std::vector<ChipDisc> e = d;
+  std::vector<int> origin(d.size());
+  for (std::size_t i = 0; i < d.size(); ++i) origin[i] = static_cast<int>(i);
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    if (d[i].y < near) e.push_back({d[i].x, -d[i].y, d[i].r}), origin.push_back(static_cast<int>(i));
+    if (rows - d[i].y < near) e.push_back({d[i].x, 2.0 * rows - d[i].y, d[i].r}), origin.push_back(static_cast<int>(i));
+  }
+  const auto n = static_cast<int>(d.size());
+  int cols = 0;
+  for (const auto& c : d) cols = std::max(cols, static_cast<int>(std::ceil(c.x + c.r)));
+  const CellList cl(e, 2 * rmax + max_width_px, cols + 1, rows);  // images fall in the edge bins (clamped)
+  const auto clear = [&](double mx, double my, double half, int a, int b) {
+    bool ok = true;
+    cl.around(mx, my, [&](int k) {
+      if (k == a || k == b || !ok) return;
+      if (std::hypot(mx - e[k].x, my - e[k].y) - e[k].r < half - 1e-9) ok = false;
+    });
+    return ok;
+  };
+  for (int a = 0; a < n; ++a)
+    cl.around(e[a].x, e[a].y, [&](int b) {
+      if (b == a || (b < n && b < a)) return;  // each pair once; a disc with an image as often as it has one
+      const double dx = e[b].x - e[a].x, dy = e[b].y - e[a].y, dist = std::hypot(dx, dy);
+      const double gap = dist - e[a].r - e[b].r;
+      if (gap <= 0 || gap > max_width_px) return;
+      const double t = (e[a].r + 0.5 * gap) / dist;
+      const double mx = e[a].x + t * dx, my = e[a].y + t * dy;
+      // Across a plane: the disc with its own image (midpoint on the plane), or with another's
+      // image, counted where the midpoint lies inside (its mirror pair's lies outside).
+      if (b >= n && origin[static_cast<std::size_t>(b)] != a && !(my > 0 && my < rows)) return;
+      if (clear(mx, my, 0.5 * gap, a, b)) out.push_back({gap, mx, my});
+    });
+  return out;
+}
+}  // namespace
+
 std::vector<ChipThroat> chipThroats(const std::vector<ChipDisc>& d, int rows, int wall_px, double max_width_px) {
   std::vector<ChipThroat> out;
   if (d.empty()) return out;
+  if (wall_px == 0) return mirrorThroats(d, rows, max_width_px);
   const double rmax = maxRadius(d);
   const double cell = 2 * rmax + max_width_px;
   int cols = 0;

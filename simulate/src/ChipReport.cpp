@@ -204,6 +204,8 @@ nlohmann::json chipStatistics(const ChipResult& r) {
   j["seed"] = s.seed;
   j["image"] = {{"file", "chip.png"}, {"cols", r.packing.solid.cols()}, {"rows", r.packing.solid.rows()}, {"pixel_um", s.pixel_um},
                 {"grains", "dark"}, {"wall_px", s.wall_px}, {"port_um", s.port_um > 0 ? s.port_um : r.mean_grain_um}};
+  if (s.wall_px == 0)
+    j["image"]["sides"] = "mirror planes (no wall rows): grains at least half the minimum gap from the top and bottom edges; flow solves slip there";
   j["targets"] = {{"length_mm", s.length_mm},
                   {"width_mm", s.width_mm},
                   {"depth_um", s.fit_depth ? nlohmann::json("fit") : nlohmann::json(s.depth_um)},
@@ -255,9 +257,12 @@ nlohmann::json chipStatistics(const ChipResult& r) {
                  {"distribution", fmt::format("lognormal, clipped to [{:g}, {:g}] x the mean", kMinDiameterFactor, kMaxDiameterFactor)}};
   j["throats"] = {{"count", tw.size()}, {"mean_width_um", t.mean}, {"mean_radius_um", 0.5 * t.mean}, {"min_width_um", t.min},
                   {"median_width_um", t.median}, {"quantiles_width_um", quantiles(tw)}, {"histogram", histogram(tw)},
-                  {"definition", "gap between two neighbouring grains (or a grain and a wall) along their line of centres, counted when its midpoint "
+                  {"definition", std::string("gap between two neighbouring grains (or a grain and a wall) along their line of centres, counted when its midpoint "
                                  "is nearer to those two than to any other solid (a saddle of the distance map on the medial axis); widths up to "
-                                 "one mean grain diameter; from the disc geometry, not the pixels"}};
+                                 "one mean grain diameter; from the disc geometry, not the pixels") +
+                                     (s.wall_px == 0 ? "; mirror sides: the grains' mirror images across the edges are solids too, so a "
+                                                       "throat between a grain and an edge is twice its distance to it"
+                                                     : "")}};
   if (const Throat n = narrowestThroat(pores.solid_connected, s.pixel_um * 1e-6); n.path && std::isfinite(n.width_m))
     j["narrowest_spanning_throat"] = {{"width_um", n.width_m * 1e6}, {"x_px", std::floor(n.x_m / (s.pixel_um * 1e-6))},
                                       {"y_px", std::floor(r.packing.solid.rows() - n.y_m / (s.pixel_um * 1e-6))},
@@ -289,8 +294,11 @@ void writeChipOutputs(const ChipResult& r, const std::filesystem::path& dir) {
   // relaxation leaves neighbours at the gap, as grains of a sand pack touch): one red pixel each.
   const double mark = kMarkedThroatFactor * r.spec.min_throat_px;
   const int radius = std::max(2, static_cast<int>(std::lround(r.spec.min_throat_px)));
+  // The pixel under the midpoint; with mirror sides a throat to a grain's own image has its
+  // midpoint on the edge itself (y = rows at the bottom), drawn in the edge row.
   for (const auto& t : throatsOf(r))
-    if (t.width_px <= mark) pic.at<cv::Vec3b>(static_cast<int>(t.y), static_cast<int>(t.x)) = cv::Vec3b(0, 0, 230);
+    if (t.width_px <= mark)
+      pic.at<cv::Vec3b>(std::clamp(static_cast<int>(t.y), 0, pic.rows - 1), std::clamp(static_cast<int>(t.x), 0, pic.cols - 1)) = cv::Vec3b(0, 0, 230);
   if (r.stats.contains("narrowest_spanning_throat")) {
     const auto& n = r.stats["narrowest_spanning_throat"];
     cv::circle(pic, cv::Point(n["x_px"].get<int>(), n["y_px"].get<int>()), 4 * radius, cv::Scalar(230, 80, 0), std::max(1, radius / 2));

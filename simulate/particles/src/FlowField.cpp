@@ -441,7 +441,14 @@ Vec2 GriddedFlow::wallNormal(double x, double y) const {
   return FlowField::wallNormal(x, y);
 }
 
+void GriddedFlow::setDomain(const Bounds2& domain) {
+  if (!(domain.x1 > domain.x0) || !(domain.y1 > domain.y0)) throw std::invalid_argument("GriddedFlow::setDomain: an empty domain");
+  m_domain = domain;
+  m_has_domain = true;
+}
+
 Bounds2 GriddedFlow::bounds() const {
+  if (m_has_domain) return m_domain;
   return {m_x0, m_x0 + (m_nx - 1) * m_dx, m_y0, m_y0 + (m_ny - 1) * m_dy};
 }
 

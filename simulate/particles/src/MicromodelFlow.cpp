@@ -39,21 +39,38 @@ constexpr double kSplitRtol = 1e-12;
 constexpr int kSplitMaxIterations = 60;  // 3x the measured 19-20
 
 /// Distance (m) from each pixel centre to the nearest grain or side wall, row-major
-/// from the bottom row up (j * cols + i, j = 0 the image's last row).
-std::vector<double> pixelWallDistance(const PixelMask& solid, double pixel) {
+/// from the bottom row up (j * cols + i, j = 0 the image's last row). Mirror sides: to the
+/// nearest grain or mirror image of one (the image mirrored once across each edge).
+std::vector<double> pixelWallDistance(const PixelMask& solid, double pixel, bool mirror_sides) {
   const int rows = static_cast<int>(solid.rows()), cols = static_cast<int>(solid.cols());
-  // One solid row beyond each side wall; distances come from GriddedFlow's transform.
-  GriddedFlow g(cols, rows + 2, 0.5 * pixel, -0.5 * pixel, pixel, pixel);
-  const auto n = static_cast<std::size_t>(cols) * (rows + 2);
+  // One solid row beyond each side wall, or the image mirrored across each side; distances come
+  // from GriddedFlow's transform.
+  const int pad = mirror_sides ? rows : 1;
+  GriddedFlow g(cols, rows + 2 * pad, 0.5 * pixel, (0.5 - pad) * pixel, pixel, pixel);
+  const auto n = static_cast<std::size_t>(cols) * (rows + 2 * pad);
   std::vector<double> zero(n, 0.0), h(n, 1.0);
   std::vector<std::uint8_t> s(n, 1);
-  for (int j = 1; j <= rows; ++j)
-    for (int i = 0; i < cols; ++i) s[static_cast<std::size_t>(j) * cols + i] = solid(rows - j, i) ? 1 : 0;
+  for (int j = 0; j < rows + 2 * pad; ++j) {
+    bool flipped = false;
+    const int b = j - pad;
+    if (!mirror_sides && (b < 0 || b >= rows)) continue;
+    const int src = mirroredRow(b, rows, flipped);
+    for (int i = 0; i < cols; ++i) s[static_cast<std::size_t>(j) * cols + i] = solid(rows - 1 - src, i) ? 1 : 0;
+  }
   g.update(zero, zero, h, s);
   std::vector<double> d(static_cast<std::size_t>(rows) * cols);
   for (int j = 0; j < rows; ++j)
     for (int i = 0; i < cols; ++i) d[static_cast<std::size_t>(j) * cols + i] = g.wallDistance((i + 0.5) * pixel, (j + 0.5) * pixel);
   return d;
+}
+
+/// Face y = f pixels (any integer) of a mirrored image `rows` high, reflected into [0, rows];
+/// `flipped`: an odd number of reflections.
+int mirroredFace(int f, int rows, bool& flipped) {
+  const int period = 2 * rows;
+  const int r = ((f % period) + period) % period;
+  flipped = r > rows;
+  return flipped ? period - r : r;
 }
 
 /// The shape the fluid solver cuts against. The grains are the mask itself (simulate::MaskShape:
@@ -115,8 +132,25 @@ MicromodelFlow::MicromodelFlow(PixelMask grains, MicromodelFlowOptions options) 
   // Brinkman-Hele-Shaw layer (GridWalls::brinkman) matched to the solved velocity beyond both
   // the fluid cell and the pixel next to the wall, the first distance the solve resolves.
   const double resolved = std::max(m_opt.pixel, m_opt.pixel / m_opt.cells_per_pixel);
-  m_field = std::make_shared<GriddedFlow>(cols() + 2, rows() + 2, -0.5 * m_opt.pixel, -0.5 * m_opt.pixel, m_opt.pixel, m_opt.pixel,
-                                          GridWalls::brinkman, resolved);
+  if (m_opt.mirror_sides) {
+    // GriddedFlow's wall-search reach at the chip depth (deposit layers only thin it): a point
+    // within the image searches that far beyond the plane, and the near-wall layer's probes along
+    // the normal from a mirrored wall point that far again.
+    const double match = std::max(m_opt.depth / std::sqrt(12.0), resolved) + 0.5 * m_opt.pixel;
+    const int reach = std::max(GriddedFlow::kExactCells, static_cast<int>(std::ceil(match / m_opt.pixel)));
+    m_pad = 2 * reach + 2;
+  }
+  m_field = std::make_shared<GriddedFlow>(cols() + 2, rows() + 2 * m_pad, -0.5 * m_opt.pixel, (0.5 - m_pad) * m_opt.pixel, m_opt.pixel,
+                                          m_opt.pixel, GridWalls::brinkman, resolved);
+  if (m_opt.mirror_sides) m_field->setDomain({-0.5 * m_opt.pixel, width() + 0.5 * m_opt.pixel, 0.0, height()});
+}
+
+int mirroredRow(int b, int rows, bool& flipped) {
+  // Pixel centres in half pixels, 2 b + 1, reflected at 0 and 2 rows with period 4 rows.
+  const int period = 4 * rows;
+  const int r = (((2 * b + 1) % period) + period) % period;
+  flipped = r > 2 * rows;
+  return ((flipped ? period - r : r) - 1) / 2;
 }
 
 MicromodelFlow::~MicromodelFlow() = default;
@@ -314,16 +348,16 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
   r.permeability = r.blocked ? 0.0 : m_opt.viscosity * q * W / (H * kPressureDrop);
   r.flux_scale = r.blocked ? 0.0 : m_opt.darcy_velocity * H / q;
   r.pressure_drop = r.blocked ? (m_opt.darcy_velocity > 0 ? std::numeric_limits<double>::infinity() : 0.0) : r.flux_scale * kPressureDrop;
-  const int NX = nc + 2, NY = nr + 2;
+  const int P = m_pad, NX = nc + 2, NY = nr + 2 * P;  // node row j is the image's row j - P from the bottom
   const auto n = static_cast<std::size_t>(NX) * NY;
   m_ux.assign(n, 0.0);
   m_uy.assign(n, 0.0);
   m_h.assign(n, m_opt.depth);
   m_solid.assign(n, 1);
-  for (int j = 1; j <= nr; ++j)
+  for (int j = P; j < P + nr; ++j)
     for (int i = 0; i < NX; ++i) {
       const std::size_t k = static_cast<std::size_t>(j) * NX + i;
-      const int col = std::clamp(i - 1, 0, nc - 1), row = nr - j;
+      const int col = std::clamp(i - 1, 0, nc - 1), row = nr - 1 - (j - P);
       if (all(row, col)) continue;
       m_solid[k] = 0;
       if (!aperture.empty()) m_h[k] = aperture[static_cast<std::size_t>(row) * nc + col];
@@ -355,17 +389,38 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
       sum += overlap(x0, x1, ic * cw, (ic + 1) * cw) * ((1 - t) * fv(jc, ic) + t * fv(jc + 1, ic));
     return sum / (x1 - x0);
   };
-  for (int j = 1; j <= nr; ++j)
+  for (int j = P; j < P + nr; ++j)
     for (int i = 0; i < NX; ++i) {
       const std::size_t k = static_cast<std::size_t>(j) * NX + i;
       if (m_solid[k]) continue;
       // Node i sits at x = (i - 1/2) p: its right face at x = i p (the padding beyond the
-      // outlet repeats the outlet face); its top face at y = j p.
-      const double y0 = (j - 1) * p, y1 = j * p;
+      // outlet repeats the outlet face); its top face at y = (j - P + 1) p.
+      const double y0 = (j - P) * p, y1 = (j - P + 1) * p;
       m_ux[k] = r.flux_scale * xFace(std::min(i * p, W), y0, y1);
       const int col = std::clamp(i - 1, 0, nc - 1);
-      m_uy[k] = r.flux_scale * yFace(j * p, col * p, (col + 1) * p);
+      m_uy[k] = r.flux_scale * yFace(y1, col * p, (col + 1) * p);
     }
+  if (m_opt.mirror_sides) {
+    // The padding rows: the image mirrored across y = 0 and y = H (solid, depth, u_x copied; u_y,
+    // on the top faces, taken from the mirrored face and reversed; zero on the planes themselves).
+    const auto row = [&](int j) { return static_cast<std::size_t>(j) * NX; };
+    for (int j = 0; j < NY; ++j) {
+      bool flipped = false;
+      if (j >= P && j < P + nr) {
+        if (j == P + nr - 1)
+          for (int i = 0; i < NX; ++i) m_uy[row(j) + i] = 0.0;  // the top plane's face
+        continue;
+      }
+      const int src = P + mirroredRow(j - P, nr, flipped);
+      const int face = mirroredFace(j - P + 1, nr, flipped);  // the node's top face, reflected into [0, nr]
+      for (int i = 0; i < NX; ++i) {
+        m_solid[row(j) + i] = m_solid[row(src) + i];
+        m_h[row(j) + i] = m_h[row(src) + i];
+        m_ux[row(j) + i] = m_ux[row(src) + i];
+        m_uy[row(j) + i] = face == 0 || face == nr ? 0.0 : (flipped ? -1.0 : 1.0) * m_uy[row(P + face - 1) + i];
+      }
+    }
+  }
   m_field->update(m_ux, m_uy, m_h, m_solid);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
@@ -380,9 +435,9 @@ void MicromodelFlow::restore(const std::vector<double>& ux, const std::vector<do
   m_field->update(m_ux, m_uy, m_h, m_solid);
 }
 
-double passableDiameter(const PixelMask& solid, double pixel) {
+double passableDiameter(const PixelMask& solid, double pixel, bool mirror_sides) {
   const int rows = static_cast<int>(solid.rows()), cols = static_cast<int>(solid.cols());
-  const std::vector<double> d = pixelWallDistance(solid, pixel);
+  const std::vector<double> d = pixelWallDistance(solid, pixel, mirror_sides);
   // Widest path (maximin) from the inlet column to the outlet column over
   // 4-connected pore pixels: a Dijkstra with max-heap on the bottleneck.
   std::vector<double> best(d.size(), -1.0);
@@ -418,9 +473,9 @@ double passableDiameter(const PixelMask& solid, double pixel) {
   return 2.0 * std::max(answer, 0.0);
 }
 
-double inletOpening(const PixelMask& solid, double pixel) {
+double inletOpening(const PixelMask& solid, double pixel, bool mirror_sides) {
   const int rows = static_cast<int>(solid.rows()), cols = static_cast<int>(solid.cols());
-  const std::vector<double> d = pixelWallDistance(solid, pixel);
+  const std::vector<double> d = pixelWallDistance(solid, pixel, mirror_sides);
   double m = 0.0;
   for (int j = 0; j < rows; ++j) m = std::max(m, d[static_cast<std::size_t>(j) * cols]);
   return 2.0 * m;

@@ -25,6 +25,13 @@ void declareMicromodel(Schema& s) {
   s.quantity("geometry.depth", "um", "Chip depth h (the experiment's chip: 20 um)").def("20 um").positive();
   s.integer("geometry.dilate", "Grow the grains by this many pixels (disc; to lower the porosity of a design mask); 0: as drawn").def(0).min(0).max(1000);
   s.integerList("geometry.crop", "Window of the image [first column, first row, columns, rows]; absent: the whole image").optional();
+  s.choice("geometry.sides", {"walls", "slip"},
+           "The image's top and bottom edges. The fluid solve's are slip either way (a mask with solid wall rows has its walls in "
+           "the image). walls: the particles see a wall beyond each edge. slip: both edges are mirror planes for the particles "
+           "too (the pore space mirrored beyond them, so a throat between a grain and an edge is twice its distance to it; "
+           "particles reaching an edge are reflected, never deposited there): a strip of a wider chip without side walls "
+           "(mmval chip --wall-px 0)")
+      .def("walls");
   s.quantity("flow.rate", "uL/min", "Volume flow rate through the chip (the experiment: 5 uL/min)").def("5 uL/min").nonNegative();
   s.quantity("flow.rate_width", "mm",
              "Width of the chip the flow rate goes through (the experiment's 10 mm); the simulated geometry gets the same Darcy "

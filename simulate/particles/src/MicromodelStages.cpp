@@ -61,7 +61,8 @@ double checkParticlesFit(const Case& c, const std::vector<SizeClass>& classes, c
   if (!(geo.depth > d_max))
     throw InputError(c.where(dkey), "particles do not fit in the chip depth", fmt::format("{:.3g} um", d_max * 1e6),
                      fmt::format("< geometry.depth ({:.3g} um)", geo.depth * 1e6));
-  const double opening = inletOpening(geo.grains, geo.pixel), passable = passableDiameter(geo.grains, geo.pixel);
+  const bool mirror = c.text("geometry.sides") == "slip";
+  const double opening = inletOpening(geo.grains, geo.pixel, mirror), passable = passableDiameter(geo.grains, geo.pixel, mirror);
   out.details["inlet_opening_um"] = opening * 1e6;
   setDetail(out.details, DetailField::passable_diameter_um, passable * 1e6);
   if (opening < d_max)
@@ -89,6 +90,7 @@ MicromodelFlowOptions readFlow(const Case& c, const SceneGeometry& geo) {
   fo.cells_per_pixel = c.real("numerics.cells_per_pixel");
   fo.warm_start = c.text("numerics.resolve") == "warm";
   fo.fixed_pattern = c.text("numerics.resolve_pattern") == "fixed";
+  fo.mirror_sides = c.text("geometry.sides") == "slip";
   return fo;
 }
 
@@ -136,6 +138,7 @@ SceneConfig readScene(const Case& c, const EngineChoice& choice, const SceneGeom
   scene.straining.enabled = c.flag("deposition.straining");
   scene.straining.time = c.quantity("deposition.straining_time");
   scene.outlet_x = geo.width;
+  scene.mirror_sides = c.text("geometry.sides") == "slip";
   scene.max_step_fraction = c.real("numerics.max_step_fraction");
   return scene;
 }

@@ -310,6 +310,8 @@ void OverdampedEngine::advance(double t_end) {
       // Attachment only once every overlap of the step is removed: a particle attached
       // earlier would be left out of the contact sweeps and could stay inside a deposit.
       resolveContacts();
+      if (m_cfg.mirror_sides)
+        for (const int i : m_mobile) reflectAtMirrors(m_particles[i]);  // the contact pushes can carry one across a plane
       std::sort(m_deposit_contacts.begin(), m_deposit_contacts.end());
       std::vector<int> fresh;  // deposited in this step, not yet in m_dep_cells
       for (const int i : m_mobile) {
@@ -408,9 +410,19 @@ bool OverdampedEngine::slideBetweenWalls(ParticleState& p, const Vec3& before, c
   return true;
 }
 
+void OverdampedEngine::reflectAtMirrors(ParticleState& p) const {
+  if (!m_cfg.mirror_sides) return;
+  const Bounds2 b = m_flow->bounds();
+  // A step is a fraction of a radius, far below the strip's width: at most a reflection or two.
+  for (int k = 0; k < 4 && (p.x.y() < b.y0 || p.x.y() > b.y1); ++k) p.x.y() = p.x.y() < b.y0 ? 2 * b.y0 - p.x.y() : 2 * b.y1 - p.x.y();
+}
+
 std::uint8_t OverdampedEngine::applyWalls(ParticleState& p, const Vec3& before) {
   const double a = m_radius;
   std::uint8_t touched = 0;
+  // Mirror sides: the field beyond a plane is the mirror image of the pore space, so the move and
+  // its reflection see the same walls; the reflected one stays in the chip.
+  reflectAtMirrors(p);
   // Grains and side walls: a step into solid is taken back in-plane; a particle
   // closer than a radius is pushed out along the wall normal.
   if (m_flow->isSolid(p.x.x(), p.x.y())) {
@@ -460,6 +472,7 @@ std::uint8_t OverdampedEngine::applyWalls(ParticleState& p, const Vec3& before) 
     p.x.z() = h - a;
     touched |= kTop;
   }
+  reflectAtMirrors(p);  // a wall's push can carry it across a plane
   return touched;
 }
 
@@ -884,6 +897,9 @@ nlohmann::json OverdampedEngine::describe() const {
                                             : nlohmann::json("off")},
           {"wall_tolerance_radii", kWallTolerance},
           {"deposited_by_surface", by_surface}};
+  if (c.mirror_sides)
+    j["sides"] = fmt::format("mirror planes at y = {:.6g} and {:.6g} um: particles reflected there, never deposited there; no images of "
+                             "other particles", m_flow->bounds().y0 * 1e6, m_flow->bounds().y1 * 1e6);
   if (m_plate_chem) {
     j["dlvo"] = {{"assumed_chemistry",
                   "the experiment gives no solution chemistry: ionic strength, valence, zeta potentials and Hamaker constant are "

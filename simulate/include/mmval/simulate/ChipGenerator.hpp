@@ -38,7 +38,7 @@ struct ChipSpec {
   double mean_grain_um = 0;            ///< mean grain diameter: fixed without k / throat targets, else the start; 0: estimated
   double grain_cv = 0.3;               ///< coefficient of variation of the grain diameter
   double min_throat_px = 3;            ///< smallest gap between grains (and grain to wall)
-  int wall_px = 2;                     ///< solid rows at top and bottom
+  int wall_px = 2;                     ///< solid rows at top and bottom; 0: none, mirror sides (ChipPackingSpec::wall_px)
   double port_um = 0;                  ///< open inlet / outlet columns; 0: one mean grain diameter
   double tile_mm = 1.5;                ///< side of the tuning tile (capped at the chip)
   double cells_per_pixel = 1;          ///< resolution at which the k target is met

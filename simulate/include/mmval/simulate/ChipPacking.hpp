@@ -51,7 +51,10 @@ enum class ChipPlacement {
 /// What to pack. Every length in pixels.
 struct ChipPackingSpec {
   int cols = 0, rows = 0;           ///< image size
-  int wall_px = 2;                  ///< solid rows at the top and the bottom (no-flow sides)
+  /// Solid rows at the top and the bottom (no-flow sides). 0: no walls, the edges are mirror planes
+  /// (a strip of a wider chip; the flow solves' sides are slip): discs keep half the minimum gap
+  /// from an edge, so the gap to their mirror image is the minimum gap.
+  int wall_px = 2;
   double port_px = 0;               ///< grain-free columns at the inlet (left) and outlet (right)
   double mean_diameter_px = 20;     ///< mean grain diameter (lognormal)
   double diameter_cv = 0.3;         ///< coefficient of variation of the diameter
@@ -121,7 +124,10 @@ BoolArray renderChip(const std::vector<ChipDisc>& discs, int cols, int rows, int
 /// Poisson reference from `discs`. count = 0 (and zeros) when not one window fits.
 ChipWindowPorosity windowPorosity(const BoolArray& solid, const std::vector<ChipDisc>& discs, const ChipPackingSpec& spec, int side_px);
 
-/// The throats of a packing (grain-grain and grain-wall), widths in px.
+/// The throats of a packing (grain-grain and grain-wall), widths in px. wall_px 0: mirror sides,
+/// the throats between the discs and the mirror images of the discs across the top and bottom
+/// edges instead of grain-wall ones (a disc's throat to its own image is twice its distance to
+/// the edge, its midpoint on the edge).
 std::vector<ChipThroat> chipThroats(const std::vector<ChipDisc>& discs, int rows, int wall_px, double max_width_px);
 
 }  // namespace mmval::simulate

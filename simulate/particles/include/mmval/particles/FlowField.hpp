@@ -166,7 +166,14 @@ class GriddedFlow final : public FlowField {
   double wallDistance(double x, double y) const override;
   Vec2 wallNormal(double x, double y) const override;
   std::uint64_t version() const override { return m_version; }
+  /// The nodes' extent, or the domain set by setDomain.
   Bounds2 bounds() const override;
+  /// Reports `domain` as bounds() instead of the nodes' extent: a field padded beyond its
+  /// domain (mirror images of the pore space beyond a mirror plane, MicromodelFlow with slip
+  /// sides) keeps its padding for the wall searches and velocities near the plane, while
+  /// insertion and the engines' bounds stay in the domain. Walls, velocities and isSolid are
+  /// unchanged: they read the nodes.
+  void setDomain(const Bounds2& domain);
   int nx() const { return m_nx; }
   int ny() const { return m_ny; }
   GridWalls walls() const { return m_walls; }
@@ -214,6 +221,8 @@ class GriddedFlow final : public FlowField {
   std::vector<std::size_t> m_wall_start;
   std::vector<std::int32_t> m_wall_cells;  ///< pairs (i, j)
   std::uint64_t m_version = 0;
+  bool m_has_domain = false;
+  Bounds2 m_domain;  ///< setDomain
   /// Unique in the process per constructed or updated field (nearestWallPoint's memo key).
   std::uint64_t m_stamp = 0;
 };

@@ -74,6 +74,15 @@ struct MicromodelFlowOptions {
   /// not fit is solved by a new solver (FlowSolveResult::pattern_kept false). The answer equals the
   /// rebuilt solver's to rounding, not bit for bit. false ("rebuild"): as described above.
   bool fixed_pattern = true;
+  /// The image's top and bottom edges (y = 0 and y = height) as the particles see them (case key
+  /// geometry.sides; the fluid solve's top and bottom are slip either way). false ("walls"): the
+  /// particles' field is padded by a solid row beyond each edge, a wall there. true ("slip"): the
+  /// edges are mirror planes: the padding rows are the pore space mirrored across the edge (solid,
+  /// depth and u_x copied, u_y reversed, zero on the plane), deep enough that every wall search of
+  /// a point within the image sees the mirrored grains (a throat between a grain and the plane is
+  /// twice its distance to it), and the field reports the image as its bounds (GriddedFlow::setDomain);
+  /// the engines reflect particles at the planes (SceneConfig::mirror_sides).
+  bool mirror_sides = false;
 };
 
 struct FlowSolveResult {
@@ -110,7 +119,8 @@ class MicromodelFlow {
 
   /// The field the engines see: nodes at pixel centres, padded by one node on
   /// every side (solid rows beyond the two side walls; copies of the first and
-  /// last columns beyond the inlet and the outlet, so that x = 0 and x = width are inside).
+  /// last columns beyond the inlet and the outlet, so that x = 0 and x = width are inside);
+  /// with mirror sides padRows() mirrored rows beyond each side instead of the solid one.
   /// Its walls are the pixel edges of the grains and closed pixels and its velocities live on
   /// the pixel faces (GridWalls::brinkman: exact wall distance; away from walls a
   /// divergence-free field that follows them, near them the Brinkman-Hele-Shaw layer matched
@@ -126,6 +136,10 @@ class MicromodelFlow {
   void restore(const std::vector<double>& ux, const std::vector<double>& uy, const std::vector<std::uint8_t>& solid,
                const std::vector<double>& depth);
 
+  /// Rows of padding beyond each side of the image in field(): 1, or with mirror sides twice the
+  /// field's wall-search reach at the chip depth plus 2 (a point within the image searches up to
+  /// the reach beyond it, and the near-wall layer's probes from a mirrored wall point as far again).
+  int padRows() const { return m_pad; }
   int rows() const { return static_cast<int>(m_grains.rows()); }
   int cols() const { return static_cast<int>(m_grains.cols()); }
   double width() const { return cols() * m_opt.pixel; }   ///< m, along x (flow)
@@ -140,6 +154,7 @@ class MicromodelFlow {
   PixelMask m_grains;
   MicromodelFlowOptions m_opt;
   std::shared_ptr<GriddedFlow> m_field;
+  int m_pad = 1;
   std::vector<double> m_ux, m_uy, m_h;
   std::vector<std::uint8_t> m_solid;
   std::unique_ptr<simulate::SteadyFlowSolver> m_solver;  ///< warm start: kept between solves
@@ -154,10 +169,17 @@ class MicromodelFlow {
 /// Euclidean distance to the grains and side walls (the maximin path through
 /// the medial axis), sampled at pixel centres: a throat n pixels wide reads n
 /// pixels for odd n and n - 1 for even n. 0 when no pore path exists.
-double passableDiameter(const PixelMask& solid, double pixel);
+/// `mirror_sides`: the top and bottom edges are mirror planes, not walls (the distance is to the
+/// grains and their mirror images, so a throat between a grain and a plane is twice its distance).
+double passableDiameter(const PixelMask& solid, double pixel, bool mirror_sides = false);
 
-/// Largest particle diameter (m) that fits somewhere in the inlet column.
-double inletOpening(const PixelMask& solid, double pixel);
+/// Largest particle diameter (m) that fits somewhere in the inlet column (mirror_sides: as above).
+double inletOpening(const PixelMask& solid, double pixel, bool mirror_sides = false);
+
+/// Image row (counted from the bottom, 0 to rows - 1) whose mirror image row b is, for any
+/// integer b, reflecting at y = 0 and y = rows (pixel units) as often as needed; `flipped` says
+/// whether an odd number of reflections was made (a y-velocity changes sign).
+int mirroredRow(int b, int rows, bool& flipped);
 
 /// The shape the micromodel's fluid solve cuts against: `grains` read as the mask itself
 /// (simulate::MaskShape), the pixels of `all` that are not grains (deposits, cut-off pockets) as

@@ -118,6 +118,8 @@ class OverdampedEngine final : public ParticleEngine {
   /// Grains, side walls, outlet and plates: pushes the particle back into the fluid and
   /// returns the Touch bits of the surfaces it hit (or marks it left).
   std::uint8_t applyWalls(ParticleState& p, const Vec3& before);
+  /// SceneConfig::mirror_sides: a particle beyond the field's y0 or y1 reflected back across it.
+  void reflectAtMirrors(ParticleState& p) const;
   /// Two walls closer than a radius: from p (a radius from the wall of normal `last`), the slide
   /// along that wall that puts it a radius from the other as well; p moved and true when the slid
   /// position (and the way there from `before`) keeps a radius from every wall.

@@ -126,6 +126,11 @@ struct SceneConfig {
   AttachmentModel attachment;
   StrainingModel straining;
   double outlet_x = std::numeric_limits<double>::quiet_NaN();  ///< m; NaN: the field's x1
+  /// Overdamped engine: the field's bounds y0 and y1 are mirror planes (MicromodelFlow with slip
+  /// sides, whose field holds the mirrored pore space beyond them): a particle whose centre crosses
+  /// one is reflected back across it (y -> 2 y0 - y), never deposited or counted left there.
+  /// Particles do not see the mirror images of other particles.
+  bool mirror_sides = false;
   std::uint64_t seed = 1;
   /// Overdamped engine: largest displacement per step, as a fraction of the radius.
   double max_step_fraction = 0.1;
