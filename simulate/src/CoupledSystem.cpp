@@ -27,6 +27,37 @@ constexpr long long kMetisUnknowns = 100000;
 /// of the largest (METIS against another METIS-ordered LU of the same matrix: 1.6e-9).
 constexpr const char* kKeptOrdering = "BEST";
 
+/// Plane Stokes, iterative: GMRES with the pressure mass matrix for the Schur complement runs
+/// kProbeIterations; if the residual has not fallen below kProbeDrop of the right-hand side's by
+/// then, the solve continues from that iterate with selfp (see switchToSelfp). Measured
+/// (docs/validation/linear-solver.md, 1 cell per pixel, rtol 1e-10): at 40 iterations the open
+/// Pore2Chip mask was at 3.6e-5 (it converges in 70), the square array at 724^2 converged in 40,
+/// and the narrow-throat chip was at 9.7e-4 (it needs 649 with the mass matrix alone).
+/// PETSc option -fluidm_schur_switch_iterations N moves the probe to iteration N (0: never switch).
+constexpr int kProbeIterations = 40;
+constexpr double kProbeDrop = 2e-4;
+
+/// The convergence test of the mass-matrix stage: PETSc's default test, and at kProbeIterations
+/// a stop (KSP_DIVERGED_ITS, `tripped` set) when the residual is above kProbeDrop of the first.
+struct ProbeTest {
+  void* dflt = nullptr;  ///< KSPConvergedDefault's context
+  int at = kProbeIterations;  ///< the iteration it looks at (0: never)
+  bool tripped = false;
+  PetscReal r0 = 0, r_at = 0;
+  static PetscErrorCode test(KSP k, PetscInt n, PetscReal rnorm, KSPConvergedReason* reason, void* ctx) {
+    auto* self = static_cast<ProbeTest*>(ctx);
+    const PetscErrorCode ierr = KSPConvergedDefault(k, n, rnorm, reason, self->dflt);
+    if (ierr != 0) return ierr;
+    if (n == 0) self->r0 = rnorm;
+    if (self->at > 0 && *reason == KSP_CONVERGED_ITERATING && n == self->at && rnorm > kProbeDrop * self->r0) {
+      self->tripped = true;
+      self->r_at = rnorm;
+      *reason = KSP_DIVERGED_ITS;
+    }
+    return 0;
+  }
+};
+
 struct CoupledSystem::Impl {
   SolverOptions opt;
   MPI_Comm comm;
@@ -46,6 +77,12 @@ struct CoupledSystem::Impl {
   bool mass_schur = false;  ///< iterative Stokes: Schur complement preconditioned by the scaled pressure mass matrix
   bool friction_split = false;  ///< iterative depth-averaged Stokes: Schur complement by the LU of B diag(A)^-1 B^T (see createKsp)
   Mat Sp = nullptr;
+  /// Plane Stokes, iterative: the mass matrix's progress after kProbeIterations (ProbeTest) and
+  /// the second stage's KSP (selfp) it hands over to when that progress is too slow.
+  ProbeTest probe;
+  KSP ksp_selfp = nullptr;
+  int switched_at = 0;  ///< the last solve's mass-matrix iterations before the switch to selfp (0: no switch)
+  double switched_drop = 0;  ///< and the relative residual it had reached
   /// This rank's rows of the last assembly (CSR: row starts, columns, values; right-hand sides).
   std::vector<PetscInt> row_start, cols;
   std::vector<PetscScalar> vals, rhs;
@@ -147,6 +184,8 @@ struct CoupledSystem::Impl {
 
   ~Impl() {
     if (ksp != nullptr) KSPDestroy(&ksp);
+    if (ksp_selfp != nullptr) KSPDestroy(&ksp_selfp);
+    if (probe.dflt != nullptr) KSPConvergedDefaultDestroy(probe.dflt);
     if (Sp != nullptr) MatDestroy(&Sp);
     if (A != nullptr) MatDestroy(&A);
     if (b != nullptr) VecDestroy(&b);
@@ -191,6 +230,41 @@ struct CoupledSystem::Impl {
       check(MatMPIAIJSetPreallocation(A, 24, nullptr, 24, nullptr), "prealloc");
     }
     check(MatSetOption(A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE), "MatSetOption");
+  }
+
+  /// `k`'s preconditioner: the Schur fieldsplit over (u, v) and p, upper factorisation; selfp: the
+  /// Schur complement preconditioned from B diag(A)^-1 B^T (else the caller sets it).
+  void splitFields(const FlowOperator& op, KSP k, bool selfp) {
+    PC pc;
+    check(KSPGetPC(k, &pc), "KSPGetPC");
+    check(PCSetType(pc, PCFIELDSPLIT), "fieldsplit");
+    std::vector<PetscInt> iu, ip;
+    for (PetscInt r = row_lo; r < row_hi; ++r) (natural(r) < op.pressureOffset() ? iu : ip).push_back(r);
+    IS isu, isp;
+    check(ISCreateGeneral(comm, static_cast<PetscInt>(iu.size()), iu.data(), PETSC_COPY_VALUES, &isu), "IS");
+    check(ISCreateGeneral(comm, static_cast<PetscInt>(ip.size()), ip.data(), PETSC_COPY_VALUES, &isp), "IS");
+    check(PCFieldSplitSetIS(pc, "0", isu), "IS u");
+    check(PCFieldSplitSetIS(pc, "1", isp), "IS p");
+    ISDestroy(&isu);
+    ISDestroy(&isp);
+    check(PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR), "schur");
+    check(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER), "schur fact");
+    if (selfp) check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELFP, nullptr), "selfp");
+  }
+
+  /// Plane Stokes, the second stage (see switchToSelfp): GMRES with the Schur complement
+  /// preconditioned by BoomerAMG on B diag(A)^-1 B^T ("selfp"), prefix "fluidp_"; created at
+  /// the first switch, its options from the database as the first stage's.
+  void ensureSelfpKsp(const FlowOperator& op) {
+    if (ksp_selfp != nullptr) return;
+    check(KSPCreate(comm, &ksp_selfp), "KSPCreate");
+    check(KSPSetOptionsPrefix(ksp_selfp, "fluidp_"), "prefix");
+    check(KSPSetType(ksp_selfp, KSPGMRES), "KSPSetType");
+    check(KSPSetPCSide(ksp_selfp, PC_RIGHT), "PC side");
+    check(KSPGMRESSetRestart(ksp_selfp, 200), "restart");
+    check(KSPGMRESSetCGSRefinementType(ksp_selfp, KSP_GMRES_CGS_REFINE_IFNEEDED), "CGS refinement");
+    splitFields(op, ksp_selfp, true);
+    check(KSPSetFromOptions(ksp_selfp), "KSPSetFromOptions");
   }
 
   /// The KSP and its preconditioner as a new solver sets them up (no factorisation yet).
@@ -243,20 +317,11 @@ struct CoupledSystem::Impl {
       // needed restores it (converged in 47, like its neighbours in N).
       check(KSPGMRESSetCGSRefinementType(ksp, KSP_GMRES_CGS_REFINE_IFNEEDED), "CGS refinement");
       check(KSPSetTolerances(ksp, opt.linear_rtol, 1e-30, PETSC_DEFAULT, opt.linear_max_iterations), "tol");
-      check(PCSetType(pc, PCFIELDSPLIT), "fieldsplit");
-      const PetscInt lo = row_lo, hi = row_hi;
-      std::vector<PetscInt> iu, ip;
-      for (PetscInt r = lo; r < hi; ++r) (natural(r) < op.pressureOffset() ? iu : ip).push_back(r);
-      IS isu, isp;
-      check(ISCreateGeneral(comm, static_cast<PetscInt>(iu.size()), iu.data(), PETSC_COPY_VALUES, &isu), "IS");
-      check(ISCreateGeneral(comm, static_cast<PetscInt>(ip.size()), ip.data(), PETSC_COPY_VALUES, &isp), "IS");
-      check(PCFieldSplitSetIS(pc, "0", isu), "IS u");
-      check(PCFieldSplitSetIS(pc, "1", isp), "IS p");
-      ISDestroy(&isu);
-      ISDestroy(&isp);
-      check(PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR), "schur");
-      check(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER), "schur fact");
-      if (!mass_schur) check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELFP, nullptr), "selfp");
+      splitFields(op, ksp, !mass_schur);
+      if (mass_schur) {  // the probe of the mass matrix's progress (see ProbeTest)
+        if (probe.dflt == nullptr) check(KSPConvergedDefaultCreate(&probe.dflt), "convergence test");
+        check(KSPSetConvergenceTest(ksp, &ProbeTest::test, &probe, nullptr), "convergence test");
+      }
       const auto def = detail::defaultOption;
       def("-fluid_fieldsplit_0_ksp_type", "preonly");
       def("-fluid_fieldsplit_0_pc_type", "gamg");
@@ -266,6 +331,10 @@ struct CoupledSystem::Impl {
       def("-fluidm_fieldsplit_0_pc_type", "hypre");  // BoomerAMG: steadier than GAMG on the cut-cell velocity block (bench)
       def("-fluidm_fieldsplit_1_ksp_type", "preonly");
       def("-fluidm_fieldsplit_1_pc_type", "jacobi");
+      def("-fluidp_fieldsplit_0_ksp_type", "preonly");
+      def("-fluidp_fieldsplit_0_pc_type", "hypre");
+      def("-fluidp_fieldsplit_1_ksp_type", "preonly");
+      def("-fluidp_fieldsplit_1_pc_type", "hypre");  // BoomerAMG on B diag(A)^-1 B^T, a variable-coefficient pressure Laplacian
       def("-fluidh_fieldsplit_0_ksp_type", "preonly");
       def("-fluidh_fieldsplit_0_pc_type", "sor");  // PETSc's default: one local symmetric sweep, omega 1
       def("-fluidh_fieldsplit_1_ksp_type", "preonly");
@@ -418,9 +487,29 @@ struct CoupledSystem::Impl {
       check(KSPSetReusePreconditioner(ksp, refactor ? PETSC_FALSE : PETSC_TRUE), "reuse pc");
     }
     if (opt.linear == "direct" && (lag_max_its == 0 || refactor)) ++factorisations;
+    probe.tripped = false;
+    switched_at = 0;
+    if (mass_schur) {
+      PetscInt at = kProbeIterations;
+      check(PetscOptionsGetInt(nullptr, "fluidm_", "-schur_switch_iterations", &at, nullptr), "option");
+      probe.at = static_cast<int>(std::max<PetscInt>(0, at));
+    }
     kspSolve();
     KSPConvergedReason reason;
     KSPGetConvergedReason(ksp, &reason);
+    if (mass_schur && probe.tripped) {
+      PetscInt its = 0;
+      KSPGetIterationNumber(ksp, &its);
+      stats.linear_iterations += static_cast<int>(its);
+      switchToSelfp(op);
+      KSPGetConvergedReason(ksp_selfp, &reason);
+      KSPGetIterationNumber(ksp_selfp, &its);
+      stats.linear_iterations += static_cast<int>(its);
+      if (reason < 0) throw FlowFailure(fmt::format("the fluid linear solve failed ({}, after the switch to selfp)", KSPConvergedReasons[reason]), "refine the grid");
+      stats.solve_seconds += secondsSince(t0);
+      gather(op, state);
+      return;
+    }
     if (reason < 0 && lag_max_its > 0 && !refactor) {
       // The lagged factorisation is too far from the current matrix: refactorise and retry.
       refactor = true;
@@ -437,6 +526,28 @@ struct CoupledSystem::Impl {
     if (lag_max_its > 0) refactor = its > lag_max_its;
     stats.solve_seconds += secondsSince(t0);
     gather(op, state);
+  }
+
+  /// Plane Stokes, iterative, the probe tripped (the mass matrix's GMRES stopped at kProbeIterations
+  /// with x its iterate): GMRES with selfp continues from x to the solve's tolerance within the
+  /// iterations left of the budget. With a nonzero initial guess PETSc's default test measures the
+  /// residual against the right-hand side's norm, the first stage's initial residual (it started
+  /// from zero): the same tolerance as a solve without a switch.
+  void switchToSelfp(const FlowOperator& op) {
+    switched_at = probe.at;
+    switched_drop = probe.r0 > 0 ? probe.r_at / probe.r0 : 0;
+    ensureSelfpKsp(op);
+    check(KSPSetOperators(ksp_selfp, A, A), "KSPSetOperators");
+    check(KSPSetTolerances(ksp_selfp, opt.linear_rtol, 1e-30, PETSC_DEFAULT, std::max(1, opt.linear_max_iterations - probe.at)), "tol");
+    check(KSPSetInitialGuessNonzero(ksp_selfp, PETSC_TRUE), "initial guess");
+    std::swap(ksp, ksp_selfp);  // kspSolve's error handling serves the second stage as the first
+    try {
+      kspSolve();
+    } catch (...) {
+      std::swap(ksp, ksp_selfp);
+      throw;
+    }
+    std::swap(ksp, ksp_selfp);
   }
 
   /// Warm start (setWarmStart): GMRES preconditioned by the kept factors from `state`; the plain
@@ -610,6 +721,10 @@ void CoupledSystem::factorise(const FlowOperator& op, Linearisation mode, const 
 }
 
 int CoupledSystem::factorisations() const { return m->factorisations; }
+
+int CoupledSystem::schurSwitchIterations() const { return m->switched_at; }
+
+double CoupledSystem::schurSwitchResidual() const { return m->switched_drop; }
 
 void CoupledSystem::solve(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats) {
   if (m->warm) m->solveWarm(op, mode, state, stats);

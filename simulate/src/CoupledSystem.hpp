@@ -26,7 +26,8 @@ class CoupledSystem {
   /// options.linear: "direct" (UMFPACK serial, ordered by METIS from 1e5 unknowns; MUMPS parallel) or "iterative"
   /// (FGMRES + Schur fieldsplit, at most options.linear_max_iterations: depth-averaged Stokes by the LU of
   /// B diag(A)^-1 B^T and a Gauss-Seidel sweep on A, prefix "fluidh_"; plane Stokes by the scaled pressure
-  /// mass matrix, prefix "fluidm_"; inertia by GAMG, prefix "fluid_"); "auto" is "direct" here
+  /// mass matrix, prefix "fluidm_", switching to BoomerAMG on B diag(A)^-1 B^T, prefix "fluidp_", when the
+  /// residual has not fallen 5000-fold in 40 iterations; inertia by GAMG, prefix "fluid_"); "auto" is "direct" here
   /// (SteadyFlowSolver resolves it before; time stepping keeps its LU); throws std::invalid_argument otherwise.
   CoupledSystem(const FlowOperator& op, const SolverOptions& options, MPI_Comm comm);
   ~CoupledSystem();
@@ -61,6 +62,11 @@ class CoupledSystem {
   void factorise(const FlowOperator& op, Linearisation mode, const std::vector<double>& state);
   /// Factorisations so far (direct solver).
   int factorisations() const;
+  /// Iterative plane Stokes: the last solve's GMRES iterations with the pressure mass matrix
+  /// before it switched to selfp for the Schur complement (0: no switch), and the relative
+  /// residual reached then.
+  int schurSwitchIterations() const;
+  double schurSwitchResidual() const;
 
   /// Direct solver only (else nothing): solves of a steady system whose matrix changes between
   /// solves (SteadyFlowSolver::update). A factorisation of a matrix with the last one's pattern is

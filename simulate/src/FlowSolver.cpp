@@ -204,6 +204,9 @@ struct SteadyFlowSolver::Impl {
     stats.factorisations = fell_back ? sys->factorisations() : sys->factorisations() - factorised_before;
     stats.linear_solver = opt.linear;
     stats.linear_reason = choice.reason;
+    if (sys->schurSwitchIterations() > 0)  // the iterative solve changed its Schur preconditioner (CoupledSystem)
+      stats.linear_reason += fmt::format("; Schur preconditioner: the pressure mass matrix for {} iterations (residual {:.2g} of the first), then selfp",
+                                         sys->schurSwitchIterations(), sys->schurSwitchResidual());
     stats.linear_fallback = fell_back;
     stats.pattern_kept = fixed() && fits && !first;
     if (parked) sys = std::move(parked);  // the new solver's factors go; the kept pattern's solver serves the next problem

@@ -52,8 +52,9 @@
 // solves: "direct" (UMFPACK LU serial, MUMPS parallel) or "iterative" (FGMRES
 // with a Schur fieldsplit: for Stokes without friction, BoomerAMG on the
 // velocity block and the pressure mass matrix / mu for the Schur complement,
-// iteration counts ~independent of N; with Hele-Shaw friction or inertia, GAMG
-// and the selfp approximation). Time stepping: UnsteadyFlowSolver. Every
+// iteration counts ~independent of N, continued with the selfp approximation
+// when the residual has not fallen 5000-fold in 40 iterations (dense narrow
+// throats); with Hele-Shaw friction or inertia, GAMG and selfp). Time stepping: UnsteadyFlowSolver. Every
 // rank assembles its rows of a replicated grid and receives the whole
 // solution: simple and exact under MPI for 2D sizes (the grid, not the
 // factorisation, is replicated).
