@@ -9,11 +9,123 @@
 #include <opencv2/imgproc.hpp>
 
 #include "DetectionGrid.hpp"
+#include "Simd.hpp"
+#include "SimdKernels.hpp"
 #include "TrackerTuning.hpp"
 
 namespace mmval::tracking::detail {
 
 namespace {
+
+/// std::lround(x) inline (it is a library call, twice per refit iteration): the nearest
+/// integer, halves away from zero, for |x| < 2^31. x - trunc(x) is exact.
+inline int roundHalfAway(double x) {
+  int t = static_cast<int>(x);
+  const double frac = x - t;
+  if (frac >= 0.5) ++t;
+  else if (frac <= -0.5) --t;
+  return t;
+}
+
+#if MMVAL_HAVE_AVX2
+// AVX2 kernels over the kLanes columns of a fit window, rows `step` floats apart (the
+// joint fit's refits take them on CPUs with AVX2; see JointFit::refit): 2 registers of 8
+// lanes per row instead of 4 SSE2 vectors, lane k holding column k as there, and each
+// product and sum one instruction (no fused multiply-add), so every column's arithmetic,
+// and every result, is the SSE2 code's. Compiled on x86-64 only (Simd.hpp).
+
+/// row += (a ey[i]) m over `rows` rows (JointFit::render).
+MMVAL_TARGET_AVX2 void addModelAvx2(float* row0, std::size_t step, int rows, const float* m16, float a, const float* ey) {
+  const __m256 m0 = _mm256_loadu_ps(m16), m1 = _mm256_loadu_ps(m16 + 8);
+  for (int i = 0; i < rows; ++i) {
+    float* row = row0 + i * step;
+    const __m256 ay = _mm256_set1_ps(a * ey[i]);
+    _mm256_storeu_ps(row, _mm256_add_ps(_mm256_mul_ps(ay, m0), _mm256_loadu_ps(row)));
+    _mm256_storeu_ps(row + 8, _mm256_add_ps(_mm256_mul_ps(ay, m1), _mm256_loadu_ps(row + 8)));
+  }
+}
+
+/// Per-column masked sums over `rows` rows (maskedSumsLanes): cw[k] = sum of row[k] m[k]
+/// ey[i], cy[k] = the same times dy (the row's offset, dy0 + i).
+MMVAL_TARGET_AVX2 void maskedColumnsAvx2(const float* row0, std::size_t step, int rows, const float* m16, const float* ey, int dy0,
+                                                       float* cw, float* cy) {
+  const __m256 m0 = _mm256_loadu_ps(m16), m1 = _mm256_loadu_ps(m16 + 8);
+  __m256 w0 = _mm256_setzero_ps(), w1 = w0, y0 = w0, y1 = w0;
+  for (int i = 0; i < rows; ++i) {
+    const float* row = row0 + i * step;
+    const float g = ey[i];
+    const __m256 gy = _mm256_set1_ps(g), gyo = _mm256_set1_ps(g * static_cast<float>(dy0 + i));
+    const __m256 a = _mm256_mul_ps(_mm256_loadu_ps(row), m0), b = _mm256_mul_ps(_mm256_loadu_ps(row + 8), m1);
+    w0 = _mm256_add_ps(_mm256_mul_ps(a, gy), w0);
+    w1 = _mm256_add_ps(_mm256_mul_ps(b, gy), w1);
+    y0 = _mm256_add_ps(_mm256_mul_ps(a, gyo), y0);
+    y1 = _mm256_add_ps(_mm256_mul_ps(b, gyo), y1);
+  }
+  _mm256_storeu_ps(cw, w0);
+  _mm256_storeu_ps(cw + 8, w1);
+  _mm256_storeu_ps(cy, y0);
+  _mm256_storeu_ps(cy + 8, y1);
+}
+
+/// addModelAvx2 and then maskedColumnsAvx2 with the same mask (m = the model's ex), in
+/// one pass: the sums read the values just written.
+MMVAL_TARGET_AVX2 void addModelMaskedColumnsAvx2(float* row0, std::size_t step, int rows, const float* m16, float a, const float* ey, int dy0,
+                                                               float* cw, float* cy) {
+  const __m256 m0 = _mm256_loadu_ps(m16), m1 = _mm256_loadu_ps(m16 + 8);
+  __m256 w0 = _mm256_setzero_ps(), w1 = w0, y0 = w0, y1 = w0;
+  for (int i = 0; i < rows; ++i) {
+    float* row = row0 + i * step;
+    const float g = ey[i];
+    const __m256 ay = _mm256_set1_ps(a * g), gy = _mm256_set1_ps(g), gyo = _mm256_set1_ps(g * static_cast<float>(dy0 + i));
+    const __m256 v0 = _mm256_add_ps(_mm256_mul_ps(ay, m0), _mm256_loadu_ps(row)), v1 = _mm256_add_ps(_mm256_mul_ps(ay, m1), _mm256_loadu_ps(row + 8));
+    _mm256_storeu_ps(row, v0);
+    _mm256_storeu_ps(row + 8, v1);
+    const __m256 p = _mm256_mul_ps(v0, m0), q = _mm256_mul_ps(v1, m1);
+    w0 = _mm256_add_ps(_mm256_mul_ps(p, gy), w0);
+    w1 = _mm256_add_ps(_mm256_mul_ps(q, gy), w1);
+    y0 = _mm256_add_ps(_mm256_mul_ps(p, gyo), y0);
+    y1 = _mm256_add_ps(_mm256_mul_ps(q, gyo), y1);
+  }
+  _mm256_storeu_ps(cw, w0);
+  _mm256_storeu_ps(cw + 8, w1);
+  _mm256_storeu_ps(cy, y0);
+  _mm256_storeu_ps(cy + 8, y1);
+}
+
+/// lane[k] = sum of row[k] m[k] ey[i] over the rows, each term (row m) ey, added in row
+/// order (JointFit::amplitude).
+MMVAL_TARGET_AVX2 void modelColumnsAvx2(const float* row0, std::size_t step, int rows, const float* m16, const float* ey, float* lane) {
+  const __m256 m0 = _mm256_loadu_ps(m16), m1 = _mm256_loadu_ps(m16 + 8);
+  __m256 l0 = _mm256_setzero_ps(), l1 = l0;
+  for (int i = 0; i < rows; ++i) {
+    const float* row = row0 + i * step;
+    const __m256 gy = _mm256_set1_ps(ey[i]);
+    l0 = _mm256_add_ps(l0, _mm256_mul_ps(_mm256_mul_ps(_mm256_loadu_ps(row), m0), gy));
+    l1 = _mm256_add_ps(l1, _mm256_mul_ps(_mm256_mul_ps(_mm256_loadu_ps(row + 8), m1), gy));
+  }
+  _mm256_storeu_ps(lane, l0);
+  _mm256_storeu_ps(lane + 8, l1);
+}
+
+/// maskedSums over a window of at most kLanes columns, all kLanes from x0 in the image
+/// (AVX2): per-column sums over the rows, then over the columns (maskedSumsLanes' sums).
+void maskedSumsAvx2(const cv::Mat& img, int x0, int cy, int r, const float* ex, const float* ey, double& sw, double& sx, double& sy) {
+  float m[kLanes] = {};
+  for (int k = 0; k <= 2 * r; ++k) m[k] = ex[k];
+  const int y0 = std::max(0, cy - r), y1 = std::min(img.rows - 1, cy + r);
+  float cw[kLanes], cyy[kLanes];
+  maskedColumnsAvx2(img.ptr<float>(y0) + x0, img.step[0] / sizeof(float), y1 - y0 + 1, m, ey + (y0 - cy + r), y0 - cy, cw, cyy);
+  double tw = 0, tx = 0, ty = 0;
+  for (int k = 0; k <= 2 * r; ++k) {
+    tw += cw[k];
+    tx += static_cast<double>(cw[k]) * (k - r);
+    ty += cyy[k];
+  }
+  sw = tw;
+  sx = tx;
+  sy = ty;
+}
+#endif  // MMVAL_HAVE_AVX2
 
 /// maskedSums over a window whose 4 NV columns from x0 lie in the image: per-column sums
 /// over the rows in NV vectors of 4 lanes (OpenCV's universal intrinsics), then over the
@@ -60,8 +172,19 @@ void maskedSumsLanes(const cv::Mat& img, int x0, int cy, int r, const float* ex,
 // window of half-width r (clipped to the image): weight, and weight x offset from (cx, cy).
 // Float within the window, exact to ~1e-7 relative. Windows up to 16 px wide whose
 // columns, rounded up to a multiple of 4, lie in the image take the vectorised path.
-void maskedSums(const cv::Mat& img, int cx, int cy, int r, const float* ex, const float* ey, double& sw, double& sx, double& sy) {
+// `kWide` (AVX2, whose registers hold 8 lanes): windows of fewer columns than kLanes take
+// the kLanes path when its columns lie in the image (the lanes past the window's columns
+// are not summed, so the sums are maskedSumsLanes').
+namespace {
+
+template <bool kWide = false>
+[[gnu::always_inline]] inline void maskedSumsInline(const cv::Mat& img, int cx, int cy, int r, const float* ex, const float* ey, double& sw, double& sx,
+                                                    double& sy) {
   sw = sx = sy = 0;
+  static_assert(!kWide || MMVAL_HAVE_AVX2, "the wide path is the AVX2 build's");
+#if MMVAL_HAVE_AVX2
+  if (kWide && cx - r >= 0 && 2 * r + 1 <= kLanes && cx - r + kLanes <= img.cols) return maskedSumsAvx2(img, cx - r, cy, r, ex, ey, sw, sx, sy);
+#endif
   const int nv = (2 * r + 1 + 3) / 4;
   if (cx - r >= 0 && nv <= 4 && cx - r + 4 * nv <= img.cols) {
     switch (nv) {
@@ -92,6 +215,25 @@ void maskedSums(const cv::Mat& img, int cx, int cy, int r, const float* ex, cons
     sy += rw * gy * (y - cy);
   }
 }
+
+}  // namespace
+
+void maskedSums(const cv::Mat& img, int cx, int cy, int r, const float* ex, const float* ey, double& sw, double& sx, double& sy) {
+#if MMVAL_HAVE_AVX2
+  if (cpuHasAvx2()) return maskedSumsInline<true>(img, cx, cy, r, ex, ey, sw, sx, sy);
+#endif
+  maskedSumsInline<false>(img, cx, cy, r, ex, ey, sw, sx, sy);
+}
+
+void maskedSumsBaseline(const cv::Mat& img, int cx, int cy, int r, const float* ex, const float* ey, double& sw, double& sx, double& sy) {
+  maskedSumsInline<false>(img, cx, cy, r, ex, ey, sw, sx, sy);
+}
+
+#if MMVAL_HAVE_AVX2
+void maskedSumsWide(const cv::Mat& img, int cx, int cy, int r, const float* ex, const float* ey, double& sw, double& sx, double& sy) {
+  maskedSumsInline<true>(img, cx, cy, r, ex, ey, sw, sx, sy);
+}
+#endif
 
 namespace {
 
@@ -274,13 +416,30 @@ class JointFit {
   void dropMerged(std::size_t before, double level);
 
  private:
-  void tables(const Detection& d, Spot& s) const;
-  void render(const Spot& s, float sign);
-  double amplitude(const Spot& s) const;
+  // Inlined everywhere: on x86-64 the refits are compiled twice, for the baseline and for
+  // AVX2 (refit picks the one the CPU runs), and the window arithmetic must be in both.
+  // Elsewhere (Simd.hpp: MMVAL_HAVE_AVX2 0) only the baseline (kAvx2 false) is compiled.
+  [[gnu::always_inline]] inline void tables(const Detection& d, Spot& s) const;
+  template <bool kAvx2 = false>
+  [[gnu::always_inline]] inline void render(const Spot& s, float sign);
+  template <bool kAvx2 = false>
+  [[gnu::always_inline]] inline double amplitude(const Spot& s) const;
   double refit(std::size_t i, int iterations);
+  template <bool kAvx2>
+  [[gnu::always_inline]] inline double refitBody(std::size_t i, int iterations);
+  double refitBaseline(std::size_t i, int iterations);
   Neighbours neighbours() const;
   void sweep();
-  void extrapolate(std::size_t i, const Step& before, const Step& after);
+  template <bool kAvx2>
+  [[gnu::always_inline]] inline void sweepBody();
+  void sweepBaseline();
+#if MMVAL_HAVE_AVX2
+  [[gnu::always_inline]] inline void renderAndSum(const Spot& s, double* sums);
+  MMVAL_TARGET_AVX2 double refitAvx2(std::size_t i, int iterations);
+  MMVAL_TARGET_AVX2 void sweepAvx2();
+#endif
+  template <bool kAvx2>
+  [[gnu::always_inline]] inline void extrapolate(std::size_t i, const Step& before, const Step& after);
   BlobMoments blobMoments(std::size_t i) const;
   void shapeRows(const Detection& d, const Spot& s, int cx, int cy, Rows& w) const;
   double shapedRss(int cx, int cy, std::size_t ia, const std::size_t* ib, double noise, double& energy) const;
@@ -296,29 +455,40 @@ class JointFit {
 // (sigma sg) are built where it needs them (shapeRows).
 void JointFit::tables(const Detection& d, Spot& s) const {
   const int r = m_g.r, n = m_g.n;
-  s.cx = static_cast<int>(std::lround(d.x));
-  s.cy = static_cast<int>(std::lround(d.y));
+  s.cx = roundHalfAway(d.x);
+  s.cy = roundHalfAway(d.y);
   gaussianRow(s.ex.data(), n, s.cx - r, d.x, m_g.inv2s2, m_g.c2s2);
   gaussianRow(s.ey.data(), n, s.cy - r, d.y, m_g.inv2s2, m_g.c2s2);
 }
 
-// Adds `sign` x the spot's model to R.
+// Adds `sign` x the spot's model to R. `kAvx2`: the rows in 2 AVX2 registers
+// (addModelAvx2), else in 4 SSE2 vectors; the same arithmetic per column.
+template <bool kAvx2>
 void JointFit::render(const Spot& s, float sign) {
   const int r = m_g.r, n = m_g.n, W = m_g.W, H = m_g.H;
   cv::Mat& R = m_R;
   const float a = static_cast<float>(s.a) * sign;
   if (s.cx - r >= 0 && s.cx - r + kLanes <= W && n <= kLanes) {
-    // 16 columns at a time (4 vectors); the model is 0 beyond the window's n.
+    // 16 columns at a time; the model is 0 beyond the window's n.
     float mx[kLanes] = {};
     std::copy(s.ex.begin(), s.ex.begin() + n, mx);
-    const cv::v_float32x4 m0 = cv::v_load(mx), m1 = cv::v_load(mx + 4), m2 = cv::v_load(mx + 8), m3 = cv::v_load(mx + 12);
-    for (int y = std::max(0, s.cy - r); y <= std::min(H - 1, s.cy + r); ++y) {
-      float* row = R.ptr<float>(y) + (s.cx - r);
-      const cv::v_float32x4 ay = cv::v_setall_f32(a * s.ey[y - s.cy + r]);
-      cv::v_store(row, cv::v_muladd(ay, m0, cv::v_load(row)));
-      cv::v_store(row + 4, cv::v_muladd(ay, m1, cv::v_load(row + 4)));
-      cv::v_store(row + 8, cv::v_muladd(ay, m2, cv::v_load(row + 8)));
-      cv::v_store(row + 12, cv::v_muladd(ay, m3, cv::v_load(row + 12)));
+    static_assert(!kAvx2 || MMVAL_HAVE_AVX2, "the AVX2 render is x86-64's");
+#if MMVAL_HAVE_AVX2
+    if constexpr (kAvx2) {
+      const int y0 = std::max(0, s.cy - r), y1 = std::min(H - 1, s.cy + r);
+      addModelAvx2(R.ptr<float>(y0) + (s.cx - r), R.step[0] / sizeof(float), y1 - y0 + 1, mx, a, s.ey.data() + (y0 - s.cy + r));
+    } else
+#endif
+    {
+      const cv::v_float32x4 m0 = cv::v_load(mx), m1 = cv::v_load(mx + 4), m2 = cv::v_load(mx + 8), m3 = cv::v_load(mx + 12);
+      for (int y = std::max(0, s.cy - r); y <= std::min(H - 1, s.cy + r); ++y) {
+        float* row = R.ptr<float>(y) + (s.cx - r);
+        const cv::v_float32x4 ay = cv::v_setall_f32(a * s.ey[y - s.cy + r]);
+        cv::v_store(row, cv::v_muladd(ay, m0, cv::v_load(row)));
+        cv::v_store(row + 4, cv::v_muladd(ay, m1, cv::v_load(row + 4)));
+        cv::v_store(row + 8, cv::v_muladd(ay, m2, cv::v_load(row + 8)));
+        cv::v_store(row + 12, cv::v_muladd(ay, m3, cv::v_load(row + 12)));
+      }
     }
     return;
   }
@@ -331,24 +501,62 @@ void JointFit::render(const Spot& s, float sign) {
   }
 }
 
+#if MMVAL_HAVE_AVX2
+// render(s, +1) and then maskedSums over its window in one pass over the rows (the
+// kLanes path of both: the window's columns lie in the image): sums[] = sw, sx, sy.
+void JointFit::renderAndSum(const Spot& s, double* sums) {
+  const int r = m_g.r, n = m_g.n, H = m_g.H;
+  float mx[kLanes] = {};
+  std::copy(s.ex.begin(), s.ex.begin() + n, mx);
+  const int y0 = std::max(0, s.cy - r), y1 = std::min(H - 1, s.cy + r);
+  float cw[kLanes], cyy[kLanes];
+  addModelMaskedColumnsAvx2(m_R.ptr<float>(y0) + (s.cx - r), m_R.step[0] / sizeof(float), y1 - y0 + 1, mx, static_cast<float>(s.a), s.ey.data() + (y0 - s.cy + r), y0 - s.cy, cw,
+                            cyy);
+  double tw = 0, tx = 0, ty = 0;
+  for (int k = 0; k < n; ++k) {
+    tw += cw[k];
+    tx += static_cast<double>(cw[k]) * (k - r);
+    ty += cyy[k];
+  }
+  sums[0] = tw;
+  sums[1] = tx;
+  sums[2] = ty;
+}
+#endif  // MMVAL_HAVE_AVX2
+
 // Least-squares amplitude on R (own model already added back); the model is separable,
 // so its sum of squares is the product of its rows'.
+template <bool kAvx2>
 double JointFit::amplitude(const Spot& s) const {
   const int r = m_g.r, n = m_g.n, W = m_g.W, H = m_g.H;
   const cv::Mat& R = m_R;
   if (s.cx - r >= 0 && s.cx - r + kLanes <= W && n <= kLanes) {
     // Per-column sums over the rows (vectorised lanes), then over the columns.
-    float mx[kLanes] = {}, lane[kLanes] = {};
+    float mx[kLanes] = {}, lane[kLanes];
     double sxx = 0, syy = 0, sd = 0;
     for (int k = 0; k < n; ++k) {
       mx[k] = s.ex[k];
       sxx += static_cast<double>(mx[k]) * mx[k];
     }
-    for (int y = std::max(0, s.cy - r); y <= std::min(H - 1, s.cy + r); ++y) {
-      const float* row = R.ptr<float>(y) + (s.cx - r);
-      const float gy = s.ey[y - s.cy + r];
-      for (int k = 0; k < kLanes; ++k) lane[k] += row[k] * mx[k] * gy;
-      syy += static_cast<double>(gy) * gy;
+    static_assert(!kAvx2 || MMVAL_HAVE_AVX2, "the AVX2 amplitude is x86-64's");
+#if MMVAL_HAVE_AVX2
+    if constexpr (kAvx2) {
+      const int y0 = std::max(0, s.cy - r), y1 = std::min(H - 1, s.cy + r);
+      modelColumnsAvx2(R.ptr<float>(y0) + (s.cx - r), R.step[0] / sizeof(float), y1 - y0 + 1, mx, s.ey.data() + (y0 - s.cy + r), lane);
+      for (int y = y0; y <= y1; ++y) {
+        const float gy = s.ey[y - s.cy + r];
+        syy += static_cast<double>(gy) * gy;
+      }
+    } else
+#endif
+    {
+      std::fill(lane, lane + kLanes, 0.0f);
+      for (int y = std::max(0, s.cy - r); y <= std::min(H - 1, s.cy + r); ++y) {
+        const float* row = R.ptr<float>(y) + (s.cx - r);
+        const float gy = s.ey[y - s.cy + r];
+        for (int k = 0; k < kLanes; ++k) lane[k] += row[k] * mx[k] * gy;
+        syy += static_cast<double>(gy) * gy;
+      }
     }
     for (int k = 0; k < n; ++k) sd += lane[k];
     const double sgg = sxx * syy;
@@ -372,15 +580,46 @@ double JointFit::amplitude(const Spot& s) const {
 
 // Refits spot i on R + its own model, at most `iterations` masked-centroid steps; leaves
 // R with the new model subtracted. Returns the largest step, px.
+// The joint fit spends most of detection's time here (bench/tracking/README.md, stops 41
+// and 46): on a CPU with AVX2 the window rows (kLanes columns) take 2 registers instead of
+// 4, the same arithmetic per column, so the same results.
 double JointFit::refit(std::size_t i, int iterations) {
+#if MMVAL_HAVE_AVX2
+  if (cpuHasAvx2()) return refitAvx2(i, iterations);
+#endif
+  return refitBaseline(i, iterations);
+}
+double JointFit::refitBaseline(std::size_t i, int iterations) { return refitBody<false>(i, iterations); }
+#if MMVAL_HAVE_AVX2
+MMVAL_TARGET_AVX2 double JointFit::refitAvx2(std::size_t i, int iterations) { return refitBody<true>(i, iterations); }
+#endif
+
+template <bool kAvx2>
+double JointFit::refitBody(std::size_t i, int iterations) {
   Detection& d = m_dets[i];
   Spot& s = m_spots[i];
   const double omega = m_g.omega;
-  render(s, 1.0f);
+  // The first masked sums read the window render has just written: taken in its pass
+  // (the same values) where both take the kLanes path.
+  bool fused = false;
+  double fused_sums[3] = {};
+#if MMVAL_HAVE_AVX2
+  if constexpr (kAvx2) {
+    fused = iterations > 0 && s.cx - m_g.r >= 0 && s.cx - m_g.r + kLanes <= m_g.W && m_g.n <= kLanes;
+    if (fused) renderAndSum(s, fused_sums);
+  }
+#endif
+  if (!fused) render<kAvx2>(s, 1.0f);
   double moved = 0;
   for (int it = 0; it < iterations; ++it) {
     double sw = 0, sx = 0, sy = 0;
-    maskedSums(m_R, s.cx, s.cy, m_g.r, s.ex.data(), s.ey.data(), sw, sx, sy);
+    if (fused && it == 0) {
+      sw = fused_sums[0];
+      sx = fused_sums[1];
+      sy = fused_sums[2];
+    } else {
+      maskedSumsInline<kAvx2>(m_R, s.cx, s.cy, m_g.r, s.ex.data(), s.ey.data(), sw, sx, sy);
+    }
     if (sw <= 0) break;
     const double nx = d.x + omega * (s.cx + sx / sw - d.x), ny = d.y + omega * (s.cy + sy / sw - d.y), step = std::sqrt((nx - d.x) * (nx - d.x) + (ny - d.y) * (ny - d.y));
     if (step > kTune.refit_lost_px) break;  // lost to a neighbour: keep the last estimate
@@ -390,8 +629,8 @@ double JointFit::refit(std::size_t i, int iterations) {
     tables(d, s);
     if (step < kTune.refit_converged_px) break;
   }
-  s.a = amplitude(s);
-  render(s, -1.0f);
+  s.a = amplitude<kAvx2>(s);
+  render<kAvx2>(s, -1.0f);
   return moved;
 }
 
@@ -416,6 +655,18 @@ Neighbours JointFit::neighbours() const {
 // after every extrapolate_every-th plain pass each spot jumps towards the limit of its
 // steps (extrapolate).
 void JointFit::sweep() {
+#if MMVAL_HAVE_AVX2
+  if (cpuHasAvx2()) return sweepAvx2();
+#endif
+  sweepBaseline();
+}
+void JointFit::sweepBaseline() { sweepBody<false>(); }
+#if MMVAL_HAVE_AVX2
+MMVAL_TARGET_AVX2 void JointFit::sweepAvx2() { sweepBody<true>(); }
+#endif
+
+template <bool kAvx2>
+void JointFit::sweepBody() {
   const std::size_t n = m_dets.size();
   std::vector<Step> last(n), now(n);
   int plain = 0;
@@ -424,13 +675,13 @@ void JointFit::sweep() {
     for (std::size_t i = 0; i < n; ++i) {
       if (m_nb.none(i)) continue;
       const double x0 = m_dets[i].x, y0 = m_dets[i].y;
-      moved = std::max(moved, refit(i, kTune.refit_iterations));
+      moved = std::max(moved, refitBody<kAvx2>(i, kTune.refit_iterations));
       now[i] = {m_dets[i].x - x0, m_dets[i].y - y0};
     }
     if (moved < kTune.sweep_converged_px) break;
     if (++plain == kTune.extrapolate_every) {
       for (std::size_t i = 0; i < n; ++i)
-        if (!m_nb.none(i)) extrapolate(i, last[i], now[i]);
+        if (!m_nb.none(i)) extrapolate<kAvx2>(i, last[i], now[i]);
       plain = 0;
     }
     std::swap(last, now);
@@ -442,6 +693,7 @@ void JointFit::sweep() {
 // rho / (1 - rho) x `after`. Only steps that keep their direction (rho > 0) are
 // extrapolated, rho is capped at extrapolate_max_ratio, and a jump over refit_lost_px is
 // not taken. The spot's amplitude is refitted at its new position.
+template <bool kAvx2>
 void JointFit::extrapolate(std::size_t i, const Step& before, const Step& after) {
   const double bb = before.dx * before.dx + before.dy * before.dy;
   if (bb <= 0) return;
@@ -451,12 +703,12 @@ void JointFit::extrapolate(std::size_t i, const Step& before, const Step& after)
   if (f * std::hypot(after.dx, after.dy) > kTune.refit_lost_px) return;
   Detection& d = m_dets[i];
   Spot& s = m_spots[i];
-  render(s, 1.0f);
+  render<kAvx2>(s, 1.0f);
   d.x += f * after.dx;
   d.y += f * after.dy;
   tables(d, s);
-  s.a = amplitude(s);
-  render(s, -1.0f);
+  s.a = amplitude<kAvx2>(s);
+  render<kAvx2>(s, -1.0f);
 }
 
 // Residual, smoothed as the seeds were: a maximum above the seeds' level within `sep`

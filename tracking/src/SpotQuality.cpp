@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <map>
 #include <utility>
 
@@ -13,6 +15,8 @@
 
 #include "DetectionGrid.hpp"
 #include "Selection.hpp"
+#include "Simd.hpp"
+#include "SimdKernels.hpp"
 
 namespace mmval::tracking::detail {
 
@@ -60,6 +64,80 @@ const std::vector<std::pair<int, int>>& ringWidths(int r_in, int r_out) {
   return it->second;
 }
 
+#if MMVAL_HAVE_AVX2
+/// Per 8-bit mask, a permutation of 8 lanes that puts the lanes whose bit is set first,
+/// in order: AVX2 has no compress instruction, so a vectorised partition packs the values
+/// it keeps through such a table.
+struct PackTable {
+  alignas(32) std::int32_t lanes[256][8];
+  PackTable() {
+    for (int m = 0; m < 256; ++m) {
+      int j = 0;
+      for (int b = 0; b < 8; ++b)
+        if ((m >> b) & 1) lanes[m][j++] = b;
+      for (int b = 0; b < 8; ++b)
+        if (!((m >> b) & 1)) lanes[m][j++] = b;
+    }
+  }
+};
+
+/// The value std::nth_element would put at position k of v[0, n) (kthSmallest's
+/// contract: finite values, k < n; the k-th smallest, exactly), for CPUs with AVX2 and
+/// POPCNT: quickselect whose partitions take 8 values at a time, each pass splitting the
+/// values below and above a pivot (the median of three of them) into two buffers; the
+/// pivot's equals are counted, so every pass removes the pivot and the selection ends
+/// (equal values are interchangeable: of -0 and +0 either may be returned). For ring
+/// medians (~100-300 values) it takes under half of kthSmallest's instructions, whose
+/// histogram counts one value at a time (bench/tracking/README.md, stop 46).
+MMVAL_TARGET_AVX2_POPCNT float quickselectAvx2(const float* v, std::size_t n, std::size_t k, std::vector<float>& scratch) {
+  static const PackTable table;
+  const std::size_t cap = n + 8;  // a partition writes whole vectors of 8
+  if (scratch.size() < 3 * cap) scratch.resize(3 * cap);
+  float* buf[3] = {scratch.data(), scratch.data() + cap, scratch.data() + 2 * cap};
+  const float* in = v;
+  int free_a = 0, free_b = 1;  // the buffers the next pass writes (the third holds `in`, or v does)
+  while (n > 16) {
+    const float a = in[n / 4], b = in[n / 2], c = in[3 * n / 4];
+    const float p = std::max(std::min(a, b), std::min(std::max(a, b), c));
+    float* lt = buf[free_a];
+    float* gt = buf[free_b];
+    std::size_t nlt = 0, ngt = 0, i = 0;
+    const __m256 vp = _mm256_set1_ps(p);
+    for (; i + 8 <= n; i += 8) {
+      const __m256 x = _mm256_loadu_ps(in + i);
+      const unsigned mlt = static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(x, vp, _CMP_LT_OQ)));
+      const unsigned mgt = static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(x, vp, _CMP_GT_OQ)));
+      _mm256_storeu_ps(lt + nlt, _mm256_permutevar8x32_ps(x, _mm256_load_si256(reinterpret_cast<const __m256i*>(table.lanes[mlt]))));
+      _mm256_storeu_ps(gt + ngt, _mm256_permutevar8x32_ps(x, _mm256_load_si256(reinterpret_cast<const __m256i*>(table.lanes[mgt]))));
+      nlt += static_cast<std::size_t>(_mm_popcnt_u32(mlt));
+      ngt += static_cast<std::size_t>(_mm_popcnt_u32(mgt));
+    }
+    for (; i < n; ++i) {
+      if (in[i] < p) lt[nlt++] = in[i];
+      else if (in[i] > p) gt[ngt++] = in[i];
+    }
+    const std::size_t neq = n - nlt - ngt;
+    const int held = 3 - free_a - free_b;  // the buffer `in` is in (when not v): free now
+    if (k < nlt) {
+      in = lt;
+      n = nlt;
+      free_a = free_b;
+    } else if (k < nlt + neq) {
+      return p;
+    } else {
+      k -= nlt + neq;
+      in = gt;
+      n = ngt;
+    }
+    free_b = held;
+  }
+  float tail[16];
+  std::copy(in, in + n, tail);
+  std::nth_element(tail, tail + k, tail + n);
+  return tail[k];
+}
+#endif  // MMVAL_HAVE_AVX2
+
 /// Median of the pixels of `img` in the ring r_in <= |p - (cx, cy)| < r_out (clipped to
 /// the image); NaN when the ring is empty.
 double ringMedian(const cv::Mat& img, int cx, int cy, int r_in, int r_out) {
@@ -68,25 +146,42 @@ double ringMedian(const cv::Mat& img, int cx, int cy, int r_in, int r_out) {
   // ~12 times as many pixels for the large windows of blurred spots).
   const std::vector<std::pair<int, int>>& widths = ringWidths(r_in, r_out);
   thread_local std::vector<float> v;
-  // Grown only (a vector resized down and up again would zero the regrown part each time).
-  const std::size_t room = static_cast<std::size_t>(2 * r_out) * static_cast<std::size_t>(2 * r_out);
+  // Grown only (a vector resized down and up again would zero the regrown part each time);
+  // 4 floats of slack for the last run's whole group of 4.
+  const std::size_t room = static_cast<std::size_t>(2 * r_out) * static_cast<std::size_t>(2 * r_out) + 4;
   if (v.size() < room) v.resize(room);
   float* out = v.data();
+  const int cols = img.cols;
+  // Columns a..b of `row`, in order: 4 at a time where whole groups of 4 stay in the row
+  // (the group past b is overwritten by the next run; most runs are the ring's 2-3 px).
+  auto copyRun = [&out, cols](const float* row, int a, int b) {
+    const int len = b - a + 1;
+    if (len <= 0) return;
+    if (a + ((len + 3) & ~3) <= cols) {
+      for (int j = 0; j < len; j += 4) std::memcpy(out + j, row + a + j, 4 * sizeof(float));
+    } else {
+      for (int j = 0; j < len; ++j) out[j] = row[a + j];
+    }
+    out += len;
+  };
   for (int y = std::max(0, cy - r_out + 1); y <= std::min(img.rows - 1, cy + r_out - 1); ++y) {
     const float* row = img.ptr<float>(y);
     const auto [wo, wi] = widths[static_cast<std::size_t>(std::abs(y - cy))];
     // Columns cx - wo < x <= cx - wi and cx + wi <= x < cx + wo (one run when wi = 0).
-    const int xa = std::max(0, cx - wo + 1), xd = std::min(img.cols - 1, cx + wo - 1);
+    const int xa = std::max(0, cx - wo + 1), xd = std::min(cols - 1, cx + wo - 1);
     if (wi == 0) {
-      for (int x = xa; x <= xd; ++x) *out++ = row[x];
+      copyRun(row, xa, xd);
       continue;
     }
-    for (int x = xa, end = std::min(xd, cx - wi); x <= end; ++x) *out++ = row[x];
-    for (int x = std::max(xa, cx + wi); x <= xd; ++x) *out++ = row[x];
+    copyRun(row, xa, std::min(xd, cx - wi));
+    copyRun(row, std::max(xa, cx + wi), xd);
   }
   const std::size_t n = static_cast<std::size_t>(out - v.data());
   if (n == 0) return std::nan("");
   thread_local std::vector<float> scratch;
+#if MMVAL_HAVE_AVX2
+  if (cpuHasAvx2Popcnt()) return quickselectAvx2(v.data(), n, n / 2, scratch);
+#endif
   return kthSmallest(v.data(), n, n / 2, scratch);
 }
 
@@ -106,10 +201,6 @@ struct Sym2 {
 };
 
 /// Sums of the Gaussian-weighted moments over a window (see measureSpot).
-struct WindowMoments {
-  double s0 = 0, sxx = 0, syy = 0, sxy = 0;
-};
-
 /// The moments of (img - level) under the separable mask ex(x - cx + r) ey(y - cy + r)
 /// over the window of half-width r around (cx, cy) (clipped to the image), about (mx, my).
 /// Each row is summed along x in single precision, four columns at a time in the lanes of
@@ -158,6 +249,91 @@ WindowMoments windowMoments(const cv::Mat& img, int cx, int cy, int r, double mx
   return m;
 }
 
+#if MMVAL_HAVE_AVX2
+/// Per 128-bit half of `v`, v_reduce_sum's sum of the half's 4 lanes, in its lane 0:
+/// (l0 + l2) + (l1 + l3).
+MMVAL_TARGET_AVX2 inline __m256 reduceHalves(__m256 v) {
+  v = _mm256_add_ps(v, _mm256_castsi256_ps(_mm256_srli_si256(_mm256_castps_si256(v), 8)));
+  return _mm256_add_ps(v, _mm256_castsi256_ps(_mm256_srli_si256(_mm256_castps_si256(v), 4)));
+}
+
+/// windowMoments for CPUs with AVX2: two rows at a time, one in each 128-bit half of a
+/// register. Each half does for its row what windowMoments' 4-lane loop does (the same
+/// lanes, operations and order; v_reduce_sum's (l0 + l2) + (l1 + l3); then the row's
+/// remaining columns and its double sums, row after row), so the moments are the same.
+MMVAL_TARGET_AVX2 WindowMoments windowMomentsAvx2(const cv::Mat& img, int cx, int cy, int r, double mx, double my, double level,
+                                                                const float* ex, const float* ey) {
+  WindowMoments m;
+  const int x0 = std::max(0, cx - r), x1 = std::min(img.cols - 1, cx + r);
+  const int y0 = std::max(0, cy - r), y1 = std::min(img.rows - 1, cy + r);
+  if (x1 < x0) return m;
+  const int n = x1 - x0 + 1;
+  float dxs[2 * 37 + 1], mask[2 * 37 + 1];
+  for (int k = 0; k < n; ++k) {
+    dxs[k] = static_cast<float>((x0 + k) - mx);
+    mask[k] = ex[x0 + k - cx + r];
+  }
+  const float flevel = static_cast<float>(level);
+  const int n4 = n & ~3;
+  // One row's columns past n4 and its double sums (windowMoments' scalar part).
+  auto finish = [&](int y, float rw, float rx, float rxx) {
+    const float* row = img.ptr<float>(y) + x0;
+    for (int k = n4; k < n; ++k) {
+      const float w = (row[k] - flevel) * mask[k], wdx = w * dxs[k];
+      rw += w;
+      rx += wdx;
+      rxx += wdx * dxs[k];
+    }
+    const double wy = ey[y - cy + r], dy = y - my;
+    m.s0 += rw * wy;
+    m.sxx += rxx * wy;
+    m.syy += rw * wy * dy * dy;
+    m.sxy += rx * wy * dy;
+  };
+  const __m256 vlevel = _mm256_set1_ps(flevel);
+  int y = y0;
+  for (; y + 1 <= y1; y += 2) {
+    const float* row0 = img.ptr<float>(y) + x0;
+    const float* row1 = img.ptr<float>(y + 1) + x0;
+    __m256 vw = _mm256_setzero_ps(), vx = vw, vxx = vw;
+    for (int k = 0; k < n4; k += 4) {
+      const __m256 dx = _mm256_broadcast_ps(reinterpret_cast<const __m128*>(dxs + k));
+      const __m256 px = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(row0 + k)), _mm_loadu_ps(row1 + k), 1);
+      const __m256 w = _mm256_mul_ps(_mm256_sub_ps(px, vlevel), _mm256_broadcast_ps(reinterpret_cast<const __m128*>(mask + k)));
+      const __m256 wdx = _mm256_mul_ps(w, dx);
+      vw = _mm256_add_ps(vw, w);
+      vx = _mm256_add_ps(vx, wdx);
+      vxx = _mm256_add_ps(vxx, _mm256_mul_ps(wdx, dx));
+    }
+    float sw[8], sx[8], sxx[8];
+    _mm256_storeu_ps(sw, reduceHalves(vw));
+    _mm256_storeu_ps(sx, reduceHalves(vx));
+    _mm256_storeu_ps(sxx, reduceHalves(vxx));
+    finish(y, sw[0], sx[0], sxx[0]);
+    finish(y + 1, sw[4], sx[4], sxx[4]);
+  }
+  if (y == y1) {
+    const float* row = img.ptr<float>(y) + x0;
+    __m128 vw = _mm_setzero_ps(), vx = vw, vxx = vw;
+    const __m128 vlevel4 = _mm_set1_ps(flevel);
+    for (int k = 0; k < n4; k += 4) {
+      const __m128 dx = _mm_loadu_ps(dxs + k);
+      const __m128 w = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(row + k), vlevel4), _mm_loadu_ps(mask + k));
+      const __m128 wdx = _mm_mul_ps(w, dx);
+      vw = _mm_add_ps(vw, w);
+      vx = _mm_add_ps(vx, wdx);
+      vxx = _mm_add_ps(vxx, _mm_mul_ps(wdx, dx));
+    }
+    float sw[8], sx[8], sxx[8];
+    _mm256_storeu_ps(sw, reduceHalves(_mm256_castps128_ps256(vw)));
+    _mm256_storeu_ps(sx, reduceHalves(_mm256_castps128_ps256(vx)));
+    _mm256_storeu_ps(sxx, reduceHalves(_mm256_castps128_ps256(vxx)));
+    finish(y, sw[0], sx[0], sxx[0]);
+  }
+  return m;
+}
+#endif  // MMVAL_HAVE_AVX2
+
 constexpr double kFocusSignificance = 3;  ///< standard errors of a sigma beyond the focus limit
 constexpr double kFocusRoundness = 0.6;   ///< largest eccentricity of a spot judged blurred (principal axes 0.8:1)
 constexpr double kFocusDim = 0.5;         ///< a wide elongated spot is blurred when its peak is below this x the in-focus median
@@ -165,6 +341,18 @@ constexpr double kMaxMaskSigma = 12;  ///< px: larger spots are measured as this
 constexpr int kMomentIterations = 8;
 
 }  // namespace
+
+WindowMoments windowMomentsBaseline(const cv::Mat& img, int cx, int cy, int r, double mx, double my, double level, const float* ex, const float* ey) {
+  return windowMoments(img, cx, cy, r, mx, my, level, ex, ey);
+}
+
+#if MMVAL_HAVE_AVX2
+WindowMoments windowMomentsWide(const cv::Mat& img, int cx, int cy, int r, double mx, double my, double level, const float* ex, const float* ey) {
+  return windowMomentsAvx2(img, cx, cy, r, mx, my, level, ex, ey);
+}
+
+float kthSmallestAvx2(const float* v, std::size_t n, std::size_t k, std::vector<float>& scratch) { return quickselectAvx2(v, n, k, scratch); }
+#endif
 
 void measureSpot(const cv::Mat& zero_mean, const cv::Mat& frame, double sigma0, double blur, double pixel_noise, Detection& d) {
   // Adaptive Gaussian-weighted moments (Bernstein & Jarvis 2002, AJ 123:583, sec. 3.1):
@@ -174,6 +362,7 @@ void measureSpot(const cv::Mat& zero_mean, const cv::Mat& frame, double sigma0, 
   // 2 pi sqrt(det V). The mask follows the spot's own size (m^2 = trace(S) / 2), which
   // weighs the pixels about as a least-squares fit would; the spot is measured on the
   // smoothed signal (its noise is lower), whose spot covariance is S + blur^2 I.
+  [[maybe_unused]] const bool avx2 = cpuHasAvx2();
   const int cx = static_cast<int>(std::lround(d.x)), cy = static_cast<int>(std::lround(d.y));
   double m = std::clamp(std::sqrt(sigma0 * sigma0 + blur * blur), 0.7, kMaxMaskSigma);
   Sym2 smoothed;  // the spot's covariance in the smoothed signal
@@ -201,7 +390,12 @@ void measureSpot(const cv::Mat& zero_mean, const cv::Mat& frame, double sigma0, 
     const double a = 1 / (2 * m * m), c = std::exp(-2 * a);  // (gaussianRow's own c, once for both rows)
     gaussianRow(ex, 2 * r + 1, cx - r, d.x, a, c);
     gaussianRow(ey, 2 * r + 1, cy - r, d.y, a, c);
+#if MMVAL_HAVE_AVX2
+    const WindowMoments mom =
+        avx2 ? windowMomentsAvx2(zero_mean, cx, cy, r, d.x, d.y, level, ex, ey) : windowMoments(zero_mean, cx, cy, r, d.x, d.y, level, ex, ey);
+#else
     const WindowMoments mom = windowMoments(zero_mean, cx, cy, r, d.x, d.y, level, ex, ey);
+#endif
     const double s0 = mom.s0, sxx = mom.sxx, syy = mom.syy, sxy = mom.sxy;
     if (!(s0 > 0)) break;
     const Sym2 v{sxx / s0, sxy / s0, syy / s0};
