@@ -232,6 +232,18 @@ struct CoupledSystem::Impl {
     check(MatSetOption(A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE), "MatSetOption");
   }
 
+  /// `k` as the iterative path's Krylov method: GMRES preconditioned on the right, restarted after
+  /// `restart` iterations. Classical Gram-Schmidt without refinement loses orthogonality on these
+  /// badly scaled saddle-point systems: at 128^2 cells the square array stalled at a relative
+  /// residual of 1.7e-8 for 160 iterations (bench_simulate_stokes_scaling); a second pass when
+  /// needed restores it (converged in 47, like its neighbours in N).
+  static void rightGmres(KSP k, PetscInt restart) {
+    check(KSPSetType(k, KSPGMRES), "KSPSetType");
+    check(KSPSetPCSide(k, PC_RIGHT), "PC side");
+    check(KSPGMRESSetRestart(k, restart), "restart");
+    check(KSPGMRESSetCGSRefinementType(k, KSP_GMRES_CGS_REFINE_IFNEEDED), "CGS refinement");
+  }
+
   /// `k`'s preconditioner: the Schur fieldsplit over (u, v) and p, upper factorisation; selfp: the
   /// Schur complement preconditioned from B diag(A)^-1 B^T (else the caller sets it).
   void splitFields(const FlowOperator& op, KSP k, bool selfp) {
@@ -259,10 +271,7 @@ struct CoupledSystem::Impl {
     if (ksp_selfp != nullptr) return;
     check(KSPCreate(comm, &ksp_selfp), "KSPCreate");
     check(KSPSetOptionsPrefix(ksp_selfp, "fluidp_"), "prefix");
-    check(KSPSetType(ksp_selfp, KSPGMRES), "KSPSetType");
-    check(KSPSetPCSide(ksp_selfp, PC_RIGHT), "PC side");
-    check(KSPGMRESSetRestart(ksp_selfp, 200), "restart");
-    check(KSPGMRESSetCGSRefinementType(ksp_selfp, KSP_GMRES_CGS_REFINE_IFNEEDED), "CGS refinement");
+    rightGmres(ksp_selfp, 200);
     splitFields(op, ksp_selfp, true);
     check(KSPSetFromOptions(ksp_selfp), "KSPSetFromOptions");
   }
@@ -306,16 +315,9 @@ struct CoupledSystem::Impl {
       // iteration (the preconditioned one) buys nothing. Square array at 724^2 cells (1.57M
       // unknowns): 40 iterations and F* the same to 10 digits as FGMRES, peak 3.6 kB per cell
       // against 4.7 kB.
-      check(KSPSetType(ksp, KSPGMRES), "KSPSetType");
-      check(KSPSetPCSide(ksp, PC_RIGHT), "PC side");
       // The friction split converges in ~20: a restart at its iteration budget (when smaller)
       // keeps its Krylov vectors (one per iteration, 6 MB each at 750k unknowns) to that budget.
-      check(KSPGMRESSetRestart(ksp, friction_split ? std::min(200, std::max(1, opt.linear_max_iterations)) : 200), "restart");
-      // Classical Gram-Schmidt without refinement loses orthogonality on these badly scaled
-      // saddle-point systems: at 128^2 cells the square array stalled at a relative residual
-      // of 1.7e-8 for 160 iterations (bench_simulate_stokes_scaling). A second pass when
-      // needed restores it (converged in 47, like its neighbours in N).
-      check(KSPGMRESSetCGSRefinementType(ksp, KSP_GMRES_CGS_REFINE_IFNEEDED), "CGS refinement");
+      rightGmres(ksp, friction_split ? std::min(200, std::max(1, opt.linear_max_iterations)) : 200);
       check(KSPSetTolerances(ksp, opt.linear_rtol, 1e-30, PETSC_DEFAULT, opt.linear_max_iterations), "tol");
       splitFields(op, ksp, !mass_schur);
       if (mass_schur) {  // the probe of the mass matrix's progress (see ProbeTest)

@@ -200,6 +200,23 @@ struct Sym2 {
   }
 };
 
+/// One window row's columns past the vector part [n4, n) added to its lane sums (rw, rx, rxx),
+/// then the row's weighted sums into the moments in double precision: the scalar part every
+/// windowMoments path shares, so each gives the same bits.
+inline void addRowMoments(WindowMoments& m, const float* row, int n4, int n, const float* dxs, const float* mask, float flevel, double wy,
+                          double dy, float rw, float rx, float rxx) {
+  for (int k = n4; k < n; ++k) {
+    const float w = (row[k] - flevel) * mask[k], wdx = w * dxs[k];
+    rw += w;
+    rx += wdx;
+    rxx += wdx * dxs[k];
+  }
+  m.s0 += rw * wy;
+  m.sxx += rxx * wy;
+  m.syy += rw * wy * dy * dy;
+  m.sxy += rx * wy * dy;
+}
+
 /// Sums of the Gaussian-weighted moments over a window (see measureSpot).
 /// The moments of (img - level) under the separable mask ex(x - cx + r) ey(y - cy + r)
 /// over the window of half-width r around (cx, cy) (clipped to the image), about (mx, my).
@@ -233,18 +250,7 @@ WindowMoments windowMoments(const cv::Mat& img, int cx, int cy, int r, double mx
       vx = vx + wdx;
       vxx = vxx + wdx * dx;
     }
-    float rw = cv::v_reduce_sum(vw), rx = cv::v_reduce_sum(vx), rxx = cv::v_reduce_sum(vxx);
-    for (int k = n4; k < n; ++k) {
-      const float w = (row[k] - flevel) * mask[k], wdx = w * dxs[k];
-      rw += w;
-      rx += wdx;
-      rxx += wdx * dxs[k];
-    }
-    const double wy = ey[y - cy + r], dy = y - my;
-    m.s0 += rw * wy;
-    m.sxx += rxx * wy;
-    m.syy += rw * wy * dy * dy;
-    m.sxy += rx * wy * dy;
+    addRowMoments(m, row, n4, n, dxs, mask, flevel, ey[y - cy + r], y - my, cv::v_reduce_sum(vw), cv::v_reduce_sum(vx), cv::v_reduce_sum(vxx));
   }
   return m;
 }
@@ -277,18 +283,7 @@ MMVAL_TARGET_AVX2 WindowMoments windowMomentsAvx2(const cv::Mat& img, int cx, in
   const int n4 = n & ~3;
   // One row's columns past n4 and its double sums (windowMoments' scalar part).
   auto finish = [&](int y, float rw, float rx, float rxx) {
-    const float* row = img.ptr<float>(y) + x0;
-    for (int k = n4; k < n; ++k) {
-      const float w = (row[k] - flevel) * mask[k], wdx = w * dxs[k];
-      rw += w;
-      rx += wdx;
-      rxx += wdx * dxs[k];
-    }
-    const double wy = ey[y - cy + r], dy = y - my;
-    m.s0 += rw * wy;
-    m.sxx += rxx * wy;
-    m.syy += rw * wy * dy * dy;
-    m.sxy += rx * wy * dy;
+    addRowMoments(m, img.ptr<float>(y) + x0, n4, n, dxs, mask, flevel, ey[y - cy + r], y - my, rw, rx, rxx);
   };
   const __m256 vlevel = _mm256_set1_ps(flevel);
   int y = y0;

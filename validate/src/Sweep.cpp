@@ -90,12 +90,17 @@ struct Discretisation {
   }
 };
 
+/// A value as people read it: a TOML string's text without its quotes.
+std::string shown(const std::string& v) {
+  return v.size() >= 2 && v.front() == '"' && v.back() == '"' ? v.substr(1, v.size() - 2) : v;
+}
+
 /// A value of a discretisation axis as a number: a TOML number, or a quoted
 /// quantity ("0.01 s") whose unit text every value of the axis shares.
 /// `unit`: kUnsetUnit before the axis's first value, then that value's unit text.
 constexpr const char* kUnsetUnit = "\x01";
 double axisNumber(const std::string& option_name, const SweepAxis& axis, const std::string& value, std::string& unit) {
-  const std::string text = value.size() >= 2 && value.front() == '"' && value.back() == '"' ? value.substr(1, value.size() - 2) : value;
+  const std::string text = shown(value);
   char* end = nullptr;
   const double v = std::strtod(text.c_str(), &end);
   std::string rest = end == text.c_str() ? text : std::string(end);
@@ -157,11 +162,6 @@ std::string csvCell(const std::string& s) {
   std::string q = "\"";
   for (char ch : s) q += ch == '"' ? std::string("\"\"") : std::string(1, ch);
   return q + "\"";
-}
-
-/// A value as people read it: a TOML string's text without its quotes.
-std::string shown(const std::string& v) {
-  return v.size() >= 2 && v.front() == '"' && v.back() == '"' ? v.substr(1, v.size() - 2) : v;
 }
 
 std::string number(double v) { return std::isfinite(v) ? fmt::format("{:.9g}", v) : std::string(); }

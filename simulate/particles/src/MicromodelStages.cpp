@@ -23,6 +23,9 @@ namespace {
 /// geometry's length so that an entering particle is never placed near the outlet.
 constexpr double kStripVelocityFactor = 1.5, kStripMaxOfLength = 0.5;
 
+/// geometry.sides = "slip": the top and bottom edges are mirror planes (fluid, particles, throats).
+bool mirrorSides(const Case& c) { return c.text("geometry.sides") == "slip"; }
+
 /// particles.diameter, or particles.diameters with their number fractions.
 std::vector<SizeClass> readSizeClasses(const Case& c) {
   std::vector<SizeClass> classes;
@@ -61,7 +64,7 @@ double checkParticlesFit(const Case& c, const std::vector<SizeClass>& classes, c
   if (!(geo.depth > d_max))
     throw InputError(c.where(dkey), "particles do not fit in the chip depth", fmt::format("{:.3g} um", d_max * 1e6),
                      fmt::format("< geometry.depth ({:.3g} um)", geo.depth * 1e6));
-  const bool mirror = c.text("geometry.sides") == "slip";
+  const bool mirror = mirrorSides(c);
   const double opening = inletOpening(geo.grains, geo.pixel, mirror), passable = passableDiameter(geo.grains, geo.pixel, mirror);
   out.details["inlet_opening_um"] = opening * 1e6;
   setDetail(out.details, DetailField::passable_diameter_um, passable * 1e6);
@@ -90,7 +93,7 @@ MicromodelFlowOptions readFlow(const Case& c, const SceneGeometry& geo) {
   fo.cells_per_pixel = c.real("numerics.cells_per_pixel");
   fo.warm_start = c.text("numerics.resolve") == "warm";
   fo.fixed_pattern = c.text("numerics.resolve_pattern") == "fixed";
-  fo.mirror_sides = c.text("geometry.sides") == "slip";
+  fo.mirror_sides = mirrorSides(c);
   return fo;
 }
 
@@ -138,7 +141,7 @@ SceneConfig readScene(const Case& c, const EngineChoice& choice, const SceneGeom
   scene.straining.enabled = c.flag("deposition.straining");
   scene.straining.time = c.quantity("deposition.straining_time");
   scene.outlet_x = geo.width;
-  scene.mirror_sides = c.text("geometry.sides") == "slip";
+  scene.mirror_sides = mirrorSides(c);
   scene.max_step_fraction = c.real("numerics.max_step_fraction");
   return scene;
 }
