@@ -263,10 +263,11 @@ nlohmann::json chipStatistics(const ChipResult& r) {
                                      (s.wall_px == 0 ? "; mirror sides: the grains' mirror images across the edges are solids too, so a "
                                                        "throat between a grain and an edge is twice its distance to it"
                                                      : "")}};
-  if (const Throat n = narrowestThroat(pores.solid_connected, s.pixel_um * 1e-6); n.path && std::isfinite(n.width_m))
+  if (const Throat n = narrowestThroat(pores.solid_connected, s.pixel_um * 1e-6, false, false, 0, 0, s.wall_px == 0); n.path && std::isfinite(n.width_m))
     j["narrowest_spanning_throat"] = {{"width_um", n.width_m * 1e6}, {"x_px", std::floor(n.x_m / (s.pixel_um * 1e-6))},
                                       {"y_px", std::floor(r.packing.solid.rows() - n.y_m / (s.pixel_um * 1e-6))},
-                                      {"definition", "narrowest cross-section of the widest inlet-to-outlet path of the mask (ThroatCheck.hpp)"}};
+                                      {"definition", std::string("narrowest cross-section of the widest inlet-to-outlet path of the mask (PoreSpace.hpp)") +
+                                                         (s.wall_px == 0 ? "; mirror sides: a cross-section to an edge reaches the grain's image, twice its distance" : "")}};
   nlohmann::json tuning = nlohmann::json::array();
   for (const auto& st : r.tuning)
     tuning.push_back({{"where", st.where}, {"mean_grain_um", st.mean_grain_um}, {"value", st.value}, {"target", st.target}, {"seconds", st.seconds}});

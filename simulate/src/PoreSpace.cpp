@@ -72,7 +72,7 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 /// Shortest fluid chord through every fluid pixel (see narrowestThroat), for pixels px x py.
-std::vector<double> chordWidths(const BoolArray& solid, double px, double py, bool periodic_x, bool periodic_y) {
+std::vector<double> chordWidths(const BoolArray& solid, double px, double py, bool periodic_x, bool periodic_y, bool mirror_y) {
   const int rows = static_cast<int>(solid.rows()), cols = static_cast<int>(solid.cols());
   std::vector<double> width(static_cast<std::size_t>(rows) * cols, kInf);
   const auto inside = [&](int r, int c) { return r >= 0 && r < rows && c >= 0 && c < cols; };
@@ -110,9 +110,18 @@ std::vector<double> chordWidths(const BoolArray& solid, double px, double py, bo
           }
           std::size_t len = 0;
           while (k + len < n && fluid((start + k + len) % n)) ++len;
-          // Reaching the mask's edge (not wrapped) means the chord is not closed by solid there.
-          const bool open = !d.wrap && (k == 0 || k + len == n);
-          const double w = open ? kInf : static_cast<double>(len) * d.step;
+          // Reaching the mask's edge (not wrapped) means the chord is not closed by solid there, except
+          // at a mirror side: the chord goes on to the solid's image, as long again.
+          const bool open_start = !d.wrap && k == 0, open_end = !d.wrap && k + len == n;
+          const auto mirrored = [&](std::size_t idx, int sign) {
+            const int r = line[idx].first - sign * d.dr, c = line[idx].second - sign * d.dc;  // the pixel beyond the run's end
+            return mirror_y && (r < 0 || r >= rows) && c >= 0 && c < cols;
+          };
+          double w = static_cast<double>(len) * d.step;
+          if (open_start && open_end)
+            w = kInf;
+          else if (open_start || open_end)
+            w = (open_start ? mirrored(start, 1) : mirrored((start + k + len - 1) % n, -1)) ? 2 * w : kInf;
           for (std::size_t m = 0; m < len; ++m) {
             const auto [r, c] = line[(start + k + m) % n];
             double& slot = width[static_cast<std::size_t>(r) * cols + c];
@@ -125,11 +134,11 @@ std::vector<double> chordWidths(const BoolArray& solid, double px, double py, bo
   return width;
 }
 
-Throat widestPath(const BoolArray& solid, double px, double py, bool periodic_x, bool periodic_y, double x0, double y_top) {
+Throat widestPath(const BoolArray& solid, double px, double py, bool periodic_x, bool periodic_y, double x0, double y_top, bool mirror_y = false) {
   const int rows = static_cast<int>(solid.rows()), cols = static_cast<int>(solid.cols());
   Throat t;
   if (rows == 0 || cols == 0) return t;
-  const std::vector<double> width = chordWidths(solid, px, py, periodic_x, periodic_y);
+  const std::vector<double> width = chordWidths(solid, px, py, periodic_x, periodic_y, mirror_y);
   std::vector<int> order;
   for (int k = 0; k < rows * cols; ++k)
     if (!solid(k / cols, k % cols)) order.push_back(k);
@@ -179,8 +188,8 @@ Throat widestPath(const BoolArray& solid, double px, double py, bool periodic_x,
 
 }  // namespace
 
-Throat narrowestThroat(const BoolArray& solid, double pixel_m, bool periodic_x, bool periodic_y, double origin_x, double origin_y) {
-  return widestPath(solid, pixel_m, pixel_m, periodic_x, periodic_y, origin_x, origin_y + static_cast<double>(solid.rows()) * pixel_m);
+Throat narrowestThroat(const BoolArray& solid, double pixel_m, bool periodic_x, bool periodic_y, double origin_x, double origin_y, bool mirror_y) {
+  return widestPath(solid, pixel_m, pixel_m, periodic_x, periodic_y, origin_x, origin_y + static_cast<double>(solid.rows()) * pixel_m, mirror_y);
 }
 
 Throat narrowestThroat(const Shape& shape, double x0, double x1, double y0, double y1, double sample_m, bool periodic_x, bool periodic_y,

@@ -65,6 +65,25 @@ TEST(Throat, OpenAndClosedMasks) {
   EXPECT_NEAR(narrowestThroat(channel, 1e-6).width_m, 3e-6, 1e-18);
 }
 
+// A strip with mirror sides (no wall rows): a grain band leaves a gap of g pixels to the top edge.
+// Without mirrors the gap is open (a slip side: no throat); with them it reaches the grain's mirror
+// image, 2 g wide, unless another gap is narrower.
+TEST(Throat, MirrorSidesDoubleTheGapToAnEdge) {
+  const double px = 1e-6;
+  for (const int g : {2, 3, 5}) {
+    BoolArray s = BoolArray::Constant(20, 30, false);
+    for (int r = g; r < 20; ++r) s(r, 12) = s(r, 13) = true;  // a wall across x from row g down to the bottom edge
+    EXPECT_FALSE(std::isfinite(narrowestThroat(s, px).width_m)) << g;
+    const Throat t = narrowestThroat(s, px, false, false, 0, 0, true);
+    ASSERT_TRUE(t.path);
+    EXPECT_NEAR(t.width_m, 2 * g * px, 1e-18) << g;
+    EXPECT_LT(t.x_m, 14e-6);
+    EXPECT_GT(t.x_m, 11e-6);
+  }
+  // A fluid column from edge to edge has no solid on either side: open even with mirrors.
+  EXPECT_FALSE(std::isfinite(narrowestThroat(BoolArray::Constant(10, 10, false), px, false, false, 0, 0, true).width_m));
+}
+
 TEST(Throat, SquareArrayGapIsLMinusTwoRadii) {
   // Periodic square array, cell L: the flow passes between vertically neighbouring cylinders, gap
   // L - 2a. Sampled at 1/8 of a 32-cell grid's cell (L / 256): the width is known to one sample.

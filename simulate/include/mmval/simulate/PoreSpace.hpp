@@ -55,8 +55,11 @@ struct Throat {
 /// outlet, a slip side); periodic directions wrap the x and y runs. A one-pixel slot is one pixel
 /// wide, a gap of g pixels g pixels, to one pixel. periodic_x / periodic_y wrap the runs; paths join
 /// the left and right edges within the mask (periodic_y paths may cross the top / bottom edge).
+/// mirror_y: the top and bottom edges are mirror planes (a strip with mirror sides, `mmval chip
+/// --wall-px 0`): a run that reaches one of them ends at the solid's mirror image, so it counts
+/// twice its length (a run reaching both, or an inlet or outlet, still counts as open).
 Throat narrowestThroat(const BoolArray& solid, double pixel_m, bool periodic_x = false, bool periodic_y = false, double origin_x = 0,
-                       double origin_y = 0);
+                       double origin_y = 0, bool mirror_y = false);
 
 /// The same for a Shape on [x0, x1] x [y0, y1], sampled at the centres of square samples of about
 /// sample_m (at most `max_samples` in all: coarser samples for a larger domain). The width is then
