@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "mmval/core/Error.hpp"
+#include "mmval/core/JsonNumbers.hpp"
 
 namespace mmval::compare {
 
@@ -84,7 +85,7 @@ RegionMap classifyPoreSpace(const cv::Mat& pore_in, const MaskFrame& frame, cons
 }
 
 nlohmann::json RegionSpeeds::toJson() const {
-  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v * 1e6) : nlohmann::json(nullptr); };
+  auto num = [](double v) { return finiteOrNull(v * 1e6); };
   return {{"pore_body_mean_speed_um_per_s", num(body_mean)}, {"throat_mean_speed_um_per_s", num(throat_mean)},
           {"pore_body_steps", body_steps},                    {"throat_steps", throat_steps},
           {"steps_in_grains", grain_steps},                   {"steps_outside_mask", outside_steps}};

@@ -13,6 +13,7 @@
 #include "TomlUtil.hpp"
 #include "mmval/core/CaseKind.hpp"
 #include "mmval/core/DataPaths.hpp"
+#include "mmval/core/JsonNumbers.hpp"
 #include "mmval/core/Strings.hpp"
 #include "mmval/core/Utf8.hpp"
 
@@ -840,7 +841,7 @@ nlohmann::json MetricResult::toJson() const {
   } catch (const UnitError&) {
     j["dimension"] = nullptr;  // a runner's free-text unit; the report shows it as written
   }
-  j["value"] = std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
+  j["value"] = finiteOrNull(value);
   if (reference) {
     if (reference->isInterval())
       j["reference"] = {*reference->low, *reference->high};

@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "mmval/core/JsonNumbers.hpp"
 #include "mmval/simulate/ChipGenerator.hpp"
 
 namespace mmval::simulate {
@@ -54,8 +55,6 @@ nlohmann::json quantiles(std::vector<double> v) {
     q[name] = v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
   return q;
 }
-
-nlohmann::json finiteOrNull(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
 nlohmann::json ladderJson(const ChipLadder& l) {
   nlohmann::json runs = nlohmann::json::array();
@@ -114,7 +113,7 @@ nlohmann::json tileSamplesJson(const ChipResult& r) {
   std::vector<double> ks;
   for (const auto& t : r.tile_samples) {
     nlohmann::json e = {{"col", t.col}, {"row", t.row}, {"porosity", t.porosity}};
-    e["k_D"] = std::isfinite(t.k_D) ? nlohmann::json(t.k_D) : nlohmann::json(nullptr);
+    e["k_D"] = finiteOrNull(t.k_D);
     if (!t.error.empty()) e["error"] = t.error;
     if (std::isfinite(t.k_D)) ks.push_back(t.k_D);
     samples.push_back(e);

@@ -12,6 +12,7 @@
 #include "mmval/core/DetailFields.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/ImageHeader.hpp"
+#include "mmval/core/JsonNumbers.hpp"
 #include "mmval/core/Progress.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/core/SchemaBlocks.hpp"
@@ -221,16 +222,16 @@ FlowProblem imageProblem(const ImageGeometry& g, double cpp, double mu, double d
 
 /// result.json's details.grid_convergence entry of one depth model (permeabilities in darcy).
 nlohmann::json convergenceJson(const GridConvergence& g, const nlohmann::json& rows) {
-  auto darcy = [](double v) { return std::isfinite(v) ? nlohmann::json(v / kDarcy) : nlohmann::json(nullptr); };
+  auto darcy = [](double v) { return finiteOrNull(v / kDarcy); };
   nlohmann::json j = {{"status", g.status},
                       {"note", g.note},
                       {"levels", rows.size()},
                       {"permeability_fine_D", darcy(g.fine)},
                       {"permeability_extrapolated_D", darcy(g.extrapolated)},
-                      {"gci", std::isfinite(g.gci) ? nlohmann::json(g.gci) : nlohmann::json(nullptr)},
+                      {"gci", finiteOrNull(g.gci)},
                       {"band_D", {darcy(g.band_lo), darcy(g.band_hi)}},
-                      {"safety_factor", std::isfinite(g.safety_factor) ? nlohmann::json(g.safety_factor) : nlohmann::json(nullptr)},
-                      {"order_used", std::isfinite(g.order_used) ? nlohmann::json(g.order_used) : nlohmann::json(nullptr)},
+                      {"safety_factor", finiteOrNull(g.safety_factor)},
+                      {"order_used", finiteOrNull(g.order_used)},
                       {"method", "Celik et al. 2008 (J. Fluids Eng. 130, 078001): observed order from the three finest levels, Richardson "
                                  "extrapolation, GCI = Fs |e21| / (r21^p - 1), Fs = 1.25 (3 without an observed order); four or more levels: the "
                                  "least-squares fit below stands for the ladder (status \"least squares\")"}};
@@ -240,7 +241,7 @@ nlohmann::json convergenceJson(const GridConvergence& g, const nlohmann::json& r
                           {"order", g.fit_order},
                           {"permeability_extrapolated_D", darcy(g.fit_extrapolated)},
                           {"scatter_D", darcy(g.fit_scatter)},
-                          {"uncertainty", std::isfinite(g.fit_uncertainty) ? nlohmann::json(g.fit_uncertainty) : nlohmann::json(nullptr)},
+                          {"uncertainty", finiteOrNull(g.fit_uncertainty)},
                           {"order_used", g.fit_order_used},
                           {"method", "Eca & Hoekstra 2014 (J. Comput. Phys. 262, 104): f = f0 + a h^p fitted to every level; uncertainty of "
                                      "the finest Fs |f1 - f0| + scatter + |f1 - fit(h1)|, Fs 1.25 for 0.5 <= p <= 2.1, else the formal "

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "MsdTable.hpp"
+#include "mmval/core/JsonNumbers.hpp"
 #include "mmval/tracking/Statistics.hpp"
 
 namespace mmval::tracking::detail {
@@ -16,9 +17,6 @@ namespace mmval::tracking::detail {
 namespace {
 
 constexpr double kUm = 1e6, kUm2 = 1e12;
-
-/// A JSON number, or null for NaN / infinity (JSON has neither).
-nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
 using detail::csvNumber;
 
@@ -138,32 +136,32 @@ nlohmann::json writeBrownianOutputs(const TrackRun& run, const TrackConfig& c, c
   const double t0 = b.drift.t.empty() ? 0.0 : b.drift.t.front(), t1 = b.drift.t.empty() ? 0.0 : b.drift.t.back();
   const double net_x = b.drift.x.empty() ? 0.0 : b.drift.x.back(), net_y = b.drift.y.empty() ? 0.0 : b.drift.y.back();
   j["brownian"] = {
-      {"D_um2_per_s", number(f.d * kUm2)},
-      {"D_se_um2_per_s", number(f.d_se * kUm2)},
-      {"A_um2_per_s", number(4 * f.d * kUm2)},
-      {"alpha", number(f.alpha)},
-      {"alpha_se", number(f.alpha_se)},
-      {"sigma_loc_um", number(std::sqrt(std::max(0.0, f.sigma2)) * kUm)},
-      {"sigma2_loc_um2", number(f.sigma2 * kUm2)},
-      {"sigma2_loc_se_um2", number(f.sigma2_se * kUm2)},
-      {"msd_offset_um2", number(f.offset * kUm2)},
-      {"reduced_localisation_error", number(f.reduced_error)},
+      {"D_um2_per_s", finiteOrNull(f.d * kUm2)},
+      {"D_se_um2_per_s", finiteOrNull(f.d_se * kUm2)},
+      {"A_um2_per_s", finiteOrNull(4 * f.d * kUm2)},
+      {"alpha", finiteOrNull(f.alpha)},
+      {"alpha_se", finiteOrNull(f.alpha_se)},
+      {"sigma_loc_um", finiteOrNull(std::sqrt(std::max(0.0, f.sigma2)) * kUm)},
+      {"sigma2_loc_um2", finiteOrNull(f.sigma2 * kUm2)},
+      {"sigma2_loc_se_um2", finiteOrNull(f.sigma2_se * kUm2)},
+      {"msd_offset_um2", finiteOrNull(f.offset * kUm2)},
+      {"reduced_localisation_error", finiteOrNull(f.reduced_error)},
       {"lags_D", f.lags_d},
       {"lags_alpha", f.lags_alpha},
-      {"frame_interval_s", number(b.frame_interval)},
+      {"frame_interval_s", finiteOrNull(b.frame_interval)},
       {"exposure_s", c.analysis.brownian.exposure},
       {"n_tracks", f.tracks},
       {"min_points", c.analysis.brownian.min_points},
       {"tracks", {{"mobile", b.mobile}, {"immobile", b.immobile}, {"short", b.short_tracks}}},
       {"drift", {{"net_x_um", net_x * kUm}, {"net_y_um", net_y * kUm}, {"mean_speed_um_per_s", t1 > t0 ? std::hypot(net_x, net_y) / (t1 - t0) * kUm : 0.0}}},
       {"cve",
-       {{"n_tracks", ds.size()}, {"mean_um2_per_s", number(b.cve_mean * kUm2)}, {"mean_se_um2_per_s", number(b.cve_mean_se * kUm2)},
-        {"median_um2_per_s", number(b.cve_median * kUm2)}}},
+       {{"n_tracks", ds.size()}, {"mean_um2_per_s", finiteOrNull(b.cve_mean * kUm2)}, {"mean_se_um2_per_s", finiteOrNull(b.cve_mean_se * kUm2)},
+        {"median_um2_per_s", finiteOrNull(b.cve_median * kUm2)}}},
       {"model", "MSD = 4 D t + 4 sigma^2 - (4/3) D t_E (Michalet 2010); per-track D by the covariance-based estimator (Vestergaard et al. 2014)"},
       {"immobile_test", fmt::format("CVE D below the ensemble D and not above 0, one-sided at level {:g} each", c.analysis.brownian.immobile_level)}};
-  j["msd_exponent"] = number(f.alpha);
-  j["msd_D_linear_um2_per_s"] = number(f.d * kUm2);
-  j["msd_D_power_um2_per_s"] = number(f.k_alpha * kUm2);
+  j["msd_exponent"] = finiteOrNull(f.alpha);
+  j["msd_D_linear_um2_per_s"] = finiteOrNull(f.d * kUm2);
+  j["msd_D_power_um2_per_s"] = finiteOrNull(f.k_alpha * kUm2);
   j["immobile"] = b.immobile;
   j["flow_outputs"] =
       "not written for Brownian motion: velocities, speed over time, retention, deposits and the speed maps describe particles carried by a "

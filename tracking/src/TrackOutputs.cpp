@@ -1,3 +1,4 @@
+#include "mmval/core/JsonNumbers.hpp"
 #include "mmval/tracking/Pipeline.hpp"
 
 #include <algorithm>
@@ -143,7 +144,7 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
     summary["motion"]["numbers"] = {{"step_correlation", run.motion.step_correlation}, {"step_correlation_se", run.motion.step_correlation_se},
                                     {"brownian_bound", run.motion.correlation_bound}, {"z_directed", run.motion.z_directed},
                                     {"z_diffusing", run.motion.z_diffusing},
-                                    {"drift_peclet", std::isfinite(run.motion.drift_peclet) ? nlohmann::json(run.motion.drift_peclet) : nlohmann::json(nullptr)},
+                                    {"drift_peclet", finiteOrNull(run.motion.drift_peclet)},
                                     {"step_pairs", run.motion.step_pairs}, {"tracks", run.motion.tracks}};
   if (run.motion.persistence_tracks > 0) {
     // The persistence test's counts (MotionDecision.cpp): tracks judged, persistent, the count
@@ -152,7 +153,7 @@ std::vector<std::string> writeTrackOutputs(const TrackRun& run, const TrackConfi
     n["persistence_tracks"] = run.motion.persistence_tracks;
     n["persistent_tracks"] = run.motion.persistent_tracks;
     n["persistent_expected"] = run.motion.persistent_alpha * run.motion.persistence_tracks;
-    n["persistent_p"] = std::isfinite(run.motion.persistent_p) ? nlohmann::json(run.motion.persistent_p) : nlohmann::json(nullptr);
+    n["persistent_p"] = finiteOrNull(run.motion.persistent_p);
   }
   summary["frames"] = run.frame_index.size();
   if (!brownian) {

@@ -1,3 +1,4 @@
+#include "mmval/core/JsonNumbers.hpp"
 #include "mmval/openfoam/Kinds.hpp"
 
 #include <algorithm>
@@ -133,7 +134,6 @@ void warn(nlohmann::json& warnings, const std::string& name, const std::string& 
 /// pore fraction by more than kMeshPorosityTolerance.
 void addImageMeshRow(const Scene& s, const Result& r, const std::string& sub, nlohmann::json& row, nlohmann::json& warnings,
                      const std::string& name, bool quiet) {
-  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
   row["mesher"] = s.direct_mesh ? "direct" : "snappyHexMesh";
   if (s.direct_mesh) {
     const MesherReport& m = r.mesher;
@@ -146,8 +146,8 @@ void addImageMeshRow(const Scene& s, const Result& r, const std::string& sub, nl
     row["snappy_seconds"] = r.snappy_seconds;
     row["surface_level"] = s.surface_level;
   }
-  row["max_non_orthogonality_deg"] = num(r.max_non_orthogonality);
-  row["max_skewness"] = num(r.max_skewness);
+  row["max_non_orthogonality_deg"] = finiteOrNull(r.max_non_orthogonality);
+  row["max_skewness"] = finiteOrNull(r.max_skewness);
   row["porosity_mesh"] = r.porosity_mesh;
   row["porosity_boundary"] = r.porosity_boundary;
   row["porosity_mask"] = r.porosity_connected;
@@ -176,18 +176,17 @@ void addImageConvergence(const Scene& s, const std::vector<double>& cpp, const n
     }
   if (h.size() < 2) return;
   const simulate::GridConvergence g = simulate::gridConvergence(h, k, s.smooth_boundary ? 2.0 : 1.0);
-  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
   out.details["grid_convergence"] = {{"status", g.status}, {"note", g.note}, {"levels", h.size()},
-                                     {"permeability_fine_D", num(g.fine)}, {"permeability_extrapolated_D", num(g.extrapolated)},
+                                     {"permeability_fine_D", finiteOrNull(g.fine)}, {"permeability_extrapolated_D", finiteOrNull(g.extrapolated)},
                                      {"observed_order", g.has_order ? nlohmann::json(g.observed_order) : nlohmann::json(g.status)},
-                                     {"gci", num(g.gci)}, {"order_used", num(g.order_used)},
+                                     {"gci", finiteOrNull(g.gci)}, {"order_used", finiteOrNull(g.order_used)},
                                      {"method", "Celik et al. 2008 (J. Fluids Eng. 130, 078001): observed order from the three finest levels, "
                                                 "Richardson extrapolation, GCI = Fs |e21| / (r21^p - 1); four or more levels: the least-squares "
                                                 "fit stands for the ladder (status \"least squares\")"}};
   if (g.has_fit)
     out.details["grid_convergence"]["least_squares"] = {{"levels", g.fit_levels}, {"order", g.fit_order},
-                                                        {"permeability_extrapolated_D", num(g.fit_extrapolated)}, {"scatter_D", num(g.fit_scatter)},
-                                                        {"uncertainty", num(g.fit_uncertainty)}, {"order_used", g.fit_order_used},
+                                                        {"permeability_extrapolated_D", finiteOrNull(g.fit_extrapolated)}, {"scatter_D", finiteOrNull(g.fit_scatter)},
+                                                        {"uncertainty", finiteOrNull(g.fit_uncertainty)}, {"order_used", g.fit_order_used},
                                                         {"method", "Eca & Hoekstra 2014 (J. Comput. Phys. 262, 104), as mmval's image kind"}};
   if (std::isfinite(g.extrapolated)) {
     out.metrics["permeability_2d_extrapolated"] = g.extrapolated * kDarcy;

@@ -1,3 +1,4 @@
+#include "mmval/core/JsonNumbers.hpp"
 #include "mmval/particles/Micromodel.hpp"
 
 #include "CaseScene.hpp"
@@ -176,7 +177,7 @@ void reportPump(const RunnerState& s, const std::optional<PumpStall>& stall, dou
   setDetail(out.details, DetailField::pump_stall,
             {{"time_s", stall->time_s},
              {"reason", stall->reasonName()},
-             {"pressure_Pa", std::isfinite(stall->pressure_Pa) ? nlohmann::json(stall->pressure_Pa) : nlohmann::json(nullptr)},
+             {"pressure_Pa", finiteOrNull(stall->pressure_Pa)},
              {"max_pressure_Pa", limit},
              {"message", stall->describe()},
              {"then", "injection stopped and the run ended at this frame; particles still moving are counted as inside"},
