@@ -9,6 +9,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <petscksp.h>
 #include <petscsys.h>
 
 #include "mmval/simulate/FlowSolver.hpp"
@@ -69,6 +70,22 @@ Solved solve(const Mask& solid, const std::string& linear) {
 
 bool switched(const FlowStats& st) { return st.linear_reason.find("then selfp") != std::string::npos; }
 
+/// Krylov solvers alive in this process: created minus destroyed over every logging stage, from
+/// PETSc's class log (counted once its default logging has begun; before, neither is counted).
+int liveKsps() {
+  PetscStageLog log = nullptr;
+  if (PetscLogGetStageLog(&log) != 0 || log == nullptr) return -1;
+  int live = 0;
+  for (int c = 0; c < log->classLog->numClasses; ++c) {
+    if (log->classLog->classInfo[c].classid != KSP_CLASSID) continue;
+    for (int s = 0; s < log->numStages; ++s) {
+      const PetscClassPerfLog perf = log->stageInfo[s].classLog;
+      if (c < perf->numClasses) live += perf->classInfo[c].creations - perf->classInfo[c].destructions;
+    }
+  }
+  return live;
+}
+
 }  // namespace
 
 // Dense narrow throats: 40 iterations with the mass matrix, then selfp (28 more when written);
@@ -102,4 +119,28 @@ TEST(IterativeStokesSchur, OpenMaskKeepsTheMassMatrix) {
   EXPECT_FALSE(switched(it.stats)) << it.stats.linear_reason;
   EXPECT_LE(it.stats.linear_iterations, 60);
   EXPECT_NEAR(it.q / lu.q, 1.0, 1e-7);
+}
+
+// Memory at the switch: a switched solve holds neither stage's Krylov solver afterwards (the
+// first stage's, with its Krylov basis and BoomerAMG hierarchy, is destroyed before the second is
+// set up, the second after its solve; before, both stayed held: 8 KSPs with their sub-solvers),
+// and a second solve of the same solver, whose first stage is created anew, repeats the first
+// one's iterations and flow rate (to 1e-12: the same system from the same zero guess).
+TEST(IterativeStokesSchur, SwitchedSolveReleasesBothStagesAndRepeatsExactly) {
+  ASSERT_EQ(PetscLogDefaultBegin(), 0);
+  const int before = liveKsps();
+  ASSERT_GE(before, 0);
+  SolverOptions o;
+  o.linear = "iterative";
+  SteadyFlowSolver s(maskProblem(denseThroats(120)), o);
+  s.solve();
+  ASSERT_TRUE(switched(s.stats())) << s.stats().linear_reason;
+  EXPECT_EQ(liveKsps(), before);
+  const int its = s.stats().linear_iterations;
+  const double q = s.flowRate(Side::east);
+  s.solve();
+  EXPECT_TRUE(switched(s.stats())) << s.stats().linear_reason;
+  EXPECT_EQ(s.stats().linear_iterations, its);
+  EXPECT_NEAR(s.flowRate(Side::east) / q, 1.0, 1e-12);
+  EXPECT_EQ(liveKsps(), before);
 }
