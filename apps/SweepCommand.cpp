@@ -20,6 +20,11 @@ void registerSweepCommand(CLI::App& app, const CaseKindRegistry& registry) {
   sw->add_option("--metric", o->metrics, "Show (and plot the first) only these metrics (repeatable; default: show all)");
   sw->add_flag("--resume", o->resume, "Keep the complete runs already in the output folder and resume interrupted ones");
   sw->add_flag("--quiet", o->quiet, "No progress output from the runs");
+  sw->add_option("--jobs", o->jobs,
+                 "Runs at once, each as its own process (mmval run; its messages in runs/run-NNN.log while it runs, no progress of its own); "
+                 "1: one after another in this process. The same tables either way, timings apart")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
   sw->add_option("--grid", o->grid_key, "A --vary key (numeric values) that is the grid resolution: its two finest levels (and the order from three) give each metric's grid part");
   sw->add_option("--step", o->step_key, "A --vary key (numeric values) that is the step size: the step part, as --grid");
   const std::map<std::string, validate::Finer> finer = {{"larger", validate::Finer::larger}, {"smaller", validate::Finer::smaller}};

@@ -31,6 +31,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 using mmval::test::metricOf;
 using mmval::test::readJson;
@@ -130,6 +131,11 @@ TEST(Sweep, BadSweepsStopBeforeAnyRunNamingWhatIsWrong) {
   EXPECT_EQ(o.status, 2) << o.output;
   EXPECT_TRUE(fs::exists(dir / "mine" / "notes.txt"));
   EXPECT_FALSE(fs::exists(dir / "mine" / "runs"));
+  // Under mpirun, child processes would take the ranks' places: --jobs above 1 is refused.
+  o = mmval::test::runMmval("sweep " + kChannel + kSmall + " --seeds 2 --jobs 2 --out " + (dir / "c").string(), "OMPI_COMM_WORLD_SIZE=2 ");
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("--jobs"));
+  EXPECT_FALSE(fs::exists(dir / "c" / "runs"));
 }
 
 
@@ -147,7 +153,7 @@ LadderLevel level(double value, double mean, double se) {
   s.mean = mean;
   s.se = se;
   s.sd = se * std::sqrt(5.0);
-  return {value, s};
+  return {value, s, {}};
 }
 
 TEST(SweepUncertainty, RichardsonOfAnAnalyticLadderGivesItsOrderAndLimit) {
@@ -192,7 +198,7 @@ TEST(SweepUncertainty, FallsBackToTheDifferenceAndSaysWhy) {
   EXPECT_NEAR(p.part, 0.004, 1e-12);
   // Two levels; a level without a value (n = 0) is left out.
   mmval::validate::SampleStats none;
-  p = discretisationPart({level(1, 0.3, 0), {0.5, none}, level(2, 0.31, 0)}, Finer::larger);
+  p = discretisationPart({level(1, 0.3, 0), {0.5, none, {}}, level(2, 0.31, 0)}, Finer::larger);
   EXPECT_EQ(p.method, "difference");
   EXPECT_EQ(p.levels.size(), 2u);
   EXPECT_NEAR(p.difference, 0.01, 1e-12);
@@ -216,6 +222,52 @@ TEST(SweepUncertainty, CombinedIsTheRootSumSquareAndTheVerdictReadsBothAxes) {
   u = mmval::validate::metricUncertainty(seeds, std::nullopt, std::nullopt, NAN);
   EXPECT_NEAR(u.combined, seeds.se, 1e-15);
   EXPECT_FALSE(u.converged.has_value());
+}
+
+LadderLevel seededLevel(double value, const std::vector<double>& by_seed) { return {value, sampleStats(by_seed), by_seed}; }
+
+TEST(SweepUncertainty, PairedSeedsGiveTheStandardErrorOfTheirDifferences) {
+  // Three seeds, finest level {1, 4, 7}, next {0, 2, 4}: the per-seed differences {1, 2, 3} have mean 2 = 4 - 2
+  // and sample SD 1, so the paired SE is 1 / sqrt(3). As independent levels (SD 3 and 2):
+  // sqrt(9/3 + 4/3) = sqrt(13/3), sqrt(13) times larger. Exact algebra: round-off tolerances.
+  const auto fine = seededLevel(2, {1, 4, 7}), next = seededLevel(1, {0, 2, 4});
+  auto p = discretisationPart({next, fine}, Finer::larger);
+  EXPECT_NEAR(p.difference, 2.0, 1e-14);
+  EXPECT_EQ(p.difference_se_rule, "paired");
+  EXPECT_EQ(p.paired_seeds, 3);
+  EXPECT_NEAR(p.difference_se, 1 / std::sqrt(3.0), 1e-14);
+  EXPECT_NEAR(p.part_se, 1 / std::sqrt(3.0), 1e-14);
+  EXPECT_TRUE(p.resolved) << "2 > 2 / sqrt(3) paired; 2 < 2 sqrt(13/3) as independent";
+  const auto independent = mmval::validate::differenceError({2, fine.stats, {}}, {1, next.stats, {}});
+  EXPECT_FALSE(independent.paired);
+  EXPECT_NEAR(independent.se, std::sqrt(13.0 / 3.0), 1e-14);
+  EXPECT_NEAR(independent.se / p.difference_se, std::sqrt(13.0), 1e-12);
+  // Not the same seeds (seed 3 has no value at the finest level): independent, with the pairs that there were.
+  p = discretisationPart({next, seededLevel(2, {1, 4, NAN})}, Finer::larger);
+  EXPECT_EQ(p.difference_se_rule, "independent");
+  EXPECT_EQ(p.paired_seeds, 2);
+  EXPECT_NEAR(p.difference_se, std::sqrt(4.5 / 2 + 4.0 / 3), 1e-14);  // SD^2 of {1, 4} is 4.5
+  // One seed: nothing to pair (and no spread): the current rule, 0.
+  p = discretisationPart({seededLevel(1, {0}), seededLevel(2, {1})}, Finer::larger);
+  EXPECT_EQ(p.difference_se_rule, "independent");
+  EXPECT_EQ(p.difference_se, 0.0);
+  // The resolution check of Richardson's second difference pairs too: f = 1 + 8 h^2 + noise(seed), noise
+  // {0.3, -0.2, 0.1}: as independent levels the finest difference 0.375 is within 2 x 0.205 (SE^2 of the noise 0.0633 / 3, twice).
+  const double noise[] = {0.3, -0.2, 0.1};
+  const auto ladder = [&](double cpp) {
+    std::vector<double> v;
+    for (double n : noise) v.push_back(1 + 8 / (cpp * cpp) + n);
+    return seededLevel(cpp, v);
+  };
+  p = discretisationPart({ladder(4), ladder(2), ladder(8)}, Finer::larger);
+  EXPECT_EQ(p.method, "richardson") << p.note;
+  EXPECT_NEAR(p.observed_order, 2.0, 1e-9);
+  EXPECT_NEAR(p.part, 0.125, 1e-12);  // 8 / 8^2, the finest level's error
+  auto unpaired = ladder(8);
+  unpaired.by_seed.clear();
+  p = discretisationPart({ladder(4), ladder(2), unpaired}, Finer::larger);
+  EXPECT_EQ(p.method, "difference");
+  EXPECT_THAT(p.note, HasSubstr("within 2 standard errors"));
 }
 
 // A test kind with a known ladder: f = 0.15 + 0.08 h^2 + 0.05 dt + noise(seed), h = 1 / cells_per_pixel,
@@ -303,7 +355,11 @@ TEST(Sweep, UncertaintyOfAKnownLadderAndItsReportPage) {
   EXPECT_NEAR(f["grid"]["part"].get<double>(), 0.02, 1e-12);
   EXPECT_NEAR(f["grid"]["extrapolated"].get<double>(), expected.mean - 0.02, 1e-12);
   EXPECT_NEAR(f["grid"]["difference"].get<double>(), -0.06, 1e-12);
-  EXPECT_NEAR(f["grid"]["difference_se"].get<double>(), std::sqrt(2.0) * expected.se, 1e-12);
+  // Both levels ran seeds 1-5: paired, the seed's noise cancels in every per-seed difference (zero up to round-off),
+  // where independent levels would give sqrt(2) x the seed SE.
+  EXPECT_EQ(f["grid"]["difference_se_rule"], "paired");
+  EXPECT_EQ(f["grid"]["paired_seeds"], 5);
+  EXPECT_NEAR(f["grid"]["difference_se"].get<double>(), 0.0, 1e-12);
   // Step: two levels, b (0.2 - 0.4) = -0.01.
   EXPECT_EQ(f["step"]["method"], "difference");
   EXPECT_NEAR(f["step"]["difference"].get<double>(), -0.01, 1e-12);
@@ -371,6 +427,123 @@ TEST(Sweep, DiscretisationAxesMustBeVariedNumbersBeforeAnyRun) {
   o.step_key.clear();
   o.converged_within = {"-1"};
   refused("--converged-within");
+}
+
+
+// ---- --jobs: the runs as child processes ------------------------------------
+
+/// A sweep's sweep.csv and sweep.json without what is timing (wall_s, engine_wall_time,
+/// particle_steps_per_second): what two sweeps of the same runs must give alike.
+const std::set<std::string> kTimings = {"wall_s", "engine_wall_time", "particle_steps_per_second"};
+nlohmann::json withoutTimings(nlohmann::json j) {
+  if (j.is_object()) {
+    for (const auto& t : kTimings) j.erase(t);
+    for (auto& [k, v] : j.items()) v = withoutTimings(v);
+  } else if (j.is_array()) {
+    for (auto& v : j) v = withoutTimings(v);
+  }
+  return j;
+}
+std::vector<std::vector<std::string>> csvWithoutTimings(const fs::path& file) {
+  std::ifstream in(file);
+  std::string line;
+  std::vector<std::vector<std::string>> rows;
+  std::vector<bool> keep;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells, kept;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) cells.push_back(cell);  // no quoted commas in these sweeps
+    if (keep.empty())
+      for (const auto& c : cells) keep.push_back(kTimings.count(c) == 0);
+    for (std::size_t i = 0; i < cells.size(); ++i)
+      if (i >= keep.size() || keep[i]) kept.push_back(cells[i]);
+    rows.push_back(kept);
+  }
+  return rows;
+}
+
+TEST(Sweep, JobsRunTheRunsAsChildProcessesWithTheTablesOfOneProcess) {
+  // Three channel runs (quoted values in --set and --vary), one after another and two at a time (child processes
+  // running `mmval run --set ...`: their result.json carries the case hash the sweep checks, so every override
+  // reached the child as given).
+  const fs::path dir = mmval::test::freshTestFolder("sweep", "jobs");
+  const std::string args = "sweep " + kChannel + kSmall + " --vary 'channel.mean_velocity=\"0.36 mm/s\",\"0.72 mm/s\",\"1.08 mm/s\"' --out ";
+  const auto one = mmval::test::runMmval(args + (dir / "one").string());
+  ASSERT_EQ(one.status, 0) << one.output;
+  const auto two = mmval::test::runMmval(args + (dir / "two").string() + " --jobs 2");
+  ASSERT_EQ(two.status, 0) << two.output;
+  EXPECT_THAT(two.output, HasSubstr("sweep [3/3 done]"));
+  EXPECT_EQ(csvWithoutTimings(dir / "two" / "sweep.csv"), csvWithoutTimings(dir / "one" / "sweep.csv"));
+  EXPECT_EQ(csvWithoutTimings(dir / "two" / "sweep.csv").size(), 4u);
+  EXPECT_EQ(withoutTimings(readJson(dir / "two" / "sweep.json")), withoutTimings(readJson(dir / "one" / "sweep.json")));
+  EXPECT_FALSE(fs::exists(dir / "two" / "runs" / "run-001.log")) << "a run's log goes once the run is recorded";
+  // --resume with --jobs keeps the complete runs without starting a process.
+  const auto again = mmval::test::runMmval(args + (dir / "two").string() + " --jobs 2 --resume");
+  ASSERT_EQ(again.status, 0) << again.output;
+  EXPECT_THAT(again.output, HasSubstr("kept the complete earlier run"));
+  EXPECT_THAT(again.output, Not(HasSubstr("done]")));
+  EXPECT_EQ(withoutTimings(readJson(dir / "two" / "sweep.json")), withoutTimings(readJson(dir / "one" / "sweep.json")));
+}
+
+TEST(Sweep, ANumericalFailureInAChildIsRecordedAsInOneProcess) {
+  // A square array at 8 cells per side: solid fraction 0.3 solves (PETSc in the child, no mpirun), 0.7 leaves a
+  // throat of 0.5 cells, a numerical failure (exit 5) that the sweep records in its row, in the same words.
+  const fs::path dir = mmval::test::freshTestFolder("sweep", "jobs-failure");
+  const std::string args = "sweep " + std::string(MMVAL_SOURCE_DIR) + "/cases/fluid-square-array-phi050.toml --set 'numerics.levels=[8]'" +
+                           " --vary geometry.solid_fraction=0.3,0.7 --quiet --out ";
+  const auto one = mmval::test::runMmval(args + (dir / "one").string());
+  ASSERT_EQ(one.status, 0) << one.output;
+  const auto two = mmval::test::runMmval(args + (dir / "two").string() + " --jobs 2");
+  ASSERT_EQ(two.status, 0) << two.output;
+  const auto rows = csvWithoutTimings(dir / "two" / "sweep.csv");
+  EXPECT_EQ(rows, csvWithoutTimings(dir / "one" / "sweep.csv"));
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_EQ(rows[1][1], "metrics failed");  // F* at 8 cells is outside the case's 2 %: a result all the same
+  EXPECT_THAT(rows[2][1], HasSubstr("numerical failure: the narrowest throat of the flow path is 0.50 cells wide"));
+  const nlohmann::json sw = readJson(dir / "two" / "sweep.json");
+  EXPECT_EQ(sw.at("failed_runs"), 1);
+  EXPECT_EQ(withoutTimings(sw), withoutTimings(readJson(dir / "one" / "sweep.json")));
+}
+
+TEST(Sweep, AChildThatFailsEndsTheSweepOnceTheOthersHaveFinished) {
+  // A stand-in for `mmval run` (SweepOptions::executable): run-002 fails at once as a bug would (exit 4); the
+  // others record their arguments, take a second and end in a numerical failure. With two at a time, run-001
+  // is still running when run-002 fails: the sweep waits for it, starts no other, and names run-002.
+  const fs::path dir = mmval::test::freshTestFolder("sweep", "jobs-fatal");
+  std::ofstream(dir / "ladder.toml") << "[case]\nname = \"ladder\"\nkind = \"test-ladder\"\n";
+  const fs::path fake = dir / "fake-mmval";
+  std::ofstream(fake) << "#!/bin/sh\n"
+                         "printf '%s\\n' \"$@\" > \"$4.args\"\n"
+                         "case \"$4\" in *run-002) echo 'mmval: internal error: boom' >&2; exit 4;; esac\n"
+                         "sleep 1; touch \"$4.finished\"; echo 'mmval: numerical failure: fake' >&2; exit 5\n";
+  fs::permissions(fake, fs::perms::owner_all);
+  mmval::validate::SweepOptions o;
+  o.file = (dir / "ladder.toml").string();
+  o.out = (dir / "sw").string();
+  o.set = {"numerics.step=0.25"};
+  o.seeds = 3;
+  o.quiet = true;
+  o.jobs = 2;
+  o.executable = fake.string();
+  const fs::path runs = dir / "sw" / "runs";
+  try {
+    mmval::validate::runSweep(o, ladderKind());
+    ADD_FAILURE() << "a child's exit status 4 did not end the sweep";
+  } catch (const std::runtime_error& e) {
+    const std::string m = e.what();
+    EXPECT_THAT(m, HasSubstr("run-002"));
+    EXPECT_THAT(m, HasSubstr("exit status 4 (a bug in mmval): internal error: boom"));
+    EXPECT_THAT(m, HasSubstr((runs / "run-002.log").string()));
+  }
+  EXPECT_TRUE(fs::exists(runs / "run-001.finished")) << "the sweep did not wait for run-001";
+  EXPECT_FALSE(fs::exists(runs / "run-003.args")) << "a run was started after the failure";
+  EXPECT_TRUE(fs::exists(runs / "run-002.log")) << "the failed run's log is kept";
+  // The child's command line: the case, its folder, quiet, every override of the run in order.
+  std::ifstream in(runs / "run-001.args");
+  std::vector<std::string> argv;
+  for (std::string a; std::getline(in, a);) argv.push_back(a);
+  EXPECT_EQ(argv, (std::vector<std::string>{"run", o.file, "--out", (runs / "run-001").string(), "--quiet", "--set", "numerics.step=0.25", "--set",
+                                            "run.seed=1"}));
 }
 
 }  // namespace

@@ -1,21 +1,33 @@
 #include "mmval/validate/Sweep.hpp"
 
 #include <algorithm>
+#include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <memory>
 #include <optional>
+#include <sstream>
+#include <stdexcept>
+
+#include <sys/wait.h>
 
 #include <fmt/format.h>
 
 #include "mmval/core/AtomicFile.hpp"
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/JsonNumbers.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/reports/Plot.hpp"
 #include "mmval/validate/RunFolders.hpp"
+
+#include "ChildProcesses.hpp"
 
 namespace fs = std::filesystem;
 
@@ -28,7 +40,8 @@ constexpr int kMaxRuns = 1000;  ///< a guard against a mistyped product of axes
 /// What sweep.json's uncertainty is, in its own words (metricUncertainty, discretisationPart).
 constexpr const char* kUncertaintyRule =
     "per metric and per setting of the axes that are neither grid nor step, at the finest grid and finest step: value = mean over the seeds, "
-    "seed_se = its standard error; grid and step parts = |mean(finest) - mean(next)| of that axis (the other one at its finest), or with three "
+    "seed_se = its standard error; grid and step parts = |mean(finest) - mean(next)| of that axis (the other one at its finest), its standard error from the per-seed "
+    "differences when both levels ran the same seeds (difference_se_rule paired), else sqrt(se1^2 + se2^2) (independent), or with three "
     "levels whose differences have one sign, shrink towards the finest and are both beyond 2 standard errors the Richardson estimate "
     "|difference| / (r^p - 1) with the observed order p (Celik et al. 2008); combined = sqrt(seed_se^2 + grid^2 + step^2) over the parts "
     "estimated; converged = on every discretisation axis both |difference| and the part within converged_within, converged_2se = also part + 2 part_se";
@@ -166,15 +179,15 @@ std::string csvCell(const std::string& s) {
 
 std::string number(double v) { return std::isfinite(v) ? fmt::format("{:.9g}", v) : std::string(); }
 
-nlohmann::json orNull(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
-
 nlohmann::json partJson(const DiscretisationPart& p, const std::string& key) {
   nlohmann::json levels = nlohmann::json::array();
   for (const auto& l : p.levels)
-    levels.push_back({{"level", l.value}, {"n", l.stats.n}, {"mean", orNull(l.stats.mean)}, {"se", l.stats.n > 1 ? orNull(l.stats.se) : nlohmann::json(nullptr)}});
-  return {{"key", key}, {"method", p.method}, {"note", p.note}, {"levels", levels}, {"difference", orNull(p.difference)},
-          {"difference_se", orNull(p.difference_se)}, {"resolved", p.resolved}, {"observed_order", orNull(p.observed_order)},
-          {"extrapolated", orNull(p.extrapolated)}, {"part", orNull(p.part)}, {"part_se", orNull(p.part_se)}};
+    levels.push_back({{"level", l.value}, {"n", l.stats.n}, {"mean", finiteOrNull(l.stats.mean)}, {"se", l.stats.n > 1 ? finiteOrNull(l.stats.se) : nlohmann::json(nullptr)}});
+  return {{"key", key}, {"method", p.method}, {"note", p.note}, {"levels", levels}, {"difference", finiteOrNull(p.difference)},
+          {"difference_se", finiteOrNull(p.difference_se)},
+          {"difference_se_rule", p.difference_se_rule.empty() ? nlohmann::json(nullptr) : nlohmann::json(p.difference_se_rule)},
+          {"paired_seeds", p.paired_seeds}, {"resolved", p.resolved}, {"observed_order", finiteOrNull(p.observed_order)},
+          {"extrapolated", finiteOrNull(p.extrapolated)}, {"part", finiteOrNull(p.part)}, {"part_se", finiteOrNull(p.part_se)}};
 }
 
 /// Index of the finest value of an axis.
@@ -187,6 +200,7 @@ std::size_t finestIndex(const std::vector<double>& values, Finer finer) {
 struct GroupStats {
   std::vector<std::vector<std::string>> values;
   std::vector<std::map<std::string, SampleStats>> stats;
+  std::vector<std::map<std::string, std::vector<double>>> by_seed;  ///< the values in seed order (NaN: none), for pairing
 };
 
 /// sweep.json's "uncertainty": per metric, per setting of the axes that are neither grid nor step.
@@ -215,26 +229,28 @@ nlohmann::json uncertaintyJson(const std::vector<SweepAxis>& axes, const Discret
         const bool grid_fine = d.grid < 0 || v[d.grid] == fine_grid, step_fine = d.step < 0 || v[d.step] == fine_step;
         const auto it = g.stats[i].find(name);
         const SampleStats s = it == g.stats[i].end() ? SampleStats{} : it->second;
+        const auto seeds = g.by_seed[i].find(name);
+        const std::vector<double> by_seed = seeds == g.by_seed[i].end() ? std::vector<double>{} : seeds->second;
         if (grid_fine && step_fine) {
           finest = s;
           for (std::size_t a = 0; a < axes.size(); ++a)
             (static_cast<int>(a) == d.grid || static_cast<int>(a) == d.step ? at : setting)[axes[a].key] = shown(v[a]);
         }
         const auto index = [&](int axis) { return static_cast<std::size_t>(std::find(axes[axis].values.begin(), axes[axis].values.end(), v[axis]) - axes[axis].values.begin()); };
-        if (d.grid >= 0 && step_fine) grid_levels.push_back({d.grid_values[index(d.grid)], s});
-        if (d.step >= 0 && grid_fine) step_levels.push_back({d.step_values[index(d.step)], s});
+        if (d.grid >= 0 && step_fine) grid_levels.push_back({d.grid_values[index(d.grid)], s, by_seed});
+        if (d.step >= 0 && grid_fine) step_levels.push_back({d.step_values[index(d.step)], s, by_seed});
       }
       std::optional<DiscretisationPart> grid, step;
       if (d.grid >= 0) grid = discretisationPart(grid_levels, d.grid_finer);
       if (d.step >= 0) step = discretisationPart(step_levels, d.step_finer);
       const MetricUncertainty u = metricUncertainty(finest, grid, step, d.toleranceOf(name));
-      list.push_back({{"setting", setting}, {"at", at}, {"value", finest.n ? orNull(finest.mean) : nlohmann::json(nullptr)}, {"n", finest.n},
-                      {"seed_se", orNull(u.seed_se)}, {"grid", grid ? partJson(*grid, axes[d.grid].key) : nlohmann::json(nullptr)},
-                      {"step", step ? partJson(*step, axes[d.step].key) : nlohmann::json(nullptr)}, {"combined", orNull(u.combined)},
+      list.push_back({{"setting", setting}, {"at", at}, {"value", finest.n ? finiteOrNull(finest.mean) : nlohmann::json(nullptr)}, {"n", finest.n},
+                      {"seed_se", finiteOrNull(u.seed_se)}, {"grid", grid ? partJson(*grid, axes[d.grid].key) : nlohmann::json(nullptr)},
+                      {"step", step ? partJson(*step, axes[d.step].key) : nlohmann::json(nullptr)}, {"combined", finiteOrNull(u.combined)},
                       {"converged", u.converged ? nlohmann::json(*u.converged) : nlohmann::json(nullptr)},
                       {"converged_2se", u.converged_2se ? nlohmann::json(*u.converged_2se) : nlohmann::json(nullptr)}, {"verdict", u.verdict}});
     }
-    out[name] = {{"unit", unit}, {"tolerance", orNull(d.toleranceOf(name))}, {"settings", list}};
+    out[name] = {{"unit", unit}, {"tolerance", finiteOrNull(d.toleranceOf(name))}, {"settings", list}};
   }
   return out;
 }
@@ -250,9 +266,10 @@ std::string partText(const char* what, const nlohmann::json& p) {
   std::string t = fmt::format("; {} {}", what, numberOrDash(p["part"], 3));
   if (p["method"] == "none") return t + " (" + p["note"].get<std::string>() + ")";
   const auto& l = p["levels"];
-  t += fmt::format(" ({}{}; {:g} vs {:g}: {} +- {}{})", p["method"].get<std::string>(),
+  t += fmt::format(" ({}{}; {:g} vs {:g}: {} +- {}{}{})", p["method"].get<std::string>(),
                    p["observed_order"].is_number() ? fmt::format(", order {:.2g}", p["observed_order"].get<double>()) : std::string(), l[0]["level"].get<double>(),
                    l[1]["level"].get<double>(), numberOrDash(p["difference"], 3, true), numberOrDash(p["difference_se"], 2),
+                   p["difference_se_rule"] == "paired" ? fmt::format(" paired over {} seeds", p["paired_seeds"].get<int>()) : std::string(),
                    p["resolved"].get<bool>() ? "" : ", within seed noise");
   return t;
 }
@@ -308,8 +325,11 @@ Tables tabulate(const std::vector<SweepAxis>& axes, const std::vector<SweepRun>&
     for (std::size_t a = 0; a < axes.size(); ++a) setting[axes[a].key] = shown(runs[g * per_setting].values[a]);
     group_stats.values.push_back(runs[g * per_setting].values);
     group_stats.stats.emplace_back();
+    group_stats.by_seed.emplace_back();
     for (const auto& n : names) {
-      const SampleStats s = sampleStats(column(n, g * per_setting, per_setting));
+      const std::vector<double> values = column(n, g * per_setting, per_setting);
+      const SampleStats s = sampleStats(values);
+      group_stats.by_seed.back()[n] = values;
       stats[n] = s.toJson();
       group_stats.stats.back()[n] = s;
       means[n].push_back(s.n > 0 ? s.mean : std::nan(""));
@@ -395,6 +415,89 @@ std::optional<std::string> plotSvg(const std::vector<SweepAxis>& axes, const nlo
   return reports::renderSvg(p);
 }
 
+// ---- --jobs N: the runs as child processes ---------------------------------
+
+using detail::fileText;
+using detail::messageAfter;
+using detail::statusText;
+
+/// The runs of a sweep `jobs` at a time, each in a child process running `mmval run` with the
+/// run's overrides as --set (their text form is what --set parses, so each reads back as given;
+/// the case hash in the child's result.json checks it). Fills results[i] (none: a numerical
+/// failure, recorded in runs[i].status). A child that fails otherwise ends the sweep once the
+/// others have finished.
+void runChildren(const SweepOptions& o, const std::vector<Case>& cases, std::vector<SweepRun>& runs, const fs::path& out,
+                 std::vector<std::optional<nlohmann::json>>& results) {
+  const std::string executable = o.executable.empty() ? std::string("/proc/self/exe") : o.executable;
+  detail::Children children;
+  std::size_t next = 0, finished = 0;
+  std::string fatal;
+  int fatal_status = -1;
+  const auto finishedLine = [&](const SweepRun& r, const std::string& what) {
+    ++finished;
+    std::fprintf(stderr, "sweep [%zu/%zu done] %s: %s\n", finished, runs.size(), r.folder.c_str(), what.c_str());
+  };
+  while ((next < runs.size() && fatal.empty()) || children.size() > 0) {
+    while (next < runs.size() && fatal.empty() && children.size() < static_cast<std::size_t>(o.jobs)) {
+      const std::size_t i = next++;
+      SweepRun& r = runs[i];
+      std::vector<std::string> args = {"mmval", "run", o.file, "--out", (out / "runs" / r.folder).string(), "--quiet"};
+      std::string label;
+      for (const auto& ov : cases[i].overrides()) {
+        label += " " + ov.text();
+        args.push_back("--set");
+        args.push_back(ov.text());
+      }
+      if (o.resume) args.push_back("--resume");
+      std::fprintf(stderr, "sweep [%zu/%zu] %s:%s\n", i + 1, runs.size(), r.folder.c_str(), label.c_str());
+      if (o.resume && (results[i] = earlierRun(cases[i], out / "runs" / r.folder))) {
+        std::fprintf(stderr, "      kept the complete earlier run (same case and settings)\n");
+        ++finished;
+        continue;
+      }
+      children.start(executable, args, {-1, i, out / "runs" / (r.folder + ".log"), std::chrono::steady_clock::now()});
+    }
+    if (children.size() == 0) continue;
+    auto [c, status] = children.wait();
+    SweepRun& r = runs[c.index];
+    const fs::path dir = out / "runs" / r.folder;
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - c.start).count();
+    const int code = status >= 0 && WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    const std::string log = fileText(c.log);
+    std::error_code ec;
+    if (code == static_cast<int>(ExitCode::ok) || code == static_cast<int>(ExitCode::metric_failed)) {
+      results[c.index] = earlierRun(cases[c.index], dir);
+      if (results[c.index]) {
+        fs::remove(c.log, ec);
+        finishedLine(r, fmt::format("{} ({:.1f} s)", code == 0 ? "ok" : "metrics failed", seconds));
+        continue;
+      }
+      if (fatal.empty()) {
+        fatal = fmt::format("{} ended with {} but {} is missing or is the result of another case (its case hash differs); its output is in {}",
+                            r.folder, statusText(status), (dir / "result.json").string(), c.log.string());
+        fatal_status = static_cast<int>(ExitCode::internal);
+      }
+    } else if (code == static_cast<int>(ExitCode::numerical)) {
+      // One setting the numerics cannot do does not end the sweep; it is listed as such (as in one process).
+      const std::string cause = messageAfter(log, "mmval: numerical failure: ");
+      r.status = "numerical failure: " + (cause.empty() ? "exit status 5; its output was in " + c.log.string() : cause);
+      fs::remove(c.log, ec);
+      finishedLine(r, r.status);
+    } else if (fatal.empty()) {
+      const std::string said = messageAfter(log, "mmval: ");
+      fatal = fmt::format("{} ({}) failed: `mmval run` ended with {}{}; its output is in {}", r.folder, dir.string(), statusText(status),
+                          said.empty() ? std::string() : ": " + said, c.log.string());
+      fatal_status = code;
+      std::fprintf(stderr, "sweep: %s; waiting for the %zu run(s) still going\n", fatal.c_str(), children.size());
+    }
+  }
+  if (fatal.empty()) return;
+  const std::string message = "the sweep stopped: " + fatal;
+  if (fatal_status == static_cast<int>(ExitCode::usage) || fatal_status == static_cast<int>(ExitCode::bad_input))
+    throw InputError(option("--jobs"), message, {}, "the run's own error in its log; mmval run with the same --set reproduces it");
+  throw std::runtime_error(message);
+}
+
 }  // namespace
 
 void runSweep(const SweepOptions& o, const CaseKindRegistry& registry) {
@@ -407,6 +510,11 @@ void runSweep(const SweepOptions& o, const CaseKindRegistry& registry) {
     for (std::size_t j = 0; j < i; ++j)
       if (axes[i].key == axes[j].key) throw InputError(option("--vary"), "the key is varied twice", axes[i].key, "each key in one --vary");
   const Discretisation disc = discretisationOf(o, axes);
+  if (o.jobs < 1) throw InputError(option("--jobs"), "not a positive number of runs at once", std::to_string(o.jobs), "1 (one after another) or more");
+  for (const char* rank_variable : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE"})
+    if (o.jobs > 1 && std::getenv(rank_variable) != nullptr)
+      throw InputError(option("--jobs"), "the sweep runs under mpirun, and its children would take its MPI ranks' places", std::to_string(o.jobs),
+                       "--jobs 1 under mpirun (each run on the ranks), or --jobs N without mpirun (each run on one rank)");
   const std::string seed_key = o.seeds > 0 || !o.seed_key.empty() ? seedKeyOf(registry.schema(first.kind()), o.seed_key) : std::string();
   const int seeds = std::max(o.seeds, seed_key.empty() ? 0 : 1);
   const auto combos = settings(axes);
@@ -438,25 +546,32 @@ void runSweep(const SweepOptions& o, const CaseKindRegistry& registry) {
   const FolderLock lock(out, out.string());
   writeOutputMarker(out);
   std::map<std::string, std::string> units;
-  for (std::size_t i = 0; i < runs.size(); ++i) {
-    SweepRun& r = runs[i];
-    std::string label;
-    for (const auto& ov : cases[i].overrides()) label += " " + ov.text();
-    std::fprintf(stderr, "sweep [%zu/%zu] %s:%s\n", i + 1, runs.size(), r.folder.c_str(), label.c_str());
-    const fs::path dir = out / "runs" / r.folder;
-    std::optional<nlohmann::json> result = o.resume ? earlierRun(cases[i], dir) : std::nullopt;
-    if (result) {
-      std::fprintf(stderr, "      kept the complete earlier run (same case and settings)\n");
-    } else {
-      try {
-        result = runCase(cases[i], registry, dir, {o.quiet, o.resume}).result;
-      } catch (const NumericalFailure& e) {
-        // One setting the numerics cannot do does not end the sweep; it is listed as such.
-        r.status = std::string("numerical failure: ") + e.what();
-        std::fprintf(stderr, "      %s\n", r.status.c_str());
+  if (o.jobs > 1) {
+    std::vector<std::optional<nlohmann::json>> results(runs.size());
+    runChildren(o, cases, runs, out, results);
+    for (std::size_t i = 0; i < runs.size(); ++i)  // in run order, as one process reads them
+      if (results[i]) readMetrics(*results[i], runs[i], units);
+  } else {
+    for (std::size_t i = 0; i < runs.size(); ++i) {
+      SweepRun& r = runs[i];
+      std::string label;
+      for (const auto& ov : cases[i].overrides()) label += " " + ov.text();
+      std::fprintf(stderr, "sweep [%zu/%zu] %s:%s\n", i + 1, runs.size(), r.folder.c_str(), label.c_str());
+      const fs::path dir = out / "runs" / r.folder;
+      std::optional<nlohmann::json> result = o.resume ? earlierRun(cases[i], dir) : std::nullopt;
+      if (result) {
+        std::fprintf(stderr, "      kept the complete earlier run (same case and settings)\n");
+      } else {
+        try {
+          result = runCase(cases[i], registry, dir, {o.quiet, o.resume}).result;
+        } catch (const NumericalFailure& e) {
+          // One setting the numerics cannot do does not end the sweep; it is listed as such.
+          r.status = std::string("numerical failure: ") + e.what();
+          std::fprintf(stderr, "      %s\n", r.status.c_str());
+        }
       }
+      if (result) readMetrics(*result, r, units);
     }
-    if (result) readMetrics(*result, r, units);
   }
 
   for (const auto& metric : o.metrics)
@@ -478,7 +593,7 @@ void runSweep(const SweepOptions& o, const CaseKindRegistry& registry) {
   };
   doc["discretisation"] = {{"grid", axisJson(disc.grid, disc.grid_finer)},
                            {"step", axisJson(disc.step, disc.step_finer)},
-                           {"converged_within", orNull(disc.tolerance)},
+                           {"converged_within", finiteOrNull(disc.tolerance)},
                            {"converged_within_metric", disc.tolerances},
                            {"rule", kUncertaintyRule}};
   doc["runs"] = runs.size();

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -37,6 +38,28 @@ SampleStats sampleStats(const std::vector<double>& values) {
   return s;
 }
 
+DifferenceError differenceError(const LadderLevel& a, const LadderLevel& b) {
+  DifferenceError e;
+  // Paired only when the two levels have values for the same seeds: the mean of the per-seed
+  // differences is then exactly mean(a) - mean(b), and what the seed adds to both cancels.
+  bool same_seeds = !a.by_seed.empty() && a.by_seed.size() == b.by_seed.size();
+  std::vector<double> d;
+  for (std::size_t i = 0; i < std::min(a.by_seed.size(), b.by_seed.size()); ++i) {
+    const bool in_a = std::isfinite(a.by_seed[i]), in_b = std::isfinite(b.by_seed[i]);
+    same_seeds = same_seeds && in_a == in_b;
+    if (in_a && in_b) d.push_back(a.by_seed[i] - b.by_seed[i]);
+  }
+  e.pairs = static_cast<int>(d.size());
+  if (same_seeds && d.size() >= 2) {
+    e.paired = true;
+    e.se = sampleStats(d).se;
+    return e;
+  }
+  const auto var = [](const LadderLevel& l) { return l.stats.n > 1 ? l.stats.se * l.stats.se : 0.0; };
+  e.se = std::sqrt(var(a) + var(b));
+  return e;
+}
+
 DiscretisationPart discretisationPart(std::vector<LadderLevel> levels, Finer finer) {
   DiscretisationPart p;
   levels.erase(std::remove_if(levels.begin(), levels.end(), [](const LadderLevel& l) { return l.stats.n == 0; }), levels.end());
@@ -48,10 +71,12 @@ DiscretisationPart discretisationPart(std::vector<LadderLevel> levels, Finer fin
     p.note = levels.empty() ? "no level has a value" : "one level has a value";
     return p;
   }
-  const auto var = [](const LadderLevel& l) { return l.stats.n > 1 ? l.stats.se * l.stats.se : 0.0; };
   const double f1 = levels[0].stats.mean, f2 = levels[1].stats.mean;
   p.difference = f1 - f2;
-  p.difference_se = std::sqrt(var(levels[0]) + var(levels[1]));
+  const DifferenceError e21_error = differenceError(levels[0], levels[1]);
+  p.difference_se = e21_error.se;
+  p.difference_se_rule = e21_error.paired ? "paired" : "independent";
+  p.paired_seeds = e21_error.pairs;
   p.resolved = std::abs(p.difference) > 2 * p.difference_se;
   p.method = "difference";
   p.part = std::abs(p.difference);
@@ -62,7 +87,7 @@ DiscretisationPart discretisationPart(std::vector<LadderLevel> levels, Finer fin
   }
   const double f3 = levels[2].stats.mean;
   const double e21 = f2 - f1, e32 = f3 - f2;  // Celik et al.'s eps21, eps32
-  const double e32_se = std::sqrt(var(levels[1]) + var(levels[2]));
+  const double e32_se = differenceError(levels[2], levels[1]).se;
   if (!(e21 * e32 > 0)) {
     p.note = "not monotone over the three finest levels: the difference of the two finest";
     return p;
