@@ -314,15 +314,28 @@ class WindowSmoother {
   int radius() const { return m_kr; }
   /// The smoothed residual over [xa, xb] x [ya, yb] (in the frame); R itself when there
   /// is no smoothing.
+  // Where the window's columns, rounded up to whole vectors of 4, and the kernel's reach
+  // lie inside the frame, 4 outputs are summed at a time: each lane adds the kernel's
+  // products in the scalar loop's order (float, no fused multiply-add), so the same bits.
   const cv::Mat& smooth(int xa, int xb, int ya, int yb) {
     if (m_kr == 0) return m_R;
     const int kr = m_kr, W = m_R.cols, H = m_R.rows;
     const float* kernel = m_kernel;
-    const int w = xb - xa + 1;
-    m_rows.assign(static_cast<std::size_t>(w) * (yb - ya + 1 + 2 * kr), 0.0f);
+    const int w = xb - xa + 1, nv = (w + 3) / 4, ws = 4 * nv;  // ws: m_rows' row stride
+    const bool lanes = nv <= kMaxVectors && xa - kr >= 0 && xa + ws - 1 + kr < W;
+    m_rows.resize(static_cast<std::size_t>(ws) * (yb - ya + 1 + 2 * kr));  // every value read is written first
     for (int yy = ya - kr; yy <= yb + kr; ++yy) {
       const float* src = m_R.ptr<float>(reflect(yy, H));
-      float* dst = m_rows.data() + static_cast<std::size_t>(yy - ya + kr) * w;
+      float* dst = m_rows.data() + static_cast<std::size_t>(yy - ya + kr) * ws;
+      if (lanes) {
+        for (int v = 0; v < nv; ++v) {
+          const float* in = src + xa + 4 * v - kr;
+          cv::v_float32x4 t = cv::v_setzero_f32();
+          for (int j = 0; j <= 2 * kr; ++j) t = t + cv::v_setall_f32(kernel[j]) * cv::v_load(in + j);
+          cv::v_store(dst + 4 * v, t);
+        }
+        continue;
+      }
       for (int x = xa; x <= xb; ++x) {
         float t = 0;
         if (x - kr >= 0 && x + kr < W)
@@ -334,9 +347,20 @@ class WindowSmoother {
     }
     for (int y = ya; y <= yb; ++y) {
       float* out = m_out.ptr<float>(y) + xa;
+      if (lanes) {
+        float row[4 * kMaxVectors];
+        for (int v = 0; v < nv; ++v) {
+          const float* in = m_rows.data() + static_cast<std::size_t>(y - ya) * ws + 4 * v;
+          cv::v_float32x4 t = cv::v_setzero_f32();
+          for (int j = 0; j <= 2 * kr; ++j) t = t + cv::v_setall_f32(kernel[j]) * cv::v_load(in + static_cast<std::size_t>(j) * ws);
+          cv::v_store(row + 4 * v, t);
+        }
+        std::copy(row, row + w, out);
+        continue;
+      }
       for (int x = 0; x < w; ++x) {
         float t = 0;
-        for (int j = 0; j <= 2 * kr; ++j) t += kernel[j] * m_rows[static_cast<std::size_t>(y - ya + j) * w + x];
+        for (int j = 0; j <= 2 * kr; ++j) t += kernel[j] * m_rows[static_cast<std::size_t>(y - ya + j) * ws + x];
         out[x] = t;
       }
     }
@@ -344,6 +368,7 @@ class WindowSmoother {
   }
 
  private:
+  static constexpr int kMaxVectors = 16;  ///< widest window summed in lanes: 64 columns
   static int reflect(int p, int size) {
     if (size == 1) return 0;
     while (p < 0 || p >= size) p = p < 0 ? -p : 2 * size - 2 - p;
@@ -424,10 +449,8 @@ class JointFit {
   [[gnu::always_inline]] inline void render(const Spot& s, float sign);
   template <bool kAvx2 = false>
   [[gnu::always_inline]] inline double amplitude(const Spot& s) const;
-  double refit(std::size_t i, int iterations);
   template <bool kAvx2>
   [[gnu::always_inline]] inline double refitBody(std::size_t i, int iterations);
-  double refitBaseline(std::size_t i, int iterations);
   Neighbours neighbours() const;
   void sweep();
   template <bool kAvx2>
@@ -435,11 +458,17 @@ class JointFit {
   void sweepBaseline();
 #if MMVAL_HAVE_AVX2
   [[gnu::always_inline]] inline void renderAndSum(const Spot& s, double* sums);
-  MMVAL_TARGET_AVX2 double refitAvx2(std::size_t i, int iterations);
   MMVAL_TARGET_AVX2 void sweepAvx2();
 #endif
   template <bool kAvx2>
   [[gnu::always_inline]] inline void extrapolate(std::size_t i, const Step& before, const Step& after);
+  void fitPair(std::size_t i, std::size_t k);
+  template <bool kAvx2>
+  [[gnu::always_inline]] inline void fitPairBody(std::size_t i, std::size_t k);
+  void fitPairBaseline(std::size_t i, std::size_t k);
+#if MMVAL_HAVE_AVX2
+  MMVAL_TARGET_AVX2 void fitPairAvx2(std::size_t i, std::size_t k);
+#endif
   BlobMoments blobMoments(std::size_t i) const;
   void shapeRows(const Detection& d, const Spot& s, int cx, int cy, Rows& w) const;
   double shapedRss(int cx, int cy, std::size_t ia, const std::size_t* ib, double noise, double& energy) const;
@@ -581,19 +610,9 @@ double JointFit::amplitude(const Spot& s) const {
 // Refits spot i on R + its own model, at most `iterations` masked-centroid steps; leaves
 // R with the new model subtracted. Returns the largest step, px.
 // The joint fit spends most of detection's time here (bench/tracking/README.md, stops 41
-// and 46): on a CPU with AVX2 the window rows (kLanes columns) take 2 registers instead of
-// 4, the same arithmetic per column, so the same results.
-double JointFit::refit(std::size_t i, int iterations) {
-#if MMVAL_HAVE_AVX2
-  if (cpuHasAvx2()) return refitAvx2(i, iterations);
-#endif
-  return refitBaseline(i, iterations);
-}
-double JointFit::refitBaseline(std::size_t i, int iterations) { return refitBody<false>(i, iterations); }
-#if MMVAL_HAVE_AVX2
-MMVAL_TARGET_AVX2 double JointFit::refitAvx2(std::size_t i, int iterations) { return refitBody<true>(i, iterations); }
-#endif
-
+// and 46): it is compiled into the sweeps and the split test's pair fit, each built for the
+// baseline and for AVX2 (the window rows, kLanes columns, in 2 registers instead of 4, the
+// same arithmetic per column, so the same results).
 template <bool kAvx2>
 double JointFit::refitBody(std::size_t i, int iterations) {
   Detection& d = m_dets[i];
@@ -709,6 +728,43 @@ void JointFit::extrapolate(std::size_t i, const Step& before, const Step& after)
   tables(d, s);
   s.a = amplitude<kAvx2>(s);
   render<kAvx2>(s, -1.0f);
+}
+
+// The split test's trial pair (spots i and k, both in R) fitted alone by the sweeps'
+// scheme: Gauss-Seidel passes, the new spot k first, split_refit_iterations steps per visit,
+// until neither moves by sweep_converged_px (at most split_passes), and after every
+// split_extrapolate_every-th pass each spot jumps by Aitken's extrapolation of its steps.
+void JointFit::fitPair(std::size_t i, std::size_t k) {
+#if MMVAL_HAVE_AVX2
+  if (cpuHasAvx2()) return fitPairAvx2(i, k);
+#endif
+  fitPairBaseline(i, k);
+}
+void JointFit::fitPairBaseline(std::size_t i, std::size_t k) { fitPairBody<false>(i, k); }
+#if MMVAL_HAVE_AVX2
+MMVAL_TARGET_AVX2 void JointFit::fitPairAvx2(std::size_t i, std::size_t k) { fitPairBody<true>(i, k); }
+#endif
+
+template <bool kAvx2>
+void JointFit::fitPairBody(std::size_t i, std::size_t k) {
+  const std::size_t order[2] = {k, i};  // a fixed order: the positions depend on it
+  Step last[2], now[2];
+  int plain = 0;
+  for (int pass = 0; pass < kTune.split_passes; ++pass) {
+    double moved = 0;
+    for (int q = 0; q < 2; ++q) {
+      const std::size_t j = order[q];
+      const double x0 = m_dets[j].x, y0 = m_dets[j].y;
+      moved = std::max(moved, refitBody<kAvx2>(j, kTune.split_refit_iterations));
+      now[q] = {m_dets[j].x - x0, m_dets[j].y - y0};
+    }
+    if (moved < kTune.sweep_converged_px) break;
+    if (++plain == kTune.split_extrapolate_every) {
+      for (int q = 0; q < 2; ++q) extrapolate<kAvx2>(order[q], last[q], now[q]);
+      plain = 0;
+    }
+    std::swap(last, now);
+  }
 }
 
 // Residual, smoothed as the seeds were: a maximum above the seeds' level within `sep`
@@ -860,6 +916,45 @@ BlobMoments JointFit::blobMoments(std::size_t i) const {
   return {sw, sxx, syy, sxy};
 }
 
+#if MMVAL_HAVE_AVX2
+// shapedRss's per-row sums (AVX2), four rows at a time: lane j holds row k0 + j, and each
+// lane does the scalar loop's double arithmetic in its order (no fused multiply-add), so
+// every row's sums are the baseline's bits. `kPair`: two spots (wb, bn), else one.
+template <bool kPair>
+MMVAL_TARGET_AVX2 void shapedRowSumsAvx2(const float* row0, std::size_t step, int n, const double* an, const double* bn, const Rows& wa, const Rows& wb, double* rvv,
+                                         double* rva, double* rvb) {
+  for (int k0 = 0; k0 < n; k0 += 4) {
+    const float* rows[4];
+    double al[4], bl[4];
+    for (int j = 0; j < 4; ++j) {
+      const int k = std::min(k0 + j, n - 1);  // lanes past the last row repeat it, not stored
+      rows[j] = row0 + k * step;
+      al[j] = an[k];
+      bl[j] = kPair ? bn[k] : 0.0;
+    }
+    const __m256d va = _mm256_loadu_pd(al), vb = _mm256_loadu_pd(bl);
+    __m256d svv = _mm256_setzero_pd(), sva = svv, svb = svv;
+    for (int x = 0; x < n; ++x) {
+      __m256d v = _mm256_set_pd(rows[3][x], rows[2][x], rows[1][x], rows[0][x]);
+      v = _mm256_add_pd(v, _mm256_mul_pd(va, _mm256_set1_pd(wa.nx[x])));
+      if constexpr (kPair) v = _mm256_add_pd(v, _mm256_mul_pd(vb, _mm256_set1_pd(wb.nx[x])));
+      svv = _mm256_add_pd(svv, _mm256_mul_pd(v, v));
+      sva = _mm256_add_pd(sva, _mm256_mul_pd(v, _mm256_set1_pd(wa.gx[x])));
+      if constexpr (kPair) svb = _mm256_add_pd(svb, _mm256_mul_pd(v, _mm256_set1_pd(wb.gx[x])));
+    }
+    double tvv[4], tva[4], tvb[4];
+    _mm256_storeu_pd(tvv, svv);
+    _mm256_storeu_pd(tva, sva);
+    _mm256_storeu_pd(tvb, svb);
+    for (int j = 0; j < 4 && k0 + j < n; ++j) {
+      rvv[k0 + j] = tvv[j];
+      rva[k0 + j] = tva[j];
+      rvb[k0 + j] = tvb[j];
+    }
+  }
+}
+#endif  // MMVAL_HAVE_AVX2
+
 void JointFit::shapeRows(const Detection& d, const Spot& s, int cx, int cy, Rows& w) const {
   const int r = m_g.r, n = m_g.n;
   double gx[kMaxWindow], gy[kMaxWindow];
@@ -895,30 +990,46 @@ double JointFit::shapedRss(int cx, int cy, std::size_t ia, const std::size_t* ib
       abx += wa.gx[k] * wb.gx[k];
     }
   }
+  // Per row k: the sums over the row of v^2, v ga and v gb, v = R + the narrow models;
+  // then summed over the rows in row order.
+  double an[kMaxWindow], bn[kMaxWindow] = {}, rvv[kMaxWindow], rva[kMaxWindow], rvb[kMaxWindow] = {};
   for (int k = 0; k < n; ++k) {
-    const float* row = m_R.ptr<float>(cy - r + k) + (cx - r);
-    const double an = a.a * wa.ny[k], ag = wa.gy[k];
-    double rvv = 0, rva = 0, rvb = 0;
-    if (!ib) {
+    an[k] = a.a * wa.ny[k];
+    if (ib) bn[k] = m_spots[*ib].a * wb.ny[k];
+  }
+  const float* row0 = m_R.ptr<float>(cy - r) + (cx - r);
+  const std::size_t step = m_R.step[0] / sizeof(float);
+#if MMVAL_HAVE_AVX2
+  if (cpuHasAvx2()) {
+    if (ib) shapedRowSumsAvx2<true>(row0, step, n, an, bn, wa, wb, rvv, rva, rvb);
+    else shapedRowSumsAvx2<false>(row0, step, n, an, bn, wa, wa, rvv, rva, rvb);
+  } else
+#endif
+  {
+    for (int k = 0; k < n; ++k) {
+      const float* row = row0 + k * step;
+      double svv = 0, sva = 0, svb = 0;
       for (int x = 0; x < n; ++x) {
-        const double v = row[x] + an * wa.nx[x];
-        rvv += v * v;
-        rva += v * wa.gx[x];
+        double v = row[x] + an[k] * wa.nx[x];
+        if (ib) v = v + bn[k] * wb.nx[x];
+        svv += v * v;
+        sva += v * wa.gx[x];
+        if (ib) svb += v * wb.gx[x];
       }
-    } else {
-      const double bn = m_spots[*ib].a * wb.ny[k];
-      for (int x = 0; x < n; ++x) {
-        const double v = row[x] + an * wa.nx[x] + bn * wb.nx[x];
-        rvv += v * v;
-        rva += v * wa.gx[x];
-        rvb += v * wb.gx[x];
-      }
-      vb += rvb * wb.gy[k];
+      rvv[k] = svv;
+      rva[k] = sva;
+      rvb[k] = svb;
+    }
+  }
+  for (int k = 0; k < n; ++k) {
+    const double ag = wa.gy[k];
+    if (ib) {
+      vb += rvb[k] * wb.gy[k];
       bb += bx2 * wb.gy[k] * wb.gy[k];
       ab += abx * ag * wb.gy[k];
     }
-    vv += rvv;
-    va += rva * ag;
+    vv += rvv[k];
+    va += rva[k] * ag;
     aa += ax2 * ag * ag;
   }
   double explained = 0;
@@ -1006,13 +1117,7 @@ bool JointFit::splitMergedPairs(double level, double noise) {
     spots[i].a = spots[k].a = 0.5 * keep_spot.a;
     render(spots[i], -1.0f);
     render(spots[k], -1.0f);
-    // Refitted in a fixed order, the new spot first: as two arguments of one std::max the
-    // order would be the compiler's (GCC and clang differ, and so would the positions).
-    for (int pass = 0; pass < kTune.split_passes; ++pass) {
-      const double moved_k = refit(k, kTune.split_refit_iterations);
-      const double moved_i = refit(i, kTune.split_refit_iterations);
-      if (std::max(moved_i, moved_k) < kTune.sweep_converged_px) break;
-    }
+    fitPair(i, k);
     double pair_energy = 0;
     const double r2 = shapedRss(cx, cy, i, &k, noise, pair_energy);
     const double apart = std::hypot(dets[i].x - dets[k].x, dets[i].y - dets[k].y);
