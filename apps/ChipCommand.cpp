@@ -87,6 +87,10 @@ void printSummary(const simulate::ChipResult& r, const std::string& out) {
   if (const auto& q = j["throats"]["quantiles_width_um"]; q.is_object())
     std::printf("  throat widths       percentiles 10/25/75/90: %.4g / %.4g / %.4g / %.4g um\n", q["p10"].get<double>(), q["p25"].get<double>(),
                 q["p75"].get<double>(), q["p90"].get<double>());
+  if (const auto& tr = j["throats_rendered"]; tr.is_object())
+    std::printf("  throats as rendered min %.4g um, median %.4g um, mean %.4g um; %d under the minimum gap %.4g um (%d pixels cleared)\n",
+                tr["min_width_um"].get<double>(), tr["median_width_um"].get<double>(), tr["mean_width_um"].get<double>(),
+                tr["grain_pairs_under_min_gap"].get<int>(), tr["min_gap_um"].get<double>(), tr["cleared_px"].get<int>());
   if (j.contains("narrowest_spanning_throat"))
     std::printf("  spanning path       narrowest %.4g um at (%g, %g) px\n", j["narrowest_spanning_throat"]["width_um"].get<double>(),
                 j["narrowest_spanning_throat"]["x_px"].get<double>(), j["narrowest_spanning_throat"]["y_px"].get<double>());

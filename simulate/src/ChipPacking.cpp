@@ -3,7 +3,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
+#include <set>
+#include <utility>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -15,6 +18,9 @@ namespace {
 /// Overlap (px) below which the relaxation counts the discs as separated: a tenth of a pixel
 /// cannot change the rendered mask by more than a pixel here and there.
 constexpr double kOverlapDonePx = 0.1;
+/// Rendered gaps are lattice values (pixelSquareGap): a gap within this of the minimum keeps it
+/// (a --min-throat-px of 3 is met by squares exactly 3 px apart despite rounding).
+constexpr double kGapSlackPx = 1e-9;
 /// Each push moves the pair a little beyond contact, so touching pairs do not re-touch at once.
 constexpr double kOverPush = 1.02;
 constexpr int kMaxSweeps = 3000;
@@ -264,21 +270,148 @@ double porosityOf(const BoolArray& solid) { return 1.0 - static_cast<double>(sol
 
 }  // namespace
 
-BoolArray renderChip(const std::vector<ChipDisc>& discs, int cols, int rows, int wall_px) {
-  BoolArray solid = BoolArray::Constant(rows, cols, false);
-  solid.topRows(std::min(rows, wall_px)).setConstant(true);
-  solid.bottomRows(std::min(rows, wall_px)).setConstant(true);
-  for (const auto& c : discs) {
-    const int i0 = std::max(0, static_cast<int>(std::floor(c.x - c.r))), i1 = std::min(cols - 1, static_cast<int>(std::ceil(c.x + c.r)));
-    const int j0 = std::max(0, static_cast<int>(std::floor(c.y - c.r))), j1 = std::min(rows - 1, static_cast<int>(std::ceil(c.y + c.r)));
+double pixelSquareGap(int di, int dj) {
+  return std::hypot(std::max(0, std::abs(di) - 1), std::max(0, std::abs(dj) - 1));
+}
+
+namespace {
+
+/// Offsets (di, dj) to the pixels whose squares are closer than `gap` to a pixel's (itself excluded).
+std::vector<std::pair<int, int>> offsetsCloserThan(double gap) {
+  std::vector<std::pair<int, int>> out;
+  const int reach = static_cast<int>(std::ceil(gap)) + 1;
+  for (int dj = -reach; dj <= reach; ++dj)
+    for (int di = -reach; di <= reach; ++di)
+      if ((di != 0 || dj != 0) && pixelSquareGap(di, dj) < gap - kGapSlackPx) out.emplace_back(di, dj);
+  return out;
+}
+
+/// Whether grain pixel row j is closer than `gap` to a wall row (wall_px > 0) or, with mirror
+/// sides, closer than gap / 2 to an edge (its gap to its own image is twice that).
+bool tooNearSide(int j, int rows, int wall_px, double gap) {
+  if (wall_px > 0) return j - wall_px < gap - kGapSlackPx || (rows - wall_px) - (j + 1) < gap - kGapSlackPx;
+  return 2.0 * j < gap - kGapSlackPx || 2.0 * (rows - 1 - j) < gap - kGapSlackPx;
+}
+
+}  // namespace
+
+ChipLabels renderChipLabels(const std::vector<ChipDisc>& discs, int cols, int rows, int wall_px, double min_gap_px, double grow_px, int* cleared) {
+  ChipLabels label = ChipLabels::Constant(rows, cols, -1);
+  for (std::size_t k = 0; k < discs.size(); ++k) {
+    const ChipDisc& c = discs[k];
+    const double r = c.r + grow_px;
+    const int i0 = std::max(0, static_cast<int>(std::floor(c.x - r))), i1 = std::min(cols - 1, static_cast<int>(std::ceil(c.x + r)));
+    const int j0 = std::max(0, static_cast<int>(std::floor(c.y - r))), j1 = std::min(rows - 1, static_cast<int>(std::ceil(c.y + r)));
     for (int j = j0; j <= j1; ++j)
       for (int i = i0; i <= i1; ++i) {
         const double dx = i + 0.5 - c.x, dy = j + 0.5 - c.y;
-        if (dx * dx + dy * dy < c.r * c.r) solid(j, i) = true;
+        if (dx * dx + dy * dy < r * r) label(j, i) = static_cast<int>(k);
       }
   }
+  int n_cleared = 0;
+  if (min_gap_px > 0) {
+    const auto offsets = offsetsCloserThan(min_gap_px);
+    const auto depth = [&](int i, int j) {
+      const ChipDisc& c = discs[static_cast<std::size_t>(label(j, i))];
+      return c.r - std::hypot(i + 0.5 - c.x, j + 0.5 - c.y);
+    };
+    // Clearing only removes grain, so a gap once kept stays kept; each pass clears at least one
+    // pixel or finds none to clear, and the passes end.
+    for (bool changed = true; changed;) {
+      changed = false;
+      for (int i = 0; i < cols; ++i)
+        for (int j = 0; j < rows; ++j) {
+          const int a = label(j, i);
+          if (a < 0) continue;
+          if (tooNearSide(j, rows, wall_px, min_gap_px)) {
+            label(j, i) = -1, ++n_cleared, changed = true;
+            continue;
+          }
+          for (const auto& [di, dj] : offsets) {
+            const int i2 = i + di, j2 = j + dj;
+            if (i2 < 0 || i2 >= cols || j2 < 0 || j2 >= rows) continue;
+            const int b = label(j2, i2);
+            if (b < 0 || b == a) continue;
+            const double da = depth(i, j), db = depth(i2, j2);
+            // The shallower pixel goes; on a tie the later one in column-major order.
+            const bool clear_self = da < db || (da == db && (i > i2 || (i == i2 && j > j2)));
+            ++n_cleared, changed = true;
+            if (clear_self) {
+              label(j, i) = -1;
+              break;
+            }
+            label(j2, i2) = -1;
+          }
+        }
+    }
+  }
+  if (cleared) *cleared = n_cleared;
+  return label;
+}
+
+namespace {
+BoolArray solidOf(const ChipLabels& label, int wall_px) {
+  const int rows = static_cast<int>(label.rows());
+  BoolArray solid = label >= 0;
+  solid.topRows(std::min(rows, wall_px)).setConstant(true);
+  solid.bottomRows(std::min(rows, wall_px)).setConstant(true);
   return solid;
 }
+}  // namespace
+
+BoolArray renderChip(const std::vector<ChipDisc>& discs, int cols, int rows, int wall_px, double min_gap_px, double grow_px) {
+  return solidOf(renderChipLabels(discs, cols, rows, wall_px, min_gap_px, grow_px), wall_px);
+}
+
+int renderedGapViolations(const ChipLabels& label, int wall_px, double min_gap_px) {
+  const int rows = static_cast<int>(label.rows()), cols = static_cast<int>(label.cols());
+  const auto offsets = offsetsCloserThan(min_gap_px);
+  std::set<std::pair<int, int>> pairs;
+  for (int i = 0; i < cols; ++i)
+    for (int j = 0; j < rows; ++j) {
+      const int a = label(j, i);
+      if (a < 0) continue;
+      if (tooNearSide(j, rows, wall_px, min_gap_px)) pairs.emplace(a, 2 * j < rows ? kThroatTopWall : kThroatBottomWall);
+      for (const auto& [di, dj] : offsets) {
+        const int i2 = i + di, j2 = j + dj;
+        if (i2 < 0 || i2 >= cols || j2 < 0 || j2 >= rows) continue;
+        if (const int b = label(j2, i2); b >= 0 && b > a) pairs.emplace(a, b);
+      }
+    }
+  return static_cast<int>(pairs.size());
+}
+
+namespace {
+/// Bisection steps on the growth; the porosity moves by whole pixels, so it settles well before.
+constexpr int kGrowSteps = 16;
+/// Growth searched, px: a pixel square reaches at most 0.71 px past its disc, so clearing never
+/// removes more than a growth of that order puts back.
+constexpr double kMaxGrowPx = 1.0;
+
+/// The final rendering: pixel centres within r + grow_px of a disc, then the pixels that break the
+/// minimum gap cleared (renderChipLabels), with grow_px >= 0 the smallest the bisection finds
+/// whose porosity is nearest the target (clearing opens pores; the growth closes as many
+/// elsewhere, so the discs need no rescaling and no second relaxation).
+void renderKeepingTheGap(ChipPacking& out, const ChipPackingSpec& s) {
+  const auto at = [&](double grow, ChipPacking& p) {
+    p.labels = renderChipLabels(p.discs, s.cols, s.rows, s.wall_px, s.min_gap_px, grow, &p.cleared_px);
+    p.solid = solidOf(p.labels, s.wall_px);
+    p.porosity_total = porosityOf(p.solid);
+    p.render_grow_px = grow;
+  };
+  at(0, out);
+  if (out.porosity_total <= s.porosity) return;
+  ChipPacking best = out;
+  double lo = 0, hi = kMaxGrowPx;
+  for (int step = 0; step < kGrowSteps && std::abs(best.porosity_total - s.porosity) > 0.1 * s.porosity_tolerance; ++step) {
+    const double mid = 0.5 * (lo + hi);
+    at(mid, out);
+    if (std::abs(out.porosity_total - s.porosity) < std::abs(best.porosity_total - s.porosity)) best = out;
+    (out.porosity_total > s.porosity ? lo : hi) = mid;
+  }
+  out = std::move(best);
+}
+}  // namespace
 
 ChipPacking packChip(const ChipPackingSpec& s) {
   if (s.cols < 8 || s.rows < 2 * s.wall_px + 8) throw std::invalid_argument("the chip is too small for a pattern");
@@ -298,10 +431,15 @@ ChipPacking packChip(const ChipPackingSpec& s) {
                                               kMaxInflatedFraction));
     for (auto& c : out.discs) clampDisc(c, s);
     out.relax_sweeps = relax(out.discs, s);
-    out.solid = renderChip(out.discs, s.cols, s.rows, s.wall_px);
-    out.porosity_total = porosityOf(out.solid);
+    // The discs' scale is set on the centre rule alone (the rendering before the gap is kept);
+    // then the kept-gap rendering meets the porosity by its growth (renderKeepingTheGap).
+    out.porosity_total = porosityOf(renderChip(out.discs, s.cols, s.rows, s.wall_px));
     out.porosity_rounds = round;
     if (std::abs(out.porosity_total - s.porosity) <= s.porosity_tolerance) {
+      renderKeepingTheGap(out, s);
+      if (std::abs(out.porosity_total - s.porosity) > s.porosity_tolerance)
+        throw std::invalid_argument(fmt::format("the porosity {:.4f} of the rendering that keeps the minimum gap could not be brought within {:g} of {:g}",
+                                                out.porosity_total, s.porosity_tolerance, s.porosity));
       out.homogeneity = windowPorosity(out.solid, out.discs, s, static_cast<int>(std::lround(kHomogeneityWindowDiameters * s.mean_diameter_px)));
       return out;
     }
@@ -346,11 +484,11 @@ std::vector<ChipThroat> mirrorThroats(const std::vector<ChipDisc>& d, int rows, 
   std::vector<ChipThroat> out;
   const double rmax = maxRadius(d), near = 2 * rmax + max_width_px;
   std::vector<ChipDisc> e = d;
-  std::vector<int> origin(d.size());
+  std::vector<int> origin(d.size()), side(d.size(), 0);
   for (std::size_t i = 0; i < d.size(); ++i) origin[i] = static_cast<int>(i);
   for (std::size_t i = 0; i < d.size(); ++i) {
-    if (d[i].y < near) e.push_back({d[i].x, -d[i].y, d[i].r}), origin.push_back(static_cast<int>(i));
-    if (rows - d[i].y < near) e.push_back({d[i].x, 2.0 * rows - d[i].y, d[i].r}), origin.push_back(static_cast<int>(i));
+    if (d[i].y < near) e.push_back({d[i].x, -d[i].y, d[i].r}), origin.push_back(static_cast<int>(i)), side.push_back(-1);
+    if (rows - d[i].y < near) e.push_back({d[i].x, 2.0 * rows - d[i].y, d[i].r}), origin.push_back(static_cast<int>(i)), side.push_back(1);
   }
   const auto n = static_cast<int>(d.size());
   int cols = 0;
@@ -375,7 +513,7 @@ std::vector<ChipThroat> mirrorThroats(const std::vector<ChipDisc>& d, int rows, 
       // Across a plane: the disc with its own image (midpoint on the plane), or with another's
       // image, counted where the midpoint lies inside (its mirror pair's lies outside).
       if (b >= n && origin[static_cast<std::size_t>(b)] != a && !(my > 0 && my < rows)) return;
-      if (clear(mx, my, 0.5 * gap, a, b)) out.push_back({gap, mx, my});
+      if (clear(mx, my, 0.5 * gap, a, b)) out.push_back({gap, mx, my, a, origin[static_cast<std::size_t>(b)], side[static_cast<std::size_t>(b)]});
     });
   return out;
 }
@@ -412,14 +550,50 @@ std::vector<ChipThroat> chipThroats(const std::vector<ChipDisc>& d, int rows, in
       if (gap <= 0 || gap > max_width_px) return;
       const double t = (d[i].r + 0.5 * gap) / dist;
       const double mx = d[i].x + t * dx, my = d[i].y + t * dy;
-      if (clear(mx, my, 0.5 * gap, a, j, 0)) out.push_back({gap, mx, my});
+      if (clear(mx, my, 0.5 * gap, a, j, 0)) out.push_back({gap, mx, my, a, j, 0});
     });
     for (const double wall_y : {top, bottom}) {
       const double gap = std::abs(d[i].y - wall_y) - d[i].r;
       if (gap <= 0 || gap > max_width_px) continue;
       const double my = wall_y + (d[i].y > wall_y ? 0.5 * gap : -0.5 * gap);
-      if (clear(d[i].x, my, 0.5 * gap, a, -1, wall_y == top ? 1 : 2)) out.push_back({gap, d[i].x, my});
+      if (clear(d[i].x, my, 0.5 * gap, a, -1, wall_y == top ? 1 : 2))
+        out.push_back({gap, d[i].x, my, a, wall_y == top ? kThroatTopWall : kThroatBottomWall, 0});
     }
+  }
+  return out;
+}
+
+std::vector<double> renderedThroatWidths(const std::vector<ChipThroat>& throats, const ChipLabels& label, int wall_px) {
+  const int rows = static_cast<int>(label.rows()), cols = static_cast<int>(label.cols());
+  // Each grain's boundary pixels (a 4-neighbour not of the grain): the nearest point of a union of
+  // squares to anything outside it lies on an edge of one of them.
+  int n = 0;
+  for (const auto& t : throats) n = std::max({n, t.a + 1, t.b + 1});
+  std::vector<std::vector<std::pair<int, int>>> edge(static_cast<std::size_t>(n));
+  const auto same = [&](int i, int j, int a) { return i >= 0 && i < cols && j >= 0 && j < rows && label(j, i) == a; };
+  for (int i = 0; i < cols; ++i)
+    for (int j = 0; j < rows; ++j) {
+      const int a = label(j, i);
+      if (a < 0 || a >= n) continue;
+      if (!same(i - 1, j, a) || !same(i + 1, j, a) || !same(i, j - 1, a) || !same(i, j + 1, a)) edge[static_cast<std::size_t>(a)].emplace_back(i, j);
+    }
+  std::vector<double> out;
+  out.reserve(throats.size());
+  for (const auto& t : throats) {
+    const auto& ea = edge[static_cast<std::size_t>(t.a)];
+    double w = std::numeric_limits<double>::infinity();
+    if (t.b == kThroatTopWall || t.b == kThroatBottomWall) {
+      for (const auto& [i, j] : ea) w = std::min<double>(w, t.b == kThroatTopWall ? j - wall_px : (rows - wall_px) - (j + 1));
+    } else {
+      const auto& eb = edge[static_cast<std::size_t>(t.b)];
+      for (const auto& [i1, j1] : ea)
+        for (const auto& [i2, j2] : eb) {
+          // An image across the top edge has row -1 - j2, across the bottom 2 rows - 1 - j2.
+          const int j2_image = t.mirror < 0 ? -1 - j2 : t.mirror > 0 ? 2 * rows - 1 - j2 : j2;
+          w = std::min(w, pixelSquareGap(i1 - i2, j1 - j2_image));
+        }
+    }
+    out.push_back(std::isfinite(w) ? w : std::numeric_limits<double>::quiet_NaN());
   }
   return out;
 }

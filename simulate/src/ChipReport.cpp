@@ -196,8 +196,18 @@ nlohmann::json chipStatistics(const ChipResult& r) {
   const PoreSpaceReport pores = analysePoreSpace(r.packing.solid);
   const Moments g = moments(grainDiametersUm(r));
   std::vector<double> tw;
-  for (const auto& t : throatsOf(r)) tw.push_back(t.width_px * s.pixel_um);
+  const std::vector<ChipThroat> throats = throatsOf(r);
+  for (const auto& t : throats) tw.push_back(t.width_px * s.pixel_um);
   const Moments t = moments(tw);
+  // The same throats as rendered: the grains' pixel squares, which the solvers and particles see.
+  std::vector<double> tr;
+  int rendered_under = 0;
+  for (const double w : renderedThroatWidths(throats, r.packing.labels, s.wall_px))
+    if (std::isfinite(w)) {
+      tr.push_back(w * s.pixel_um);
+      if (w < s.min_throat_px - 1e-9) ++rendered_under;
+    }
+  const Moments tm = moments(tr);
   nlohmann::json j;
   j["schema"] = "mmval chip statistics 1";
   j["seed"] = s.seed;
@@ -262,6 +272,18 @@ nlohmann::json chipStatistics(const ChipResult& r) {
                                      (s.wall_px == 0 ? "; mirror sides: the grains' mirror images across the edges are solids too, so a "
                                                        "throat between a grain and an edge is twice its distance to it"
                                                      : "")}};
+  j["throats_rendered"] = {{"count", tr.size()}, {"mean_width_um", tm.mean}, {"min_width_um", tm.min}, {"median_width_um", tm.median},
+                           {"quantiles_width_um", quantiles(tr)}, {"min_gap_um", s.min_throat_px * s.pixel_um},
+                           {"under_min_gap", rendered_under},
+                           {"grain_pairs_under_min_gap", renderedGapViolations(r.packing.labels, s.wall_px, s.min_throat_px)},
+                           {"cleared_px", r.packing.cleared_px}, {"grow_px", r.packing.render_grow_px},
+                           {"definition", std::string("the throats of `throats` as rendered in chip.png: the smallest distance between the pixel squares of "
+                                                      "the two grains (or from the grain's squares to the wall rows); under_min_gap counts them below "
+                                                      "--min-throat-px, grain_pairs_under_min_gap every pair of grains (or grain and wall) whose squares "
+                                                      "are closer than that, throats or not; cleared_px: grain pixels the rendering cleared to keep the "
+                                                      "gap, grow_px: the growth of every disc in the rendering that gives their area back "
+                                                      "(docs/chip-generator.md)") +
+                                              (s.wall_px == 0 ? "; mirror sides: to the grains' mirror images, so to an edge twice the distance" : "")}};
   if (const Throat n = narrowestThroat(pores.solid_connected, s.pixel_um * 1e-6, false, false, 0, 0, s.wall_px == 0); n.path && std::isfinite(n.width_m))
     j["narrowest_spanning_throat"] = {{"width_um", n.width_m * 1e6}, {"x_px", std::floor(n.x_m / (s.pixel_um * 1e-6))},
                                       {"y_px", std::floor(r.packing.solid.rows() - n.y_m / (s.pixel_um * 1e-6))},

@@ -184,3 +184,115 @@ TEST(ChipPacking, WindowPorosityScattersFarLessThanPoissonPlacement) {
   // leave out the grain-free ports, which outweigh the solid walls they also leave out).
   EXPECT_NEAR(u.mean, q.mean, 0.01);
 }
+
+namespace {
+
+/// Smallest distance (px) between the unit squares of two pixels, written out here from the
+/// geometry (the squares' x and y extents), not from the library's pixelSquareGap.
+double squareDistance(int i1, int j1, int i2, int j2) {
+  const auto axis = [](int a, int b) { return std::max(0.0, std::abs(static_cast<double>(a) - b) - 1.0); };
+  return std::hypot(axis(i1, i2), axis(j1, j2));
+}
+
+struct RenderedGapCheck {
+  int grain_pairs = 0;  ///< pixel pairs of different grains closer than the gap
+  int side = 0;         ///< grain pixels closer than the gap to a wall row (or half of it to a mirror edge)
+  int unlabelled = 0;   ///< grain pixels farther than a pixel from every disc
+};
+
+/// Brute force over every pair of grain pixels of `solid` (outside the wall rows): each labelled by
+/// the disc nearest its centre, compared with every other grain pixel of another disc.
+RenderedGapCheck checkRenderedGaps(const BoolArray& solid, const std::vector<ChipDisc>& discs, int wall_px, double gap) {
+  struct Px {
+    int i, j, disc;
+  };
+  std::vector<Px> px;
+  RenderedGapCheck c;
+  const int rows = static_cast<int>(solid.rows());
+  for (int i = 0; i < solid.cols(); ++i)
+    for (int j = wall_px; j < rows - wall_px; ++j) {
+      if (!solid(j, i)) continue;
+      // The disc whose surface is nearest the pixel's centre, within a pixel (the rendering grows
+      // the discs by a fraction of a pixel to meet the porosity).
+      int disc = -1;
+      double nearest = 1.0;
+      for (std::size_t k = 0; k < discs.size(); ++k)
+        if (const double d = std::hypot(i + 0.5 - discs[k].x, j + 0.5 - discs[k].y) - discs[k].r; d < nearest) nearest = d, disc = static_cast<int>(k);
+      if (disc < 0) {
+        ++c.unlabelled;
+        continue;
+      }
+      px.push_back({i, j, disc});
+      const double to_side = wall_px > 0 ? std::min(j - wall_px, rows - wall_px - 1 - j) : 2.0 * std::min(j, rows - 1 - j);
+      if (to_side < gap - 1e-9) ++c.side;
+    }
+  for (std::size_t a = 0; a < px.size(); ++a)
+    for (std::size_t b = a + 1; b < px.size(); ++b)
+      if (px[a].disc != px[b].disc && squareDistance(px[a].i, px[a].j, px[b].i, px[b].j) < gap - 1e-9) ++c.grain_pairs;
+  return c;
+}
+
+}  // namespace
+
+// The mask the solvers and particles see keeps the minimum gap between pixel squares (issue 26:
+// pixel centres inside a disc alone gave 2 and sqrt 5 px gaps for a 3 px design gap). Brute force
+// over all pairs of grain pixels; and the same discs rendered by the centre rule alone (min_gap 0,
+// the former rendering) break the gap, so the check is not empty.
+TEST(ChipPacking, RenderedGrainsKeepTheMinimumGapBetweenPixelSquares) {
+  ChipPackingSpec s = smallPacking(3);
+  s.cols = 200;
+  s.rows = 120;
+  const ChipPacking p = packChip(s);
+  const RenderedGapCheck fixed = checkRenderedGaps(p.solid, p.discs, s.wall_px, s.min_gap_px);
+  EXPECT_EQ(fixed.unlabelled, 0);
+  EXPECT_EQ(fixed.grain_pairs, 0);
+  EXPECT_EQ(fixed.side, 0);
+  EXPECT_EQ(renderedGapViolations(p.labels, s.wall_px, s.min_gap_px), 0);
+  const RenderedGapCheck centre_rule = checkRenderedGaps(renderChip(p.discs, s.cols, s.rows, s.wall_px), p.discs, s.wall_px, s.min_gap_px);
+  EXPECT_GT(centre_rule.grain_pairs, 50) << "the former rendering of the same discs should break the gap";
+  EXPECT_GT(renderedGapViolations(renderChipLabels(p.discs, s.cols, s.rows, s.wall_px, 0), s.wall_px, s.min_gap_px), 10);
+  // Porosity is still met on the rendered (cleared) mask, measured here from the pixels.
+  EXPECT_LE(std::abs(1.0 - static_cast<double>(p.solid.count()) / static_cast<double>(p.solid.size()) - s.porosity), s.porosity_tolerance);
+  EXPECT_GT(p.cleared_px, 0);
+}
+
+// Mirror sides (wall_px 0) and a gap that is not a whole number of pixels: a grain's pixels keep
+// half the gap from the edges (twice the distance is its gap to its own image).
+TEST(ChipPacking, RenderedGrainsKeepTheGapWithMirrorSidesAndAFractionalGap) {
+  ChipPackingSpec s = smallPacking(5);
+  s.cols = 200;
+  s.rows = 120;
+  s.wall_px = 0;
+  s.min_gap_px = 4.5;
+  s.porosity = 0.62;
+  const ChipPacking p = packChip(s);
+  const RenderedGapCheck fixed = checkRenderedGaps(p.solid, p.discs, 0, s.min_gap_px);
+  EXPECT_EQ(fixed.unlabelled, 0);
+  EXPECT_EQ(fixed.grain_pairs, 0);
+  EXPECT_EQ(fixed.side, 0);
+  const RenderedGapCheck centre_rule = checkRenderedGaps(renderChip(p.discs, s.cols, s.rows, 0), p.discs, 0, s.min_gap_px);
+  EXPECT_GT(centre_rule.grain_pairs + centre_rule.side, 0) << "the former rendering of the same discs should break the gap";
+}
+
+// Rendered throat widths: two squares of pixels a known distance apart, and a grain near a wall
+// and near a mirror edge, against distances counted by hand.
+TEST(ChipPacking, RenderedThroatWidthIsTheDistanceBetweenPixelSquares) {
+  // Disc 0 covers the pixel centres of columns 10-13, rows 10-13 (a 4 x 4 block); disc 1 the block
+  // of columns 17-20, rows 12-15: 3 columns and 0 rows between the squares -> 3 px.
+  // Radius 2.2: the block's corner centres are 2.12 px from the centre, the next ones out 2.55 px.
+  const std::vector<ChipDisc> d{{12.0, 12.0, 2.2}, {19.0, 14.0, 2.2}};
+  const ChipLabels l = renderChipLabels(d, 40, 30, 2, 0);
+  ASSERT_EQ((l == 0).count(), 16);
+  ASSERT_EQ((l == 1).count(), 16);
+  std::vector<ChipThroat> t(4);
+  t[0].a = 0, t[0].b = 1;
+  t[1].a = 0, t[1].b = kThroatTopWall;     // rows 2..9 open between the wall (rows 0-1) and row 10: 8 px
+  t[2].a = 1, t[2].b = kThroatBottomWall;  // rows 16..27 open above the wall (rows 28-29): 12 px
+  t[3].a = 0, t[3].b = 0, t[3].mirror = -1;  // own image across the top edge: twice row 10's 10 px
+  const std::vector<double> w = renderedThroatWidths(t, l, 2);
+  // The nearest squares: disc 0's column 13 and disc 1's column 17 in rows 12-13: 3 columns between.
+  EXPECT_DOUBLE_EQ(w[0], 3.0);
+  EXPECT_DOUBLE_EQ(w[1], 8.0);
+  EXPECT_DOUBLE_EQ(w[2], 12.0);
+  EXPECT_DOUBLE_EQ(w[3], 20.0);
+}

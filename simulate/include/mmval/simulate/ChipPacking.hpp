@@ -24,8 +24,12 @@
 //
 // Then the discs are pushed apart (Gauss-Seidel overlap removal, each disc inflated by half the
 // minimum gap, radii grown in stages) until no two come closer than the gap, so every throat
-// between grains is at least the gap wide and the pore space percolates. Porosity is then met on
-// the rendered pixels by scaling all radii and relaxing again.
+// between grains is at least the gap wide and the pore space percolates. The rendering then clears
+// the few edge pixels whose squares come closer than the gap to another grain's (or a wall), so
+// the mask keeps the gap too (renderChipLabels). Porosity is met on the pixels by scaling all
+// radii and relaxing again (on the rendering without clearing, as before the gap was kept), then
+// the kept-gap rendering grows every disc by the same fraction of a pixel to give back the area
+// the clearing took.
 //
 // Units: lengths in pixels inside this header's types (the pixel is the pattern's only scale);
 // the caller converts with the pixel size.
@@ -89,11 +93,22 @@ inline constexpr double kHomogeneityWindowDiameters = 10;
 struct ChipThroat {
   double width_px = 0;
   double x = 0, y = 0;  ///< midpoint, px
+  /// The two solids: disc indices; b = kThroatTopWall / kThroatBottomWall for a wall. Mirror
+  /// sides: b is the disc whose image it is (b == a: the disc's own image), `mirror` says which edge.
+  int a = -1, b = -1;
+  int mirror = 0;  ///< 0: no image; -1: b's image across the top edge; +1: across the bottom edge
 };
+inline constexpr int kThroatTopWall = -1, kThroatBottomWall = -2;
+
+/// Disc index of each pixel (rows x cols): -1 pore or wall.
+using ChipLabels = Eigen::Array<int, Eigen::Dynamic, Eigen::Dynamic>;
 
 struct ChipPacking {
   std::vector<ChipDisc> discs;
   BoolArray solid;              ///< rows x cols, true = grain or wall
+  ChipLabels labels;            ///< rows x cols, the disc each grain pixel belongs to (renderChipLabels)
+  int cleared_px = 0;           ///< grain pixels the rendering cleared to keep the minimum gap (renderChipLabels)
+  double render_grow_px = 0;    ///< growth of the discs in the final rendering (renderChipLabels), px
   double porosity_total = 0;    ///< pore pixels / all pixels
   int relax_sweeps = 0;         ///< Gauss-Seidel sweeps of the last relaxation
   int porosity_rounds = 0;      ///< radius scalings used to meet the porosity
@@ -117,8 +132,31 @@ ChipPacking packChip(const ChipPackingSpec& spec);
 /// overlap removal converges in a few hundred sweeps.
 inline constexpr double kMaxInflatedFraction = 0.80;
 
-/// Renders discs and walls (pixel centres inside a disc are grain).
-BoolArray renderChip(const std::vector<ChipDisc>& discs, int cols, int rows, int wall_px);
+/// Renders discs and walls (pixel centres inside a disc are grain). min_gap_px > 0: then clears
+/// the grain pixels that break the minimum gap as rendered (renderChipLabels).
+BoolArray renderChip(const std::vector<ChipDisc>& discs, int cols, int rows, int wall_px, double min_gap_px = 0, double grow_px = 0);
+
+/// Distance between the unit squares of pixels (i1, j1) and (i2, j2), px: 0 for neighbours,
+/// sqrt(a^2 + b^2) for squares a columns and b rows apart.
+double pixelSquareGap(int di, int dj);
+
+/// The grain pixels of a rendering, labelled by disc: a pixel is grain when its centre lies inside
+/// a disc grown by grow_px (as renderChip; packChip grows by the fraction of a pixel that gives
+/// back the grain area the clearing below takes). A pixel square reaches up to 0.71 px beyond its disc, so two grains
+/// whose discs keep the minimum gap can render closer (lattice values 2, sqrt 5, 2 sqrt 2 px for a
+/// 3 px gap). min_gap_px > 0: then, while two grain pixels of different discs have squares closer
+/// than min_gap_px (pixelSquareGap), the one whose centre lies less deep inside its disc
+/// (r - distance to the centre) is cleared (ties: the later in column-major order), and so is a
+/// grain pixel closer than min_gap_px to a wall row (wall_px > 0) or, with mirror sides
+/// (wall_px 0), closer than min_gap_px / 2 to the top or bottom edge (its gap to its own image is
+/// twice that; its gap to another grain's image is then at least min_gap_px too). `cleared`
+/// receives the number of pixels cleared.
+ChipLabels renderChipLabels(const std::vector<ChipDisc>& discs, int cols, int rows, int wall_px, double min_gap_px, double grow_px = 0,
+                            int* cleared = nullptr);
+
+/// Grain pairs (and grain-wall or grain-edge pairs) whose pixel squares are closer than
+/// min_gap_px in `labels` (the rule of renderChipLabels): 0 when the rendering keeps the gap.
+int renderedGapViolations(const ChipLabels& labels, int wall_px, double min_gap_px);
 
 /// Window porosity of `solid` (windows of side_px, tiling the spec's grain region) with the
 /// Poisson reference from `discs`. count = 0 (and zeros) when not one window fits.
@@ -129,5 +167,11 @@ ChipWindowPorosity windowPorosity(const BoolArray& solid, const std::vector<Chip
 /// edges instead of grain-wall ones (a disc's throat to its own image is twice its distance to
 /// the edge, its midpoint on the edge).
 std::vector<ChipThroat> chipThroats(const std::vector<ChipDisc>& discs, int rows, int wall_px, double max_width_px);
+
+/// Each throat's width as rendered, px, in the order of `throats`: the smallest distance between
+/// the pixel squares of its two grains in `labels` (pixelSquareGap), or from its grain's squares
+/// to the wall rows, or with mirror sides to the image's squares (to its own image: twice the
+/// distance to the edge). NaN when a grain has no pixel.
+std::vector<double> renderedThroatWidths(const std::vector<ChipThroat>& throats, const ChipLabels& labels, int wall_px);
 
 }  // namespace mmval::simulate
