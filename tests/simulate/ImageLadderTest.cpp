@@ -160,7 +160,9 @@ TEST(GridConvergence, PowerLawGivesItsOrderAndLimit) {
         EXPECT_NEAR(g.fit_extrapolated, 3, 1e-7);
         EXPECT_NEAR(g.fit_scatter, 0, 1e-7);
         // Fs |f1 - f0| + scatter + |f1 - fit(h1)|, Fs 1.25 for p in [0.5, 2.1] (else the p = 2 fit's, Fs 3).
-        if (p <= 2.1) EXPECT_NEAR(g.fit_uncertainty, 1.25 * std::abs(f[n - 1] - 3) / f[n - 1], 1e-6);
+        if (p <= 2.1) {
+          EXPECT_NEAR(g.fit_uncertainty, 1.25 * std::abs(f[n - 1] - 3) / f[n - 1], 1e-6);
+        }
       }
       EXPECT_EQ(g.status, "monotone");
       EXPECT_NEAR(g.observed_order, p, 1e-9);
