@@ -114,6 +114,35 @@ TEST(Sweep, StatisticsAreThoseOfItsRunsAndARunIsThePlainRunOfItsSetting) {
   EXPECT_EQ(readJson(dir / "sw" / "sweep.json").at("groups"), sw.at("groups"));
 }
 
+// A metric checked against two references has two rows in result.json ("retained_fraction (first)",
+// "retained_fraction (second)") with one value: the sweep reads it by the metric's own name, so
+// `--metric retained_fraction` finds it (it found nothing before).
+TEST(Sweep, AMetricCheckedAgainstTwoReferencesIsReadByItsOwnName) {
+  const fs::path dir = mmval::test::freshTestFolder("sweep", "labelled");
+  std::ifstream in(kChannel);
+  std::stringstream text;
+  text << in.rdbuf();
+  for (const char* label : {"first", "second"})
+    text << "[[acceptance]]\nmetric = \"retained_fraction\"\nlabel = \"" << label
+         << "\"\nreference = 0.5\ntolerance = \"none\"\nreason = \"shown, not judged: a second reference for the same metric\"\n";
+  const fs::path file = dir / "labelled.toml";
+  std::ofstream(file) << text.str();
+  const auto o = mmval::test::runMmval("sweep " + file.string() + kSmall + " --seeds 2 --metric retained_fraction --out " + (dir / "sw").string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  EXPECT_THAT(o.output, Not(HasSubstr("no run reported retained_fraction")));
+  const nlohmann::json sw = readJson(dir / "sw" / "sweep.json");
+  const nlohmann::json r1 = readJson(dir / "sw" / "runs" / "run-001" / "result.json");
+  const nlohmann::json r2 = readJson(dir / "sw" / "runs" / "run-002" / "result.json");
+  double v1 = std::nan(""), v2 = std::nan("");
+  for (const auto& m : r1.at("metrics"))
+    if (m.at("name") == "retained_fraction (second)") v1 = m.at("value").get<double>();
+  for (const auto& m : r2.at("metrics"))
+    if (m.at("name") == "retained_fraction (first)") v2 = m.at("value").get<double>();
+  ASSERT_FALSE(std::isnan(v1) || std::isnan(v2)) << "the case's labelled rows are missing";
+  EXPECT_NEAR(sw.at("groups")[0].at("metrics").at("retained_fraction").at("mean").get<double>(), 0.5 * (v1 + v2), 1e-12);
+  EXPECT_FALSE(sw.at("groups")[0].at("metrics").contains("retained_fraction (first)"));
+}
+
 TEST(Sweep, BadSweepsStopBeforeAnyRunNamingWhatIsWrong) {
   const fs::path dir = mmval::test::freshTestFolder("sweep", "bad");
   auto o = mmval::test::runMmval("sweep " + kChannel + kSmall + " --vary channel.no_such_key=1,2 --out " + (dir / "a").string());

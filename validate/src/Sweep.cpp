@@ -162,8 +162,10 @@ Discretisation discretisationOf(const SweepOptions& o, const std::vector<SweepAx
 void readMetrics(const nlohmann::json& result, SweepRun& run, std::map<std::string, std::string>& units) {
   run.wall_seconds = result.at("cost").at("wall_seconds").get<double>();
   for (const auto& m : result.at("metrics")) {
-    const std::string name = m.at("name").get<std::string>();
-    if (run.metrics.count(name) != 0) continue;  // a metric checked twice: its value is the same
+    // By the metric's own name: a metric checked against several references has one row per
+    // reference, named "metric (label)", and the same value in each.
+    const std::string name = m.contains("metric") ? m.at("metric").get<std::string>() : m.at("name").get<std::string>();
+    if (run.metrics.count(name) != 0) continue;
     run.metrics[name] = m.at("value").is_number() ? m.at("value").get<double>() : std::numeric_limits<double>::quiet_NaN();
     units.emplace(name, m.value("unit", ""));
   }
