@@ -462,6 +462,9 @@ class JointFit {
 #endif
   template <bool kAvx2>
   [[gnu::always_inline]] inline void extrapolate(std::size_t i, const Step& before, const Step& after);
+  template <bool kAvx2>
+  [[gnu::always_inline]] inline void gaussSeidel(const std::size_t* order, std::size_t count, int passes, int iterations, int extrapolate_every,
+                                                 Step* last, Step* now);
   void fitPair(std::size_t i, std::size_t k);
   template <bool kAvx2>
   [[gnu::always_inline]] inline void fitPairBody(std::size_t i, std::size_t k);
@@ -686,21 +689,31 @@ MMVAL_TARGET_AVX2 void JointFit::sweepAvx2() { sweepBody<true>(); }
 
 template <bool kAvx2>
 void JointFit::sweepBody() {
-  const std::size_t n = m_dets.size();
-  std::vector<Step> last(n), now(n);
+  std::vector<std::size_t> order;
+  for (std::size_t i = 0; i < m_dets.size(); ++i)
+    if (!m_nb.none(i)) order.push_back(i);
+  std::vector<Step> last(order.size()), now(order.size());
+  gaussSeidel<kAvx2>(order.data(), order.size(), kTune.sweep_passes, kTune.refit_iterations, kTune.extrapolate_every, last.data(), now.data());
+}
+
+// Gauss-Seidel passes over the spots order[0..count) in that order, `iterations` masked-centroid
+// steps per visit, until none moves by sweep_converged_px (at most `passes`); after every
+// `extrapolate_every`-th pass each spot jumps by Aitken's extrapolation of its last two steps.
+// last and now hold count steps each (the sweeps' and the split test's pair fit share it).
+template <bool kAvx2>
+void JointFit::gaussSeidel(const std::size_t* order, std::size_t count, int passes, int iterations, int extrapolate_every, Step* last, Step* now) {
   int plain = 0;
-  for (int pass = 0; pass < kTune.sweep_passes; ++pass) {
+  for (int pass = 0; pass < passes; ++pass) {
     double moved = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      if (m_nb.none(i)) continue;
-      const double x0 = m_dets[i].x, y0 = m_dets[i].y;
-      moved = std::max(moved, refitBody<kAvx2>(i, kTune.refit_iterations));
-      now[i] = {m_dets[i].x - x0, m_dets[i].y - y0};
+    for (std::size_t q = 0; q < count; ++q) {
+      const std::size_t j = order[q];
+      const double x0 = m_dets[j].x, y0 = m_dets[j].y;
+      moved = std::max(moved, refitBody<kAvx2>(j, iterations));
+      now[q] = {m_dets[j].x - x0, m_dets[j].y - y0};
     }
     if (moved < kTune.sweep_converged_px) break;
-    if (++plain == kTune.extrapolate_every) {
-      for (std::size_t i = 0; i < n; ++i)
-        if (!m_nb.none(i)) extrapolate<kAvx2>(i, last[i], now[i]);
+    if (++plain == extrapolate_every) {
+      for (std::size_t q = 0; q < count; ++q) extrapolate<kAvx2>(order[q], last[q], now[q]);
       plain = 0;
     }
     std::swap(last, now);
@@ -749,22 +762,7 @@ template <bool kAvx2>
 void JointFit::fitPairBody(std::size_t i, std::size_t k) {
   const std::size_t order[2] = {k, i};  // a fixed order: the positions depend on it
   Step last[2], now[2];
-  int plain = 0;
-  for (int pass = 0; pass < kTune.split_passes; ++pass) {
-    double moved = 0;
-    for (int q = 0; q < 2; ++q) {
-      const std::size_t j = order[q];
-      const double x0 = m_dets[j].x, y0 = m_dets[j].y;
-      moved = std::max(moved, refitBody<kAvx2>(j, kTune.split_refit_iterations));
-      now[q] = {m_dets[j].x - x0, m_dets[j].y - y0};
-    }
-    if (moved < kTune.sweep_converged_px) break;
-    if (++plain == kTune.split_extrapolate_every) {
-      for (int q = 0; q < 2; ++q) extrapolate<kAvx2>(order[q], last[q], now[q]);
-      plain = 0;
-    }
-    std::swap(last, now);
-  }
+  gaussSeidel<kAvx2>(order, 2, kTune.split_passes, kTune.split_refit_iterations, kTune.split_extrapolate_every, last, now);
 }
 
 // Residual, smoothed as the seeds were: a maximum above the seeds' level within `sep`
