@@ -401,15 +401,17 @@ void renderKeepingTheGap(ChipPacking& out, const ChipPackingSpec& s) {
   };
   at(0, out);
   if (out.porosity_total <= s.porosity) return;
-  ChipPacking best = out;
+  // The rendering is a function of the growth alone: the best one is kept as its growth and
+  // rendered again at the end if the search moved past it (no copies of the chip-sized arrays).
+  double best_grow = 0, best_error = std::abs(out.porosity_total - s.porosity);
   double lo = 0, hi = kMaxGrowPx;
-  for (int step = 0; step < kGrowSteps && std::abs(best.porosity_total - s.porosity) > 0.1 * s.porosity_tolerance; ++step) {
+  for (int step = 0; step < kGrowSteps && best_error > 0.1 * s.porosity_tolerance; ++step) {
     const double mid = 0.5 * (lo + hi);
     at(mid, out);
-    if (std::abs(out.porosity_total - s.porosity) < std::abs(best.porosity_total - s.porosity)) best = out;
+    if (const double e = std::abs(out.porosity_total - s.porosity); e < best_error) best_grow = mid, best_error = e;
     (out.porosity_total > s.porosity ? lo : hi) = mid;
   }
-  out = std::move(best);
+  if (out.render_grow_px != best_grow) at(best_grow, out);
 }
 }  // namespace
 
