@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <queue>
 #include <stdexcept>
@@ -37,6 +38,9 @@ constexpr long long kSplitCells = 40000;
 constexpr double kSplitFriction = 0.5;
 constexpr double kSplitRtol = 1e-12;
 constexpr int kSplitMaxIterations = 60;  // 3x the measured 19-20
+/// The friction split after the LU failed (grids finer than the split's own choice, where it needs
+/// more iterations: see solve()).
+constexpr int kSplitFallbackMaxIterations = 400;
 
 /// Distance (m) from each pixel centre to the nearest grain or side wall, row-major
 /// from the bottom row up (j * cols + i, j = 0 the image's last row). Mirror sides: to the
@@ -298,52 +302,85 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
   // Warm start: the kept solver takes the changed geometry (same grid); direct: a fresh solver
   // per solve, dropped after it (as its LU factors).
   std::unique_ptr<simulate::SteadyFlowSolver> fresh;
-  if (m_opt.warm_start && m_solver) {
-    m_solver->update(std::move(prob));
-  } else {
+  simulate::SteadyFlowSolver* solver = nullptr;
+  const auto splitOptions = [](int max_iterations) {
+    simulate::SolverOptions so;
+    so.linear = "iterative";
+    so.linear_rtol = kSplitRtol;
+    so.linear_max_iterations = max_iterations;
+    so.keep_factorisation = so.fixed_pattern = false;  // nothing is kept between split solves
+    so.warm_max_iterations = 0;
+    return so;
+  };
+  const auto prepare = [&](simulate::FlowProblem&& problem) {
+    if (m_opt.warm_start && m_solver) {
+      m_solver->update(std::move(problem));
+      solver = m_solver.get();
+      return;
+    }
     simulate::SolverOptions so;
     so.keep_factorisation = m_opt.warm_start;
     so.warm_max_iterations = m_opt.warm_start ? m_opt.warm_max_iterations : 0;
     so.fixed_pattern = m_opt.warm_start && m_opt.fixed_pattern;
-    const double dx = prob.x.minWidth(), dy = prob.y.minWidth(), friction = 12 / (m_opt.depth * m_opt.depth);
-    if (static_cast<long long>(prob.x.cells()) * prob.y.cells() >= kSplitCells && friction >= kSplitFriction * (2 / (dx * dx) + 2 / (dy * dy))) {
-      so.linear = "iterative";
-      so.linear_rtol = kSplitRtol;
-      so.linear_max_iterations = kSplitMaxIterations;
-      so.keep_factorisation = so.fixed_pattern = false;  // nothing is kept between split solves
-      so.warm_max_iterations = 0;
-    }
+    const double dx = problem.x.minWidth(), dy = problem.y.minWidth(), friction = 12 / (m_opt.depth * m_opt.depth);
+    if (m_lu_failed)
+      so = splitOptions(kSplitFallbackMaxIterations);
+    else if (static_cast<long long>(problem.x.cells()) * problem.y.cells() >= kSplitCells && friction >= kSplitFriction * (2 / (dx * dx) + 2 / (dy * dy)))
+      so = splitOptions(kSplitMaxIterations);
     simulate::FlowProblem clean;
     PixelMask clean_all;
     const bool is_clean = !(extra_solid.size() > 0 && extra_solid.any()) &&
                           std::all_of(aperture.begin(), aperture.end(), [&](double h) { return h == m_opt.depth; });
+    auto& owner = m_opt.warm_start ? m_solver : fresh;
     if (so.fixed_pattern && !is_clean && buildProblem({}, {}, clean, clean_all)) {
       // The kept pattern and its ordering are the clean chip's, whatever geometry comes first (a
       // resumed run starts with deposits): a re-solve then depends only on the clean chip and the
       // current geometry, so a resumed run is the uninterrupted one. Costs one factorisation more.
-      m_solver = std::make_unique<simulate::SteadyFlowSolver>(std::move(clean), so);
-      m_solver->solve();
-      m_solver->update(std::move(prob));
+      owner = std::make_unique<simulate::SteadyFlowSolver>(std::move(clean), so);
+      owner->solve();
+      owner->update(std::move(problem));
     } else {
-      (m_opt.warm_start ? m_solver : fresh) = std::make_unique<simulate::SteadyFlowSolver>(std::move(prob), so);
+      owner = std::make_unique<simulate::SteadyFlowSolver>(std::move(problem), so);
     }
-  }
-  simulate::SteadyFlowSolver& solver = m_opt.warm_start ? *m_solver : *fresh;
-  const simulate::FlowStats& stats = [&]() -> const simulate::FlowStats& {
-    try {
-      return solver.solve();
-    } catch (const simulate::LinearSolverFailure& e) {
-      // This kind chooses its linear solver itself (the friction split where cells are coarse
-      // against the depth, else the direct LU with its kept re-solves): fewer cells is the change.
+    solver = owner.get();
+  };
+  const simulate::FlowStats* stats = nullptr;
+  try {
+    prepare(std::move(prob));
+    stats = &solver->solve();
+  } catch (const simulate::LinearSolverFailure& e) {
+    // This kind chooses its linear solver itself (the friction split where cells are coarse
+    // against the depth, else the direct LU with its kept re-solves). An LU its library cannot
+    // factorise (UMFPACK at 1.69M unknowns: Pore2Chip at 1.5 cells per pixel, 2026-12-06) hands
+    // this solve and every later one of the run to the friction split, with more iterations
+    // allowed (its diag(A) stands in less well for the velocity block on cells finer than ~0.41
+    // of the depth); a resumed run takes the same path, so it repeats the uninterrupted one.
+    if (!e.direct() || m_lu_failed)
       throw NumericalFailure(e.cause(), "numerics.cells_per_pixel",
                              fmt::format("fewer cells per pixel (this grid has {} x {} cells; the kind picks its linear solver itself)", nx, ny));
+    m_lu_failed = true;
+    std::fprintf(stderr,
+                 "mmval: fluid solve: the direct LU failed on %d x %d cells (%s); this solve and the later ones use the friction split "
+                 "(block-preconditioned FGMRES, up to %d iterations)\n",
+                 nx, ny, e.cause().c_str(), kSplitFallbackMaxIterations);
+    m_solver.reset();
+    fresh.reset();
+    simulate::FlowProblem again;
+    PixelMask again_all;
+    buildProblem(extra_solid, aperture, again, again_all);
+    try {
+      prepare(std::move(again));
+      stats = &solver->solve();
+    } catch (const simulate::FlowFailure& e2) {
+      throw NumericalFailure(e.cause() + "; then the friction split: " + e2.cause(), "numerics.cells_per_pixel",
+                             fmt::format("fewer cells per pixel (this grid has {} x {} cells; neither the LU nor the friction split solved it)", nx, ny));
     }
-  }();
+  }
   FlowSolveResult r;
-  r.pattern_kept = stats.pattern_kept;
-  r.factorised = stats.factorisations > 0;
-  r.iterations = stats.linear_iterations - stats.factorisations;  // a factorising solve counts its LU solve as one
-  const double q = solver.flowRate(simulate::Side::east);
+  r.pattern_kept = stats->pattern_kept;
+  r.factorised = stats->factorisations > 0;
+  r.iterations = stats->linear_iterations - stats->factorisations;  // a factorising solve counts its LU solve as one
+  const double q = solver->flowRate(simulate::Side::east);
   r.blocked = !(q > 0) || !std::isfinite(q);
   r.permeability = r.blocked ? 0.0 : m_opt.viscosity * q * W / (H * kPressureDrop);
   r.flux_scale = r.blocked ? 0.0 : m_opt.darcy_velocity * H / q;
@@ -367,8 +404,8 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
   // (linear along the component's own axis, constant across it). That reconstruction is
   // divergence-free wherever the solver's cells balance, so pixel faces balance too, at every
   // cells_per_pixel: finer or coarser than the pixels, particles follow the solver's fluxes.
-  const Eigen::ArrayXXd& fu = solver.u();  // ny x (nx + 1), x-face ic at x = ic cw
-  const Eigen::ArrayXXd& fv = solver.v();  // (ny + 1) x nx, y-face jc at y = jc ch
+  const Eigen::ArrayXXd& fu = solver->u();  // ny x (nx + 1), x-face ic at x = ic cw
+  const Eigen::ArrayXXd& fv = solver->v();  // (ny + 1) x nx, y-face jc at y = jc ch
   const auto overlap = [](double a0, double a1, double b0, double b1) { return std::max(0.0, std::min(a1, b1) - std::max(a0, b0)); };
   // Mean of u over x = X, y in [y0, y1] (metres, inside the chip).
   const auto xFace = [&](double X, double y0, double y1) {

@@ -158,6 +158,7 @@ class MicromodelFlow {
   std::vector<double> m_ux, m_uy, m_h;
   std::vector<std::uint8_t> m_solid;
   std::unique_ptr<simulate::SteadyFlowSolver> m_solver;  ///< warm start: kept between solves
+  bool m_lu_failed = false;  ///< the direct LU could not factorise: the friction split solves from then on
 
   /// The flow problem of the grains plus `extra_solid` and `aperture` (solve's arguments) and the
   /// solid pixels it closes (pockets cut off included); false when no flow path is left.
