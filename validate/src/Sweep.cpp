@@ -417,6 +417,18 @@ std::optional<std::string> plotSvg(const std::vector<SweepAxis>& axes, const nlo
   return reports::renderSvg(p);
 }
 
+/// Says which run starts ("sweep [i/n] run-NNN: KEY=VALUE ...") and, under --resume, returns its
+/// complete earlier run (said on the terminal), which is then kept, not run again. Both ways of
+/// running a sweep (one process, child processes) start their runs here.
+std::optional<nlohmann::json> startRun(const SweepOptions& o, const Case& c, std::size_t i, std::size_t n, const SweepRun& r, const fs::path& dir) {
+  std::string label;
+  for (const auto& ov : c.overrides()) label += " " + ov.text();
+  std::fprintf(stderr, "sweep [%zu/%zu] %s:%s\n", i + 1, n, r.folder.c_str(), label.c_str());
+  std::optional<nlohmann::json> earlier = o.resume ? earlierRun(c, dir) : std::nullopt;
+  if (earlier) std::fprintf(stderr, "      kept the complete earlier run (same case and settings)\n");
+  return earlier;
+}
+
 // ---- --jobs N: the runs as child processes ---------------------------------
 
 using detail::fileText;
@@ -443,20 +455,16 @@ void runChildren(const SweepOptions& o, const std::vector<Case>& cases, std::vec
     while (next < runs.size() && fatal.empty() && children.size() < static_cast<std::size_t>(o.jobs)) {
       const std::size_t i = next++;
       SweepRun& r = runs[i];
+      if ((results[i] = startRun(o, cases[i], i, runs.size(), r, out / "runs" / r.folder))) {
+        ++finished;
+        continue;
+      }
       std::vector<std::string> args = {"mmval", "run", o.file, "--out", (out / "runs" / r.folder).string(), "--quiet"};
-      std::string label;
       for (const auto& ov : cases[i].overrides()) {
-        label += " " + ov.text();
         args.push_back("--set");
         args.push_back(ov.text());
       }
       if (o.resume) args.push_back("--resume");
-      std::fprintf(stderr, "sweep [%zu/%zu] %s:%s\n", i + 1, runs.size(), r.folder.c_str(), label.c_str());
-      if (o.resume && (results[i] = earlierRun(cases[i], out / "runs" / r.folder))) {
-        std::fprintf(stderr, "      kept the complete earlier run (same case and settings)\n");
-        ++finished;
-        continue;
-      }
       children.start(executable, args, {-1, i, out / "runs" / (r.folder + ".log"), std::chrono::steady_clock::now()});
     }
     if (children.size() == 0) continue;
@@ -556,14 +564,9 @@ void runSweep(const SweepOptions& o, const CaseKindRegistry& registry) {
   } else {
     for (std::size_t i = 0; i < runs.size(); ++i) {
       SweepRun& r = runs[i];
-      std::string label;
-      for (const auto& ov : cases[i].overrides()) label += " " + ov.text();
-      std::fprintf(stderr, "sweep [%zu/%zu] %s:%s\n", i + 1, runs.size(), r.folder.c_str(), label.c_str());
       const fs::path dir = out / "runs" / r.folder;
-      std::optional<nlohmann::json> result = o.resume ? earlierRun(cases[i], dir) : std::nullopt;
-      if (result) {
-        std::fprintf(stderr, "      kept the complete earlier run (same case and settings)\n");
-      } else {
+      std::optional<nlohmann::json> result = startRun(o, cases[i], i, runs.size(), r, dir);
+      if (!result) {
         try {
           result = runCase(cases[i], registry, dir, {o.quiet, o.resume}).result;
         } catch (const NumericalFailure& e) {
