@@ -95,6 +95,8 @@ void GriddedFlow::update(const std::vector<double>& ux, const std::vector<double
     if (!std::isfinite(ux[k]) || !std::isfinite(uy[k]) || !std::isfinite(depth[k]))
       throw std::invalid_argument("GriddedFlow::update: non-finite value at node " + std::to_string(k));
     if (!solid[k] && !(depth[k] > 0)) throw std::invalid_argument("GriddedFlow::update: fluid node with depth <= 0 at " + std::to_string(k));
+    if (m_smooth && m_grain[k] && !solid[k])
+      throw std::invalid_argument("GriddedFlow::update: grain node " + std::to_string(k) + " of the smooth walls is not solid");
   }
   m_ux = ux;
   m_uy = uy;
@@ -162,8 +164,17 @@ void GriddedFlow::update(const std::vector<double>& ux, const std::vector<double
     const auto solid = [&](int i, int j) { return i >= 0 && j >= 0 && i < m_nx && j < m_ny && m_solid[at(i, j)]; };
     for (int j = 0; j < m_ny; ++j)
       for (int i = 0; i < m_nx; ++i) {
+        if (m_smooth) {
+          // Smooth walls: a wall square with a neighbour that is not one (fluid, or a grain whose
+          // contour may leave its cell's edge bare), and every cell holding contour segments.
+          const std::size_t k = at(i, j);
+          const auto open = [&](int ii, int jj) { return ii >= 0 && jj >= 0 && ii < m_nx && jj < m_ny && !squareWall(at(ii, jj)); };
+          m_edge[k] = (squareWall(k) && (open(i - 1, j) || open(i + 1, j) || open(i, j - 1) || open(i, j + 1))) ||
+                      m_seg_start[k + 1] > m_seg_start[k];
+          if (!m_solid[k]) m_near[k] = m_mixed[k];
+        }
         if (m_solid[at(i, j)]) {
-          m_edge[at(i, j)] = fluid(i - 1, j) || fluid(i + 1, j) || fluid(i, j - 1) || fluid(i, j + 1);
+          if (!m_smooth) m_edge[at(i, j)] = fluid(i - 1, j) || fluid(i + 1, j) || fluid(i, j - 1) || fluid(i, j + 1);
           continue;
         }
         for (int b = -1; b <= 1; ++b)
@@ -222,7 +233,160 @@ int GriddedFlow::nearestNode(double f, int n) const { return std::clamp(static_c
 bool GriddedFlow::isSolid(double x, double y) const {
   const double fx = (x - m_x0) / m_dx, fy = (y - m_y0) / m_dy;
   if (fx < -0.5 || fy < -0.5 || fx > m_nx - 0.5 || fy > m_ny - 0.5) return true;
-  return m_solid[static_cast<std::size_t>(nearestNode(fy, m_ny)) * m_nx + nearestNode(fx, m_nx)] != 0;
+  const std::size_t k = static_cast<std::size_t>(nearestNode(fy, m_ny)) * m_nx + nearestNode(fx, m_nx);
+  // Smooth walls: where the contour can pass, a wall square's cell is solid, elsewhere the level says.
+  if (m_smooth && m_mixed[k]) {
+    if (squareWall(k)) return true;
+    // The sub-cell's state from the contour's samples: uniform (all four corners on one side, no
+    // segment: the contour's side), or cut (the level's sign).
+    const int S = m_samples, i = static_cast<int>(k % m_nx), j = static_cast<int>(k / m_nx);
+    const int a = std::clamp(static_cast<int>(std::floor((fx - i + 0.5) * S)), 0, S - 1);
+    const int b = std::clamp(static_cast<int>(std::floor((fy - j + 0.5) * S)), 0, S - 1);
+    const unsigned state = (m_subcells[k] >> (2 * (b * S + a))) & 3u;
+    return state == 2u ? m_level(x, y) > 0 : state == 1u;
+  }
+  return m_solid[k] != 0;
+}
+
+void GriddedFlow::setSmoothWalls(SmoothGrainWalls walls) {
+  const auto n = static_cast<std::size_t>(m_nx) * static_cast<std::size_t>(m_ny);
+  if (m_walls == GridWalls::nodes) throw std::invalid_argument("GriddedFlow::setSmoothWalls: needs GridWalls::cells or brinkman");
+  if (!walls.level) throw std::invalid_argument("GriddedFlow::setSmoothWalls: no level function");
+  if (walls.grain.size() != n) throw std::invalid_argument("GriddedFlow::setSmoothWalls: the grain mask needs nx * ny entries");
+  if (walls.samples_per_cell < 1 || walls.samples_per_cell > 4)
+    throw std::invalid_argument("GriddedFlow::setSmoothWalls: samples_per_cell must be in [1, 4], got " + std::to_string(walls.samples_per_cell));
+  m_level = std::move(walls.level);
+  m_grain = std::move(walls.grain);
+  const auto at = [&](int i, int j) { return static_cast<std::size_t>(j) * m_nx + i; };
+  // Nodes whose cells the contour can cross: within two nodes of a grain/non-grain change (the
+  // level keeps node centres on their sides, and its cubic interpolation reaches two nodes).
+  std::vector<std::uint8_t> change(n, 0);
+  for (int j = 0; j < m_ny; ++j)
+    for (int i = 0; i < m_nx; ++i)
+      for (int b = -1; b <= 1 && !change[at(i, j)]; ++b)
+        for (int c = -1; c <= 1; ++c) {
+          const int ii = i + c, jj = j + b;
+          if (ii < 0 || jj < 0 || ii >= m_nx || jj >= m_ny) continue;
+          if (m_grain[at(ii, jj)] != m_grain[at(i, j)]) change[at(i, j)] = 1;
+        }
+  m_mixed.assign(n, 0);
+  for (int j = 0; j < m_ny; ++j)
+    for (int i = 0; i < m_nx; ++i)
+      for (int b = -1; b <= 1 && !m_mixed[at(i, j)]; ++b)
+        for (int c = -1; c <= 1; ++c) {
+          const int ii = i + c, jj = j + b;
+          if (ii >= 0 && jj >= 0 && ii < m_nx && jj < m_ny && change[at(ii, jj)]) m_mixed[at(i, j)] = 1;
+        }
+  // Marching squares on the sub-cells of the mixed cells. Sample (m, l) sits at
+  // (x0 + (m / S - 1/2) dx, y0 + (l / S - 1/2) dy): each sub-cell lies in one node's cell, and
+  // a sample shared by two cells is computed from the same indices, so their segments meet.
+  const int S = walls.samples_per_cell;
+  const auto X = [&](int m) { return m_x0 + (static_cast<double>(m) / S - 0.5) * m_dx; };
+  const auto Y = [&](int l) { return m_y0 + (static_cast<double>(l) / S - 0.5) * m_dy; };
+  // The level's crossing on the segment from a to b (a sample edge, always given from its lower
+  // to its upper end, so that both sub-cells sharing it find the same point): bisection, then the
+  // chord of the last bracket.
+  const auto crossing = [&](Vec2 a, Vec2 b, double fa, double fb) {
+    const bool in_a = fa > 0;
+    for (int it = 0; it < 16; ++it) {
+      const Vec2 mid = 0.5 * (a + b);
+      const double fm = m_level(mid.x(), mid.y());
+      if ((fm > 0) == in_a) {
+        a = mid;
+        fa = fm;
+      } else {
+        b = mid;
+        fb = fm;
+      }
+    }
+    const double t = fa != fb ? std::clamp(fa / (fa - fb), 0.0, 1.0) : 0.5;
+    return Vec2(a + t * (b - a));
+  };
+  m_seg.clear();
+  m_seg_start.assign(n + 1, 0);
+  m_subcells.assign(n, 0);
+  m_samples = S;
+  std::vector<double> v(static_cast<std::size_t>((S + 1) * (S + 1)));
+  for (int j = 0; j < m_ny; ++j)
+    for (int i = 0; i < m_nx; ++i) {
+      const std::size_t k = at(i, j);
+      m_seg_start[k] = static_cast<std::uint32_t>(m_seg.size() / 4);
+      if (!m_mixed[k]) continue;
+      for (int b = 0; b <= S; ++b)
+        for (int a = 0; a <= S; ++a) v[static_cast<std::size_t>(b * (S + 1) + a)] = m_level(X(i * S + a), Y(j * S + b));
+      for (int b = 0; b < S; ++b)
+        for (int a = 0; a < S; ++a) {
+          const int m = i * S + a, l = j * S + b;
+          // Corners 0 (m, l), 1 (m + 1, l), 2 (m + 1, l + 1), 3 (m, l + 1).
+          const Vec2 p[4] = {{X(m), Y(l)}, {X(m + 1), Y(l)}, {X(m + 1), Y(l + 1)}, {X(m), Y(l + 1)}};
+          const double f[4] = {v[static_cast<std::size_t>(b * (S + 1) + a)], v[static_cast<std::size_t>(b * (S + 1) + a + 1)],
+                               v[static_cast<std::size_t>((b + 1) * (S + 1) + a + 1)], v[static_cast<std::size_t>((b + 1) * (S + 1) + a)]};
+          const bool in[4] = {f[0] > 0, f[1] > 0, f[2] > 0, f[3] > 0};
+          const bool uniform = in[0] == in[1] && in[1] == in[2] && in[2] == in[3];
+          m_subcells[k] |= (uniform ? (in[0] ? 1u : 0u) : 2u) << (2 * (b * S + a));
+          // Edges 0 (0-1), 1 (1-2), 2 (3-2), 3 (0-3), each from its lower (left or bottom) end.
+          static constexpr int ea[4] = {0, 1, 3, 0}, eb[4] = {1, 2, 2, 3};
+          Vec2 cut[4];
+          int cuts = 0;
+          for (int e = 0; e < 4; ++e)
+            if (in[ea[e]] != in[eb[e]]) {
+              cut[e] = crossing(p[ea[e]], p[eb[e]], f[ea[e]], f[eb[e]]);
+              ++cuts;
+            }
+          const auto add = [&](int e1, int e2) {
+            m_seg.insert(m_seg.end(), {cut[e1].x(), cut[e1].y(), cut[e2].x(), cut[e2].y()});
+          };
+          if (cuts == 2) {
+            int e1 = -1, e2 = -1;
+            for (int e = 0; e < 4; ++e)
+              if (in[ea[e]] != in[eb[e]]) (e1 < 0 ? e1 : e2) = e;
+            add(e1, e2);
+          } else if (cuts == 4) {
+            // Saddle: the centre's side joins corners 0 and 2 (then 1 and 3 are cut off) or not.
+            const bool centre_in = m_level(0.5 * (p[0].x() + p[2].x()), 0.5 * (p[0].y() + p[2].y())) > 0;
+            if (centre_in == in[0]) {
+              add(0, 1);
+              add(2, 3);
+            } else {
+              add(0, 3);
+              add(1, 2);
+            }
+          }
+        }
+    }
+  m_seg_start[n] = static_cast<std::uint32_t>(m_seg.size() / 4);
+  m_smooth = true;
+  // An earlier update's wall index is of the cells: rebuild it (update is idempotent on its arrays).
+  if (m_version > 0) {
+    const std::vector<double> ux = m_ux, uy = m_uy, h = m_h;
+    const std::vector<std::uint8_t> solid = m_solid;
+    update(ux, uy, h, solid);
+  }
+}
+
+void GriddedFlow::nearestOfNode(int i, int j, double x, double y, double& d2, Vec2& q) const {
+  const std::size_t k = static_cast<std::size_t>(j) * m_nx + i;
+  // Everything of the node lies in its cell: no nearer than the cell's nearest point.
+  const double hx = 0.5 * m_dx, hy = 0.5 * m_dy, cx = m_x0 + i * m_dx, cy = m_y0 + j * m_dy;
+  const double px = std::clamp(x, cx - hx, cx + hx), py = std::clamp(y, cy - hy, cy + hy);
+  const double box2 = (x - px) * (x - px) + (y - py) * (y - py);
+  if (!(box2 < d2)) return;
+  if (squareWall(k)) {
+    d2 = box2;
+    q = Vec2(px, py);
+    return;  // the contour's segments in a solid square are no nearer than the square
+  }
+  for (std::uint32_t s = m_seg_start[k]; s < m_seg_start[k + 1]; ++s) {
+    const double* g = &m_seg[4 * static_cast<std::size_t>(s)];
+    const double ex = g[2] - g[0], ey = g[3] - g[1], l2 = ex * ex + ey * ey;
+    const double t = l2 > 0 ? std::clamp(((x - g[0]) * ex + (y - g[1]) * ey) / l2, 0.0, 1.0) : 0.0;
+    const double px = g[0] + t * ex, py = g[1] + t * ey;
+    const double e2 = (x - px) * (x - px) + (y - py) * (y - py);
+    if (e2 < d2) {
+      d2 = e2;
+      q = Vec2(px, py);
+    }
+  }
 }
 
 bool GriddedFlow::fluidBilinear(const std::vector<double>& a, double x, double y, double& value) const {
@@ -275,6 +439,12 @@ bool GriddedFlow::searchNearestWall(double x, double y, double& d2, Vec2& q) con
   const std::size_t k = static_cast<std::size_t>(nearestNode((y - m_y0) / m_dy, m_ny)) * m_nx + nearestNode((x - m_x0) / m_dx, m_nx);
   const double hx = 0.5 * m_dx, hy = 0.5 * m_dy;
   d2 = std::numeric_limits<double>::infinity();
+  if (m_smooth) {
+    // The wall squares and contour segments of the listed cells (a segment lies within its cell).
+    for (std::size_t e = m_wall_start[k]; e < m_wall_start[k + 1]; ++e) nearestOfNode(m_wall_cells[2 * e], m_wall_cells[2 * e + 1], x, y, d2, q);
+    const double reach = m_reach * std::min(m_dx, m_dy);
+    return d2 <= reach * reach;
+  }
   // The wall cells (solid with a fluid neighbour) within m_reach cells of the point's node.
   for (std::size_t e = m_wall_start[k]; e < m_wall_start[k + 1]; ++e) {
     const int i = m_wall_cells[2 * e], j = m_wall_cells[2 * e + 1];
@@ -302,6 +472,37 @@ bool GriddedFlow::nearestWallIsAt(const Vec2& p, double s, std::pair<int, int>& 
   const double reach = m_reach * std::min(m_dx, m_dy), t = s * (1 - 1e-9);
   // Above t^2 (1 + 1e-9) the root is above t whatever its rounding: no square root needed.
   const double t2 = t * t * (1 + 1e-9);
+  if (m_smooth) {
+    // As below, over the listed cells' squares and segments; a cell whose box is not nearer than t
+    // is looked into only while no wall within reach has been seen.
+    const double reach2 = reach * reach;
+    const auto exact = [&](int i, int j) {
+      double e2 = std::numeric_limits<double>::infinity();
+      Vec2 qq;
+      nearestOfNode(i, j, x, y, e2, qq);
+      return e2;
+    };
+    const auto nearerThanT = [&](double e2) { return e2 < t2 && std::sqrt(e2) < t; };
+    if (hint.first >= 0 && nearerThanT(exact(hint.first, hint.second))) return false;
+    bool within = false;
+    for (std::size_t e = m_wall_start[k]; e < m_wall_start[k + 1]; ++e) {
+      const int i = m_wall_cells[2 * e], j = m_wall_cells[2 * e + 1];
+      const double cx = m_x0 + i * m_dx, cy = m_y0 + j * m_dy;
+      const double px = std::clamp(x, cx - hx, cx + hx), py = std::clamp(y, cy - hy, cy + hy);
+      const double box2 = (x - px) * (x - px) + (y - py) * (y - py);
+      if (!nearerThanT(box2)) {
+        if (!within && box2 <= reach2) within = exact(i, j) <= reach2;
+        continue;
+      }
+      const double e2 = exact(i, j);
+      if (nearerThanT(e2)) {
+        hint = {i, j};
+        return false;
+      }
+      within = within || e2 <= reach2;
+    }
+    return within;
+  }
   const auto nearer = [&](int i, int j, double& e2) {
     const double cx = m_x0 + i * m_dx, cy = m_y0 + j * m_dy;
     const double px = std::clamp(x, cx - hx, cx + hx), py = std::clamp(y, cy - hy, cy + hy);
@@ -387,7 +588,8 @@ Vec2 GriddedFlow::meanVelocity(double x, double y) const {
     // Quick exit far from walls: the node transform reads up to ~half a spacing too far beside
     // convex corners and its bilinear interpolation up to ~0.7 spacings more.
     const double h = depth(x, y), d_m = matchDistance(h);
-    if (bilinear(m_dist, x, y) > d_m + 2 * std::max(m_dx, m_dy)) return u;
+    // Smooth walls: the contour can lie up to ~one spacing nearer than the node transform says.
+    if (bilinear(m_dist, x, y) > d_m + (m_smooth ? 3 : 2) * std::max(m_dx, m_dy)) return u;
     double d2 = 0;
     Vec2 q;
     if (!nearestWallPoint(x, y, d2, q)) return u;

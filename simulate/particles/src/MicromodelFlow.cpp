@@ -88,12 +88,17 @@ int mirroredFace(int f, int rows, bool& flipped) {
 /// the far edge of a closed pixel stayed fluid at ~1 % of its neighbour's velocity (its wall
 /// distance clamped to 1 % of a cell) and the pixel's cell merged into the neighbour beyond it.
 /// Distances to the surface are the mask's of grains and closed pixels together.
+/// Smooth walls: the grains are the SmoothMaskShape, the distance along a line the nearer of its
+/// crossing and the first closed pixel's edge.
 class PoreShape final : public simulate::Shape {
  public:
-  PoreShape(const PixelMask& grains, const PixelMask& all, double pixel)
-      : m_grains(grains, pixel), m_all(all, pixel), m_closed(all && !grains), m_any(m_closed.any()), m_pixel(pixel) {}
+  PoreShape(const PixelMask& grains, const PixelMask& all, double pixel, std::shared_ptr<const simulate::SmoothMaskShape> smooth)
+      : m_grains(grains, pixel), m_all(all, pixel), m_closed(all && !grains), m_any(m_closed.any()), m_pixel(pixel),
+        m_smooth(std::move(smooth)) {
+    if (m_smooth && m_any) m_closed_shape = std::make_unique<simulate::MaskShape>(m_closed, pixel);
+  }
   int bodyAt(double x, double y) const override {
-    if (m_grains.bodyAt(x, y) >= 0) return 0;
+    if (m_smooth ? m_smooth->bodyAt(x, y) >= 0 : m_grains.bodyAt(x, y) >= 0) return 0;
     if (!m_any) return -1;
     const double u = x / m_pixel, v = (m_all.height() - y) / m_pixel;  // pixel column and row coordinates (row 0 at the top)
     const int c0 = static_cast<int>(std::floor(u - kEdge)), c1 = static_cast<int>(std::floor(u + kEdge));
@@ -104,7 +109,9 @@ class PoreShape final : public simulate::Shape {
     return -1;
   }
   double distanceAlong(double x, double y, int axis, int sign, double max_distance) const override {
-    return m_all.distanceAlong(x, y, axis, sign, max_distance);
+    if (!m_smooth) return m_all.distanceAlong(x, y, axis, sign, max_distance);
+    const double d = m_smooth->distanceAlong(x, y, axis, sign, max_distance);
+    return m_closed_shape ? m_closed_shape->distanceAlong(x, y, axis, sign, d) : d;
   }
   int bodies() const override { return 1; }
   Eigen::Vector2d centre(int body) const override { return m_all.centre(body); }
@@ -114,15 +121,19 @@ class PoreShape final : public simulate::Shape {
   PixelMask m_closed;
   bool m_any;
   double m_pixel;
+  std::shared_ptr<const simulate::SmoothMaskShape> m_smooth;
+  std::unique_ptr<simulate::MaskShape> m_closed_shape;  ///< smooth walls: the closed pixels alone
 };
 
-std::shared_ptr<const PoreShape> solverShape(const PixelMask& grains, const PixelMask& all, double pixel) {
-  return std::make_shared<const PoreShape>(grains, all, pixel);
+std::shared_ptr<const PoreShape> solverShape(const PixelMask& grains, const PixelMask& all, double pixel,
+                                             std::shared_ptr<const simulate::SmoothMaskShape> smooth) {
+  return std::make_shared<const PoreShape>(grains, all, pixel, std::move(smooth));
 }
 }  // namespace
 
-std::shared_ptr<const simulate::Shape> poreShape(const PixelMask& grains, const PixelMask& all, double pixel) {
-  return solverShape(grains, all, pixel);
+std::shared_ptr<const simulate::Shape> poreShape(const PixelMask& grains, const PixelMask& all, double pixel,
+                                                 std::shared_ptr<const simulate::SmoothMaskShape> smooth) {
+  return solverShape(grains, all, pixel, std::move(smooth));
 }
 
 MicromodelFlow::MicromodelFlow(PixelMask grains, MicromodelFlowOptions options) : m_grains(std::move(grains)), m_opt(options) {
@@ -130,8 +141,9 @@ MicromodelFlow::MicromodelFlow(PixelMask grains, MicromodelFlowOptions options) 
   if (!(m_opt.pixel > 0) || !(m_opt.depth > 0) || !(m_opt.viscosity > 0) || !(m_opt.darcy_velocity >= 0) || !(m_opt.cells_per_pixel > 0) ||
       m_opt.warm_max_iterations < 0)
     throw std::invalid_argument("MicromodelFlow: pixel, depth, viscosity, cells_per_pixel must be > 0, the Darcy velocity and the warm-start iterations >= 0");
-  // Particles see the pixel mask's own edges, the walls the fluid solver cuts against (it takes
-  // the mask as a simulate::MaskShape, not a smoothed boundary): exact distances, whatever the
+  // Particles see the walls the fluid solver cuts against: the pixel mask's own edges (it takes
+  // the mask as a simulate::MaskShape), or with smooth walls the contour of the SmoothMaskShape it
+  // takes then (set below; closed pixels stay squares in both): exact distances, whatever the
   // fluid grid's resolution, on nodes at the pixel centres. Near walls they feel the
   // Brinkman-Hele-Shaw layer (GridWalls::brinkman) matched to the solved velocity beyond both
   // the fluid cell and the pixel next to the wall, the first distance the solve resolves.
@@ -147,6 +159,37 @@ MicromodelFlow::MicromodelFlow(PixelMask grains, MicromodelFlowOptions options) 
   m_field = std::make_shared<GriddedFlow>(cols() + 2, rows() + 2 * m_pad, -0.5 * m_opt.pixel, (0.5 - m_pad) * m_opt.pixel, m_opt.pixel,
                                           m_opt.pixel, GridWalls::brinkman, resolved);
   if (m_opt.mirror_sides) m_field->setDomain({-0.5 * m_opt.pixel, width() + 0.5 * m_opt.pixel, 0.0, height()});
+  if (m_opt.smooth_walls) {
+    m_smooth = std::make_shared<const simulate::SmoothMaskShape>(m_grains, m_opt.pixel, m_opt.smoothing_px);
+    // The particles' grain walls: the same level, in the field's coordinates (the image's, y up).
+    // Beyond the inlet and the outlet the padding columns repeat the edge pixels, and the level
+    // its value on the edge; with mirror sides the rows beyond y = 0 and y = H are the image
+    // mirrored, and so is the level; without, they are wall squares and the level there is fluid.
+    const int nr = rows(), nc = cols(), P = m_pad, NX = nc + 2, NY = nr + 2 * P;
+    const double W = width(), H = height();
+    simulate::SmoothMaskShape const* shape = m_smooth.get();
+    const bool mirror = m_opt.mirror_sides;
+    SmoothGrainWalls walls;
+    walls.level = [shape, W, H, mirror, keep = m_smooth](double x, double y) {
+      x = std::clamp(x, 0.0, W);
+      if (mirror) {
+        const double r = std::fmod(std::fmod(y, 2 * H) + 2 * H, 2 * H);
+        y = r > H ? 2 * H - r : r;
+      } else if (y < 0 || y > H) {
+        return -0.5;
+      }
+      return shape->level(x, y);
+    };
+    walls.grain.assign(static_cast<std::size_t>(NX) * NY, 0);
+    for (int j = 0; j < NY; ++j) {
+      bool flipped = false;
+      const int b = j - P;
+      if (!mirror && (b < 0 || b >= nr)) continue;
+      const int src = mirroredRow(b, nr, flipped);
+      for (int i = 0; i < NX; ++i) walls.grain[static_cast<std::size_t>(j) * NX + i] = m_grains(nr - 1 - src, std::clamp(i - 1, 0, nc - 1)) ? 1 : 0;
+    }
+    m_field->setSmoothWalls(std::move(walls));
+  }
 }
 
 int mirroredRow(int b, int rows, bool& flipped) {
@@ -197,7 +240,7 @@ bool MicromodelFlow::buildProblem(const PixelMask& extra_solid, const std::vecto
   // centres see it, and it must still stop the pump. Components of such cells that reach
   // neither side get their pressure pinned by the solver (FlowOperator) and carry no flow.
   for (int pass = 0; pass < 8; ++pass) {  // closing pixels can cut off more cells: repeat until none is
-    const auto shape = solverShape(m_grains, all, p);
+    const auto shape = solverShape(m_grains, all, p, m_smooth);
     const simulate::Shape& probe = *shape;
     std::vector<std::uint8_t> fluid(static_cast<std::size_t>(nx) * ny), reach(fluid.size(), 0);
     for (int j = 0; j < ny; ++j)
@@ -253,7 +296,7 @@ bool MicromodelFlow::buildProblem(const PixelMask& extra_solid, const std::vecto
     if (!isolated) break;
   }
   const double cw = W / nx, ch = H / ny;
-  prob.shape = solverShape(m_grains, all, p);
+  prob.shape = solverShape(m_grains, all, p, m_smooth);
   prob.method = simulate::ImmersedMethod::sharp;
   if (!aperture.empty()) {
     // Cell depth: mean aperture of the open pixels whose centres lie in the cell

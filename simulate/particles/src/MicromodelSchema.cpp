@@ -32,6 +32,20 @@ void declareMicromodel(Schema& s) {
            "particles reaching an edge are reflected, never deposited there): a strip of a wider chip without side walls "
            "(mmval chip --wall-px 0)")
       .def("walls");
+  s.choice("geometry.boundary", {"pixels", "smooth"},
+           "Grain boundary of the fluid solve and of the particles' walls. pixels: the mask's staircase (its concave notches hold "
+           "particles a real grain would let slide past, docs/validation/paper-window.md). smooth: reconstructed below pixel "
+           "resolution as the image-permeability kind's geometry.boundary = \"smooth\" (the 1/2 level of the mask smoothed by "
+           "geometry.smoothing, cubic interpolation, every pixel centre kept on its side): the fluid solve cuts its cells against it, "
+           "and the particles' wall distance, normal and contact are measured to its contour (docs/validation/particle-physics.md, "
+           "\"Smooth grain walls\"). Closed pixels (deposits, pockets) and the side walls stay pixel squares either way")
+      .def("pixels");
+  s.real("geometry.smoothing", "Smooth boundary: Gaussian width in pixels applied to the mask before its 1/2 level is taken (as the "
+                               "image-permeability kind's; 0.75 removes the staircase's pixel-period steps, wider rounds corners more "
+                               "and narrows gaps of 1-2 pixels)")
+      .def(0.75)
+      .min(0)
+      .max(4);
   s.quantity("flow.rate", "uL/min", "Volume flow rate through the chip (the experiment: 5 uL/min)").def("5 uL/min").nonNegative();
   s.quantity("flow.rate_width", "mm",
              "Width of the chip the flow rate goes through (the experiment's 10 mm); the simulated geometry gets the same Darcy "

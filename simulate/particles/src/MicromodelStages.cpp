@@ -94,6 +94,8 @@ MicromodelFlowOptions readFlow(const Case& c, const SceneGeometry& geo) {
   fo.warm_start = c.text("numerics.resolve") == "warm";
   fo.fixed_pattern = c.text("numerics.resolve_pattern") == "fixed";
   fo.mirror_sides = mirrorSides(c);
+  fo.smooth_walls = c.text("geometry.boundary") == "smooth";
+  fo.smoothing_px = c.real("geometry.smoothing");
   return fo;
 }
 

@@ -11,6 +11,7 @@
 // reference-data/shallow-channels.toml).
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -140,6 +141,20 @@ enum class GridWalls {
   brinkman,
 };
 
+/// Grain walls below the grid's resolution for a GriddedFlow (GridWalls::cells, brinkman): the
+/// grains are where `level` > 0 (e.g. simulate::SmoothMaskShape::level, the 1/2 level of the
+/// smoothed mask), not their nodes' cells. `grain` (one flag per node, row-major as update()'s
+/// arrays) marks the solid nodes whose cells are replaced by that region; every other solid node
+/// (deposits, closed pockets, side-wall padding) stays a closed square cell. Grain nodes must be
+/// solid in every update(), and the level must keep each node's centre on its node's side (as
+/// SmoothMaskShape keeps pixel centres), so that the region differs from the cells only near
+/// where grain and non-grain nodes meet.
+struct SmoothGrainWalls {
+  std::function<double(double, double)> level;  ///< > 0 inside grains, at (x, y) in m
+  std::vector<std::uint8_t> grain;              ///< per node: 1 grain (the level's region), 0 not
+  int samples_per_cell = 4;                     ///< contour sampling: marching squares on this many sub-cells per cell and axis (1-4)
+};
+
 /// A field on a regular grid of nodes (the fluid solver fills it): depth-averaged
 /// velocity, depth and a solid mask at nodes (x0 + i dx, y0 + j dy). A point is solid
 /// when its nearest node is (each node owns the cell of size dx x dy around it); outside
@@ -160,6 +175,22 @@ class GriddedFlow final : public FlowField {
   /// walls() says) and bumps version(). Throws std::invalid_argument on wrong sizes or non-finite values.
   void update(const std::vector<double>& ux, const std::vector<double>& uy, const std::vector<double>& depth,
               const std::vector<std::uint8_t>& solid);
+  /// Grain walls at the contour level = 0 of `walls` (see SmoothGrainWalls) instead of the grain
+  /// nodes' cell edges, for isSolid, wallDistance, wallNormal and the near-wall velocity (the
+  /// velocities themselves stay the face velocities of update()). The contour: marching squares
+  /// on samples_per_cell^2 sub-cells of every cell within two nodes of a grain/non-grain change,
+  /// each crossing bisected onto the level (to ~1e-5 of a sub-cell), saddles split by the
+  /// sub-cell centre's sign; its segments are kept per cell (the cell of their midpoint). Their
+  /// union with the non-grain solid cells is the solid: the distance to it is the least distance
+  /// to a segment or a non-grain solid cell (exact for that polygonal contour). Call once, before
+  /// or after an update(); later updates keep it. isSolid: the level's sign in the sub-cells the
+  /// contour cuts, the samples' side in the others (so that it agrees with the contour). Throws
+  /// std::invalid_argument for GridWalls::nodes, without a level, a wrong-sized grain mask, or
+  /// samples_per_cell outside [1, 4].
+  void setSmoothWalls(SmoothGrainWalls walls);
+  bool smoothWalls() const { return m_smooth; }
+  /// The contour's segments (x0, y0, x1, y1 each, m), for tests and pictures.
+  const std::vector<double>& contourSegments() const { return m_seg; }
   Vec2 meanVelocity(double x, double y) const override;
   double depth(double x, double y) const override;
   bool isSolid(double x, double y) const override;
@@ -220,6 +251,24 @@ class GriddedFlow final : public FlowField {
   /// of m_wall_cells; built by update(), so that a wall search visits only wall cells.
   std::vector<std::size_t> m_wall_start;
   std::vector<std::int32_t> m_wall_cells;  ///< pairs (i, j)
+  /// setSmoothWalls: whether it was called, the level, the grain nodes, the nodes whose cells the
+  /// contour can cross (within two nodes of a grain/non-grain change: there isSolid asks the
+  /// level), the contour's segments sorted by cell and each cell's first segment (m_seg_start[k]
+  /// to m_seg_start[k + 1], in segments).
+  bool m_smooth = false;
+  std::function<double(double, double)> m_level;
+  std::vector<std::uint8_t> m_grain, m_mixed;
+  std::vector<double> m_seg;
+  std::vector<std::uint32_t> m_seg_start;
+  /// Smooth walls, mixed nodes: 2 bits per sub-cell (a + S b, S = m_samples): 0 fluid, 1 solid (its
+  /// four samples on one side, no segment), 2 cut by the contour (isSolid asks the level there).
+  std::vector<std::uint32_t> m_subcells;
+  int m_samples = 4;
+  /// Smooth walls: whether node k is a wall square (solid, not a grain: its cell is solid).
+  bool squareWall(std::size_t k) const { return m_solid[k] && !(m_smooth && m_grain[k]); }
+  /// Smooth walls: the nearest point of node (i, j)'s walls (its cell if squareWall, its contour
+  /// segments) to (x, y) if nearer than d2 (squared), which it then lowers.
+  void nearestOfNode(int i, int j, double x, double y, double& d2, Vec2& q) const;
   std::uint64_t m_version = 0;
   bool m_has_domain = false;
   Bounds2 m_domain;  ///< setDomain

@@ -35,6 +35,7 @@ namespace mmval::simulate {
 class SteadyFlowSolver;
 struct FlowProblem;
 class Shape;
+class SmoothMaskShape;
 }
 
 namespace mmval::particles {
@@ -83,6 +84,15 @@ struct MicromodelFlowOptions {
   /// twice its distance to it), and the field reports the image as its bounds (GriddedFlow::setDomain);
   /// the engines reflect particles at the planes (SceneConfig::mirror_sides).
   bool mirror_sides = false;
+  /// Grain walls (case key geometry.boundary). false ("pixels"): the mask's staircase, for the
+  /// fluid solve (simulate::MaskShape) and the particles (the grain pixels' edges). true
+  /// ("smooth"): both see the grains as simulate::SmoothMaskShape of the mask with smoothing_px,
+  /// the 1/2 level of the mask smoothed by a Gaussian (the image-permeability kind's
+  /// geometry.boundary = "smooth"): the fluid solve cuts its cells against it, the particles' field
+  /// takes its contour as the grain walls (GriddedFlow::setSmoothWalls). Closed pixels (deposits,
+  /// pockets) and the side walls stay squares in both.
+  bool smooth_walls = false;
+  double smoothing_px = 0.75;  ///< smooth walls: Gaussian width, pixels (geometry.smoothing)
 };
 
 struct FlowSolveResult {
@@ -121,7 +131,8 @@ class MicromodelFlow {
   /// every side (solid rows beyond the two side walls; copies of the first and
   /// last columns beyond the inlet and the outlet, so that x = 0 and x = width are inside);
   /// with mirror sides padRows() mirrored rows beyond each side instead of the solid one.
-  /// Its walls are the pixel edges of the grains and closed pixels and its velocities live on
+  /// Its walls are the pixel edges of the grains and closed pixels (smooth_walls: the grains' are
+  /// the contour of their SmoothMaskShape, GriddedFlow::setSmoothWalls) and its velocities live on
   /// the pixel faces (GridWalls::brinkman: exact wall distance; away from walls a
   /// divergence-free field that follows them, near them the Brinkman-Hele-Shaw layer matched
   /// to the solve beyond max(pixel, fluid cell)), whatever cells_per_pixel is; the fluid grid
@@ -157,6 +168,7 @@ class MicromodelFlow {
   int m_pad = 1;
   std::vector<double> m_ux, m_uy, m_h;
   std::vector<std::uint8_t> m_solid;
+  std::shared_ptr<const simulate::SmoothMaskShape> m_smooth;  ///< smooth walls: the grains' reconstructed boundary
   std::unique_ptr<simulate::SteadyFlowSolver> m_solver;  ///< warm start: kept between solves
   bool m_lu_failed = false;  ///< the direct LU could not factorise: the friction split solves from then on
 
@@ -185,7 +197,9 @@ int mirroredRow(int b, int rows, bool& flipped);
 /// The shape the micromodel's fluid solve cuts against: `grains` read as the mask itself
 /// (simulate::MaskShape), the pixels of `all` that are not grains (deposits, cut-off pockets) as
 /// closed squares, solid on their edges too, so that closing a pixel turns rows of the solver's
-/// matrix into identities within their old stencils (SolverOptions::fixed_pattern).
-std::shared_ptr<const simulate::Shape> poreShape(const PixelMask& grains, const PixelMask& all, double pixel);
+/// matrix into identities within their old stencils (SolverOptions::fixed_pattern). `smooth`
+/// (smooth walls): the grains are that shape instead (built from `grains`), the closed pixels squares as before.
+std::shared_ptr<const simulate::Shape> poreShape(const PixelMask& grains, const PixelMask& all, double pixel,
+                                                 std::shared_ptr<const simulate::SmoothMaskShape> smooth = nullptr);
 
 }  // namespace mmval::particles
