@@ -398,4 +398,36 @@ double patchwiseEfficiency(double favourable_fraction, double alpha_unfavourable
   return favourable_fraction + (1 - favourable_fraction) * alpha_unfavourable;
 }
 
+namespace {
+std::uint64_t splitmix(std::uint64_t z) {
+  z += 0x9E3779B97F4A7C15ULL;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  return z ^ (z >> 31);
+}
+}  // namespace
+
+double FavourablePatchMap::cellValue(Sheet sheet, std::int64_t i, std::int64_t j, std::int64_t k) const {
+  // splitmix64 chained over (salt, seed, sheet, i, j, k): each word goes through a full mix before
+  // the next is folded in, so neighbouring cells and seeds give unrelated values. The salt keeps
+  // this stream apart from the engine's per-arrival draw of the same seed.
+  std::uint64_t z = splitmix(0x5A7C4E5D1B2F3A69ULL ^ seed);
+  z = splitmix(z ^ static_cast<std::uint64_t>(sheet));
+  z = splitmix(z ^ static_cast<std::uint64_t>(i));
+  z = splitmix(z ^ static_cast<std::uint64_t>(j));
+  z = splitmix(z ^ static_cast<std::uint64_t>(k));
+  return static_cast<double>(z >> 11) * 0x1.0p-53;
+}
+
+bool FavourablePatchMap::favourableAt(Sheet sheet, double x, double y, double z) const {
+  if (!(fraction > 0)) return false;
+  // The walls' cells are shifted by kWallShift of a cell on every axis: a pixel mask's walls lie on
+  // round coordinates, and a wall on a cell face would read either cell as the wall point's
+  // rounding falls.
+  const double shift = sheet == Sheet::walls ? kWallShift : 0.0;
+  const auto cell = [&](double v) { return static_cast<std::int64_t>(std::floor(v / size + shift)); };
+  const std::int64_t k = sheet == Sheet::walls ? cell(z) : 0;
+  return cellValue(sheet, cell(x), cell(y), k) < fraction;
+}
+
 }  // namespace mmval::particles

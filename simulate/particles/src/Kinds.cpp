@@ -368,6 +368,15 @@ void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {
       .def(AttachmentModel{}.favourable_fraction)
       .min(0)
       .max(1);
+  s.quantity("chemistry.patch_size", "um",
+             "deposition.model = \"dlvo\", chemistry.favourable_fraction > 0: 0 draws the patch once per arrival; > 0 places the "
+             "favourable patches in space, cells of this side on the plates (x, y) and the grain walls (x, y, z), each favourable "
+             "with probability lambda from the run's seed, and a particle within the capture distance of the glass (resting, rolling "
+             "or translating in the secondary minimum) attaches as soon as its contact point is on a favourable cell, checked every "
+             "step. Give the length over which the glass's attachment is correlated (a heterodomain's size when it exceeds the particle's "
+             "zone of influence, of order sqrt(a / kappa); else that zone), and not below a step's travel (numerics.max_step_fraction radii)")
+      .def("0 um")
+      .nonNegative();
 }
 
 std::int64_t outputFrames(const Case& c) {
@@ -421,9 +430,13 @@ void physicsAndDepositionFromCase(const Case& c, const EngineChoice& choice, Sce
     s.attachment.rule = AttachmentModel::Rule::dlvo;
     s.attachment.chemistry = chemistryFromCase(c, "fluid.temperature");
     s.attachment.favourable_fraction = c.real("chemistry.favourable_fraction");
+    s.attachment.patch_size = c.quantity("chemistry.patch_size");
   } else if (c.real("chemistry.favourable_fraction") > 0) {
     throw InputError(c.where("chemistry.favourable_fraction"), "applies to deposition.model = \"dlvo\" only (the capture rule has no chemistry)",
                      fmt::format("{:g}", c.real("chemistry.favourable_fraction")), "0, or deposition.model = \"dlvo\"");
+  } else if (c.quantity("chemistry.patch_size") > 0) {
+    throw InputError(c.where("chemistry.patch_size"), "applies to deposition.model = \"dlvo\" only (the capture rule has no chemistry)",
+                     fmt::format("{:g} um", c.quantity("chemistry.patch_size") * 1e6), "0, or deposition.model = \"dlvo\"");
   }
 }
 

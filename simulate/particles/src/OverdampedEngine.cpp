@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <stdexcept>
 #include <unordered_map>
 #include <utility>
 
@@ -141,6 +142,28 @@ OverdampedEngine::OverdampedEngine(std::shared_ptr<const FlowField> flow, SceneC
     deposit.collector_charge.regulated = false;  // a deposit is latex at the particle's (fixed) potential, not glass
     m_plate_chem = std::make_unique<SurfaceChemistry>(surfaceChemistry(plate));
     m_deposit_chem = std::make_unique<SurfaceChemistry>(surfaceChemistry(deposit));
+    const double ps = m_cfg.attachment.patch_size;
+    if (!(ps >= 0) || std::isinf(ps))
+      throw std::invalid_argument("OverdampedEngine: patch size " + std::to_string(ps) + " m, need a finite value >= 0 (0: a patch drawn per arrival)");
+    // Patches placed in space only where there are any: lambda = 0 leaves the per-arrival rule.
+    if (ps > 0 && m_cfg.attachment.favourable_fraction > 0) m_patches = {m_cfg.attachment.favourable_fraction, ps, m_cfg.seed};
+  }
+}
+
+bool OverdampedEngine::favourablePatchAt(Surface s, const Vec3& x) const {
+  if (!(m_patches.size > 0)) return false;
+  using Sheet = FavourablePatchMap::Sheet;
+  switch (s) {
+    case Surface::bottom: return m_patches.favourableAt(Sheet::bottom, x.x(), x.y(), 0.0);
+    case Surface::top: return m_patches.favourableAt(Sheet::top, x.x(), x.y(), 0.0);
+    case Surface::grain: {
+      // The contact point: the nearest wall point in the plane, at the particle centre's height.
+      if (m_flow->isSolid(x.x(), x.y())) return m_patches.favourableAt(Sheet::walls, x.x(), x.y(), x.z());
+      const double d = m_flow->wallDistance(x.x(), x.y());
+      const Vec2 n = m_flow->wallNormal(x.x(), x.y());
+      return m_patches.favourableAt(Sheet::walls, x.x() - d * n.x(), x.y() - d * n.y(), x.z());
+    }
+    default: return false;  // deposits are latex: no glass patches
   }
 }
 
@@ -545,9 +568,18 @@ void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched) 
       const auto bit = static_cast<std::uint8_t>(1u << static_cast<unsigned>(s));
       if (!is_near) p.rejected = static_cast<std::uint8_t>(p.rejected & ~bit);
     }
+    const bool spatial = m_patches.size > 0;
     for (const auto& [s, is_near] : near) {
       const auto bit = static_cast<std::uint8_t>(1u << static_cast<unsigned>(s));
-      if (!is_near || (p.rejected & bit) != 0) continue;
+      if (!is_near) continue;
+      // Patches placed in space: a particle within the capture distance of the glass attaches in
+      // the primary minimum whenever its contact point lies on a favourable cell, at its arrival
+      // or at any later step (resting, rolling or translating in the secondary minimum).
+      if (spatial && favourablePatchAt(s, p.x)) {
+        p.secondary = false;
+        return hold(s);
+      }
+      if ((p.rejected & bit) != 0) continue;
       if (dlvoArrival(p, s, *chemistry(s))) return hold(s);
       p.rejected = static_cast<std::uint8_t>(p.rejected | bit);
     }
@@ -591,7 +623,10 @@ bool OverdampedEngine::dlvoArrival(ParticleState& p, Surface s, const SurfaceChe
   // arrival lands on a favourable patch with probability lambda and attaches in the primary
   // minimum; otherwise the same draw, rescaled to [0, 1) on the rest, decides by the unfavourable
   // rule below (lambda = 0: the draw is left as it is).
-  const double lambda = s == Surface::deposit ? 0.0 : m_cfg.attachment.favourable_fraction;
+  // With patches placed in space (m_patches) the favourable cells were checked before the arrival
+  // (decideAttachment): an arrival that reaches here is on an unfavourable cell, and its draw goes
+  // to the unfavourable rule unscaled.
+  const double lambda = s == Surface::deposit || m_patches.size > 0 ? 0.0 : m_cfg.attachment.favourable_fraction;
   if (lambda > 0) {
     if (u < lambda) {
       p.secondary = false;
@@ -906,8 +941,16 @@ nlohmann::json OverdampedEngine::describe() const {
                   "assumptions (case inputs), not measurements"},
                  {"plates_and_grains", m_plate_chem->describe()},
                  {"charge_heterogeneity",
-                  {{"model", "patchwise (Song, Johnson & Elimelech 1994): plates and grains only; per arrival, a favourable patch "
-                             "(primary-minimum attachment) with probability favourable_fraction, else the unfavourable rule"},
+                  {{"model", m_patches.size > 0
+                                 ? "patchwise (Song, Johnson & Elimelech 1994): plates and grains only; patches placed in space: cells of "
+                                   "side patch_size on the plates' (x, y) and in (x, y, z) at the grain walls, each favourable with "
+                                   "probability favourable_fraction (a hash of the seed, surface and cell); a particle within the capture "
+                                   "distance attaches in the primary minimum as soon as its contact point is on a favourable cell, "
+                                   "checked every step; an arrival on an unfavourable cell goes to the unfavourable rule"
+                                 : "patchwise (Song, Johnson & Elimelech 1994): plates and grains only; per arrival, a favourable patch "
+                                   "(primary-minimum attachment) with probability favourable_fraction, else the unfavourable rule"},
+                   {"placement", m_patches.size > 0 ? "spatial" : "per arrival"},
+                   {"patch_size_um", c.attachment.patch_size * 1e6},
                    {"favourable_fraction", c.attachment.favourable_fraction},
                    {"primary_attachment_efficiency", patchwiseEfficiency(c.attachment.favourable_fraction, m_plate_chem->alpha)},
                    {"assumption", "the experiment does not constrain the favourable fraction: a case input, not a measurement"}}},

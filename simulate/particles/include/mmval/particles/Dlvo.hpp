@@ -9,6 +9,7 @@
 // gaps in m, energies in J, forces in N, potentials in V. The overdamped engine evaluates DlvoInteraction::force at a
 // particle's surface gap; the physics-dlvo case kind checks it against theory.
 #pragma once
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -229,5 +230,26 @@ double secondaryMinimumCaptureProbability(double depth_kT);
 /// interaction zone add as areas: lambda + (1 - lambda) alpha_unfavourable. Throws
 /// std::invalid_argument unless both lie in [0, 1].
 double patchwiseEfficiency(double favourable_fraction, double alpha_unfavourable);
+
+/// Favourable patches placed in space (the patchwise model with a patch size): the glass is cut
+/// into cells of side `size`, squares on a plate's (x, y) and cubes of (x, y, z) for the grain
+/// walls (the cells the wall's surface crosses), and each cell is favourable with probability
+/// `fraction` (lambda), decided by a hash of the run's seed, the surface and the cell's index
+/// alone: the map is the same for every particle, every step and a resumed run, and the map at a
+/// smaller lambda (same seed and size) is a subset of the map at a larger one. Distinct surfaces
+/// (bottom plate, top plate, grain walls) carry independent maps.
+struct FavourablePatchMap {
+  enum class Sheet : std::uint8_t { bottom = 0, top = 1, walls = 2 };
+  double fraction = 0;     ///< lambda, in [0, 1]
+  double size = 0;         ///< m, side of a cell (> 0)
+  std::uint64_t seed = 1;  ///< the run's seed
+  /// Uniform [0, 1) value of cell (i, j, k) of `sheet`; the cell is favourable when it is < fraction.
+  double cellValue(Sheet sheet, std::int64_t i, std::int64_t j, std::int64_t k) const;
+  /// The cell holding the point (x, y, z) is favourable. Plates: cell (floor(x / size),
+  /// floor(y / size), 0), z ignored. Walls: cell floor(v / size + kWallShift) on each axis v.
+  bool favourableAt(Sheet sheet, double x, double y, double z) const;
+  /// Fraction of a cell by which the walls' cells are shifted (2 - golden ratio: no round multiple).
+  static constexpr double kWallShift = 0.3819660112501051;
+};
 
 }  // namespace mmval::particles

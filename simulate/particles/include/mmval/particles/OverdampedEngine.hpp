@@ -46,6 +46,10 @@
 // colloids translate to low-velocity regions); it leaves the well when it leaves the
 // surface's capture distance. While it translates it is mobile with secondary = true and
 // held_by = the surface of the well.
+// Charge heterogeneity of the glass (AttachmentModel::favourable_fraction): per arrival by
+// default; with AttachmentModel::patch_size > 0 a fixed map of favourable cells
+// (FavourablePatchMap) is read at the contact point every step a particle is within the capture
+// distance of a plate or grain wall, and a favourable cell attaches it in the primary minimum.
 // A particle that would attach still overlapping a deposit (a push undone at a
 // grain) stays mobile for this step.
 // Not modelled: the wall correction of the lag for the parabola's curvature (the
@@ -97,6 +101,11 @@ class OverdampedEngine final : public ParticleEngine {
   /// dlvo rule: the attachment of plates (and grains: the chip's material) or deposits
   /// (Surface::bottom, top and grain share one); nullptr under the capture rule.
   const SurfaceChemistry* chemistry(Surface s) const;
+  /// dlvo rule with chemistry.patch_size > 0 and favourable_fraction > 0: the contact point of a
+  /// particle centred at x with glass surface s (plates: (x, y); grain walls: the nearest wall
+  /// point at the centre's height) lies on a favourable cell of the map (FavourablePatchMap).
+  /// false otherwise (deposits, the per-arrival model).
+  bool favourablePatchAt(Surface s, const Vec3& x) const;
 
   /// After the flow field changed (deposits turned cells solid): mobile
   /// particles now inside solid are deposited there (they are part of the
@@ -172,6 +181,7 @@ class OverdampedEngine final : public ParticleEngine {
   /// (mobile, deposited) pairs pushed apart in this step's contact sweeps, sorted after them (straining only)
   std::vector<std::pair<int, int>> m_deposit_contacts;
   std::unique_ptr<SurfaceChemistry> m_plate_chem, m_deposit_chem;  ///< dlvo rule only
+  FavourablePatchMap m_patches;  ///< dlvo rule, patches placed in space; size 0: none (per-arrival model)
   std::vector<int> m_dep_order;  ///< deposited particles in the order they were indexed (restores m_dep_cells exactly)
   double m_t = 0.0;
   EngineStats m_stats;

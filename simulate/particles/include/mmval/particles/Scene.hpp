@@ -50,6 +50,14 @@ struct AttachmentModel {
   /// arrival as that rule: 0 leaves every result as without the model. An assumption: nothing in
   /// the experiment constrains it (reference-data/dlvo-materials.toml).
   double favourable_fraction = 0.0;
+  /// m; dlvo rule with favourable_fraction > 0: 0 draws the patch per arrival as above; > 0 places
+  /// the patches in space (FavourablePatchMap, Dlvo.hpp: cells of this side on the plates' (x, y)
+  /// and in (x, y, z) at the grain walls, each favourable with probability lambda, from the seed).
+  /// A particle within the capture distance of the glass (resting, rolling or translating in the
+  /// secondary minimum) attaches in the primary minimum as soon as its contact point lies on a
+  /// favourable cell, checked every step; an arrival on an unfavourable cell goes through the
+  /// unfavourable rule with its draw unscaled.
+  double patch_size = 0.0;
   double capture_distance = 0.1e-6;  ///< m; <= 0 switches attachment off
   bool bottom = true;                ///< the chip's bottom plate (z = 0) is sticky
   bool top = false;                  ///< the top plate (z = h)
