@@ -42,7 +42,76 @@ MetricResult info(const std::string& name, double value, const std::string& unit
 
 Tolerance relative(double f) { return {Tolerance::Kind::relative, f, fmt::format("{:g} %", 100 * f)}; }
 
+/// Whether the window [b, e] of one track is at rest (RestRule, labelRests); marks its
+/// resting points in `rest` (indexed from `i`, the track's first point).
+void markRestingWindow(const std::vector<TrackPoint>& pts, std::size_t i, std::size_t b, std::size_t e, double distance, std::vector<char>& rest) {
+  double moved = 0;
+  for (std::size_t k = b; k <= e; ++k) moved = std::max(moved, std::hypot(pts[k].x - pts[e].x, pts[k].y - pts[e].y));
+  if (moved < distance) {
+    for (std::size_t k = b; k <= e; ++k) rest[k - i] = 1;
+    return;
+  }
+  const std::size_t n = e - b + 1;
+  if (n < 6) return;
+  double sum = 0;
+  for (std::size_t k = b + 1; k <= e; ++k) sum += std::pow(pts[k].x - pts[k - 1].x, 2) + std::pow(pts[k].y - pts[k - 1].y, 2);
+  const double r = distance + 3.0 * std::sqrt(sum / (4.0 * static_cast<double>(n - 1)));
+  auto medianOf = [&](std::size_t from, std::size_t to, double& mx, double& my) {
+    std::vector<double> xs, ys;
+    for (std::size_t k = from; k < to; ++k) {
+      xs.push_back(pts[k].x);
+      ys.push_back(pts[k].y);
+    }
+    mx = median(xs);
+    my = median(ys);
+  };
+  const std::size_t m = n / 3;
+  double ax, ay, bx, by, mx, my;
+  medianOf(b, b + m, ax, ay);
+  medianOf(e + 1 - m, e + 1, bx, by);
+  if (std::hypot(bx - ax, by - ay) > r) return;
+  medianOf(b, e + 1, mx, my);
+  std::size_t outside = 0;
+  for (std::size_t k = b; k <= e; ++k) outside += std::hypot(pts[k].x - mx, pts[k].y - my) > r ? 1 : 0;
+  if (outside * 10 > n) return;
+  for (std::size_t k = b; k <= e; ++k)
+    if (std::hypot(pts[k].x - mx, pts[k].y - my) <= r) rest[k - i] = 1;
+}
+
 }  // namespace
+
+RestCount labelRests(Tracks& tracks, const RestRule& rule) {
+  RestCount count;
+  auto& pts = tracks.points;
+  count.points = pts.size();
+  for (const auto& p : pts) count.labelled_in_file += p.state == "deposited" ? 1 : 0;
+  if (rule.window <= 0) {
+    count.at_rest = count.labelled_in_file;
+    return count;
+  }
+  const double eps = 1e-9 * std::max(1.0, rule.window);
+  for (std::size_t i = 0; i < pts.size();) {
+    std::size_t j = i;
+    while (j < pts.size() && pts[j].particle == pts[i].particle) ++j;
+    std::vector<char> rest(j - i, 0);
+    std::size_t b = i;
+    for (std::size_t e = i; e < j; ++e) {
+      if (pts[e].t - pts[i].t < rule.window - eps) continue;
+      while (pts[b].t < pts[e].t - rule.window - eps) ++b;
+      if (e > b) markRestingWindow(pts, i, b, e, rule.distance, rest);
+    }
+    for (std::size_t k = i; k < j; ++k) {
+      if (rest[k - i]) {
+        pts[k].state = "deposited";
+        ++count.at_rest;
+      } else if (pts[k].state == "deposited") {
+        pts[k].state = "mobile";
+      }
+    }
+    i = j;
+  }
+  return count;
+}
 
 RetentionSeries retentionOverTime(const RetentionCount& count, const std::vector<double>& times) {
   // The same count as the final fraction: chains retained by t (at rest from their stop
@@ -62,9 +131,16 @@ Comparison compareTracks(const Tracks& experiment, const Tracks& simulation, con
   checkComparable(experiment, "experiment");
   checkComparable(simulation, "simulation");
   Comparison c;
-  c.experiment = analyseTracks(experiment, o.tracks);
-  checkReferenceMoves(experiment, c.experiment, o.tracks);
-  c.simulation = analyseTracks(simulation, o.tracks);
+  // One rest rule on both files for everything that depends on what moves (labelRests):
+  // the files' own labels come from different rules (a tracker's stuck window, an engine's
+  // attachments). Retention has its own one rule (countRetention) on the files as read.
+  c.rest_rule = o.rest;
+  Tracks exp_rest = experiment, sim_rest = simulation;
+  c.rest_experiment = labelRests(exp_rest, o.rest);
+  c.rest_simulation = labelRests(sim_rest, o.rest);
+  c.experiment = analyseTracks(exp_rest, o.tracks);
+  checkReferenceMoves(exp_rest, c.experiment, o.tracks);
+  c.simulation = analyseTracks(sim_rest, o.tracks);
   std::vector<double> se, ss;
   for (const auto& s : c.experiment.steps) se.push_back(s.speed);
   for (const auto& s : c.simulation.steps) ss.push_back(s.speed);
@@ -124,10 +200,17 @@ Comparison compareTracks(const Tracks& experiment, const Tracks& simulation, con
   c.alignment = o.alignment;
   const auto& e = c.experiment;
   const auto& s = c.simulation;
+  const std::string rests =
+      o.rest.window > 0
+          ? fmt::format("; steps at rest left out by one rule on both files (within {:g} um over {:g} s): {} of {} reference points "
+                        "and {} of {} simulated points at rest",
+                        o.rest.distance * 1e6, o.rest.window, c.rest_experiment.at_rest, c.rest_experiment.points, c.rest_simulation.at_rest,
+                        c.rest_simulation.points)
+          : std::string("; steps at rest left out where each file labels them deposited (rest rule off)");
   c.metrics.push_back(against("mean_speed", s.mean_speed * 1e6, e.mean_speed * 1e6, "um/s", relative(o.speed_tolerance),
-                              "mean particle speed, paper Fig. 15", o.reference_name));
+                              "mean particle speed, paper Fig. 15" + rests, o.reference_name));
   c.metrics.push_back(against("median_speed", s.median_speed * 1e6, e.median_speed * 1e6, "um/s", relative(o.speed_tolerance),
-                              "median particle speed, paper Fig. 15", o.reference_name));
+                              "median particle speed, paper Fig. 15" + rests, o.reference_name));
   c.metrics.push_back(against("sigma_x", s.sigma_x * 1e6, e.sigma_x * 1e6, "um", relative(o.dispersion_tolerance),
                               "time-averaged dispersion along x, paper Eq. 18 / Fig. 16", o.reference_name));
   c.metrics.push_back(against("sigma_y", s.sigma_y * 1e6, e.sigma_y * 1e6, "um", relative(o.dispersion_tolerance),
@@ -222,11 +305,17 @@ nlohmann::json Comparison::toJson() const {
     m.push_back(r.toJson());
     if (r.pass.has_value() && !*r.pass) all = false;
   }
-  auto counts = [](const TrackStats& s) {
+  auto counts = [](const TrackStats& s, const RestCount& r) {
     return nlohmann::json{{"particles", s.particles}, {"immobile", s.immobile}, {"mobile", s.mobile}, {"retained", s.retained},
-                          {"steps", s.steps.size()}, {"t_begin_s", s.t_begin}, {"t_end_s", s.t_end}};
+                          {"steps", s.steps.size()}, {"t_begin_s", s.t_begin}, {"t_end_s", s.t_end}, {"points", r.points},
+                          {"points_at_rest", r.at_rest}, {"points_labelled_deposited", r.labelled_in_file}};
   };
-  nlohmann::json j{{"schema", "mmval-compare/1"}, {"metrics", m}, {"all_pass", all}, {"experiment", counts(experiment)}, {"simulation", counts(simulation)}};
+  nlohmann::json j{{"schema", "mmval-compare/1"},
+                   {"metrics", m},
+                   {"all_pass", all},
+                   {"experiment", counts(experiment, rest_experiment)},
+                   {"simulation", counts(simulation, rest_simulation)},
+                   {"rest_rule", {{"window_s", rest_rule.window}, {"distance_um", rest_rule.distance * 1e6}}}};
   if (!alignment.is_null()) j["alignment"] = alignment;
   if (!regions_info.is_null()) j["regions"] = regions_info;
   return j;

@@ -1,6 +1,11 @@
 #include "mmval/compare/Kinds.hpp"
 
+#include <exception>
 #include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
 
 #include "mmval/compare/Compare.hpp"
 #include "mmval/compare/ForeignTracks.hpp"
@@ -9,8 +14,43 @@
 #include "mmval/core/Error.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/core/SchemaBlocks.hpp"
+#include "mmval/core/Units.hpp"
 
 namespace mmval::compare {
+
+namespace {
+
+/// The rest rule (labelRests) of a compare-tracks case: its analysis.rest_window and
+/// rest_distance where given; otherwise the tracker's analysis.stuck_window and stuck_distance
+/// as the run named by inputs.experiment_run resolved them (its result.json), so both files are
+/// judged by the rule the tracker labelled its own rests with; otherwise the tracker's defaults.
+/// Returns where the values came from.
+std::string restRule(const Case& c, const RunContext& ctx, RestRule& rule) {
+  std::string source = "the tracker's defaults (analysis.stuck_window, stuck_distance)";
+  if (c.has("inputs.experiment_run") && !c.has("inputs.experiment")) {
+    const std::filesystem::path f = ctx.out_dir.parent_path() / c.text("inputs.experiment_run") / "result.json";
+    try {
+      std::ifstream in(f);
+      const nlohmann::json r = nlohmann::json::parse(in);
+      const auto& a = r.at("resolved_case").at("analysis");
+      const double window = parseQuantity(a.at("stuck_window").get<std::string>()).si;
+      const double distance = parseQuantity(a.at("stuck_distance").get<std::string>()).si;
+      rule.window = window;
+      rule.distance = distance;
+      source = "analysis.stuck_window and stuck_distance of run " + c.text("inputs.experiment_run");
+    } catch (const std::exception&) {
+      // Not a tracking run, or no result.json: the defaults stand.
+    }
+  }
+  const bool w = c.has("analysis.rest_window"), d = c.has("analysis.rest_distance");
+  if (w) rule.window = c.quantity("analysis.rest_window");
+  if (d) rule.distance = c.quantity("analysis.rest_distance");
+  if (w && d) return "analysis.rest_window and rest_distance";
+  if (w || d) return std::string(w ? "analysis.rest_window" : "analysis.rest_distance") + "; the other from " + source;
+  return source;
+}
+
+}  // namespace
 
 void registerCompareKinds(CaseKindRegistry& registry) {
   CaseKind k;
@@ -45,6 +85,17 @@ void registerCompareKinds(CaseKindRegistry& registry) {
         .def("2 um").nonNegative();
     s.quantity("analysis.stuck_distance", "um", "A mobile particle that moves less than this over its final window is retained").def("1 um").nonNegative();
     s.quantity("analysis.stuck_window", "s", "Length of that final window").def("2 s").positive();
+    s.quantity("analysis.rest_window", "s",
+               "Rest rule applied to both files before speeds and spreads: a point is at rest in a window this long over which the particle "
+               "moves less than analysis.rest_distance (plus what its localisation noise explains); steps between resting points are left "
+               "out on both sides, whatever the files label. Default: the tracker's analysis.stuck_window, read from the run named by "
+               "inputs.experiment_run when its case records one, else the tracker's default (2 s); 0: off (each file's own deposited labels decide)")
+        .optional()
+        .nonNegative();
+    s.quantity("analysis.rest_distance", "um",
+               "Distance of that rest rule. Default: the tracker's analysis.stuck_distance, from inputs.experiment_run as rest_window, else 1 um")
+        .optional()
+        .nonNegative();
     s.quantity("analysis.occupancy_cell", "um", "Grid cell of the streamline occupancy maps").def("5 um").positive();
     s.integer("analysis.time_bins", "Bins of the time series").def(20).min(1).max(10000);
     s.quantity("tolerances.speed", "1", "Relative tolerance of mean and median speed").def(0.2).min(0, true);
@@ -58,6 +109,7 @@ void registerCompareKinds(CaseKindRegistry& registry) {
     o.tracks.stuck_distance = c.quantity("analysis.stuck_distance");
     o.tracks.stuck_window = c.quantity("analysis.stuck_window");
     o.tracks.time_bins = static_cast<int>(c.integer("analysis.time_bins"));
+    const std::string rest_source = restRule(c, ctx, o.rest);
     o.occupancy_cell = c.quantity("analysis.occupancy_cell");
     o.speed_tolerance = c.quantity("tolerances.speed");
     o.dispersion_tolerance = c.quantity("tolerances.dispersion");
@@ -113,6 +165,7 @@ void registerCompareKinds(CaseKindRegistry& registry) {
     }
     out.details = cmp.toJson();
     out.details.erase("metrics");
+    out.details["rest_rule"]["source"] = rest_source;
     out.details["inputs"] = {{"experiment_format", trackFormatName(exp.format)}, {"experiment_note", exp.note},
                              {"simulation_format", trackFormatName(sim.format)}, {"simulation_note", sim.note}};
     return out;

@@ -1,5 +1,6 @@
 // Experiment vs simulation, metric by metric, on the shared tracks schema.
 #pragma once
+#include <cstddef>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -19,8 +20,36 @@ using tracking::TrackOptions;
 using tracking::TrackStats;
 using tracking::TimeSeries;
 
+/// The rest rule compareTracks applies to both files before it measures speeds and spreads
+/// (labelRests). Defaults: the tracker's analysis.stuck_window and stuck_distance
+/// (tracking::TrackOptions); window 0: off, the files' own labels decide.
+struct RestRule {
+  double window = TrackOptions{}.stuck_window;      ///< s
+  double distance = TrackOptions{}.stuck_distance;  ///< m
+};
+
+/// Points of one file, those the rule put at rest, and those the file itself labelled deposited.
+struct RestCount {
+  std::size_t points = 0, at_rest = 0, labelled_in_file = 0;
+};
+
+/// Relabels `tracks` by one rest rule, whatever wrote the file (a tracker labels its rests
+/// "deposited", a simulation engine only the particles it attaches or strains): every point
+/// of a window of `rule.window` seconds over which the particle is at rest becomes
+/// "deposited", every other point labelled "deposited" becomes "mobile". A window (the points
+/// of one particle within rule.window of its last one, the track at least that long) is at
+/// rest by the tracker's test of a final window (tracking::isStopped): every point within
+/// rule.distance of the last one (then all its points rest), or, for noisy positions
+/// (6 points or more), the medians of its first and last thirds within r = distance +
+/// 3 sigma of each other and 90 % of its points within r of its median, sigma the per-axis
+/// noise sqrt(sum |dr|^2 / (4 (n - 1))) of its successive steps (then the points within r of
+/// the median rest). analyseTracks leaves out the steps between two resting points and,
+/// from Eq. 18, the resting points after the first. Off (window 0): nothing changes.
+RestCount labelRests(Tracks& tracks, const RestRule& rule);
+
 struct CompareOptions {
   TrackOptions tracks;
+  RestRule rest;
   double occupancy_cell = 5e-6;  ///< m, grid of the streamline occupancy maps
   // Tolerances (the experiment is the reference). Defaults reflect the
   // paper's "agree" judgement on Figs. 15-16 and its 42.3 vs 44.1 % retention.
@@ -56,6 +85,10 @@ struct Comparison {
   double iou = 0;
   cv::Mat occupancy_experiment, occupancy_simulation;
   RetentionSeries retention_experiment, retention_simulation;
+  /// The rest rule and what it found in each file (labelRests): the speeds, their
+  /// distributions, the regions' speeds and sigma_x, sigma_y come from the relabelled files.
+  RestRule rest_rule;
+  RestCount rest_experiment, rest_simulation;
   /// Retention of each file by the one rule of Retention.hpp (retention_fraction compares their fractions).
   RetentionCount retention_count_experiment, retention_count_simulation;
   std::optional<RegionSpeeds> regions_experiment, regions_simulation;
