@@ -345,6 +345,13 @@ void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {
            "only if the DMT adhesion torque (Hamaker constant, adhesion_separation, contact_modulus) holds against the "
            "Goldman-Cox-Brenner drag and torque of the local wall shear, else the particle rolls on")
       .def("capture");
+  s.real("deposition.release_radii",
+         "dlvo rule: after an arrival that did not attach, the gap (in particle radii) the particle must exceed before its next "
+         "arrival at that surface draws again; 1: back in the bulk, beyond the DLVO force's range (an assumption, see "
+         "docs/validation/particle-physics.md); at most capture_distance / radius: every re-entry into the capture distance "
+         "draws, which multiplies arrivals as the step shrinks")
+      .def(1.0)
+      .min(0);
   s.real("deposition.plate_attachment_efficiency",
          "Overdamped engine: probability that a particle arriving on a sticky plate attaches (colloid filtration theory's alpha), "
          "drawn once per arrival; a rejected particle rolls on. 1: every arrival sticks. A calibration parameter (no surface "
@@ -431,6 +438,7 @@ void physicsAndDepositionFromCase(const Case& c, const EngineChoice& choice, Sce
     s.attachment.chemistry = chemistryFromCase(c, "fluid.temperature");
     s.attachment.favourable_fraction = c.real("chemistry.favourable_fraction");
     s.attachment.patch_size = c.quantity("chemistry.patch_size");
+    s.attachment.release_distance = c.real("deposition.release_radii") * 0.5 * c.quantity("particles.diameter");
   } else if (c.real("chemistry.favourable_fraction") > 0) {
     throw InputError(c.where("chemistry.favourable_fraction"), "applies to deposition.model = \"dlvo\" only (the capture rule has no chemistry)",
                      fmt::format("{:g}", c.real("chemistry.favourable_fraction")), "0, or deposition.model = \"dlvo\"");

@@ -562,11 +562,19 @@ void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched) 
     p.held_by = s;
   };
   if (at.rule == AttachmentModel::Rule::dlvo) {
-    // One draw per arrival and surface type; a surface the particle has left may draw again.
+    // One draw per arrival and surface type. An arrival is an encounter with the surface from the
+    // bulk: after a rejection the particle must first leave to beyond the release distance
+    // (AttachmentModel::release_distance, default one radius) before a new arrival at that surface
+    // draws again. ASSUMPTION: alpha (IFBL) and the Maxwell fraction are per encounter from outside
+    // the surface force's range; a particle lingering near the surface is one encounter however
+    // often its path crosses the capture distance (those crossings multiply as dt^-1/2). Hysteresis
+    // between two separated levels makes the count of arrivals a property of the path, not the step.
     const std::pair<Surface, bool> near[] = {{Surface::deposit, on_deposit}, {Surface::grain, on_grain}, {Surface::bottom, on_bottom}, {Surface::top, on_top}};
+    const double release = releaseDistance();
     for (const auto& [s, is_near] : near) {
       const auto bit = static_cast<std::uint8_t>(1u << static_cast<unsigned>(s));
-      if (!is_near) p.rejected = static_cast<std::uint8_t>(p.rejected & ~bit);
+      if ((p.rejected & bit) != 0 && !is_near && (release <= cd || beyondRelease(p, s, release)))
+        p.rejected = static_cast<std::uint8_t>(p.rejected & ~bit);
     }
     const bool spatial = m_patches.size > 0;
     for (const auto& [s, is_near] : near) {
@@ -615,6 +623,33 @@ void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched) 
   if (on_deposit) hold(Surface::deposit);
   else if (plate) hold(on_bottom ? Surface::bottom : Surface::top);
   else if (on_grain) hold(Surface::grain);
+}
+
+double OverdampedEngine::releaseDistance() const {
+  const double r = m_cfg.attachment.release_distance;
+  return r < 0 ? m_radius : r;
+}
+
+bool OverdampedEngine::beyondRelease(const ParticleState& p, Surface s, double release) const {
+  const double a = m_radius;
+  switch (s) {
+    case Surface::bottom: return p.x.z() - a > release;
+    case Surface::top: return m_flow->depth(p.x.x(), p.x.y()) - p.x.z() - a > release;
+    case Surface::grain: return !m_flow->isSolid(p.x.x(), p.x.y()) && m_flow->wallDistance(p.x.x(), p.x.y()) - a > release;
+    case Surface::deposit: {
+      // No deposited centre within 2 a + release (the contact cells are columns of side 4 a).
+      const double d = 2 * a + release, cs = 4 * a;
+      const auto x0 = static_cast<std::int64_t>(std::floor((p.x.x() - d) / cs)), x1 = static_cast<std::int64_t>(std::floor((p.x.x() + d) / cs));
+      const auto y0 = static_cast<std::int64_t>(std::floor((p.x.y() - d) / cs)), y1 = static_cast<std::int64_t>(std::floor((p.x.y() + d) / cs));
+      for (auto ix = x0; ix <= x1; ++ix)
+        for (auto iy = y0; iy <= y1; ++iy)
+          if (const auto it = m_dep_cells.find((ix * 73856093) ^ (iy * 19349663)); it != m_dep_cells.end())
+            for (const int j : it->second)
+              if ((m_particles[j].x - p.x).norm() <= d) return false;
+      return true;
+    }
+    default: return true;
+  }
 }
 
 bool OverdampedEngine::dlvoArrival(ParticleState& p, Surface s, const SurfaceChemistry& sc) {
@@ -940,6 +975,10 @@ nlohmann::json OverdampedEngine::describe() const {
                   "the experiment gives no solution chemistry: ionic strength, valence, zeta potentials and Hamaker constant are "
                   "assumptions (case inputs), not measurements"},
                  {"plates_and_grains", m_plate_chem->describe()},
+                 {"arrival",
+                  {{"rule", "one draw per arrival; after a rejection the next arrival at that surface counts only once the particle's gap "
+                            "has exceeded the release distance (an encounter from the bulk, not a crossing of the capture distance)"},
+                   {"release_distance_um", releaseDistance() * 1e6}}},
                  {"charge_heterogeneity",
                   {{"model", m_patches.size > 0
                                  ? "patchwise (Song, Johnson & Elimelech 1994): plates and grains only; patches placed in space: cells of "

@@ -37,7 +37,9 @@
 // touched a deposit is an arrival. capture rule: it deposits and stays; on the
 // plates optionally only when the adhesive torque holds against the shear's
 // (AttachmentModel::torque_balance, HydroModel::plateAdhesionHolds). dlvo rule: the
-// DLVO profile of the surface type decides (AttachmentModel::Rule, SurfaceChemistry);
+// DLVO profile of the surface type decides (AttachmentModel::Rule, SurfaceChemistry), one draw
+// per arrival, and a rejected particle arrives again at that surface only after leaving it to
+// beyond the release distance (AttachmentModel::release_distance);
 // a particle caught in a secondary minimum stays only while the well's pull-off force
 // holds against the local shear's torque, at plates, grain walls and deposits alike
 // (HydroModel::plateAdhesionHolds, surfaceAdhesionHolds): in flowing fluid it is carried
@@ -160,6 +162,11 @@ class OverdampedEngine final : public ParticleEngine {
   /// particle caught in the secondary minimum but not held is marked as translating in that
   /// well (secondary = true, held_by = s, still mobile).
   bool dlvoArrival(ParticleState& p, Surface s, const SurfaceChemistry& sc);
+  /// dlvo rule: the gap (m) a rejected particle must exceed before its next arrival at the same
+  /// surface draws (AttachmentModel::release_distance; < 0 there: one radius).
+  double releaseDistance() const;
+  /// dlvo rule: p is farther than `release` from surface s (deposits: from every indexed deposit).
+  bool beyondRelease(const ParticleState& p, Surface s, double release) const;
   /// dlvo rule: the secondary minimum of `s` holds p against the local shear's torque.
   bool secondaryHolds(const ParticleState& p, Surface s, const SurfaceChemistry& sc) const;
   bool overlapsDeposit(const ParticleState& p, const std::vector<int>& fresh) const;

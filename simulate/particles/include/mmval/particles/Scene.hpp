@@ -59,6 +59,14 @@ struct AttachmentModel {
   /// unfavourable rule with its draw unscaled.
   double patch_size = 0.0;
   double capture_distance = 0.1e-6;  ///< m; <= 0 switches attachment off
+  /// m; dlvo rule: after an arrival that did not attach, the next arrival at the same surface
+  /// counts only once the particle's gap to it has exceeded this distance (deposits: its centre
+  /// farther than two radii plus this from every deposit). < 0: one particle radius, beyond the
+  /// range of the DLVO force and the near-wall hindrance, so each arrival comes from the bulk as in
+  /// the efficiency's definition (interaction-force-boundary-layer theory). <= capture_distance:
+  /// leaving the capture distance is enough, the former rule, whose arrivals multiply as the step
+  /// shrinks (a discretised Brownian path crosses one level ~dt^-1/2 times).
+  double release_distance = -1.0;
   bool bottom = true;                ///< the chip's bottom plate (z = 0) is sticky
   bool top = false;                  ///< the top plate (z = h)
   bool grains = true;                ///< grain and side walls
@@ -185,7 +193,7 @@ struct ParticleState {
   std::uint32_t plate_arrivals = 0;  ///< arrivals on a sticky plate drawn against plate_efficiency
   bool plate_rejected = false;       ///< its last plate arrival did not attach; cleared when it leaves the plate
   /// dlvo rule: arrivals drawn (all surfaces) and a bit per Surface whose last arrival did not
-  /// attach (cleared when the particle leaves that surface's capture distance).
+  /// attach (cleared when the particle's gap to that surface exceeds AttachmentModel::release_distance).
   std::uint32_t arrivals = 0;
   std::uint8_t rejected = 0;
   Surface held_by = Surface::none;   ///< set when it deposits; dlvo rule: also the surface a mobile particle translates along in its secondary minimum
