@@ -42,40 +42,15 @@ MetricResult info(const std::string& name, double value, const std::string& unit
 
 Tolerance relative(double f) { return {Tolerance::Kind::relative, f, fmt::format("{:g} %", 100 * f)}; }
 
-/// Whether the window [b, e] of one track is at rest (RestRule, labelRests); marks its
-/// resting points in `rest` (indexed from `i`, the track's first point).
+/// Whether the window [b, e] of one track is at rest (RestRule, labelRests: the tracker's own
+/// window test, tracking::restWindow); marks its resting points in `rest` (indexed from `i`, the
+/// track's first point): all of them when every point is within the distance of the last, else
+/// those within the noisy test's radius of the window's median.
 void markRestingWindow(const std::vector<TrackPoint>& pts, std::size_t i, std::size_t b, std::size_t e, double distance, std::vector<char>& rest) {
-  double moved = 0;
-  for (std::size_t k = b; k <= e; ++k) moved = std::max(moved, std::hypot(pts[k].x - pts[e].x, pts[k].y - pts[e].y));
-  if (moved < distance) {
-    for (std::size_t k = b; k <= e; ++k) rest[k - i] = 1;
-    return;
-  }
-  const std::size_t n = e - b + 1;
-  if (n < 6) return;
-  double sum = 0;
-  for (std::size_t k = b + 1; k <= e; ++k) sum += std::pow(pts[k].x - pts[k - 1].x, 2) + std::pow(pts[k].y - pts[k - 1].y, 2);
-  const double r = distance + 3.0 * std::sqrt(sum / (4.0 * static_cast<double>(n - 1)));
-  auto medianOf = [&](std::size_t from, std::size_t to, double& mx, double& my) {
-    std::vector<double> xs, ys;
-    for (std::size_t k = from; k < to; ++k) {
-      xs.push_back(pts[k].x);
-      ys.push_back(pts[k].y);
-    }
-    mx = median(xs);
-    my = median(ys);
-  };
-  const std::size_t m = n / 3;
-  double ax, ay, bx, by, mx, my;
-  medianOf(b, b + m, ax, ay);
-  medianOf(e + 1 - m, e + 1, bx, by);
-  if (std::hypot(bx - ax, by - ay) > r) return;
-  medianOf(b, e + 1, mx, my);
-  std::size_t outside = 0;
-  for (std::size_t k = b; k <= e; ++k) outside += std::hypot(pts[k].x - mx, pts[k].y - my) > r ? 1 : 0;
-  if (outside * 10 > n) return;
+  const tracking::RestWindow w = tracking::restWindow(pts, b, e + 1, distance);
+  if (!w.at_rest) return;
   for (std::size_t k = b; k <= e; ++k)
-    if (std::hypot(pts[k].x - mx, pts[k].y - my) <= r) rest[k - i] = 1;
+    if (w.exact || std::hypot(pts[k].x - w.centre_x, pts[k].y - w.centre_y) <= w.radius) rest[k - i] = 1;
 }
 
 }  // namespace

@@ -53,30 +53,42 @@ std::size_t labelledStop(const std::vector<TrackPoint>& pts, std::size_t i, std:
 
 }  // namespace
 
-bool isStopped(const std::vector<TrackPoint>& pts, std::size_t i, std::size_t j, const TrackOptions& o) {
-  if (j <= i + 1 || pts[j - 1].t - pts[i].t < o.stuck_window) return false;
-  const std::size_t b = windowBegin(pts, i, j, o);
+RestWindow restWindow(const std::vector<TrackPoint>& pts, std::size_t b, std::size_t j, double distance) {
+  RestWindow w;
+  if (j <= b) return w;
   double moved = 0;
   for (std::size_t k = b; k < j; ++k) moved = std::max(moved, std::hypot(pts[k].x - pts[j - 1].x, pts[k].y - pts[j - 1].y));
-  if (moved < o.stuck_distance) return true;
-  // Noisy positions (a tracker's, where stuck_distance may be below its localisation
-  // error sigma): at rest means that the window's first and last thirds have medians
-  // within stuck_distance + 3 sigma, and that 90 % of its points lie within that of the
-  // window's median (a neighbour passing by or depositing alongside shifts a few
-  // centroids). A particle moving at v px/frame has sigma ~ v / 2 by this estimate, so
-  // any steady motion over the window's 6 or more points fails the first test.
+  if (moved < distance) {
+    w.at_rest = w.exact = true;
+    return w;
+  }
+  // Noisy positions (a tracker's, where the distance may be below its localisation error
+  // sigma): at rest means that the window's first and last thirds have medians within
+  // distance + 3 sigma, and that 90 % of its points lie within that of the window's median
+  // (a neighbour passing by or depositing alongside shifts a few centroids). A particle moving
+  // at v px/frame has sigma ~ v / 2 by this estimate, so any steady motion over the window's 6
+  // or more points fails the first test.
   const std::size_t n = j - b;
-  if (n < 6) return false;
-  const double tol = o.stuck_distance + 3.0 * restingNoise(pts, b, j);
+  if (n < 6) return w;
+  const double tol = distance + 3.0 * restingNoise(pts, b, j);
   const std::size_t m = n / 3;
   double ax, ay, bx, by, mx, my;
   medianOf(pts, b, b + m, ax, ay);
   medianOf(pts, j - m, j, bx, by);
-  if (std::hypot(bx - ax, by - ay) > tol) return false;
+  if (std::hypot(bx - ax, by - ay) > tol) return w;
   medianOf(pts, b, j, mx, my);
   std::size_t outside = 0;
   for (std::size_t k = b; k < j; ++k) outside += std::hypot(pts[k].x - mx, pts[k].y - my) > tol ? 1 : 0;
-  return outside * 10 <= n;
+  w.at_rest = outside * 10 <= n;
+  w.centre_x = mx;
+  w.centre_y = my;
+  w.radius = tol;
+  return w;
+}
+
+bool isStopped(const std::vector<TrackPoint>& pts, std::size_t i, std::size_t j, const TrackOptions& o) {
+  if (j <= i + 1 || pts[j - 1].t - pts[i].t < o.stuck_window) return false;
+  return restWindow(pts, windowBegin(pts, i, j, o), j, o.stuck_distance).at_rest;
 }
 
 std::size_t stopIndex(const std::vector<TrackPoint>& pts, std::size_t i, std::size_t j, const TrackOptions& o) {

@@ -107,6 +107,17 @@ TrackStats analyseTracks(const Tracks& tracks, const TrackOptions& options);
 /// the window (a particle at rest has E|dr|^2 = 4 sigma^2). Needs 6 points for the latter.
 bool isStopped(const std::vector<TrackPoint>& points, std::size_t first, std::size_t last, const TrackOptions& options);
 
+/// isStopped's test on a given window, points [begin, end) of one track: at rest when every point
+/// is within `distance` of the last (`exact`), or, with 6 points or more, by the noisy-position
+/// test (radius = distance + 3 sigma about the window's per-axis median `centre_x`, `centre_y`).
+/// Used by isStopped and by compare-tracks' one rest rule on both sides.
+struct RestWindow {
+  bool at_rest = false;
+  bool exact = false;  ///< every point within `distance` of the last
+  double centre_x = 0, centre_y = 0, radius = 0;  ///< noisy test: its median and radius
+};
+RestWindow restWindow(const std::vector<TrackPoint>& points, std::size_t begin, std::size_t end, double distance);
+
 /// Index of the first point of the final stretch at rest of points [first, last): back
 /// from the end while points stay within stuck_distance + 3 sigma (as isStopped) of the
 /// final window's median position; one stray point does not end the stretch, two do.
