@@ -52,13 +52,11 @@ struct Outcome {
 /// kN particles, one per 20 um column, released 4 um above the bottom plate of a 30 um deep slit
 /// of still fluid; the state after 60 s (settling 4 um at 0.68 um/s takes ~6 s plus the slowed
 /// last approach; the rest is time spent resting on the plate).
-Outcome settle(const SceneConfig& c) {
-  const double a = c.particle.radius(), h = 30e-6;
-  OverdampedEngine e(std::make_shared<UniformFlow>(Vec2(0, 0), h), c);
-  std::vector<Vec3> xs;
-  for (int k = 0; k < kN; ++k) xs.emplace_back((k % kSide) * 20e-6, (k / kSide) * 20e-6, a + 4e-6);
+/// Inserts `xs` into `e`, runs it for `t_end` s and counts the attached particles and the mean
+/// arrivals per particle.
+Outcome outcome(OverdampedEngine& e, const std::vector<Vec3>& xs, double t_end) {
   e.insert(xs);
-  e.advance(60.0);
+  e.advance(t_end);
   Outcome o;
   for (const auto& p : e.particles()) {
     o.attached += p.status == ParticleStatus::deposited ? 1 : 0;
@@ -66,6 +64,14 @@ Outcome settle(const SceneConfig& c) {
   }
   o.arrivals /= kN;
   return o;
+}
+
+Outcome settle(const SceneConfig& c) {
+  const double a = c.particle.radius(), h = 30e-6;
+  OverdampedEngine e(std::make_shared<UniformFlow>(Vec2(0, 0), h), c);
+  std::vector<Vec3> xs;
+  for (int k = 0; k < kN; ++k) xs.emplace_back((k % kSide) * 20e-6, (k / kSide) * 20e-6, a + 4e-6);
+  return outcome(e, xs, 60.0);
 }
 
 // New rule (release one radius): at max_step_fraction 0.5, 0.2 and 0.1 every particle arrives
@@ -114,15 +120,7 @@ Outcome diffuse(double step_fraction, double release_distance, double t_end) {
   OverdampedEngine e(std::make_shared<UniformFlow>(Vec2(0, 0), h), c);
   std::vector<Vec3> xs;
   for (int k = 0; k < kN; ++k) xs.emplace_back((k % kSide) * 20e-6, (k / kSide) * 20e-6, h / 2);
-  e.insert(xs);
-  e.advance(t_end);
-  Outcome o;
-  for (const auto& p : e.particles()) {
-    o.attached += p.status == ParticleStatus::deposited ? 1 : 0;
-    o.arrivals += p.arrivals;
-  }
-  o.arrivals /= kN;
-  return o;
+  return outcome(e, xs, t_end);
 }
 
 // Several arrivals per particle: diffusion between the plate and the release distance (a radius,

@@ -216,7 +216,9 @@ TEST(Heterogeneity, PatchMapCoversLambdaOfTheCells) {
   const FavourablePatchMap small{0.05, 2e-6, 3}, large{0.3, 2e-6, 3};
   for (int i = 0; i < 20000; ++i) {
     const double x = -1e-3 + 1e-7 * i, y = 3.3e-7 * (i % 977), z = 1.1e-7 * (i % 113);
-    if (small.favourableAt(Sheet::bottom, x, y, z)) EXPECT_TRUE(large.favourableAt(Sheet::bottom, x, y, z));
+    if (small.favourableAt(Sheet::bottom, x, y, z)) {
+      EXPECT_TRUE(large.favourableAt(Sheet::bottom, x, y, z));
+    }
     EXPECT_EQ(small.favourableAt(Sheet::bottom, x, y, z), small.cellValue(Sheet::bottom, std::int64_t(std::floor(x / 2e-6)), std::int64_t(std::floor(y / 2e-6)), 0) < 0.05);
     const auto wc = [](double v) { return std::int64_t(std::floor(v / 2e-6 + FavourablePatchMap::kWallShift)); };
     EXPECT_EQ(large.favourableAt(Sheet::walls, x, y, z), large.cellValue(Sheet::walls, wc(x), wc(y), wc(z)) < 0.3);

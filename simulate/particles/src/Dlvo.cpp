@@ -398,24 +398,22 @@ double patchwiseEfficiency(double favourable_fraction, double alpha_unfavourable
   return favourable_fraction + (1 - favourable_fraction) * alpha_unfavourable;
 }
 
-namespace {
-std::uint64_t splitmix(std::uint64_t z) {
+std::uint64_t splitmix64(std::uint64_t z) {
   z += 0x9E3779B97F4A7C15ULL;
   z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
   z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
   return z ^ (z >> 31);
 }
-}  // namespace
 
 double FavourablePatchMap::cellValue(Sheet sheet, std::int64_t i, std::int64_t j, std::int64_t k) const {
   // splitmix64 chained over (salt, seed, sheet, i, j, k): each word goes through a full mix before
   // the next is folded in, so neighbouring cells and seeds give unrelated values. The salt keeps
   // this stream apart from the engine's per-arrival draw of the same seed.
-  std::uint64_t z = splitmix(0x5A7C4E5D1B2F3A69ULL ^ seed);
-  z = splitmix(z ^ static_cast<std::uint64_t>(sheet));
-  z = splitmix(z ^ static_cast<std::uint64_t>(i));
-  z = splitmix(z ^ static_cast<std::uint64_t>(j));
-  z = splitmix(z ^ static_cast<std::uint64_t>(k));
+  std::uint64_t z = splitmix64(0x5A7C4E5D1B2F3A69ULL ^ seed);
+  z = splitmix64(z ^ static_cast<std::uint64_t>(sheet));
+  z = splitmix64(z ^ static_cast<std::uint64_t>(i));
+  z = splitmix64(z ^ static_cast<std::uint64_t>(j));
+  z = splitmix64(z ^ static_cast<std::uint64_t>(k));
   return static_cast<double>(z >> 11) * 0x1.0p-53;
 }
 

@@ -637,16 +637,9 @@ bool OverdampedEngine::beyondRelease(const ParticleState& p, Surface s, double r
     case Surface::top: return m_flow->depth(p.x.x(), p.x.y()) - p.x.z() - a > release;
     case Surface::grain: return !m_flow->isSolid(p.x.x(), p.x.y()) && m_flow->wallDistance(p.x.x(), p.x.y()) - a > release;
     case Surface::deposit: {
-      // No deposited centre within 2 a + release (the contact cells are columns of side 4 a).
-      const double d = 2 * a + release, cs = 4 * a;
-      const auto x0 = static_cast<std::int64_t>(std::floor((p.x.x() - d) / cs)), x1 = static_cast<std::int64_t>(std::floor((p.x.x() + d) / cs));
-      const auto y0 = static_cast<std::int64_t>(std::floor((p.x.y() - d) / cs)), y1 = static_cast<std::int64_t>(std::floor((p.x.y() + d) / cs));
-      for (auto ix = x0; ix <= x1; ++ix)
-        for (auto iy = y0; iy <= y1; ++iy)
-          if (const auto it = m_dep_cells.find((ix * 73856093) ^ (iy * 19349663)); it != m_dep_cells.end())
-            for (const int j : it->second)
-              if ((m_particles[j].x - p.x).norm() <= d) return false;
-      return true;
+      // No deposited centre within 2 a + release.
+      const double d = 2 * a + release;
+      return !anyDepositNear(p.x, d, [&](int j) { return (m_particles[j].x - p.x).norm() <= d; });
     }
     default: return true;
   }
@@ -698,25 +691,14 @@ bool OverdampedEngine::overlapsDeposit(const ParticleState& p, const std::vector
   const auto hit = [&](int j) { return &m_particles[j] != &p && (m_particles[j].x - p.x).norm() < dmin; };
   for (const int j : fresh)
     if (hit(j)) return true;
-  const double cs4 = 4 * m_radius, d = 2 * m_radius;
-  const auto x0 = static_cast<std::int64_t>(std::floor((p.x.x() - d) / cs4)), x1 = static_cast<std::int64_t>(std::floor((p.x.x() + d) / cs4));
-  const auto y0 = static_cast<std::int64_t>(std::floor((p.x.y() - d) / cs4)), y1 = static_cast<std::int64_t>(std::floor((p.x.y() + d) / cs4));
-  for (auto ix = x0; ix <= x1; ++ix)
-    for (auto iy = y0; iy <= y1; ++iy)
-      if (const auto it = m_dep_cells.find((ix * 73856093) ^ (iy * 19349663)); it != m_dep_cells.end())
-        for (const int j : it->second)
-          if (hit(j)) return true;
-  return false;
+  return anyDepositNear(p.x, 2 * m_radius, hit);
 }
 
 double OverdampedEngine::arrivalDraw(std::int64_t id, std::uint32_t arrival) const {
   // splitmix64 of (seed, particle, arrival): independent of the step size and of the order in
   // which particles are visited, so runs and resumed runs draw the same.
-  std::uint64_t z = m_cfg.seed * 0x9E3779B97F4A7C15ULL ^ static_cast<std::uint64_t>(id) * 0xBF58476D1CE4E5B9ULL ^ (static_cast<std::uint64_t>(arrival) << 40);
-  z += 0x9E3779B97F4A7C15ULL;
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-  z ^= z >> 31;
+  const std::uint64_t z = splitmix64(m_cfg.seed * 0x9E3779B97F4A7C15ULL ^ static_cast<std::uint64_t>(id) * 0xBF58476D1CE4E5B9ULL ^
+                                     (static_cast<std::uint64_t>(arrival) << 40));
   return static_cast<double>(z >> 11) * 0x1.0p-53;
 }
 
@@ -817,16 +799,12 @@ void OverdampedEngine::backOutOfDeposits(ParticleState& p) const {
   const double reach = 2 * d;  // the farthest a back-out goes: past one deposit and a second behind it
   std::vector<int>& near = m_near;
   near.clear();
-  const double cs4 = 4 * a, r = d + reach;
-  const auto x0 = static_cast<std::int64_t>(std::floor((p.x.x() - r) / cs4)), x1 = static_cast<std::int64_t>(std::floor((p.x.x() + r) / cs4));
-  const auto y0 = static_cast<std::int64_t>(std::floor((p.x.y() - r) / cs4)), y1 = static_cast<std::int64_t>(std::floor((p.x.y() + r) / cs4));
-  for (auto ix = x0; ix <= x1; ++ix)
-    for (auto iy = y0; iy <= y1; ++iy)
-      if (const auto it = m_dep_cells.find((ix * 73856093) ^ (iy * 19349663)); it != m_dep_cells.end())
-        for (const int j : it->second) {
-          const Vec3 w = p.x - m_particles[j].x;
-          if (std::abs(w.z()) < d && w.head<2>().norm() < r) near.push_back(j);
-        }
+  const double r = d + reach;
+  anyDepositNear(p.x, r, [&](int j) {
+    const Vec3 w = p.x - m_particles[j].x;
+    if (std::abs(w.z()) < d && w.head<2>().norm() < r) near.push_back(j);
+    return false;
+  });
   double s = 0;
   bool clear = false;
   for (int pass = 0; pass < 8 && !clear; ++pass) {

@@ -231,6 +231,10 @@ double secondaryMinimumCaptureProbability(double depth_kT);
 /// std::invalid_argument unless both lie in [0, 1].
 double patchwiseEfficiency(double favourable_fraction, double alpha_unfavourable);
 
+/// splitmix64's finaliser (Steele, Lea & Flood 2014): a full 64-bit mix, the hash behind the
+/// engine's per-arrival draws and the patch map, so both are deterministic in their inputs.
+std::uint64_t splitmix64(std::uint64_t z);
+
 /// Favourable patches placed in space (the patchwise model with a patch size): the glass is cut
 /// into cells of side `size`, squares on a plate's (x, y) and cubes of (x, y, z) for the grain
 /// walls (the cells the wall's surface crosses), and each cell is favourable with probability

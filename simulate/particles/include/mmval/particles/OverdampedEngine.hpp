@@ -174,6 +174,20 @@ class OverdampedEngine final : public ParticleEngine {
   double arrivalDraw(std::int64_t id, std::uint32_t arrival) const;
   double chooseStep(const std::vector<Vec3>& drift) const;  ///< drift indexed like m_mobile
   std::int64_t cellKey(const Vec3& x) const;
+  /// Visits the deposited particles (indices) of the contact columns within `reach` of x's (x, y)
+  /// (m_dep_cells), until `visit` returns true; returns whether it did.
+  template <class Visit>
+  bool anyDepositNear(const Vec3& x, double reach, Visit&& visit) const {
+    const double cs = 4 * m_radius;
+    const auto x0 = static_cast<std::int64_t>(std::floor((x.x() - reach) / cs)), x1 = static_cast<std::int64_t>(std::floor((x.x() + reach) / cs));
+    const auto y0 = static_cast<std::int64_t>(std::floor((x.y() - reach) / cs)), y1 = static_cast<std::int64_t>(std::floor((x.y() + reach) / cs));
+    for (auto ix = x0; ix <= x1; ++ix)
+      for (auto iy = y0; iy <= y1; ++iy)
+        if (const auto it = m_dep_cells.find((ix * 73856093) ^ (iy * 19349663)); it != m_dep_cells.end())
+          for (const int j : it->second)
+            if (visit(j)) return true;
+    return false;
+  }
   void indexDeposited(int i);
   void compactMobile(double t_event);
 
