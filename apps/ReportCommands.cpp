@@ -1,5 +1,6 @@
 #include "ReportCommands.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -34,6 +35,8 @@ struct CompareCli {
   bool y_down_older_flag = false;  ///< --mask-y-down, the older spelling of --y-up false
   std::vector<double> window_origin_um;
   double window_rotation_deg = 0, window_pixel_size_um = 0;
+  /// The one rest rule for both files (compare::RestRule); defaults: the tracker's own.
+  double rest_window_s = compare::RestRule{}.window, rest_um = compare::RestRule{}.distance / 1e-6;
 };
 
 struct ReportCli {
@@ -53,6 +56,8 @@ compare::CompareOptions compareOptionsOf(const CompareCli& c) {
   o.tracks.stuck_window = c.stuck_window_s;
   o.tracks.time_bins = c.time_bins;
   o.occupancy_cell = c.cell_um * kMetresPerMicrometre;
+  o.rest.window = c.rest_window_s;
+  o.rest.distance = c.rest_um * kMetresPerMicrometre;
   return o;
 }
 
@@ -76,6 +81,17 @@ compare::SceneSpec sceneSpecOf(const CompareCli& c) {
   return spec;
 }
 
+/// A check that a number is above `bound` (strictly when `strict`), naming what was expected.
+CLI::Validator numberAtLeast(double bound, bool strict, const std::string& unit) {
+  return CLI::Validator(
+      [=](const std::string& v) {
+        double x = 0;
+        const bool ok = CLI::detail::lexical_cast(v, x) && std::isfinite(x) && (strict ? x > bound : x >= bound);
+        return ok ? std::string() : fmt::format("expected a {} number of {}, got {}", strict ? "positive" : "non-negative", unit, v);
+      },
+      strict ? "POSITIVE" : "NON-NEGATIVE");
+}
+
 /// One line on stderr for an option spelled the older way: it still works, and this says what to write instead.
 void noteOlderSpelling(const std::string& given, const std::string& use) {
   std::fprintf(stderr, "mmval: note: %s is an older spelling; use %s\n", given.c_str(), use.c_str());
@@ -88,6 +104,8 @@ void printComparison(const compare::Comparison& result, const std::string& out) 
     std::printf("registration: dx %.3f px, dy %.3f px, rotation %.4f deg, ECC correlation %.4f, RMS residual %.4f\n", result.alignment["dx_px"].get<double>(),
                 result.alignment["dy_px"].get<double>(), result.alignment["rotation_deg"].get<double>(), result.alignment["ecc_correlation"].get<double>(),
                 result.alignment["rms_residual"].get<double>());
+  std::printf("rest rule: experiment %zu of %zu points at rest, simulation %zu of %zu\n", result.rest_experiment.at_rest, result.rest_experiment.points,
+              result.rest_simulation.at_rest, result.rest_simulation.points);
   std::printf("compare: %s\n", (fs::path(out) / "metrics.json").string().c_str());
 }
 
@@ -155,6 +173,14 @@ void registerReportCommands(CLI::App& app) {
   cmp->add_option("--immobile-um", c->immobile_um, "Particles that never move farther than this are immobile (left out)")->capture_default_str();
   cmp->add_option("--stuck-um", c->stuck_um, "A particle moving less than this over its last window is retained")->capture_default_str();
   cmp->add_option("--stuck-window-s", c->stuck_window_s, "Length of that final window")->capture_default_str();
+  cmp->add_option("--rest-window-s", c->rest_window_s,
+                  "One rest rule for both files (speeds, W1, dispersion): a point is at rest when its particle stays within --rest-um for this "
+                  "long, as the tracker labels rests (default: the tracker's analysis.stuck_window; 0 turns the rule off)")
+      ->check(numberAtLeast(0.0, false, "seconds"))
+      ->capture_default_str();
+  cmp->add_option("--rest-um", c->rest_um, "Distance of that rest rule (default: the tracker's analysis.stuck_distance)")
+      ->check(numberAtLeast(0.0, true, "um"))
+      ->capture_default_str();
   cmp->add_option("--cell-um", c->cell_um, "Grid cell of the streamline occupancy maps")->capture_default_str();
   cmp->add_option("--time-bins", c->time_bins, "Bins of the time series")->capture_default_str();
   CLI::Option* mask = cmp->add_option("--mask", c->mask, "Geometry mask the simulation was built from: per-region speeds, and the target of --register-frame");

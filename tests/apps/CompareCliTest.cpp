@@ -8,6 +8,7 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -154,6 +155,47 @@ TEST(CompareCli, TrackpyAndTrackmateFilesCompareLikeMmvalsOwn) {
                                            (d / "sim-trackmate.csv").string(), (d / "out2").string()));
   EXPECT_EQ(no_fps.status, 2) << no_fps.output;
   EXPECT_THAT(no_fps.output, HasSubstr("--fps"));
+}
+
+/// movingRows, except that the last particle stops after frame 9 and rests for the last 1 s (10 frames).
+std::string restingRows(const std::vector<std::int64_t>& ids, double speed_um_s) {
+  std::string rows = "frame,particle,t_s,x_um,y_um\n";
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    for (int f = 0; f < 20; ++f) {
+      const int moved = i + 1 == ids.size() ? std::min(f, 9) : f;
+      rows += fmt::format("{},{},{:.1f},{:g},{:g}\n", f, ids[i], 0.1 * f, speed_um_s * (i + 1) * 0.1 * moved, 100.0 * i);
+    }
+  return rows;
+}
+
+TEST(CompareCli, RestRuleFlagsDecideWhichStepsAreMotion) {
+  // Steps of 20 and 40 um/s (19 each) and 60 um/s (9), then 10 steps at rest: the mean over steps
+  // is 1680 / 57 um/s with the rest counted as motion, 1680 / 47 um/s with it left out.
+  const fs::path d = scratch("rest-rule");
+  const std::string rows = restingRows({1, 2, 3}, 20);
+  std::ofstream(d / "exp.csv") << rows;
+  std::ofstream(d / "sim.csv") << rows;
+  const auto run = [&](const std::string& flags, const std::string& out) {
+    const Outcome o = mmval(fmt::format("compare --experiment {} --simulation {} --out {} {}", (d / "exp.csv").string(), (d / "sim.csv").string(),
+                                        (d / out).string(), flags));
+    EXPECT_EQ(o.status, 0) << o.output;
+    return o;
+  };
+  const Outcome off = run("--rest-window-s 0", "off");
+  EXPECT_NEAR(metricValue(d / "off" / "metrics.json", "mean_speed"), 1680.0 / 57, 1e-6);
+  // The default window (the tracker's 2 s) is longer than the 1-s rest: the same as no rule.
+  run("", "default");
+  EXPECT_NEAR(metricValue(d / "default" / "metrics.json", "mean_speed"), 1680.0 / 57, 1e-6);
+  const Outcome half = run("--rest-window-s 0.5 --rest-um 1", "half");
+  EXPECT_NEAR(metricValue(d / "half" / "metrics.json", "mean_speed"), 1680.0 / 47, 1e-6);
+  // The 11 resting points (frames 9-19 of the last particle) are reported for each file.
+  EXPECT_THAT(half.output, HasSubstr("experiment 11 of 60 points at rest, simulation 11 of 60"));
+  EXPECT_THAT(off.output, HasSubstr("experiment 0 of 60 points at rest"));
+  // A negative window is a usage error (exit 1, README) naming the flag and what it expects.
+  const Outcome bad = mmval(fmt::format("compare --experiment {} --simulation {} --out {} --rest-window-s -1", (d / "exp.csv").string(),
+                                        (d / "sim.csv").string(), (d / "bad").string()));
+  EXPECT_EQ(bad.status, 1) << bad.output;
+  EXPECT_THAT(bad.output, HasSubstr("--rest-window-s: expected a non-negative number of seconds, got -1"));
 }
 
 }  // namespace
