@@ -228,7 +228,19 @@ double GriddedFlow::bilinear(const std::vector<double>& a, double x, double y) c
   return (1 - s) * (1 - t) * at(i, j) + s * (1 - t) * at(i + 1, j) + (1 - s) * t * at(i, j + 1) + s * t * at(i + 1, j + 1);
 }
 
-int GriddedFlow::nearestNode(double f, int n) const { return std::clamp(static_cast<int>(std::lround(f)), 0, n - 1); }
+int GriddedFlow::nearestNode(double f, int n) const {
+  // std::lround (halves away from zero) without the library call or a branch: the truncation,
+  // then its fraction (exact) decides. The same value as lround for every f (NaN and huge: lround).
+  long r = 0;
+  if (std::abs(f) < 1e18) [[likely]] {
+    r = static_cast<long>(f);
+    const double frac = f - static_cast<double>(r);
+    r += static_cast<long>(frac >= 0.5) - static_cast<long>(frac <= -0.5);
+  } else {
+    r = std::lround(f);
+  }
+  return std::clamp(static_cast<int>(r), 0, n - 1);
+}
 
 bool GriddedFlow::isSolid(double x, double y) const {
   const double fx = (x - m_x0) / m_dx, fy = (y - m_y0) / m_dy;
@@ -445,16 +457,34 @@ bool GriddedFlow::searchNearestWall(double x, double y, double& d2, Vec2& q) con
     const double reach = m_reach * std::min(m_dx, m_dy);
     return d2 <= reach * reach;
   }
-  // The wall cells (solid with a fluid neighbour) within m_reach cells of the point's node.
+  // The wall cells (solid with a fluid neighbour) within m_reach cells of the point's node, listed
+  // row by row (j), i ascending in a row. Skipped without changing the answer: a row whose y part
+  // of the squared distance alone is no nearer than the best so far (the x part only adds), and the
+  // rest of a row after a cell right of x that is no nearer (the x part grows along the row).
+  int row = std::numeric_limits<int>::min(), skip_row = row;
+  double py = 0, ey2 = 0;
   for (std::size_t e = m_wall_start[k]; e < m_wall_start[k + 1]; ++e) {
     const int i = m_wall_cells[2 * e], j = m_wall_cells[2 * e + 1];
+    if (j == skip_row) continue;
+    if (j != row) {
+      row = j;
+      const double cy = m_y0 + j * m_dy;
+      py = std::clamp(y, cy - hy, cy + hy);
+      ey2 = (y - py) * (y - py);
+      if (!(ey2 < d2)) {
+        skip_row = j;
+        continue;
+      }
+    }
     // Nearest point of the solid cell [xi - hx, xi + hx] x [yj - hy, yj + hy].
-    const double cx = m_x0 + i * m_dx, cy = m_y0 + j * m_dy;
-    const double px = std::clamp(x, cx - hx, cx + hx), py = std::clamp(y, cy - hy, cy + hy);
-    const double e2 = (x - px) * (x - px) + (y - py) * (y - py);
+    const double cx = m_x0 + i * m_dx;
+    const double px = std::clamp(x, cx - hx, cx + hx);
+    const double e2 = (x - px) * (x - px) + ey2;
     if (e2 < d2) {
       d2 = e2;
       q = Vec2(px, py);
+    } else if (x < cx - hx) {
+      skip_row = j;
     }
   }
   // Any solid cell beyond the searched block is at least m_reach cells away.
@@ -465,9 +495,12 @@ bool GriddedFlow::searchNearestWall(double x, double y, double& d2, Vec2& q) con
 bool GriddedFlow::nearestWallIsAt(const Vec2& p, double s, std::pair<int, int>& hint) const {
   // nearestWallPoint(p) && sqrt(d2) >= s (1 - 1e-9), as a test over the cells: sqrt is monotone, so
   // the minimum's root is the roots' minimum, and the first cell nearer than that settles it.
-  if (isSolid(p.x(), p.y())) return false;
   const double x = p.x(), y = p.y();
-  const std::size_t k = static_cast<std::size_t>(nearestNode((y - m_y0) / m_dy, m_ny)) * m_nx + nearestNode((x - m_x0) / m_dx, m_nx);
+  // isSolid(x, y), sharing its node with the search below (square walls: the node's cell decides).
+  const double fx = (x - m_x0) / m_dx, fy = (y - m_y0) / m_dy;
+  if (fx < -0.5 || fy < -0.5 || fx > m_nx - 0.5 || fy > m_ny - 0.5) return false;
+  const std::size_t k = static_cast<std::size_t>(nearestNode(fy, m_ny)) * m_nx + nearestNode(fx, m_nx);
+  if (m_smooth ? isSolid(x, y) : m_solid[k] != 0) return false;
   const double hx = 0.5 * m_dx, hy = 0.5 * m_dy;
   const double reach = m_reach * std::min(m_dx, m_dy), t = s * (1 - 1e-9);
   // Above t^2 (1 + 1e-9) the root is above t whatever its rounding: no square root needed.
@@ -513,14 +546,38 @@ bool GriddedFlow::nearestWallIsAt(const Vec2& p, double s, std::pair<int, int>& 
   // first, it settles a false answer without the block's scan.
   double e2 = 0;
   if (hint.first >= 0 && nearer(hint.first, hint.second, e2)) return false;
+  // The cells as nearer() sees them (e2 = x part + y part, the same sum), skipping what cannot
+  // change the answer (a cell is nearer or not by its e2 alone, so the order does not matter): a
+  // row whose y part alone is not nearer than t (the x part only adds) once a wall within reach
+  // is known, or that is beyond reach; the rest of a row after a cell right of x that is not
+  // nearer and, once a wall within reach is known or it is beyond reach (the x part grows along
+  // the row: the cells are listed row by row, i ascending).
+  const double reach2 = reach * reach;
   bool within = false;
+  int row = std::numeric_limits<int>::min(), skip_row = row;
+  double ey2 = 0;
   for (std::size_t e = m_wall_start[k]; e < m_wall_start[k + 1]; ++e) {
     const int i = m_wall_cells[2 * e], j = m_wall_cells[2 * e + 1];
-    if (nearer(i, j, e2)) {
+    if (j == skip_row) continue;
+    if (j != row) {
+      row = j;
+      const double cy = m_y0 + j * m_dy;
+      const double py = std::clamp(y, cy - hy, cy + hy);
+      ey2 = (y - py) * (y - py);
+      if (!(ey2 < t2) && (within || ey2 > reach2)) {
+        skip_row = j;
+        continue;
+      }
+    }
+    const double cx = m_x0 + i * m_dx;
+    const double px = std::clamp(x, cx - hx, cx + hx);
+    e2 = (x - px) * (x - px) + ey2;
+    if (e2 < t2 && std::sqrt(e2) < t) {
       hint = {i, j};
       return false;
     }
-    within = within || e2 <= reach * reach;
+    within = within || e2 <= reach2;
+    if (x < cx - hx && (within || e2 > reach2)) skip_row = j;
   }
   return within;
 }

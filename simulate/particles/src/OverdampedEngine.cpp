@@ -1,6 +1,7 @@
 #include "mmval/particles/OverdampedEngine.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -222,19 +223,33 @@ nlohmann::json SurfaceChemistry::describe() const {
 
 OverdampedEngine::~OverdampedEngine() = default;
 
-Vec3 OverdampedEngine::driftVelocity(const Vec3& x) const {
-  if (m_flow->isSolid(x.x(), x.y())) return Vec3::Zero();
-  const double h = m_flow->depth(x.x(), x.y()), a = m_radius, g0 = m_model.drag0();
-  const auto [par, perp] = m_model.hindrance(x.z(), h);
-  const Vec3 f = m_model.force(x);
-  Vec3 v = m_model.fluidVelocity(x) + m_model.shearLag(x) + Vec3(f.x() / (g0 * par), f.y() / (g0 * par), f.z() / (g0 * perp));
-  if (m_cfg.brownian && m_cfg.wall_hindrance && m_cfg.ito_drift) {
+namespace {
+
+/// OverdampedEngine::driftVelocity at x, and the hindrance factors (parallel, perpendicular) at x
+/// (the Brownian step's, computed once for both).
+Vec3 driftAndHindrance(const FlowField& flow, const HydroModel& model, const SceneConfig& cfg, double a, const Vec3& x,
+                       std::pair<double, double>& hindrance) {
+  const double h = flow.depth(x.x(), x.y());
+  hindrance = model.hindrance(x.z(), h);
+  if (flow.isSolid(x.x(), x.y())) return Vec3::Zero();
+  const double g0 = model.drag0();
+  const auto [par, perp] = hindrance;
+  const Vec3 f = model.force(x);
+  Vec3 v = model.fluidVelocity(x) + model.shearLag(x) + Vec3(f.x() / (g0 * par), f.y() / (g0 * par), f.z() / (g0 * perp));
+  if (cfg.brownian && cfg.wall_hindrance && cfg.ito_drift) {
     // Ito drift k_B T d(1/(6 pi mu a lambda_perp))/dz keeps the equilibrium distribution right.
     const double e = 1e-3 * a;
     const double zm = std::max(x.z() - e, a), zp = std::min(x.z() + e, h - a);
-    if (zp > zm) v.z() += m_model.diffusivity() * (1.0 / m_model.normalHindrance(zp, h) - 1.0 / m_model.normalHindrance(zm, h)) / (zp - zm);
+    if (zp > zm) v.z() += model.diffusivity() * (1.0 / model.normalHindrance(zp, h) - 1.0 / model.normalHindrance(zm, h)) / (zp - zm);
   }
   return v;
+}
+
+}  // namespace
+
+Vec3 OverdampedEngine::driftVelocity(const Vec3& x) const {
+  std::pair<double, double> hindrance;
+  return driftAndHindrance(*m_flow, m_model, m_cfg, m_radius, x, hindrance);
 }
 
 void OverdampedEngine::insert(const std::vector<Vec3>& positions) {
@@ -274,7 +289,9 @@ double OverdampedEngine::chooseStep(const std::vector<Vec3>& drift) const {
 }
 
 void OverdampedEngine::indexDeposited(int i) {
-  m_dep_cells[cellKey(m_particles[i].x)].push_back(i);
+  const std::int64_t key = cellKey(m_particles[i].x);
+  m_dep_cells[key].push_back(i);
+  m_dep_bits[depBit(key) / 64] |= std::uint64_t{1} << (depBit(key) % 64);
   m_dep_order.push_back(i);
 }
 
@@ -306,11 +323,14 @@ void OverdampedEngine::compactMobile(double t_event) {
 void OverdampedEngine::advance(double t_end) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<Vec3> drift;
+  std::vector<std::pair<double, double>> hindrance;  // at each drift point: the Brownian step's
   while (m_t < t_end * (1 - 1e-14)) {
     // Only mobile particles cost anything per step: deposited and departed ones
     // are never visited (long runs hold thousands of them).
     drift.resize(m_mobile.size());
-    for (std::size_t k = 0; k < m_mobile.size(); ++k) drift[k] = driftVelocity(m_particles[m_mobile[k]].x);
+    hindrance.resize(m_mobile.size());
+    for (std::size_t k = 0; k < m_mobile.size(); ++k)
+      drift[k] = driftAndHindrance(*m_flow, m_model, m_cfg, m_radius, m_particles[m_mobile[k]].x, hindrance[k]);
     const auto mobile = static_cast<std::int64_t>(m_mobile.size());
     double dt = mobile ? chooseStep(drift) : t_end - m_t;
     dt = std::min(dt, t_end - m_t);
@@ -322,7 +342,7 @@ void OverdampedEngine::advance(double t_end) {
         const Vec3 before = p.x;
         Vec3 dx = drift[k] * dt;
         if (c.brownian) {
-          const auto [par, perp] = m_model.hindrance(p.x.z(), m_flow->depth(p.x.x(), p.x.y()));
+          const auto [par, perp] = hindrance[k];  // at p.x: the drift's point, not moved since
           const double sp = std::sqrt(2.0 * m_model.diffusivity() * dt / par), sz = std::sqrt(2.0 * m_model.diffusivity() * dt / perp);
           dx += Vec3(sp * m_rng->normal(), sp * m_rng->normal(), sz * m_rng->normal());
         }
@@ -721,6 +741,10 @@ void OverdampedEngine::resolveContacts() {
     for (const int i : m_mobile)
       if (m_particles[i].status == ParticleStatus::mobile) cells.emplace_back(cellKey(m_particles[i].x), i);
     std::sort(cells.begin(), cells.end());
+    // A filter of the keys in `cells` (a bit per key hash): a column it says is empty skips the search.
+    std::array<std::uint64_t, 64> occupied{};
+    const auto bit = [](std::int64_t key) { return static_cast<std::size_t>(key) & 4095u; };
+    for (const auto& c : cells) occupied[bit(c.first) / 64] |= std::uint64_t{1} << (bit(c.first) % 64);
     bool any = false;
     const auto visit = [&](ParticleState& p, int i, int j) {
       if (j == i) return;
@@ -751,8 +775,11 @@ void OverdampedEngine::resolveContacts() {
       for (auto ix = x0; ix <= x1; ++ix)
         for (auto iy = y0; iy <= y1; ++iy) {
           const std::int64_t key = (ix * 73856093) ^ (iy * 19349663);
-          const auto first = std::lower_bound(cells.begin(), cells.end(), std::pair<std::int64_t, int>(key, std::numeric_limits<int>::min()));
-          for (auto it = first; it != cells.end() && it->first == key; ++it) visit(p, i, it->second);
+          if ((occupied[bit(key) / 64] >> (bit(key) % 64)) & 1u) {
+            const auto first = std::lower_bound(cells.begin(), cells.end(), std::pair<std::int64_t, int>(key, std::numeric_limits<int>::min()));
+            for (auto it = first; it != cells.end() && it->first == key; ++it) visit(p, i, it->second);
+          }
+          if (!mayHoldDeposits(key)) continue;
           if (const auto it = m_dep_cells.find(key); it != m_dep_cells.end())
             for (int j : it->second) visit(p, i, j);
         }
@@ -895,6 +922,7 @@ void OverdampedEngine::loadState(CheckpointReader& r) {
   m_particles = std::move(ps);
   m_mobile.clear();
   m_dep_cells.clear();
+  std::fill(m_dep_bits.begin(), m_dep_bits.end(), 0);
   m_dep_order.clear();
   for (int i = 0; i < static_cast<int>(m_particles.size()); ++i)
     if (m_particles[i].status == ParticleStatus::mobile) m_mobile.push_back(i);

@@ -183,11 +183,18 @@ class OverdampedEngine final : public ParticleEngine {
     const auto y0 = static_cast<std::int64_t>(std::floor((x.y() - reach) / cs)), y1 = static_cast<std::int64_t>(std::floor((x.y() + reach) / cs));
     for (auto ix = x0; ix <= x1; ++ix)
       for (auto iy = y0; iy <= y1; ++iy)
-        if (const auto it = m_dep_cells.find((ix * 73856093) ^ (iy * 19349663)); it != m_dep_cells.end())
-          for (const int j : it->second)
-            if (visit(j)) return true;
+        if (const std::int64_t key = (ix * 73856093) ^ (iy * 19349663); mayHoldDeposits(key))
+          if (const auto it = m_dep_cells.find(key); it != m_dep_cells.end())
+            for (const int j : it->second)
+              if (visit(j)) return true;
     return false;
   }
+  /// A filter of m_dep_cells' keys (a bit per key hash, set by indexDeposited): false only for a
+  /// contact column that holds no deposit, so that the many empty columns skip the hash look-up.
+  static constexpr std::size_t kDepBits = 1u << 14;
+  static std::size_t depBit(std::int64_t key) { return static_cast<std::size_t>(key) & (kDepBits - 1); }
+  bool mayHoldDeposits(std::int64_t key) const { return (m_dep_bits[depBit(key) / 64] >> (depBit(key) % 64)) & 1u; }
+  std::vector<std::uint64_t> m_dep_bits = std::vector<std::uint64_t>(kDepBits / 64, 0);
   void indexDeposited(int i);
   void compactMobile(double t_event);
 
