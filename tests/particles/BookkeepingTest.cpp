@@ -22,6 +22,8 @@
 #include "mmval/core/OutputTables.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/particles/Kinds.hpp"
+
+#include "KindTestFiles.hpp"
 #include "mmval/particles/MicromodelBookkeeping.hpp"
 
 namespace mmval::particles {
@@ -91,28 +93,12 @@ TEST(MicromodelBookkeeping, WindowCountsParticlesInjectedInItAndRetainedByItsEnd
 
 // ---- the kind end to end --------------------------------------------------
 
-fs::path testDir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  return fs::path(MMVAL_BINARY_DIR) / "tests" / "particles" / "bookkeeping" / (std::string(info->test_suite_name()) + "." + info->name());
-}
-
-/// Binary PGM (OpenCV reads it): 0 = grain (dark), 255 = pore.
+constexpr const char* kGroup = "bookkeeping";
+fs::path testDir() { return test_support::kindTestDir(kGroup); }
 fs::path writePgm(const std::string& name, int cols, int rows, const std::function<bool(int, int)>& grain) {
-  const fs::path file = testDir() / name;
-  fs::create_directories(file.parent_path());
-  std::ofstream f(file, std::ios::binary);
-  f << "P5\n" << cols << " " << rows << "\n255\n";
-  for (int r = 0; r < rows; ++r)
-    for (int c = 0; c < cols; ++c) f.put(static_cast<char>(grain(c, r) ? 0 : 255));
-  return file;
+  return test_support::writeTestMask(kGroup, name, cols, rows, grain);
 }
-
-std::string readText(const fs::path& f) {
-  std::ifstream in(f);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using test_support::readText;
 
 /// Rows of a CSV file without its header, each split at commas.
 std::vector<std::vector<std::string>> csvRows(const fs::path& f) {
@@ -141,13 +127,8 @@ const std::size_t kRetT = col(tables::retentionColumns(), "t_s"), kRetInjected =
 const std::size_t kPermT = col(tables::permeabilityColumns(), "t_s"), kPermK = col(tables::permeabilityColumns(), "k_m2"),
                   kPermResolves = col(tables::permeabilityColumns(), "resolves");
 
-struct Fixture {
-  CaseKindRegistry reg;
-  Fixture() { registerParticleKinds(reg); }
-  RunSummary run(const std::string& text, const std::string& dir) {
-    const Case c = Case::parse(text, testDir() / (dir + ".toml"), reg);
-    return runCase(c, reg, testDir() / dir, {.quiet = true, .resume = false});
-  }
+struct Fixture : test_support::KindRunner {
+  Fixture() : KindRunner(kGroup) {}
 };
 
 bool hasMetric(const RunSummary& s, const std::string& name) {
@@ -156,12 +137,7 @@ bool hasMetric(const RunSummary& s, const std::string& name) {
   return false;
 }
 
-double metric(const RunSummary& s, const std::string& name) {
-  for (const auto& m : s.metrics)
-    if (m.name == name) return m.value;
-  ADD_FAILURE() << "no metric " << name;
-  return NAN;
-}
+double metric(const RunSummary& s, const std::string& name) { return test_support::metricOf(s, name); }
 
 // The clogging chip: 60 x 10 px at 5 um/px (300 x 50 um), 20 um deep, grains
 // leaving a 4 px (20 um) throat at columns 28-31; 200 particles of 5 um over

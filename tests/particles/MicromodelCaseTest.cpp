@@ -18,42 +18,28 @@
 #include "mmval/particles/Kinds.hpp"
 #include "mmval/particles/Micromodel.hpp"
 
+#include "KindTestFiles.hpp"
+
 namespace mmval::particles {
 namespace {
 
 namespace fs = std::filesystem;
 
-/// One folder per test: ctest runs the tests of this file as parallel processes.
-fs::path testDir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  return fs::path(MMVAL_BINARY_DIR) / "tests" / "particles" / "micromodel" / (std::string(info->test_suite_name()) + "." + info->name());
-}
+fs::path testDir() { return test_support::kindTestDir("micromodel"); }
 
-/// Writes a binary PGM (OpenCV reads it): 0 = grain (dark), 255 = pore.
-void writePgm(const fs::path& file, int cols, int rows, const std::function<bool(int, int)>& grain) {
-  fs::create_directories(file.parent_path());
-  std::ofstream f(file, std::ios::binary);
-  f << "P5\n" << cols << " " << rows << "\n255\n";
-  for (int r = 0; r < rows; ++r)
-    for (int c = 0; c < cols; ++c) f.put(static_cast<char>(grain(c, r) ? 0 : 255));
-}
+using test_support::writeGrainPgm;
 
 /// 80 x 40 px at 5 um/px (0.4 x 0.2 mm) with three round grains.
 fs::path grainsMask() {
   const fs::path file = testDir() / "grains.pgm";
-  writePgm(file, 80, 40, [](int c, int r) {
+  writeGrainPgm(file, 80, 40, [](int c, int r) {
     const auto in = [&](double cx, double cy, double rad) { return std::hypot(c - cx, r - cy) < rad; };
     return in(25, 12, 6) || in(45, 28, 7) || in(62, 10, 5);
   });
   return file;
 }
 
-std::string readText(const fs::path& f) {
-  std::ifstream in(f);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using test_support::readText;
 
 struct Opts {
   std::string pixel = "5 um", rate = "5 uL/min", rate_width = "10 mm", diameter = "5 um", mode = "four-way";
@@ -71,21 +57,11 @@ std::string caseText(const fs::path& mask, const std::string& run, const Opts& o
          "[numerics]\ncells_per_pixel = 0.5\n" + run + o.extra;
 }
 
-struct Fixture {
-  CaseKindRegistry reg;
-  Fixture() { registerParticleKinds(reg); }
-  RunSummary run(const std::string& text, const std::string& dir, bool resume = false) {
-    const Case c = Case::parse(text, testDir() / (dir + ".toml"), reg);
-    return runCase(c, reg, testDir() / dir, {.quiet = true, .resume = resume});
-  }
+struct Fixture : test_support::KindRunner {
+  Fixture() : KindRunner("micromodel") {}
 };
 
-double metric(const RunSummary& s, const std::string& name) {
-  for (const auto& m : s.metrics)
-    if (m.name == name) return m.value;
-  ADD_FAILURE() << "no metric " << name;
-  return NAN;
-}
+double metric(const RunSummary& s, const std::string& name) { return test_support::metricOf(s, name); }
 
 const std::string kShort = "[run]\nduration = \"3 s\"\noutput_interval = \"0.1 s\"\nseed = 4\ncheckpoint_every = 0\n";
 
@@ -170,7 +146,7 @@ TEST(MicromodelBadInputCase, ZeroFlowInjectsNothingAndStaysFinite) {
 TEST(MicromodelBadInputCase, ParticlesLargerThanEveryThroatAreStrained) {
   // A 60 x 30 px channel at 1 um/px with a 5 um throat in the middle; 8 um particles.
   const fs::path file = testDir() / "throat.pgm";
-  writePgm(file, 60, 30, [](int c, int r) { return c >= 28 && c < 32 && (r < 12 || r >= 17); });
+  writeGrainPgm(file, 60, 30, [](int c, int r) { return c >= 28 && c < 32 && (r < 12 || r >= 17); });
   Fixture fx;
   Opts o;
   o.pixel = "1 um";
@@ -209,7 +185,7 @@ TEST(MicromodelBadInputCase, ParticlesLargerThanEveryThroatAreStrained) {
 TEST(MicromodelBadInputCase, InletBlockedForTheParticleSizeIsAClearError) {
   // Grains cover the inlet column except a 3-pixel (15 um) gap; 16 um particles cannot enter.
   const fs::path file = testDir() / "inlet.pgm";
-  writePgm(file, 40, 30, [](int c, int r) { return c < 4 && (r < 10 || r >= 13); });
+  writeGrainPgm(file, 40, 30, [](int c, int r) { return c < 4 && (r < 10 || r >= 13); });
   Fixture fx;
   Opts big;
   big.diameter = "16 um";
@@ -237,7 +213,7 @@ TEST(MicromodelCase, CrowdedInletPlacesEveryFineOrSaysWhy) {
   // injected = retained + left + inside). Stopped at 0.2 s, the rest is counted
   // apart (not_placed = never_injected > 0) and details.not_placed says why.
   const fs::path file = testDir() / "gap.pgm";
-  writePgm(file, 40, 30, [](int c, int r) { return c < 4 && (r < 10 || r >= 13); });
+  writeGrainPgm(file, 40, 30, [](int c, int r) { return c < 4 && (r < 10 || r >= 13); });
   Fixture fx;
   Opts o;
   o.mode = "one-way";
@@ -278,7 +254,7 @@ namespace {
 /// 100 x 50 px at 2 um per pixel, 30 um deep (grains 10 um across, 50 um apart).
 fs::path latticeMask() {
   const fs::path file = testDir() / "lattice.pgm";
-  writePgm(file, 100, 50, [](int c, int r) {
+  writeGrainPgm(file, 100, 50, [](int c, int r) {
     const int cx = (c + 6) % 25 - 12, cy = (r + (c / 25 % 2) * 12) % 25 - 12;
     return cx * cx + cy * cy < 5 * 5;
   });

@@ -24,48 +24,24 @@
 #include "mmval/core/Run.hpp"
 #include "mmval/particles/Kinds.hpp"
 
+#include "KindTestFiles.hpp"
+
 namespace mmval::particles {
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path testDir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  return fs::path(MMVAL_BINARY_DIR) / "tests" / "particles" / "parcel-weight" / (std::string(info->test_suite_name()) + "." + info->name());
-}
-
-/// Binary PGM: 0 = grain (dark), 255 = pore.
+constexpr const char* kGroup = "parcel-weight";
+fs::path testDir() { return test_support::kindTestDir(kGroup); }
 fs::path writePgm(const std::string& name, int cols, int rows, const std::function<bool(int, int)>& grain) {
-  const fs::path file = testDir() / name;
-  fs::create_directories(file.parent_path());
-  std::ofstream f(file, std::ios::binary);
-  f << "P5\n" << cols << " " << rows << "\n255\n";
-  for (int r = 0; r < rows; ++r)
-    for (int c = 0; c < cols; ++c) f.put(static_cast<char>(grain(c, r) ? 0 : 255));
-  return file;
+  return test_support::writeTestMask(kGroup, name, cols, rows, grain);
 }
+using test_support::readText;
 
-std::string readText(const fs::path& f) {
-  std::ifstream in(f);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+double metric(const RunSummary& s, const std::string& name) { return test_support::metricOf(s, name); }
 
-double metric(const RunSummary& s, const std::string& name) {
-  for (const auto& m : s.metrics)
-    if (m.name == name) return m.value;
-  ADD_FAILURE() << "no metric " << name;
-  return NAN;
-}
-
-struct Fixture {
-  CaseKindRegistry reg;
-  Fixture() { registerParticleKinds(reg); }
-  RunSummary run(const std::string& text, const std::string& dir) {
-    const Case c = Case::parse(text, testDir() / (dir + ".toml"), reg);
-    return runCase(c, reg, testDir() / dir, {.quiet = true, .resume = false});
-  }
+struct Fixture : test_support::KindRunner {
+  Fixture() : KindRunner(kGroup) {}
 };
 
 /// 100 x 20 px at 2 um; grains above and below a 2 px (4 um) slot at columns 60-69.
