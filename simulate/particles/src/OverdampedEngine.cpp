@@ -291,7 +291,7 @@ double OverdampedEngine::chooseStep(const std::vector<Vec3>& drift) const {
 void OverdampedEngine::indexDeposited(int i) {
   const std::int64_t key = cellKey(m_particles[i].x);
   m_dep_cells[key].push_back(i);
-  m_dep_bits[depBit(key) / 64] |= std::uint64_t{1} << (depBit(key) % 64);
+  m_dep_filter.add(key);
   m_dep_order.push_back(i);
 }
 
@@ -301,7 +301,7 @@ std::int64_t OverdampedEngine::cellKey(const Vec3& x) const {
   // the chip is only a few diameters deep.
   const double cs = 4 * m_radius;
   const auto ix = static_cast<std::int64_t>(std::floor(x.x() / cs)), iy = static_cast<std::int64_t>(std::floor(x.y() / cs));
-  return (ix * 73856093) ^ (iy * 19349663);
+  return columnKey(ix, iy);
 }
 
 void OverdampedEngine::compactMobile(double t_event) {
@@ -741,10 +741,9 @@ void OverdampedEngine::resolveContacts() {
     for (const int i : m_mobile)
       if (m_particles[i].status == ParticleStatus::mobile) cells.emplace_back(cellKey(m_particles[i].x), i);
     std::sort(cells.begin(), cells.end());
-    // A filter of the keys in `cells` (a bit per key hash): a column it says is empty skips the search.
-    std::array<std::uint64_t, 64> occupied{};
-    const auto bit = [](std::int64_t key) { return static_cast<std::size_t>(key) & 4095u; };
-    for (const auto& c : cells) occupied[bit(c.first) / 64] |= std::uint64_t{1} << (bit(c.first) % 64);
+    // The keys in `cells`: a column the filter says is empty skips the search.
+    KeyFilter<4096> occupied;
+    for (const auto& c : cells) occupied.add(c.first);
     bool any = false;
     const auto visit = [&](ParticleState& p, int i, int j) {
       if (j == i) return;
@@ -774,12 +773,12 @@ void OverdampedEngine::resolveContacts() {
       const auto y0 = static_cast<std::int64_t>(std::floor((p.x.y() - d) / cs4)), y1 = static_cast<std::int64_t>(std::floor((p.x.y() + d) / cs4));
       for (auto ix = x0; ix <= x1; ++ix)
         for (auto iy = y0; iy <= y1; ++iy) {
-          const std::int64_t key = (ix * 73856093) ^ (iy * 19349663);
-          if ((occupied[bit(key) / 64] >> (bit(key) % 64)) & 1u) {
+          const std::int64_t key = columnKey(ix, iy);
+          if (occupied.mayHold(key)) {
             const auto first = std::lower_bound(cells.begin(), cells.end(), std::pair<std::int64_t, int>(key, std::numeric_limits<int>::min()));
             for (auto it = first; it != cells.end() && it->first == key; ++it) visit(p, i, it->second);
           }
-          if (!mayHoldDeposits(key)) continue;
+          if (!m_dep_filter.mayHold(key)) continue;
           if (const auto it = m_dep_cells.find(key); it != m_dep_cells.end())
             for (int j : it->second) visit(p, i, j);
         }
@@ -922,7 +921,7 @@ void OverdampedEngine::loadState(CheckpointReader& r) {
   m_particles = std::move(ps);
   m_mobile.clear();
   m_dep_cells.clear();
-  std::fill(m_dep_bits.begin(), m_dep_bits.end(), 0);
+  m_dep_filter = {};
   m_dep_order.clear();
   for (int i = 0; i < static_cast<int>(m_particles.size()); ++i)
     if (m_particles[i].status == ParticleStatus::mobile) m_mobile.push_back(i);

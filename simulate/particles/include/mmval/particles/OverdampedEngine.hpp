@@ -58,6 +58,7 @@
 // lag is that of the wall's linear shear), in-plane hindrance by grains,
 // hydrodynamic interactions between particles, re-entrainment.
 #pragma once
+#include <array>
 #include <memory>
 #include <unordered_map>
 
@@ -174,6 +175,8 @@ class OverdampedEngine final : public ParticleEngine {
   double arrivalDraw(std::int64_t id, std::uint32_t arrival) const;
   double chooseStep(const std::vector<Vec3>& drift) const;  ///< drift indexed like m_mobile
   std::int64_t cellKey(const Vec3& x) const;
+  /// The key of contact column (ix, iy) (cellKey's columns).
+  static std::int64_t columnKey(std::int64_t ix, std::int64_t iy) { return (ix * 73856093) ^ (iy * 19349663); }
   /// Visits the deposited particles (indices) of the contact columns within `reach` of x's (x, y)
   /// (m_dep_cells), until `visit` returns true; returns whether it did.
   template <class Visit>
@@ -183,18 +186,23 @@ class OverdampedEngine final : public ParticleEngine {
     const auto y0 = static_cast<std::int64_t>(std::floor((x.y() - reach) / cs)), y1 = static_cast<std::int64_t>(std::floor((x.y() + reach) / cs));
     for (auto ix = x0; ix <= x1; ++ix)
       for (auto iy = y0; iy <= y1; ++iy)
-        if (const std::int64_t key = (ix * 73856093) ^ (iy * 19349663); mayHoldDeposits(key))
+        if (const std::int64_t key = columnKey(ix, iy); m_dep_filter.mayHold(key))
           if (const auto it = m_dep_cells.find(key); it != m_dep_cells.end())
             for (const int j : it->second)
               if (visit(j)) return true;
     return false;
   }
-  /// A filter of m_dep_cells' keys (a bit per key hash, set by indexDeposited): false only for a
-  /// contact column that holds no deposit, so that the many empty columns skip the hash look-up.
-  static constexpr std::size_t kDepBits = 1u << 14;
-  static std::size_t depBit(std::int64_t key) { return static_cast<std::size_t>(key) & (kDepBits - 1); }
-  bool mayHoldDeposits(std::int64_t key) const { return (m_dep_bits[depBit(key) / 64] >> (depBit(key) % 64)) & 1u; }
-  std::vector<std::uint64_t> m_dep_bits = std::vector<std::uint64_t>(kDepBits / 64, 0);
+  /// A filter of contact-column keys, a bit per key's low bits: mayHold is false only for a key never
+  /// added, so that the many empty columns skip the look-up behind it.
+  template <std::size_t Bits>
+  struct KeyFilter {
+    std::array<std::uint64_t, Bits / 64> words{};
+    static std::size_t bit(std::int64_t key) { return static_cast<std::size_t>(key) & (Bits - 1); }
+    void add(std::int64_t key) { words[bit(key) / 64] |= std::uint64_t{1} << (bit(key) % 64); }
+    bool mayHold(std::int64_t key) const { return (words[bit(key) / 64] >> (bit(key) % 64)) & 1u; }
+  };
+  /// m_dep_cells' keys (set by indexDeposited).
+  KeyFilter<(1u << 14)> m_dep_filter;
   void indexDeposited(int i);
   void compactMobile(double t_event);
 
