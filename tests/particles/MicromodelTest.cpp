@@ -8,7 +8,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <random>
+#include <string>
 
 #include <petscsys.h>
 
@@ -173,6 +175,80 @@ TEST(Micromodel, ALuThatCannotFactoriseHandsTheRunToTheFrictionSplit) {
   EXPECT_GT(std::hypot(ua.x(), ua.y()), 0.0);
   EXPECT_NEAR(ub.x(), ua.x(), 1e-7 * std::hypot(ua.x(), ua.y()));
   EXPECT_NEAR(ub.y(), ua.y(), 1e-7 * std::hypot(ua.x(), ua.y()));
+}
+
+TEST(Micromodel, AGridTooLargeForTheLuGoesStraightToTheFrictionSplit) {
+  // The linear solver picked up front for the scene's grids (cases/particles-micromodel-full.toml:
+  // the Pore2Chip mask, 10 um pixels, 20 um deep). Reference: the rule before the size limit,
+  // restated here (the friction split where the grid has 40,000 cells or more and 12 / h^2 is at
+  // least half of 2 / dx^2 + 2 / dy^2, else the LU), and the staggered grid's unknowns counted
+  // directly (u on (nx + 1) x ny faces, v on nx x (ny + 1), p on nx x ny cells).
+  // The mask's size from its PNG header (IHDR: width and height, big-endian, at bytes 16-23).
+  std::ifstream png(std::string(MMVAL_SHARED_DATA_DIR) + "/pore2chip/grain_network.png", std::ios::binary);
+  unsigned char ihdr[24] = {};
+  ASSERT_TRUE(png.read(reinterpret_cast<char*>(ihdr), sizeof ihdr));
+  const auto be32 = [&](int at) {
+    long long v = 0;
+    for (int k = 0; k < 4; ++k) v = v * 256 + ihdr[at + k];
+    return v;
+  };
+  const long long cols = be32(16), rows = be32(20);
+  const double pixel = 10e-6, depth = 20e-6;
+  const auto frictionPicksSplit = [&](long long nx, long long ny, double dx, double dy) {
+    return nx * ny >= 40000 && 12 / (depth * depth) >= 0.5 * (2 / (dx * dx) + 2 / (dy * dy));
+  };
+  const auto grid = [&](double cells_per_pixel, long long& nx, long long& ny, double& dx, double& dy) {
+    nx = std::lround(static_cast<double>(cols) * cells_per_pixel);
+    ny = std::lround(static_cast<double>(rows) * cells_per_pixel);
+    dx = static_cast<double>(cols) * pixel / static_cast<double>(nx);
+    dy = static_cast<double>(rows) * pixel / static_cast<double>(ny);
+  };
+  long long nx = 0, ny = 0;
+  double dx = 0, dy = 0;
+  // 1.5 cells per pixel: 750 x 750 cells, 1.69M unknowns (where UMFPACK failed), cells 0.33 of the
+  // depth: friction alone picks the LU; the size sends it to the split with the fallback's budget.
+  grid(1.5, nx, ny, dx, dy);
+  ASSERT_EQ(nx, 750);
+  ASSERT_EQ(ny, 750);
+  ASSERT_FALSE(frictionPicksSplit(nx, ny, dx, dy));
+  const FluidSolverChoice fine = fluidSolverChoice(nx, ny, dx, dy, depth);
+  EXPECT_EQ(fine.unknowns, 751LL * 750 + 750LL * 751 + 750LL * 750);
+  EXPECT_TRUE(fine.split);
+  EXPECT_TRUE(fine.lu_too_large);
+  EXPECT_EQ(fine.max_iterations, 400);  // kSplitFallbackMaxIterations, what the run took after the failed LU
+  EXPECT_GT(fine.lu_bytes, 4.4e9);      // the failed LU's measured peak
+  // 1, 0.75 and 0.5 cells per pixel: the split as before, with its own 60 iterations, not for size.
+  for (const double cpp : {1.0, 0.75, 0.5}) {
+    grid(cpp, nx, ny, dx, dy);
+    ASSERT_TRUE(frictionPicksSplit(nx, ny, dx, dy)) << cpp;
+    const FluidSolverChoice c = fluidSolverChoice(nx, ny, dx, dy, depth);
+    EXPECT_TRUE(c.split) << cpp;
+    EXPECT_FALSE(c.lu_too_large) << cpp;
+    EXPECT_EQ(c.max_iterations, 60) << cpp;
+  }
+  // The case file's 200 x 150 px window (cases/particles-micromodel.toml) keeps the LU at 1.5 cells
+  // per pixel (203k unknowns) and at 4 (1.44M unknowns, measured to factorise in 3.8 GB).
+  for (const double cpp : {1.5, 4.0}) {
+    const long long wx = std::lround(200 * cpp), wy = std::lround(150 * cpp);
+    const double d = pixel / cpp;
+    ASSERT_FALSE(frictionPicksSplit(wx, wy, d, d)) << cpp;
+    const FluidSolverChoice c = fluidSolverChoice(wx, wy, d, d, depth);
+    EXPECT_FALSE(c.split) << cpp;
+    EXPECT_EQ(c.max_iterations, 0) << cpp;
+  }
+  // A tiny grid (the slot of FlowThroughThinnedApertures..., 20 x 10 cells) keeps the LU, and so
+  // does a grid under 40,000 cells whatever the friction.
+  EXPECT_FALSE(fluidSolverChoice(20, 10, 10e-6, 10e-6, depth).split);
+  MicromodelFlow slot(PixelMask::Constant(10, 20, false), slotOptions());
+  EXPECT_EQ(slot.linearSolver(), "");
+  slot.solve({});
+  EXPECT_EQ(slot.linearSolver(), "direct LU");
+  EXPECT_FALSE(fluidSolverChoice(199, 200, 10e-6, 10e-6, depth).split);
+  // Coarse cells on the same 1.69M unknowns: friction dominates, the split with its own budget.
+  const FluidSolverChoice coarse = fluidSolverChoice(750, 750, 20e-6, 20e-6, depth);
+  EXPECT_TRUE(coarse.split);
+  EXPECT_FALSE(coarse.lu_too_large);
+  EXPECT_EQ(coarse.max_iterations, 60);
 }
 
 TEST(Micromodel, PassableDiameterOfStraightChannelsAndAThroat) {

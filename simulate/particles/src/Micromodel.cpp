@@ -550,6 +550,7 @@ RunOutput runMicromodel(const Case& c, const RunContext& ctx) {
   reportPermeability(s, deposits, set.geo.pore_pixels, out);
   reportCost(s, tally.st, wall, wall_at_start, out);
   reportScene(set, tally, s, deposits, out);
+  out.details["fluid_linear_solver"] = flow.linearSolver();  // and why, when not the kind's usual choice
   return out;
 }
 

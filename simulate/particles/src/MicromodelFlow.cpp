@@ -41,6 +41,21 @@ constexpr int kSplitMaxIterations = 60;  // 3x the measured 19-20
 /// The friction split after the LU failed (grids finer than the split's own choice, where it needs
 /// more iterations: see solve()).
 constexpr int kSplitFallbackMaxIterations = 400;
+/// Grids whose coupled system has more unknowns than this are not given to the LU even where the
+/// friction criterion picks it: the friction split solves them from the start, with
+/// kSplitFallbackMaxIterations, as it would once the LU had failed. UMFPACK's peak memory and wall
+/// time (/usr/bin/time -v of a short `mmval run cases/particles-micromodel.toml`, the 200 x 150 px
+/// window, whose first solve is the LU's, 2026-12-06): 0.15 / 0.31 / 0.63 / 1.08 / 2.42 / 3.82 GB
+/// at 22.7k / 90k / 203k / 361k / 811k / 1.44M unknowns (0.5 / 1 / 1.5 / 2 / 3 / 4 cells per
+/// pixel), the largest in 44 s; the full scene factorised at 1.4 cells per pixel (1.47M unknowns,
+/// 3.9 GB) and failed in UMFPACK at 1.5 (1.69M unknowns) after ~40 s at 4.4 GB. The limit lies
+/// between the largest LU that factorised and the smallest that failed. kLuStartupBytes plus
+/// kLuBytesPerUnknown per unknown bounds every measured peak (1.5-2.84 kB per unknown above the
+/// start-up): 4.5 GB at the limit. Should the split not converge there, SteadyFlowSolver tries the
+/// LU after all; should an LU under the limit fail, solve() still hands the run to the split.
+constexpr long long kLuMaxUnknowns = 1500000;
+constexpr double kLuStartupBytes = 120e6;
+constexpr double kLuBytesPerUnknown = 2.9e3;
 
 /// Distance (m) from each pixel centre to the nearest grain or side wall, row-major
 /// from the bottom row up (j * cols + i, j = 0 the image's last row). Mirror sides: to the
@@ -134,6 +149,21 @@ std::shared_ptr<const PoreShape> solverShape(const PixelMask& grains, const Pixe
 std::shared_ptr<const simulate::Shape> poreShape(const PixelMask& grains, const PixelMask& all, double pixel,
                                                  std::shared_ptr<const simulate::SmoothMaskShape> smooth) {
   return solverShape(grains, all, pixel, std::move(smooth));
+}
+
+FluidSolverChoice fluidSolverChoice(long long nx, long long ny, double dx, double dy, double depth) {
+  FluidSolverChoice c;
+  c.unknowns = (nx + 1) * ny + nx * (ny + 1) + nx * ny;
+  c.lu_bytes = kLuStartupBytes + kLuBytesPerUnknown * static_cast<double>(c.unknowns);
+  const double friction = 12 / (depth * depth);
+  if (nx * ny >= kSplitCells && friction >= kSplitFriction * (2 / (dx * dx) + 2 / (dy * dy))) {
+    c.split = true;
+    c.max_iterations = kSplitMaxIterations;
+  } else if (c.unknowns > kLuMaxUnknowns) {
+    c.split = c.lu_too_large = true;
+    c.max_iterations = kSplitFallbackMaxIterations;
+  }
+  return c;
 }
 
 MicromodelFlow::MicromodelFlow(PixelMask grains, MicromodelFlowOptions options) : m_grains(std::move(grains)), m_opt(options) {
@@ -342,6 +372,17 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
   }
   const int nr = rows(), nc = cols(), nx = prob.x.cells(), ny = prob.y.cells();
   const double W = width(), H = height(), p = m_opt.pixel, cw = W / nx, ch = H / ny;
+  const FluidSolverChoice choice = fluidSolverChoice(nx, ny, prob.x.minWidth(), prob.y.minWidth(), m_opt.depth);
+  if (m_linear_solver.empty() && choice.lu_too_large)  // once per run: the grid does not change
+    std::fprintf(stderr,
+                 "mmval: fluid solve: the direct LU on %d x %d cells (%lld unknowns, over %lld; estimated peak %.1f GB) would be too large; "
+                 "every solve uses the friction split (block-preconditioned FGMRES, up to %d iterations)\n",
+                 nx, ny, choice.unknowns, kLuMaxUnknowns, choice.lu_bytes / 1e9, choice.max_iterations);
+  if (!m_lu_failed)
+    m_linear_solver = !choice.split         ? std::string("direct LU")
+                      : choice.lu_too_large ? fmt::format("friction split: the direct LU would be too large ({} unknowns, over {}; estimated peak {:.1f} GB)",
+                                                          choice.unknowns, kLuMaxUnknowns, choice.lu_bytes / 1e9)
+                                            : std::string("friction split");
   // Warm start: the kept solver takes the changed geometry (same grid); direct: a fresh solver
   // per solve, dropped after it (as its LU factors).
   std::unique_ptr<simulate::SteadyFlowSolver> fresh;
@@ -365,11 +406,10 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
     so.keep_factorisation = m_opt.warm_start;
     so.warm_max_iterations = m_opt.warm_start ? m_opt.warm_max_iterations : 0;
     so.fixed_pattern = m_opt.warm_start && m_opt.fixed_pattern;
-    const double dx = problem.x.minWidth(), dy = problem.y.minWidth(), friction = 12 / (m_opt.depth * m_opt.depth);
     if (m_lu_failed)
       so = splitOptions(kSplitFallbackMaxIterations);
-    else if (static_cast<long long>(problem.x.cells()) * problem.y.cells() >= kSplitCells && friction >= kSplitFriction * (2 / (dx * dx) + 2 / (dy * dy)))
-      so = splitOptions(kSplitMaxIterations);
+    else if (choice.split)
+      so = splitOptions(choice.max_iterations);
     simulate::FlowProblem clean;
     PixelMask clean_all;
     const bool is_clean = !(extra_solid.size() > 0 && extra_solid.any()) &&
@@ -398,10 +438,11 @@ FlowSolveResult MicromodelFlow::solve(const PixelMask& extra_solid, const std::v
     // this solve and every later one of the run to the friction split, with more iterations
     // allowed (its diag(A) stands in less well for the velocity block on cells finer than ~0.41
     // of the depth); a resumed run takes the same path, so it repeats the uninterrupted one.
-    if (!e.direct() || m_lu_failed)
+    if (!e.direct() || m_lu_failed || choice.lu_too_large)  // the last: the split already had the fallback's iterations
       throw NumericalFailure(e.cause(), "numerics.cells_per_pixel",
                              fmt::format("fewer cells per pixel (this grid has {} x {} cells; the kind picks its linear solver itself)", nx, ny));
     m_lu_failed = true;
+    m_linear_solver = fmt::format("friction split: the direct LU failed ({})", e.cause());
     std::fprintf(stderr,
                  "mmval: fluid solve: the direct LU failed on %d x %d cells (%s); this solve and the later ones use the friction split "
                  "(block-preconditioned FGMRES, up to %d iterations)\n",

@@ -25,6 +25,7 @@
 #pragma once
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -58,7 +59,8 @@ struct MicromodelFlowOptions {
   /// friction dominates (cells at least ~0.41 of the depth) are not solved by the LU at all but by
   /// the friction split (block-preconditioned FGMRES, MicromodelFlow.cpp kSplitCells), from rest,
   /// with nothing kept between solves: these options and numerics.resolve / resolve_pattern then
-  /// do not apply.
+  /// do not apply. Nor do they on grids whose LU would be too large to factorise
+  /// (fluidSolverChoice below): the friction split solves those too.
   bool warm_start = true;
   /// Warm start: > 0 first runs GMRES from the last field, preconditioned by the kept LU factors
   /// of an earlier geometry, factorising only when it has not converged (1e-12 of the
@@ -111,6 +113,20 @@ struct FlowSolveResult {
   bool pattern_kept = false;
 };
 
+/// The linear solver MicromodelFlow::solve takes for an nx x ny grid of cells dx x dy (m, the
+/// smallest) on a chip `depth` deep, before any failure: the friction split where the grid is large
+/// and the Hele-Shaw friction dominates (MicromodelFlow.cpp kSplitCells, kSplitFriction), else the
+/// direct LU unless its estimated size is beyond what the LU factorises (kLuMaxUnknowns): then the
+/// split too, with the larger iteration budget of the split after a failed LU.
+struct FluidSolverChoice {
+  bool split = false;         ///< the friction split (FGMRES), not the direct LU
+  bool lu_too_large = false;  ///< split because the LU would be too large (friction alone would pick the LU)
+  int max_iterations = 0;     ///< the split's FGMRES iterations (0 for the LU)
+  long long unknowns = 0;     ///< the coupled system's unknowns, (nx + 1) ny + nx (ny + 1) + nx ny
+  double lu_bytes = 0;        ///< estimated peak memory of the direct LU's solve, bytes
+};
+FluidSolverChoice fluidSolverChoice(long long nx, long long ny, double dx, double dy, double depth);
+
 class MicromodelFlow {
  public:
   /// `grains`: solid pixels (isolated pores already closed). Throws std::invalid_argument on bad options.
@@ -161,6 +177,11 @@ class MicromodelFlow {
   /// Image pixel (column, row) of a point in metres; may be outside the image.
   void pixelOf(double x, double y, int& col, int& row) const;
 
+  /// The fluid solve's linear solver so far, for result.json: "direct LU", "friction split", or
+  /// the friction split with why ("friction split: the direct LU would be too large (...)",
+  /// "friction split: the direct LU failed (...)"); empty before the first solve.
+  const std::string& linearSolver() const { return m_linear_solver; }
+
  private:
   PixelMask m_grains;
   MicromodelFlowOptions m_opt;
@@ -171,6 +192,7 @@ class MicromodelFlow {
   std::shared_ptr<const simulate::SmoothMaskShape> m_smooth;  ///< smooth walls: the grains' reconstructed boundary
   std::unique_ptr<simulate::SteadyFlowSolver> m_solver;  ///< warm start: kept between solves
   bool m_lu_failed = false;  ///< the direct LU could not factorise: the friction split solves from then on
+  std::string m_linear_solver;  ///< linearSolver()
 
   /// The flow problem of the grains plus `extra_solid` and `aperture` (solve's arguments) and the
   /// solid pixels it closes (pockets cut off included); false when no flow path is left.
