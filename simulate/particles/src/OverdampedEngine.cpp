@@ -55,6 +55,8 @@ class FlowQueryMemo final : public FlowField {
   }
   std::uint64_t version() const override { return m_flow->version(); }
   Bounds2 bounds() const override { return m_flow->bounds(); }
+  /// The flow behind the memo.
+  const FlowField& inner() const { return *m_flow; }
 
  private:
   static constexpr std::size_t kSlots = 4096;
@@ -129,6 +131,7 @@ OverdampedEngine::OverdampedEngine(std::shared_ptr<const FlowField> flow, SceneC
   if (!(m_cfg.max_step_fraction > 0) || m_cfg.max_step_fraction > 1)
     throw InputError(keyLocation("numerics.max_step_fraction"), "out of range", std::to_string(m_cfg.max_step_fraction), "(0, 1]");
   m_radius = p.radius();
+  if (m_flow) m_grid = dynamic_cast<const GriddedFlow*>(&static_cast<const FlowQueryMemo&>(*m_flow).inner());
   m_outlet = std::isnan(m_cfg.outlet_x) ? m_flow->bounds().x1 : m_cfg.outlet_x;
   m_rng = std::make_unique<Rng>(m_cfg.seed);
   if (m_cfg.attachment.rule == AttachmentModel::Rule::dlvo) {
@@ -419,10 +422,13 @@ double cross(const Vec2& u, const Vec2& v) { return u.x() * v.y() - u.y() * v.x(
 
 /// The drift u is held by walls of these normals: -u lies strictly inside the cone of two of
 /// them (u = -(l1 n1 + l2 n2), l1, l2 > 0), so every direction that leaves both walls goes
-/// against the drift.
-bool heldAgainst(const Vec2& u, const std::vector<Vec2>& normals) {
+/// against the drift. normals[first_wall..] are grain or side walls' (the others deposits'): two
+/// of those whose dot product exceeds one_wall_cos are one wall seen twice within the walls'
+/// normal accuracy (OverdampedEngine::kSmoothWallOneWallDeg), not a cone.
+bool heldAgainst(const Vec2& u, const std::vector<Vec2>& normals, std::size_t first_wall = 0, double one_wall_cos = 2.0) {
   for (std::size_t i = 0; i < normals.size(); ++i)
     for (std::size_t j = i + 1; j < normals.size(); ++j) {
+      if (i >= first_wall && normals[i].dot(normals[j]) > one_wall_cos) continue;
       const double det = cross(normals[i], normals[j]);
       if (std::abs(det) < 1e-9) continue;
       const double l1 = cross(-u, normals[j]) / det, l2 = cross(normals[i], -u) / det;
@@ -504,7 +510,7 @@ std::uint8_t OverdampedEngine::applyWalls(ParticleState& p, const Vec3& before) 
     // Held by the walls: refused, or pushed off two walls that close in ahead of its drift, with
     // the drift beating diffusion over a radius (else Brownian motion, not the flow, decides).
     const Vec2 u(p.v.x(), p.v.y());
-    if (u.norm() * a >= m_model.diffusivity() && (!settled || heldAgainst(u, normals))) touched |= kPinned;
+    if (u.norm() * a >= m_model.diffusivity() && (!settled || heldAgainst(u, normals, 0, oneWallCos()))) touched |= kPinned;
   }
   const double h = m_flow->depth(p.x.x(), p.x.y());
   if (p.x.z() < a) {
@@ -543,6 +549,13 @@ void OverdampedEngine::updateStraining(ParticleState& p, bool pinned, double t) 
   }
 }
 
+double OverdampedEngine::oneWallCos() const {
+  // Smooth grain walls: push normals within the contour's normal accuracy are one wall. Other
+  // walls (pixel edges, closed squares, analytic fields) are exact: every pair counts, as before.
+  static const double kCos = std::cos(kSmoothWallOneWallDeg * 3.14159265358979323846 / 180);
+  return m_grid && m_grid->smoothWalls() ? kCos : 2.0;
+}
+
 bool OverdampedEngine::heldByDeposits(const ParticleState& p, int i) const {
   if (!m_cfg.straining.enabled || p.status != ParticleStatus::mobile || (m_touch[i] & kDeposit) == 0) return false;
   const double a = m_radius;
@@ -563,9 +576,11 @@ bool OverdampedEngine::heldByDeposits(const ParticleState& p, int i) const {
     const Vec2 n(p.x.x() - q.x(), p.x.y() - q.y());
     if (n.norm() > 1e-9 * a) normals.push_back(n / n.norm());
   }
+  // The deposits' normals are real spheres': only wall-wall pairs would be thinned (there is one wall normal at most).
+  const std::size_t first_wall = normals.size();
   if (!m_flow->isSolid(p.x.x(), p.x.y()) && m_flow->wallDistance(p.x.x(), p.x.y()) < (1 + m_cfg.max_step_fraction) * a)
     normals.push_back(m_flow->wallNormal(p.x.x(), p.x.y()));
-  return heldAgainst(u, normals);
+  return heldAgainst(u, normals, first_wall, oneWallCos());
 }
 
 void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched) {

@@ -23,7 +23,8 @@
 // close in at an angle) is refused: particles never squeeze through a throat
 // narrower than themselves, to the wall distance's accuracy (kWallTolerance).
 // Straining (SceneConfig::straining): a particle pinned there by its drift (its
-// move refused, or pushed off two walls that close in ahead of it) for the set
+// move refused, or pushed off two walls that close in ahead of it; on smooth grain walls two
+// push normals within kSmoothWallOneWallDeg are one wall, not two) for the set
 // time is deposited with Surface::strained. So is one held there by deposits (strained or
 // attached particles) and walls together: a cake building upstream of a blocked throat.
 // "There" is within max(anchor_fraction, max_step_fraction) radii of where it was first held
@@ -84,6 +85,17 @@ struct SurfaceChemistry {
 
 class OverdampedEngine final : public ParticleEngine {
  public:
+  /// Smooth grain walls (GriddedFlow::setSmoothWalls): two push normals of the walls count as
+  /// two walls in the held tests (kPinned, heldByDeposits) only if they are more than this many
+  /// degrees apart; closer, they are one wall seen at two points of its polyline contour, whose
+  /// adjacent segments kink by 2-21 degrees on the paper strip (the smoothed level's ripple;
+  /// docs/validation/paper-scenes.md) and whose normal strays up to 26 degrees from a rasterised
+  /// disc's (SmoothWallsTest, bound 30). A real hold on such walls is two grains (or a grain and a
+  /// closed pixel or side wall) meeting at more than this: a 5 um sphere in a gap narrower than
+  /// itself between discs of radius R touches both with normals at least 2 acos(R / (R + a)) apart
+  /// (74 degrees at R = 4 a; 30 degrees only at R = 28 a). Exact walls (pixel edges, where a
+  /// staircase notch's 65-90 degrees is the rendered geometry; analytic fields) keep every pair.
+  static constexpr double kSmoothWallOneWallDeg = 30.0;
   OverdampedEngine(std::shared_ptr<const FlowField> flow, SceneConfig config);
   ~OverdampedEngine() override;
   OverdampedEngine(const OverdampedEngine&) = delete;
@@ -150,6 +162,9 @@ class OverdampedEngine final : public ParticleEngine {
   /// in-plane part has the direction of the offset, whatever its length). A 3D cone test added to
   /// it changed no bit of the paper strip's 240 s run (2026-12-05, issue 26), so there is none.
   bool heldByDeposits(const ParticleState& p, int i) const;
+  /// The dot product above which two wall normals of the held tests are one wall: cos of
+  /// kSmoothWallOneWallDeg on smooth grain walls, 2 (never) on exact walls.
+  double oneWallCos() const;
   /// Straining only: a mobile particle the contact sweeps left overlapping deposits (stacked over
   /// or under one, its push stopped by a plate and undone by the walls) is moved back against its
   /// in-plane drift by the least distance that clears them, where it fits.
@@ -207,6 +222,7 @@ class OverdampedEngine final : public ParticleEngine {
   void compactMobile(double t_event);
 
   std::shared_ptr<const FlowField> m_flow;
+  const GriddedFlow* m_grid = nullptr;  ///< the field behind m_flow's memo when it is a GriddedFlow (oneWallCos)
   SceneConfig m_cfg;
   HydroModel m_model;
   double m_radius, m_outlet;
