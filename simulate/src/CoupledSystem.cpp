@@ -37,6 +37,25 @@ constexpr const char* kKeptOrdering = "BEST";
 constexpr int kProbeIterations = 40;
 constexpr double kProbeDrop = 2e-4;
 
+/// The second stage's Krylov method (see switchToSelfp): LGMRES restarted after 30 iterations,
+/// preconditioned on the right as the first stage. Its Krylov basis had been two thirds of the
+/// switched solve's peak: GMRES(200) keeps one 6 MB vector per iteration at 751k unknowns, ~170
+/// for the 164 iterations chip2 needs at 2 cells/px. LGMRES carries two error approximations
+/// from one restart cycle into the next (PETSc's default augmentation), which recovers part of
+/// what a short restart loses. Measured on chip2 at 2 cells/px (250k cells; iterations mass +
+/// second stage, peak resident, user CPU of runs made back to back on the shared machine;
+/// docs/validation/linear-solver.md, "A shorter second stage"):
+///   GMRES(200) 204, 1.52 GB, 29.3 s; GMRES(50) 298, 0.81 GB, 27.5 s; GMRES(40) 340, 0.75 GB,
+///   28.3 s; GMRES(30) 386, 0.69 GB, 32.8 s; LGMRES(30) 367, 0.72 GB, 25.6 s; BiCGStab 247,
+///   0.69 GB, 27.6 s. k the same to 2e-7 in all (the LU's agrees with them to 3e-7). At 0.69 GB
+///   the peak is the first stage's (GMRES(200) after 40 iterations), the floor below which the
+///   second stage's method no longer counts. The constant-memory methods were not robust: IBiCGStab
+///   diverged, and BiCGStab(L) and TFQMR stopped "converged" at a wrong answer (k -2e-8 and -1e15 D).
+/// The cost is iterations: Pore2Chip forced to selfp from iteration 1 needed 666 against 417 (in
+/// 65 s against 155 s), beyond the 500 of auto's fallback (kAutoIterativeMaxIterations).
+constexpr PetscInt kSelfpRestart = 30;
+constexpr KSPType kSelfpKrylov = KSPLGMRES;
+
 /// The convergence test of the mass-matrix stage: PETSc's default test, and at kProbeIterations
 /// a stop (KSP_DIVERGED_ITS, `tripped` set) when the residual is above kProbeDrop of the first.
 struct ProbeTest {
@@ -239,8 +258,8 @@ struct CoupledSystem::Impl {
   /// badly scaled saddle-point systems: at 128^2 cells the square array stalled at a relative
   /// residual of 1.7e-8 for 160 iterations (bench_simulate_stokes_scaling); a second pass when
   /// needed restores it (converged in 47, like its neighbours in N).
-  static void rightGmres(KSP k, PetscInt restart) {
-    check(KSPSetType(k, KSPGMRES), "KSPSetType");
+  static void rightGmres(KSP k, PetscInt restart, KSPType type = KSPGMRES) {
+    check(KSPSetType(k, type), "KSPSetType");
     check(KSPSetPCSide(k, PC_RIGHT), "PC side");
     check(KSPGMRESSetRestart(k, restart), "restart");
     check(KSPGMRESSetCGSRefinementType(k, KSP_GMRES_CGS_REFINE_IFNEEDED), "CGS refinement");
@@ -273,7 +292,7 @@ struct CoupledSystem::Impl {
     if (ksp_selfp != nullptr) return;
     check(KSPCreate(comm, &ksp_selfp), "KSPCreate");
     check(KSPSetOptionsPrefix(ksp_selfp, "fluidp_"), "prefix");
-    rightGmres(ksp_selfp, 200);
+    rightGmres(ksp_selfp, kSelfpRestart, kSelfpKrylov);
     splitFields(op, ksp_selfp, true);
     check(KSPSetFromOptions(ksp_selfp), "KSPSetFromOptions");
   }
@@ -548,7 +567,8 @@ struct CoupledSystem::Impl {
   /// blocks are no longer held beside the second stage's. A later solve sets its stages up anew
   /// either way (A changes, the first stage runs first), so the iterates are those of held KSPs:
   /// chip2 at 2 cells/px the same 204 iterations and k to the last digit, peak resident 1.52 GB
-  /// against 1.99 GB (docs/validation/linear-solver.md, "Memory at the switch").
+  /// against 1.99 GB (docs/validation/linear-solver.md, "Memory at the switch"); 0.72 GB since
+  /// the second stage restarts after kSelfpRestart iterations.
   void switchToSelfp(const FlowOperator& op) {
     switched_at = probe.at;
     switched_drop = probe.r0 > 0 ? probe.r_at / probe.r0 : 0;

@@ -232,8 +232,11 @@ struct LinearChoice {
 inline constexpr long long kAutoIterativeUnknowns = 12000;
 /// FGMRES budget of an "auto"-chosen iterative solve: the square array converges in ~50
 /// iterations at every measured size, so a solve that needs 10x that has stalled and falls back
-/// (SolverOptions::linear_max_iterations caps it further).
-inline constexpr int kAutoIterativeMaxIterations = 500;
+/// (SolverOptions::linear_max_iterations caps it further). 1000 since the switched Schur
+/// solve's second stage runs LGMRES(30) (CoupledSystem.cpp kSelfpRestart): memory no longer grows
+/// with iterations, and a mask needing ~420 GMRES(200) iterations there needs ~670 (Pore2Chip
+/// forced to selfp), which a fallback after an LU out of memory must still reach.
+inline constexpr int kAutoIterativeMaxIterations = 1000;
 
 /// The "auto" rule: "iterative" only where it was measured to converge and win (plane Stokes, no
 /// depth friction, analytic circles or no solid, periodic on every side, at least
