@@ -5,6 +5,7 @@
 #include <chrono>
 #include <fstream>
 #include <iostream>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -64,19 +65,34 @@ int main(int argc, char** argv) {
 #endif
   {
     // Throughput at the experiment's conditions: 5 um polystyrene, 0.72 mm/s, real
-    // gravity, Brownian motion on, 200 particles in a 2 mm channel, 5 s.
-    SceneConfig c;
+    // gravity, Brownian motion on, 200 particles in a 2 mm channel, 5 s; on 1 and 2 threads
+    // (numerics.threads: the same particles bit for bit, wall time apart).
     auto chip = std::make_shared<HeleShawChannel>(2e-3, 200e-6, 20e-6, 7.2e-4);
-    OverdampedEngine od(chip, c);
-    od.insert(sampleInlet(*chip, c.particle.radius(), 0.0, 1.5e-3, 200, 3, {}));
-    od.advance(5.0);
-    const auto st = od.stats();
-    const auto n = od.counts();
-    fmt::print("\nOverdamped throughput (micromodel conditions, Brownian on, 200 particles, 5 s physical): {} steps, dt {:.2e} .. {:.2e} s, "
-               "{:.3g} particle-steps/s, wall {:.3f} s; deposited {}, left {}, inside {}\n",
-               st.steps, st.min_dt, st.max_dt, st.particle_steps / st.wall_seconds, st.wall_seconds, n.deposited, n.left, n.inside);
-    out["throughput"] = {{"steps", st.steps}, {"particle_steps", st.particle_steps}, {"wall_seconds", st.wall_seconds},
-                         {"particle_steps_per_second", st.particle_steps / st.wall_seconds}, {"min_dt_s", st.min_dt}, {"max_dt_s", st.max_dt}};
+    std::vector<ParticleState> first;
+    double wall_one = 0;
+    for (const int threads : {1, 2}) {
+      SceneConfig c;
+      c.threads = threads;
+      OverdampedEngine od(chip, c);
+      od.insert(sampleInlet(*chip, c.particle.radius(), 0.0, 1.5e-3, 200, 3, {}));
+      od.advance(5.0);
+      const auto st = od.stats();
+      const auto n = od.counts();
+      const auto ps = od.particles();
+      bool same = true;
+      if (threads == 1) first = ps, wall_one = st.wall_seconds;
+      else
+        for (std::size_t i = 0; i < ps.size(); ++i) same = same && ps[i].x == first[i].x && ps[i].status == first[i].status;
+      fmt::print("\nOverdamped throughput (micromodel conditions, Brownian on, 200 particles, 5 s physical, {} thread(s)): {} steps, dt {:.2e} .. {:.2e} s, "
+                 "{:.3g} particle-steps/s, wall {:.3f} s (x{:.2f} of one thread's){}; deposited {}, left {}, inside {}\n",
+                 threads, st.steps, st.min_dt, st.max_dt, st.particle_steps / st.wall_seconds, st.wall_seconds, wall_one / st.wall_seconds,
+                 same ? "" : ", PARTICLES DIFFER FROM ONE THREAD'S", n.deposited, n.left, n.inside);
+      nlohmann::json j = {{"threads", threads}, {"steps", st.steps}, {"particle_steps", st.particle_steps}, {"wall_seconds", st.wall_seconds},
+                          {"particle_steps_per_second", st.particle_steps / st.wall_seconds}, {"min_dt_s", st.min_dt}, {"max_dt_s", st.max_dt},
+                          {"same_as_one_thread", same}};
+      if (threads == 1) out["throughput"] = j;
+      else out["throughput_threads"].push_back(j);
+    }
   }
   if (argc > 1) std::ofstream(argv[1]) << out.dump(2) << "\n";
   return 0;

@@ -2,7 +2,11 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -57,6 +61,7 @@ class FlowQueryMemo final : public FlowField {
   Bounds2 bounds() const override { return m_flow->bounds(); }
   /// The flow behind the memo.
   const FlowField& inner() const { return *m_flow; }
+  const std::shared_ptr<const FlowField>& shared() const { return m_flow; }
 
  private:
   static constexpr std::size_t kSlots = 4096;
@@ -123,6 +128,123 @@ SurfaceChemistry surfaceChemistry(const DlvoParameters& p) {
 
 }  // namespace
 
+struct OverdampedEngine::Worker {
+  const FlowField* flow = nullptr;  ///< this thread's memo of the engine's flow
+  const HydroModel* model = nullptr;
+  std::vector<Vec2> normals;  ///< applyWalls' scratch
+  std::shared_ptr<const FlowField> own_flow;  ///< threads 1..: a memo of their own over the same flow
+  std::unique_ptr<HydroModel> own_model;      ///< threads 1..: the engine's model over own_flow
+};
+
+/// Threads 1..n-1 of the per-particle loops, kept for the engine's life. A job is split into one
+/// contiguous chunk per thread (so a particle's flow queries of one step meet the same thread's
+/// memo in the next); each thread takes its own chunk first, then any chunk no thread has taken,
+/// so that a thread the machine has not scheduled yet never holds up the step.
+class OverdampedEngine::Pool {
+ public:
+  using Body = std::function<void(std::size_t, Worker&)>;
+  explicit Pool(std::vector<std::unique_ptr<Worker>>& workers) : m_workers(workers) {
+    for (std::size_t w = 1; w < workers.size(); ++w) m_threads.emplace_back([this, w] { loop(w); });
+  }
+  ~Pool() {
+    {
+      const std::lock_guard<std::mutex> lock(m_mutex);
+      m_stop = true;
+      m_stop_seen.store(true);
+    }
+    m_wake.notify_all();
+    for (auto& t : m_threads) t.join();
+  }
+  Pool(const Pool&) = delete;
+  Pool& operator=(const Pool&) = delete;
+  void run(std::size_t n, const Body& body) {
+    {
+      const std::lock_guard<std::mutex> lock(m_mutex);
+      m_body = &body;
+      m_n = n;
+      m_taken.store(0);
+      m_failed = nullptr;
+      m_open = true;
+      m_generation.fetch_add(1);
+    }
+    m_wake.notify_all();
+    work(0);
+    std::unique_lock<std::mutex> lock(m_mutex);
+    m_open = false;  // every chunk is taken: threads that wake from now on skip this job
+    if (m_active.load() > 0) {
+      lock.unlock();
+      for (int spin = 0; spin < kSpins && m_active.load() > 0; ++spin) pause();
+      lock.lock();
+    }
+    m_done.wait(lock, [&] { return m_active.load() == 0; });
+    if (m_failed) std::rethrow_exception(m_failed);
+  }
+
+ private:
+  /// Busy-wait rounds (~10 us) before a thread sleeps: a step's next loop usually comes sooner, and
+  /// waking a sleeping thread costs more than a step's share of a few dozen particles.
+  static constexpr int kSpins = 2000;
+  static void pause() {
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();
+#else
+    std::this_thread::yield();
+#endif
+  }
+  void loop(std::size_t w) {
+    std::unique_lock<std::mutex> lock(m_mutex);
+    std::uint64_t seen = 0;
+    for (;;) {
+      if (!m_stop && m_generation.load() == seen) {
+        lock.unlock();
+        for (int spin = 0; spin < kSpins && m_generation.load() == seen && !m_stop_seen.load(); ++spin) pause();
+        lock.lock();
+      }
+      m_wake.wait(lock, [&] { return m_stop || m_generation.load() != seen; });
+      if (m_stop) return;
+      seen = m_generation.load();
+      if (!m_open) continue;
+      ++m_active;
+      lock.unlock();
+      work(w);
+      lock.lock();
+      if (--m_active == 0) m_done.notify_all();
+    }
+  }
+  /// Chunk c of the job: [n c / C, n (c + 1) / C) with C the thread count.
+  void work(std::size_t w) {
+    const std::size_t chunks = m_workers.size();
+    const auto take = [&](std::size_t c) { return (m_taken.fetch_or(std::uint64_t{1} << c) >> c & 1u) == 0; };
+    for (std::size_t k = 0; k < chunks; ++k) {
+      const std::size_t c = (w + k) % chunks;
+      if (!take(c)) continue;
+      try {
+        for (std::size_t i = m_n * c / chunks, end = m_n * (c + 1) / chunks; i < end; ++i) (*m_body)(i, *m_workers[w]);
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(m_mutex);
+        if (!m_failed) m_failed = std::current_exception();
+      }
+    }
+  }
+  std::vector<std::unique_ptr<Worker>>& m_workers;
+  std::vector<std::thread> m_threads;
+  std::mutex m_mutex;
+  std::condition_variable m_wake, m_done;
+  const Body* m_body = nullptr;
+  std::size_t m_n = 0;
+  std::atomic<std::uint64_t> m_taken{0};  ///< bit c: chunk c taken
+  std::exception_ptr m_failed;
+  std::atomic<std::uint64_t> m_generation{0};  ///< changed under m_mutex; read without it while spinning
+  std::atomic<int> m_active{0};                ///< threads inside the current job (changed under m_mutex)
+  std::atomic<bool> m_stop_seen{false};        ///< m_stop, for the spinning threads
+  bool m_open = false, m_stop = false;
+};
+
+void OverdampedEngine::forEachMobile(std::size_t n, const std::function<void(std::size_t, Worker&)>& body) {
+  if (m_pool && n >= kMinParallelMobile) return m_pool->run(n, body);
+  for (std::size_t k = 0; k < n; ++k) body(k, *m_workers[0]);
+}
+
 OverdampedEngine::OverdampedEngine(std::shared_ptr<const FlowField> flow, SceneConfig config)
     : m_flow(flow ? std::make_shared<const FlowQueryMemo>(std::move(flow)) : nullptr), m_cfg(std::move(config)), m_model(m_flow, m_cfg) {
   const auto& p = m_cfg.particle;
@@ -152,6 +274,23 @@ OverdampedEngine::OverdampedEngine(std::shared_ptr<const FlowField> flow, SceneC
     // Patches placed in space only where there are any: lambda = 0 leaves the per-arrival rule.
     if (ps > 0 && m_cfg.attachment.favourable_fraction > 0) m_patches = {m_cfg.attachment.favourable_fraction, ps, m_cfg.seed};
   }
+  if (m_cfg.threads < 0 || m_cfg.threads > kMaxThreads)
+    throw InputError(keyLocation("numerics.threads"), "not a thread count", std::to_string(m_cfg.threads),
+                     fmt::format("1 to {}, or 0 (auto: the hardware's cores, 2 to 8)", kMaxThreads));
+  m_threads = m_cfg.threads > 0 ? m_cfg.threads : static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 2u, 8u));
+  auto first = std::make_unique<Worker>();
+  first->flow = m_flow.get();
+  first->model = &m_model;
+  m_workers.push_back(std::move(first));
+  for (int w = 1; w < m_threads; ++w) {
+    auto more = std::make_unique<Worker>();
+    more->own_flow = std::make_shared<const FlowQueryMemo>(static_cast<const FlowQueryMemo&>(*m_flow).shared());
+    more->own_model = std::make_unique<HydroModel>(more->own_flow, m_cfg);
+    more->flow = more->own_flow.get();
+    more->model = more->own_model.get();
+    m_workers.push_back(std::move(more));
+  }
+  if (m_threads > 1) m_pool = std::make_unique<Pool>(m_workers);
 }
 
 bool OverdampedEngine::favourablePatchAt(Surface s, const Vec3& x) const {
@@ -332,27 +471,37 @@ void OverdampedEngine::advance(double t_end) {
     // are never visited (long runs hold thousands of them).
     drift.resize(m_mobile.size());
     hindrance.resize(m_mobile.size());
-    for (std::size_t k = 0; k < m_mobile.size(); ++k)
-      drift[k] = driftAndHindrance(*m_flow, m_model, m_cfg, m_radius, m_particles[m_mobile[k]].x, hindrance[k]);
+    forEachMobile(m_mobile.size(), [&](std::size_t k, Worker& w) {
+      drift[k] = driftAndHindrance(*w.flow, *w.model, m_cfg, m_radius, m_particles[m_mobile[k]].x, hindrance[k]);
+    });
     const auto mobile = static_cast<std::int64_t>(m_mobile.size());
     double dt = mobile ? chooseStep(drift) : t_end - m_t;
     dt = std::min(dt, t_end - m_t);
     if (mobile) {
       const auto& c = m_cfg;
       m_touch.assign(m_particles.size(), 0);
-      for (std::size_t k = 0; k < m_mobile.size(); ++k) {
+      // The step's normal draws first, in mobile order (one thread's order), then the moves and
+      // wall steps, which are independent per particle (each writes its own particle and touch bits).
+      if (c.brownian) {
+        m_draws.resize(3 * m_mobile.size());
+        for (double& r : m_draws) r = m_rng->normal();
+      }
+      forEachMobile(m_mobile.size(), [&](std::size_t k, Worker& w) {
         auto& p = m_particles[m_mobile[k]];
         const Vec3 before = p.x;
         Vec3 dx = drift[k] * dt;
         if (c.brownian) {
           const auto [par, perp] = hindrance[k];  // at p.x: the drift's point, not moved since
           const double sp = std::sqrt(2.0 * m_model.diffusivity() * dt / par), sz = std::sqrt(2.0 * m_model.diffusivity() * dt / perp);
-          dx += Vec3(sp * m_rng->normal(), sp * m_rng->normal(), sz * m_rng->normal());
+          // z, y, x from the particle's three draws: the order GCC evaluated the three draws of the
+          // single-threaded step (Vec3(sp * normal(), sp * normal(), sz * normal()), its arguments
+          // right to left), so runs keep the random paths of the binaries before threads.
+          dx += Vec3(sp * m_draws[3 * k + 2], sp * m_draws[3 * k + 1], sz * m_draws[3 * k]);
         }
         p.x += dx;
         p.v = drift[k];
-        m_touch[m_mobile[k]] = applyWalls(p, before);
-      }
+        m_touch[m_mobile[k]] = applyWalls(p, before, *w.flow, w.normals);
+      });
       // Attachment only once every overlap of the step is removed: a particle attached
       // earlier would be left out of the contact sweeps and could stay inside a deposit.
       resolveContacts();
@@ -438,10 +587,11 @@ bool heldAgainst(const Vec2& u, const std::vector<Vec2>& normals, std::size_t fi
 }
 }  // namespace
 
-bool OverdampedEngine::slideBetweenWalls(ParticleState& p, const Vec3& before, const Vec2& last, std::vector<Vec2>& normals) const {
+bool OverdampedEngine::slideBetweenWalls(ParticleState& p, const Vec3& before, const Vec2& last, std::vector<Vec2>& normals,
+                                         const FlowField& flow) const {
   const double a = m_radius, accept = (1 - kWallTolerance) * a;
-  const double d = m_flow->wallDistance(p.x.x(), p.x.y());
-  const Vec2 n = m_flow->wallNormal(p.x.x(), p.x.y());
+  const double d = flow.wallDistance(p.x.x(), p.x.y());
+  const Vec2 n = flow.wallNormal(p.x.x(), p.x.y());
   normals.push_back(n);
   // Along the last wall (planar: its distance stays a) towards the side the other wall recedes.
   Vec2 t(-last.y(), last.x());
@@ -453,38 +603,38 @@ bool OverdampedEngine::slideBetweenWalls(ParticleState& p, const Vec3& before, c
   const Vec2 q = Vec2(p.x.x(), p.x.y()) + s * t;
   const Vec2 mid = 0.5 * (q + Vec2(before.x(), before.y()));
   for (const Vec2& r : {q, mid})
-    if (m_flow->isSolid(r.x(), r.y()) || m_flow->wallDistance(r.x(), r.y()) < accept) return false;
+    if (flow.isSolid(r.x(), r.y()) || flow.wallDistance(r.x(), r.y()) < accept) return false;
   p.x.x() = q.x();
   p.x.y() = q.y();
   return true;
 }
 
-void OverdampedEngine::reflectAtMirrors(ParticleState& p) const {
+void OverdampedEngine::reflectAtMirrors(ParticleState& p, const FlowField& flow) const {
   if (!m_cfg.mirror_sides) return;
-  const Bounds2 b = m_flow->bounds();
+  const Bounds2 b = flow.bounds();
   // A step is a fraction of a radius, far below the strip's width: at most a reflection or two.
   for (int k = 0; k < 4 && (p.x.y() < b.y0 || p.x.y() > b.y1); ++k) p.x.y() = p.x.y() < b.y0 ? 2 * b.y0 - p.x.y() : 2 * b.y1 - p.x.y();
 }
 
-std::uint8_t OverdampedEngine::applyWalls(ParticleState& p, const Vec3& before) {
+std::uint8_t OverdampedEngine::applyWalls(ParticleState& p, const Vec3& before, const FlowField& flow, std::vector<Vec2>& normals) const {
   const double a = m_radius;
   std::uint8_t touched = 0;
   // Mirror sides: the field beyond a plane is the mirror image of the pore space, so the move and
   // its reflection see the same walls; the reflected one stays in the chip.
-  reflectAtMirrors(p);
+  reflectAtMirrors(p, flow);
   // Grains and side walls: a step into solid is taken back in-plane; a particle
   // closer than a radius is pushed out along the wall normal.
-  if (m_flow->isSolid(p.x.x(), p.x.y())) {
+  if (flow.isSolid(p.x.x(), p.x.y())) {
     p.x.x() = before.x();
     p.x.y() = before.y();
     touched |= kGrain;
   }
-  const Bounds2 b = m_flow->bounds();
+  const Bounds2 b = flow.bounds();
   if (p.x.x() > m_outlet || p.x.x() < b.x0 || p.x.y() < b.y0 || p.x.y() > b.y1) {
     p.status = ParticleStatus::left;
     return touched;
   }
-  double d = m_flow->wallDistance(p.x.x(), p.x.y());
+  double d = flow.wallDistance(p.x.x(), p.x.y());
   if (d < a) {
     // Pushed out along the wall normal; a few passes settle curved walls and
     // corners, and a slide along the last wall settles two walls closing in at an
@@ -492,17 +642,16 @@ std::uint8_t OverdampedEngine::applyWalls(ParticleState& p, const Vec3& before) 
     // both sides) the move is refused, so a particle never squeezes through a gap
     // smaller than itself.
     touched |= kGrain;
-    std::vector<Vec2>& normals = m_normals;  // reused: no allocation per wall contact
     normals.clear();
     for (int pass = 0; pass < kWallPasses && d < a; ++pass) {
-      const Vec2 n = m_flow->wallNormal(p.x.x(), p.x.y());
+      const Vec2 n = flow.wallNormal(p.x.x(), p.x.y());
       normals.push_back(n);
       p.x.x() += n.x() * (a - d);
       p.x.y() += n.y() * (a - d);
-      d = m_flow->isSolid(p.x.x(), p.x.y()) ? 0.0 : m_flow->wallDistance(p.x.x(), p.x.y());
+      d = flow.isSolid(p.x.x(), p.x.y()) ? 0.0 : flow.wallDistance(p.x.x(), p.x.y());
     }
     const double accept = (1 - kWallTolerance) * a;
-    const bool settled = d >= accept || (!m_flow->isSolid(p.x.x(), p.x.y()) && slideBetweenWalls(p, before, normals.back(), normals));
+    const bool settled = d >= accept || (!flow.isSolid(p.x.x(), p.x.y()) && slideBetweenWalls(p, before, normals.back(), normals, flow));
     if (!settled) {
       p.x.x() = before.x();
       p.x.y() = before.y();
@@ -512,7 +661,7 @@ std::uint8_t OverdampedEngine::applyWalls(ParticleState& p, const Vec3& before) 
     const Vec2 u(p.v.x(), p.v.y());
     if (u.norm() * a >= m_model.diffusivity() && (!settled || heldAgainst(u, normals, 0, oneWallCos()))) touched |= kPinned;
   }
-  const double h = m_flow->depth(p.x.x(), p.x.y());
+  const double h = flow.depth(p.x.x(), p.x.y());
   if (p.x.z() < a) {
     p.x.z() = a;
     touched |= kBottom;
@@ -521,7 +670,7 @@ std::uint8_t OverdampedEngine::applyWalls(ParticleState& p, const Vec3& before) 
     p.x.z() = h - a;
     touched |= kTop;
   }
-  reflectAtMirrors(p);  // a wall's push can carry it across a plane
+  reflectAtMirrors(p, flow);  // a wall's push can carry it across a plane
   return touched;
 }
 
@@ -979,6 +1128,9 @@ nlohmann::json OverdampedEngine::describe() const {
           {"adhesion_separation_nm", c.attachment.adhesion_separation * 1e9},
           {"contact_modulus_GPa", c.attachment.contact_modulus * 1e-9},
           {"max_step_fraction", c.max_step_fraction},
+          {"threads", m_threads},
+          {"threads_note", fmt::format("per-particle loops (drift, move and wall step) on {} thread(s) when {} or more particles are mobile; "
+                                       "results bit for bit one thread's", m_threads, kMinParallelMobile)},
           {"seed", c.seed},
           {"contacts", "hard spheres, Heyes-Melrose overlap removal"},
           {"ito_drift", c.ito_drift},

@@ -55,11 +55,17 @@
 // distance of a plate or grain wall, and a favourable cell attaches it in the primary minimum.
 // A particle that would attach still overlapping a deposit (a push undone at a
 // grain) stays mobile for this step.
+// Threads (SceneConfig::threads): the drift of each mobile particle and its move with the wall
+// step are independent of the other particles', so a step computes them on several threads, each
+// with its own memo of flow queries and scratch over the same flow; the step's normal draws are
+// taken first, in mobile order, as one thread takes them. Results are bit for bit one thread's
+// for any thread count. The contact sweeps, attachment and straining stay on one thread.
 // Not modelled: the wall correction of the lag for the parabola's curvature (the
 // lag is that of the wall's linear shear), in-plane hindrance by grains,
 // hydrodynamic interactions between particles, re-entrainment.
 #pragma once
 #include <array>
+#include <functional>
 #include <memory>
 #include <unordered_map>
 
@@ -113,6 +119,11 @@ class OverdampedEngine final : public ParticleEngine {
   /// Deterministic velocity (flow + M F + Ito drift) of a particle at x, m/s. For tests.
   Vec3 driftVelocity(const Vec3& x) const;
   const HydroModel& model() const { return m_model; }
+  /// Threads the per-particle loops run on (SceneConfig::threads resolved; 0 there: auto).
+  int threads() const { return m_threads; }
+  /// Fewer mobile particles than this: a step's loops run on one thread (the hand-over costs more).
+  static constexpr std::size_t kMinParallelMobile = 48;
+  static constexpr int kMaxThreads = 64;  ///< numerics.threads' largest value
   /// dlvo rule: the attachment of plates (and grains: the chip's material) or deposits
   /// (Surface::bottom, top and grain share one); nullptr under the capture rule.
   const SurfaceChemistry* chemistry(Surface s) const;
@@ -139,15 +150,22 @@ class OverdampedEngine final : public ParticleEngine {
   /// kPinned: the walls held it against its drift (a refused move, or two walls closing in ahead).
   enum Touch : std::uint8_t { kGrain = 1, kBottom = 2, kTop = 4, kDeposit = 8, kPinned = 16 };
   void resolveContacts();
+  /// What one thread of a step's per-particle loops reads the flow through and writes scratch to.
+  struct Worker;
+  class Pool;
+  /// Runs body(k, worker) for k in [0, n) over the workers (worker 0 on the calling thread).
+  void forEachMobile(std::size_t n, const std::function<void(std::size_t, Worker&)>& body);
   /// Grains, side walls, outlet and plates: pushes the particle back into the fluid and
-  /// returns the Touch bits of the surfaces it hit (or marks it left).
-  std::uint8_t applyWalls(ParticleState& p, const Vec3& before);
+  /// returns the Touch bits of the surfaces it hit (or marks it left). `flow` and `normals`: the
+  /// calling thread's (Worker).
+  std::uint8_t applyWalls(ParticleState& p, const Vec3& before, const FlowField& flow, std::vector<Vec2>& normals) const;
   /// SceneConfig::mirror_sides: a particle beyond the field's y0 or y1 reflected back across it.
-  void reflectAtMirrors(ParticleState& p) const;
+  void reflectAtMirrors(ParticleState& p, const FlowField& flow) const;
+  void reflectAtMirrors(ParticleState& p) const { reflectAtMirrors(p, *m_flow); }
   /// Two walls closer than a radius: from p (a radius from the wall of normal `last`), the slide
   /// along that wall that puts it a radius from the other as well; p moved and true when the slid
   /// position (and the way there from `before`) keeps a radius from every wall.
-  bool slideBetweenWalls(ParticleState& p, const Vec3& before, const Vec2& last, std::vector<Vec2>& normals) const;
+  bool slideBetweenWalls(ParticleState& p, const Vec3& before, const Vec2& last, std::vector<Vec2>& normals, const FlowField& flow) const;
   /// Straining: the pinned particle's clock (StrainingModel); deposits it as strained at time t.
   void updateStraining(ParticleState& p, bool pinned, double t) const;
   /// Straining at deposits: after the contact sweeps, the drift of mobile particle i is held by
@@ -239,6 +257,10 @@ class OverdampedEngine final : public ParticleEngine {
   EngineStats m_stats;
   struct Rng;
   std::unique_ptr<Rng> m_rng;
+  int m_threads = 1;
+  std::vector<std::unique_ptr<Worker>> m_workers;  ///< one per thread; [0]: the calling thread's (m_flow, m_model)
+  std::unique_ptr<Pool> m_pool;                    ///< threads 1.. of the loops (none with one thread)
+  std::vector<double> m_draws;                     ///< a step's normal draws, 3 per mobile particle in mobile order
 };
 
 }  // namespace mmval::particles

@@ -150,6 +150,9 @@ struct SceneConfig {
   std::uint64_t seed = 1;
   /// Overdamped engine: largest displacement per step, as a fraction of the radius.
   double max_step_fraction = 0.1;
+  /// Overdamped engine: threads of the per-particle loops of a step (numerics.threads); 0: auto
+  /// (the hardware's cores, 2 to 8). The results are bit for bit those of one thread.
+  int threads = 1;
   double max_dt = std::numeric_limits<double>::infinity();  ///< s
   /// LIGGGHTS engine: DEM step as a fraction of the Rayleigh time (<= 0.2 usual).
   double rayleigh_fraction = 0.1;
