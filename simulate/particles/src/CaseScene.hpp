@@ -13,6 +13,8 @@ namespace mmval::particles {
 /// Declares physics.gravity, physics.brownian, physics.wall_hindrance,
 /// physics.faxen_curvature and the deposition.* keys read below.
 void declarePhysicsAndDeposition(Schema& s, double hamaker_default);
+/// numerics.threads (OverdampedEngine's per-particle loops), for every kind that runs the overdamped engine.
+void declareEngineThreads(Schema& s);
 
 /// [physics] (Brownian motion from the engine choice when "auto", wall
 /// hindrance, Faxen curvature) and [deposition] (capture distance, sticky

@@ -51,12 +51,7 @@ void declareChannel(Schema& s) {
   s.quantity("run.output_interval", "s", "Output (frame) interval").def("0.05 s").positive();
   s.integer("run.seed", "Random seed (Brownian motion, injection)").def(1).min(0);
   s.real("numerics.max_step_fraction", "Overdamped engine: largest displacement per step, in radii").def(0.1).min(1e-4).max(1);
-  s.integer("numerics.threads",
-            "Overdamped engine: threads of a step's per-particle loops (drift, move and wall step), the results bit for bit one "
-            "thread's; 0: auto (the hardware's cores, 2 to 8). Default 1, so that the runs of mmval sweep --jobs N do not share cores")
-      .def(1)
-      .min(0)
-      .max(64);
+  declareEngineThreads(s);
   s.real("numerics.rayleigh_fraction", "LIGGGHTS engine: DEM step as a fraction of the Rayleigh time").def(0.1).min(1e-3).max(0.3);
   s.quantity("output.pixel_size", "um", "Pixel size for the pixel columns of trajectories.csv (0: none)").def(0.0).nonNegative();
 }
@@ -314,6 +309,15 @@ DlvoParameters chemistryFromCase(const Case& c, const char* temperature_key) {
     throw InputError(c.where("chemistry"), fmt::format("the chemistry does not define a DLVO interaction: {}", e.what()));
   }
   return p;
+}
+
+void declareEngineThreads(Schema& s) {
+  s.integer("numerics.threads",
+            "Overdamped engine: threads of a step's per-particle loops (drift, move and wall step), the results bit for bit one "
+            "thread's; 0: auto (the hardware's cores, 2 to 8). Default 1, so that the runs of mmval sweep --jobs N do not share cores")
+      .def(1)
+      .min(0)
+      .max(64);
 }
 
 void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {

@@ -129,12 +129,7 @@ void declareMicromodel(Schema& s) {
            "pattern is ordered and analysed anew, bit for bit a new solver's")
       .def("fixed");
   s.real("numerics.max_step_fraction", "Largest particle displacement per step, in radii").def(0.5).min(1e-4).max(1);
-  s.integer("numerics.threads",
-            "Overdamped engine: threads of a step's per-particle loops (drift, move and wall step), the results bit for bit one "
-            "thread's; 0: auto (the hardware's cores, 2 to 8). Default 1, so that the runs of mmval sweep --jobs N do not share cores")
-      .def(1)
-      .min(0)
-      .max(64);
+  declareEngineThreads(s);
   s.quantity("engines.compare_window", "s",
              "Before the run: the overdamped engine against LIGGGHTS (Hertz contacts, grains as an STL mesh wall) on a shared window of "
              "this scene's flow, from the same particles spread over the pore space, without Brownian motion; 0: no comparison")
