@@ -52,7 +52,7 @@ constexpr double kProbeDrop = 2e-4;
 ///   second stage's method no longer counts. The constant-memory methods were not robust: IBiCGStab
 ///   diverged, and BiCGStab(L) and TFQMR stopped "converged" at a wrong answer (k -2e-8 and -1e15 D).
 /// The cost is iterations: Pore2Chip forced to selfp from iteration 1 needed 666 against 417 (in
-/// 65 s against 155 s), beyond the 500 of auto's fallback (kAutoIterativeMaxIterations).
+/// 65 s against 155 s), beyond the 500 auto's fallback had, hence its 1000 (kAutoIterativeMaxIterations).
 constexpr PetscInt kSelfpRestart = 30;
 constexpr KSPType kSelfpKrylov = KSPLGMRES;
 

@@ -1,5 +1,6 @@
 #include "mmval/particles/Kinds.hpp"
 #include "mmval/particles/KindMetrics.hpp"
+#include "mmval/particles/OverdampedEngine.hpp"
 
 #include "CaseScene.hpp"
 #include "checks/PhysicsChecks.hpp"
@@ -317,7 +318,7 @@ void declareEngineThreads(Schema& s) {
             "thread's; 0: auto (the hardware's cores, 2 to 8). Default 1, so that the runs of mmval sweep --jobs N do not share cores")
       .def(1)
       .min(0)
-      .max(64);
+      .max(OverdampedEngine::kMaxThreads);
 }
 
 void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {

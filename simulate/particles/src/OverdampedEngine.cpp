@@ -609,9 +609,9 @@ bool OverdampedEngine::slideBetweenWalls(ParticleState& p, const Vec3& before, c
   return true;
 }
 
-void OverdampedEngine::reflectAtMirrors(ParticleState& p, const FlowField& flow) const {
+void OverdampedEngine::reflectAtMirrors(ParticleState& p) const {
   if (!m_cfg.mirror_sides) return;
-  const Bounds2 b = flow.bounds();
+  const Bounds2 b = m_flow->bounds();  // the memo's bounds are its flow's: no memo state, safe on any thread
   // A step is a fraction of a radius, far below the strip's width: at most a reflection or two.
   for (int k = 0; k < 4 && (p.x.y() < b.y0 || p.x.y() > b.y1); ++k) p.x.y() = p.x.y() < b.y0 ? 2 * b.y0 - p.x.y() : 2 * b.y1 - p.x.y();
 }
@@ -621,7 +621,7 @@ std::uint8_t OverdampedEngine::applyWalls(ParticleState& p, const Vec3& before, 
   std::uint8_t touched = 0;
   // Mirror sides: the field beyond a plane is the mirror image of the pore space, so the move and
   // its reflection see the same walls; the reflected one stays in the chip.
-  reflectAtMirrors(p, flow);
+  reflectAtMirrors(p);
   // Grains and side walls: a step into solid is taken back in-plane; a particle
   // closer than a radius is pushed out along the wall normal.
   if (flow.isSolid(p.x.x(), p.x.y())) {
@@ -670,7 +670,7 @@ std::uint8_t OverdampedEngine::applyWalls(ParticleState& p, const Vec3& before, 
     p.x.z() = h - a;
     touched |= kTop;
   }
-  reflectAtMirrors(p, flow);  // a wall's push can carry it across a plane
+  reflectAtMirrors(p);  // a wall's push can carry it across a plane
   return touched;
 }
 

@@ -160,8 +160,7 @@ class OverdampedEngine final : public ParticleEngine {
   /// calling thread's (Worker).
   std::uint8_t applyWalls(ParticleState& p, const Vec3& before, const FlowField& flow, std::vector<Vec2>& normals) const;
   /// SceneConfig::mirror_sides: a particle beyond the field's y0 or y1 reflected back across it.
-  void reflectAtMirrors(ParticleState& p, const FlowField& flow) const;
-  void reflectAtMirrors(ParticleState& p) const { reflectAtMirrors(p, *m_flow); }
+  void reflectAtMirrors(ParticleState& p) const;
   /// Two walls closer than a radius: from p (a radius from the wall of normal `last`), the slide
   /// along that wall that puts it a radius from the other as well; p moved and true when the slid
   /// position (and the way there from `before`) keeps a radius from every wall.
