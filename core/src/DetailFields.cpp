@@ -73,6 +73,10 @@ std::vector<DetailFieldDecl> makeDeclarations() {
        "why that solver: `requested`, or the rule `auto` applied (problem class, unknowns, ranks) and any fallback", kSteadyMmvalKinds},
       {F::ladder_linear_solver_fallback, "linear_solver_fallback", F::ladder, T::boolean, none, 0, "-",
        "true when an auto-chosen solver failed and the other solved the level instead (an iterative solve that did not converge: the direct LU; a direct LU its library could not factorise: the iterative solver)", kSteadyMmvalKinds},
+      {F::ladder_linear_true_residual, "linear_true_residual", F::ladder, T::number, none, 0, "1",
+       "the iterative solver's accepted answer: its true relative residual, the 2-norm of b - A x over that of b, checked against 100 times the "
+       "tolerance before the answer is kept (a larger one counts as a failed solve: the fallback, or exit 5 naming it); absent after a direct solve",
+       kSteadyMmvalKinds},
       {F::runs, "runs", top, T::array, T::object, 0, "-", "every solved level of every depth model (the ladder holds one model's)", "image-permeability"},
       {F::runs_3d, "runs_3d", top, T::array, T::object, 0, "-", "the levels of the coarse 3D Stokes solve", "image-permeability (depth_model 3d or all)"},
       {F::grid_convergence, "grid_convergence", top, T::object, none, 0, "-",

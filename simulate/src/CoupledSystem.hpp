@@ -36,7 +36,8 @@ class CoupledSystem {
 
   /// Assembles the system linearised at `state` and overwrites `state` with
   /// its solution (on every rank). Adds timings and iterations to `stats`.
-  /// Throws FlowFailure if the solve fails or the result is not finite, std::runtime_error on
+  /// Throws FlowFailure if the solve fails, an iterative answer's true residual is too large (see
+  /// lastTrueResidual) or the result is not finite, std::runtime_error on
   /// a PETSc error (`state` is then left unchanged), PatternMiss when the operator has a kept
   /// pattern that a row does not fit (found while assembling, before anything changed).
   void solve(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats);
@@ -67,6 +68,11 @@ class CoupledSystem {
   /// residual reached then.
   int schurSwitchIterations() const;
   double schurSwitchResidual() const;
+  /// Iterative solver: the true relative residual ||b - A x|| / ||b|| of the last solve's answer
+  /// (2-norms, the assembled A), checked against 100 times options.linear_rtol before the answer is
+  /// kept: a solve PETSc reports converged above that bound throws FlowFailure ("true residual X
+  /// above Y") as one that did not converge. NaN after a direct solve or a failed one.
+  double lastTrueResidual() const;
 
   /// Direct solver only (else nothing): solves of a steady system whose matrix changes between
   /// solves (SteadyFlowSolver::update). A factorisation of a matrix with the last one's pattern is

@@ -123,7 +123,9 @@ struct SteadyFlowSolver::Impl {
     } catch (const LinearSolverFailure&) {
       throw;  // the solver's library failed (memory): its own advice names the solver to change, not the grid
     } catch (const FlowFailure& e) {  // not finite, or the linear solver diverged: say whether the grid resolves the flow path
-      throw FlowFailure(e.cause() + throatDiagnosis(), "refine the grid until every throat of the flow path is at least 2 cells wide");
+      const std::string throat = throatDiagnosis();
+      if (throat.empty() && e.advice() != "refine the grid") throw;  // a resolved flow path, and a cause with its own advice (a wrong Krylov answer)
+      throw FlowFailure(e.cause() + throat, "refine the grid until every throat of the flow path is at least 2 cells wide");
     }
   }
 
@@ -208,6 +210,7 @@ struct SteadyFlowSolver::Impl {
       stats.linear_reason += fmt::format("; Schur preconditioner: the pressure mass matrix for {} iterations (residual {:.2g} of the first), then selfp",
                                          sys->schurSwitchIterations(), sys->schurSwitchResidual());
     stats.linear_fallback = fell_back;
+    stats.linear_true_residual = sys->lastTrueResidual();
     stats.pattern_kept = fixed() && fits && !first;
     if (parked) sys = std::move(parked);  // the new solver's factors go; the kept pattern's solver serves the next problem
     op.unpack(state, u, v, p);

@@ -50,6 +50,7 @@ enum class DetailField {
   ladder_linear_solver,
   ladder_linear_solver_reason,
   ladder_linear_solver_fallback,
+  ladder_linear_true_residual,
   runs,
   runs_3d,
   grid_convergence,

@@ -61,6 +61,7 @@
 #pragma once
 #include <array>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -79,14 +80,18 @@ namespace mmval::simulate {
 /// know them; one place, the kind, knows the option names): the case kind that chose the resolution rethrows withKey(its key).
 class FlowFailure : public NumericalFailure {
  public:
-  FlowFailure(std::string cause, std::string advice) : NumericalFailure(cause, "", advice), m_cause(std::move(cause)), m_advice(std::move(advice)) {}
+  /// `key`: the case key the advice is about, when the failure knows it better than its caller
+  /// (the linear solver's own failures: numerics.linear_solver); withKey then keeps it.
+  FlowFailure(std::string cause, std::string advice, std::string key = "")
+      : NumericalFailure(cause, key, advice), m_cause(std::move(cause)), m_advice(std::move(advice)), m_key(std::move(key)) {}
   const std::string& cause() const noexcept { return m_cause; }
   const std::string& advice() const noexcept { return m_advice; }
-  /// The same failure naming the case key to change ("cause; change 'key': advice").
-  NumericalFailure withKey(const std::string& key) const { return NumericalFailure(m_cause, key, m_advice); }
+  /// The same failure naming the case key to change ("cause; change 'key': advice"): its own key
+  /// when it was thrown with one, else `key`.
+  NumericalFailure withKey(const std::string& key) const { return NumericalFailure(m_cause, m_key.empty() ? key : m_key, m_advice); }
 
  private:
-  std::string m_cause, m_advice;
+  std::string m_cause, m_advice, m_key;
 };
 
 /// Thrown by the coupled solves (CoupledSystem) when the linear solver's library fails inside PETSc (PETSc
@@ -214,6 +219,9 @@ struct FlowStats {
   std::string linear_solver;     ///< the linear solver that produced the solution: "direct" or "iterative"
   std::string linear_reason;     ///< why (numerics.linear_solver = "auto": the rule that chose it; else "requested")
   bool linear_fallback = false;  ///< "auto"'s choice failed and the other solver solved instead (iterative -> direct, or direct -> iterative)
+  /// The iterative solver's accepted answer: its true relative residual ||b - A x|| / ||b||
+  /// (CoupledSystem::lastTrueResidual, checked against 100 x the tolerance); NaN after a direct solve.
+  double linear_true_residual = std::numeric_limits<double>::quiet_NaN();
   /// fixed_pattern: the solve factorised into the kept pattern, numerically only (not the first
   /// solve, nor one whose rows did not fit and took a new solver).
   bool pattern_kept = false;
