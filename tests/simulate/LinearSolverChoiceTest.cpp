@@ -156,6 +156,12 @@ TEST(LinearSolverChoice, PeriodicArrayKindRecordsTheChoice) {
   EXPECT_NE(la[1].at("linear_solver_reason").get<std::string>().find("unknowns"), std::string::npos);
   EXPECT_EQ(la[1].at("linear_solver_fallback"), false);
   EXPECT_GT(la[1].at("linear_iterations").get<int>(), 1);
+  // The iterative level's accepted true residual (CoupledSystem's check: at most 100 x rtol 1e-10);
+  // the direct level has none.
+  EXPECT_FALSE(la[0].contains("linear_true_residual"));
+  ASSERT_TRUE(la[1].contains("linear_true_residual"));
+  EXPECT_GT(la[1].at("linear_true_residual").get<double>(), 0.0);
+  EXPECT_LE(la[1].at("linear_true_residual").get<double>(), 1e-8);
   // Each level records its CPU time (the speed-vs-error figure's axis) beside its wall time: positive,
   // and not above what the machine's cores could spend in the wall time (the process's helper
   // threads run beside the solve: 0.23 s CPU in 0.115 s wall was measured on an idle 2-core machine),
