@@ -95,6 +95,18 @@ struct MicromodelFlowOptions {
   /// pockets) and the side walls stay squares in both.
   bool smooth_walls = false;
   double smoothing_px = 0.75;  ///< smooth walls: Gaussian width, pixels (geometry.smoothing)
+  /// The engines' pixel faces balanced (true, what every kind uses): the face means of the
+  /// solve's velocities (solve()) balance each fluid pixel away from walls but not beside them,
+  /// where the solve's cut cells carry flux through pixel edges into pixels the mask calls solid
+  /// (2.8 % / 22 % of the largest speed at 1 / 0.5 cells per pixel beside a pixel disc, 7 % / 17 %
+  /// with smooth walls; docs/validation/paper-scenes.md, "A continuous near-wall layer"). Balanced,
+  /// the faces into solid pixels are zero and every fluid pixel's h-weighted net outflow is zero
+  /// to ~1e-13 of (largest speed x pixel x depth), by the least depth-weighted change of the
+  /// faces (a projection on the fluid pixels' graph, MicromodelFlow.cpp balanceFaceFluxes), the
+  /// inlet faces kept: the pixels then carry the solve's flow rate and particles the solve's
+  /// fluxes. false: the face means as they are (for comparisons; docs/validation/particle-physics.md,
+  /// "Balanced face fluxes beside walls").
+  bool balance_faces = true;
 };
 
 struct FlowSolveResult {
@@ -111,6 +123,16 @@ struct FlowSolveResult {
   /// Fixed pattern: a numeric factorisation into the kept pattern (no ordering nor symbolic
   /// analysis); false for the first solve and for a re-solve that took a new solver.
   bool pattern_kept = false;
+  /// The pixel faces' balance (MicromodelFlowOptions::balance_faces): the largest net h-weighted
+  /// outflow of a fluid pixel, faces to solid pixels counted as zero, over (largest face speed x
+  /// pixel x largest depth), of the face means before and of the field handed to the engines
+  /// after (equal when the balance is off); the solves with its factors it took (1 plus the
+  /// refinement steps); the inflow it set to zero (dead ends at the pixels' resolution), a fraction of the inflow.
+  double imbalance_before = 0;
+  double imbalance_after = 0;
+  int balance_iterations = 0;
+  double balance_dropped_inflow = 0;
+  double balance_seconds = 0;  ///< wall time of the balance (included in seconds)
 };
 
 /// The linear solver MicromodelFlow::solve takes for an nx x ny grid of cells dx x dy (m, the
