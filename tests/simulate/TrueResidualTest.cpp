@@ -19,39 +19,15 @@
 #include "FlowOperator.hpp"
 #include "mmval/simulate/FlowSolver.hpp"
 #include "mmval/simulate/Geometry.hpp"
+#include "MaskProblems.hpp"
 
 using namespace mmval::simulate;
 
 namespace {
 
-using Mask = Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic>;
-
-/// n x n px mask, pressure from west to east, slip north and south, 1 cell per pixel.
-FlowProblem maskProblem(const Mask& solid) {
-  const double px = 1e-5;
-  const int n = static_cast<int>(solid.rows());
-  FlowProblem p;
-  p.x = uniformAxis(0, n * px, n);
-  p.y = uniformAxis(0, n * px, n);
-  p.boundary[0].type = p.boundary[1].type = BoundaryType::pressure;
-  p.boundary[0].pressure = 1.0;
-  p.boundary[2].type = p.boundary[3].type = BoundaryType::slip;
-  p.shape = std::make_shared<MaskShape>(solid, px);
-  return p;
-}
-
-/// 9 x 9 px square grains on a 12 px pitch, staggered by half a pitch every other row: 3 px
-/// throats (SchurSwitchTest's mask): the mass-matrix stage stalls and the solve switches to selfp.
-Mask denseThroats(int n) {
-  Mask m = Mask::Constant(n, n, false);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) {
-      const int shift = ((j + 1) / 12) % 2 == 1 ? 6 : 0;
-      const int a = (i + 1 + shift) % 12, b = (j + 1) % 12;
-      m(i, j) = a >= 3 && b >= 3;
-    }
-  return m;
-}
+using mask_problems::denseThroats;
+using mask_problems::Mask;
+using mask_problems::maskProblem;
 
 /// The square array at solid fraction 0.2 on 64^2 cells (12288 unknowns: "auto" picks the iterative solver).
 FlowProblem array64() { return squareArrayProblem(1e-4, 64, 0.2, 1e-3, 1.0); }
