@@ -131,7 +131,8 @@ SurfaceChemistry surfaceChemistry(const DlvoParameters& p) {
 struct OverdampedEngine::Worker {
   const FlowField* flow = nullptr;  ///< this thread's memo of the engine's flow
   const HydroModel* model = nullptr;
-  std::vector<Vec2> normals;  ///< applyWalls' scratch
+  std::vector<Vec2> normals;  ///< applyWalls' and heldByDeposits' scratch
+  std::vector<int> near;      ///< backOutOfDeposits' scratch
   std::shared_ptr<const FlowField> own_flow;  ///< threads 1..: a memo of their own over the same flow
   std::unique_ptr<HydroModel> own_model;      ///< threads 1..: the engine's model over own_flow
 };
@@ -293,7 +294,9 @@ OverdampedEngine::OverdampedEngine(std::shared_ptr<const FlowField> flow, SceneC
   if (m_threads > 1) m_pool = std::make_unique<Pool>(m_workers);
 }
 
-bool OverdampedEngine::favourablePatchAt(Surface s, const Vec3& x) const {
+bool OverdampedEngine::favourablePatchAt(Surface s, const Vec3& x) const { return favourablePatchAt(s, x, *m_flow); }
+
+bool OverdampedEngine::favourablePatchAt(Surface s, const Vec3& x, const FlowField& flow) const {
   if (!(m_patches.size > 0)) return false;
   using Sheet = FavourablePatchMap::Sheet;
   switch (s) {
@@ -301,9 +304,9 @@ bool OverdampedEngine::favourablePatchAt(Surface s, const Vec3& x) const {
     case Surface::top: return m_patches.favourableAt(Sheet::top, x.x(), x.y(), 0.0);
     case Surface::grain: {
       // The contact point: the nearest wall point in the plane, at the particle centre's height.
-      if (m_flow->isSolid(x.x(), x.y())) return m_patches.favourableAt(Sheet::walls, x.x(), x.y(), x.z());
-      const double d = m_flow->wallDistance(x.x(), x.y());
-      const Vec2 n = m_flow->wallNormal(x.x(), x.y());
+      if (flow.isSolid(x.x(), x.y())) return m_patches.favourableAt(Sheet::walls, x.x(), x.y(), x.z());
+      const double d = flow.wallDistance(x.x(), x.y());
+      const Vec2 n = flow.wallNormal(x.x(), x.y());
       return m_patches.favourableAt(Sheet::walls, x.x() - d * n.x(), x.y() - d * n.y(), x.z());
     }
     default: return false;  // deposits are latex: no glass patches
@@ -480,6 +483,7 @@ void OverdampedEngine::advance(double t_end) {
     if (mobile) {
       const auto& c = m_cfg;
       m_touch.assign(m_particles.size(), 0);
+      m_clamp.assign(m_particles.size(), 0);
       // The step's normal draws first, in mobile order (one thread's order), then the moves and
       // wall steps, which are independent per particle (each writes its own particle and touch bits).
       if (c.brownian) {
@@ -500,21 +504,38 @@ void OverdampedEngine::advance(double t_end) {
         }
         p.x += dx;
         p.v = drift[k];
-        m_touch[m_mobile[k]] = applyWalls(p, before, *w.flow, w.normals);
+        const int i = m_mobile[k];
+        m_touch[i] = applyWalls(p, before, *w.flow, w.normals);
+        // Where the plates' clamp of the contact sweeps would move a particle no push moves (the
+        // depth there below a diameter), it is marked for it; every other one it leaves as it is.
+        if (p.status != ParticleStatus::left) {
+          const double h = w.flow->depth(p.x.x(), p.x.y());
+          m_clamp[i] = std::clamp(p.x.z(), m_radius, std::max(m_radius, h - m_radius)) != p.x.z();
+        }
       });
       // Attachment only once every overlap of the step is removed: a particle attached
       // earlier would be left out of the contact sweeps and could stay inside a deposit.
       resolveContacts();
-      if (m_cfg.mirror_sides)
-        for (const int i : m_mobile) reflectAtMirrors(m_particles[i]);  // the contact pushes can carry one across a plane
       std::sort(m_deposit_contacts.begin(), m_deposit_contacts.end());
+      // Per particle, on the threads: the contacts' undo and back-out, the mirror planes, then
+      // attachment and the straining clock. Each reads the flow, itself and deposits indexed in
+      // earlier steps (m_dep_cells, m_deposit_contacts' partners), never another mobile particle or
+      // one deposited in this step, and writes only itself: the order of particles does not matter.
+      const double t_next = m_t + dt;
+      forEachMobile(m_mobile.size(), [&](std::size_t k, Worker& w) {
+        afterContacts(k, w);
+        const int i = m_mobile[k];
+        auto& p = m_particles[i];
+        if (p.status != ParticleStatus::mobile) return;
+        decideAttachment(p, m_touch[i], w);
+        updateStraining(p, (m_touch[i] & kPinned) != 0 || heldByDeposits(p, i, w), t_next);
+      });
+      // In mobile order, on one thread: a new deposit (not strained) that overlaps one made earlier in
+      // this step, or an indexed one, stays mobile.
       std::vector<int> fresh;  // deposited in this step, not yet in m_dep_cells
       for (const int i : m_mobile) {
         auto& p = m_particles[i];
-        if (p.status != ParticleStatus::mobile) continue;
-        decideAttachment(p, m_touch[i]);
-        updateStraining(p, (m_touch[i] & kPinned) != 0 || heldByDeposits(p, i), m_t + dt);
-        if (p.status != ParticleStatus::deposited) continue;
+        if (p.status != ParticleStatus::deposited) continue;  // deposited only just now: mobile before this step
         // An attachment that overlaps a deposit waits for the next step's pushes. A strained particle
         // does not: it has been held in place for the straining time, pushes that never removed the
         // overlap (stopped by a plate, undone at the walls, no place to back out to) will not now,
@@ -705,7 +726,7 @@ double OverdampedEngine::oneWallCos() const {
   return m_grid && m_grid->smoothWalls() ? kCos : 2.0;
 }
 
-bool OverdampedEngine::heldByDeposits(const ParticleState& p, int i) const {
+bool OverdampedEngine::heldByDeposits(const ParticleState& p, int i, Worker& w) const {
   if (!m_cfg.straining.enabled || p.status != ParticleStatus::mobile || (m_touch[i] & kDeposit) == 0) return false;
   const double a = m_radius;
   const Vec2 u(p.v.x(), p.v.y());
@@ -713,7 +734,7 @@ bool OverdampedEngine::heldByDeposits(const ParticleState& p, int i) const {
   // In-plane contact normals, from each deposit touched in this step's contact sweeps to the
   // particle (one per deposit, at its final position), and the nearest wall's when the wall is
   // within one step's travel (max_step_fraction radii: the drift presses it there again next step).
-  std::vector<Vec2>& normals = m_normals;  // reused: no allocation per contact
+  std::vector<Vec2>& normals = w.normals;  // reused: no allocation per contact
   normals.clear();
   const auto range = std::equal_range(m_deposit_contacts.begin(), m_deposit_contacts.end(), std::pair<int, int>(i, 0),
                                       [](const std::pair<int, int>& l, const std::pair<int, int>& r) { return l.first < r.first; });
@@ -727,19 +748,22 @@ bool OverdampedEngine::heldByDeposits(const ParticleState& p, int i) const {
   }
   // The deposits' normals are real spheres': only wall-wall pairs would be thinned (there is one wall normal at most).
   const std::size_t first_wall = normals.size();
-  if (!m_flow->isSolid(p.x.x(), p.x.y()) && m_flow->wallDistance(p.x.x(), p.x.y()) < (1 + m_cfg.max_step_fraction) * a)
-    normals.push_back(m_flow->wallNormal(p.x.x(), p.x.y()));
+  const FlowField& flow = *w.flow;
+  if (!flow.isSolid(p.x.x(), p.x.y()) && flow.wallDistance(p.x.x(), p.x.y()) < (1 + m_cfg.max_step_fraction) * a)
+    normals.push_back(flow.wallNormal(p.x.x(), p.x.y()));
   return heldAgainst(u, normals, first_wall, oneWallCos());
 }
 
-void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched) {
+void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched, const Worker& w) {
   const auto& at = m_cfg.attachment;
   if (!(at.capture_distance > 0)) return;
+  const FlowField& flow = *w.flow;
+  const HydroModel& model = *w.model;
   const double a = m_radius, cd = at.capture_distance;
-  const double h = m_flow->depth(p.x.x(), p.x.y());
+  const double h = flow.depth(p.x.x(), p.x.y());
   const bool on_bottom = at.bottom && ((touched & kBottom) != 0 || p.x.z() - a <= cd);
   const bool on_top = at.top && ((touched & kTop) != 0 || h - p.x.z() - a <= cd);
-  const bool on_grain = at.grains && ((touched & kGrain) != 0 || m_flow->wallDistance(p.x.x(), p.x.y()) - a <= cd);
+  const bool on_grain = at.grains && ((touched & kGrain) != 0 || flow.wallDistance(p.x.x(), p.x.y()) - a <= cd);
   const bool on_deposit = at.deposited && (touched & kDeposit) != 0;
   const auto hold = [&](Surface s) {
     p.status = ParticleStatus::deposited;
@@ -757,7 +781,7 @@ void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched) 
     const double release = releaseDistance();
     for (const auto& [s, is_near] : near) {
       const auto bit = static_cast<std::uint8_t>(1u << static_cast<unsigned>(s));
-      if ((p.rejected & bit) != 0 && !is_near && (release <= cd || beyondRelease(p, s, release)))
+      if ((p.rejected & bit) != 0 && !is_near && (release <= cd || beyondRelease(p, s, release, flow)))
         p.rejected = static_cast<std::uint8_t>(p.rejected & ~bit);
     }
     const bool spatial = m_patches.size > 0;
@@ -767,12 +791,12 @@ void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched) 
       // Patches placed in space: a particle within the capture distance of the glass attaches in
       // the primary minimum whenever its contact point lies on a favourable cell, at its arrival
       // or at any later step (resting, rolling or translating in the secondary minimum).
-      if (spatial && favourablePatchAt(s, p.x)) {
+      if (spatial && favourablePatchAt(s, p.x, flow)) {
         p.secondary = false;
         return hold(s);
       }
       if ((p.rejected & bit) != 0) continue;
-      if (dlvoArrival(p, s, *chemistry(s))) return hold(s);
+      if (dlvoArrival(p, s, *chemistry(s), model)) return hold(s);
       p.rejected = static_cast<std::uint8_t>(p.rejected | bit);
     }
     // Caught in a secondary minimum the local shear did not let hold it (p.secondary while mobile,
@@ -785,7 +809,7 @@ void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched) 
       if (!in_well) {
         p.secondary = false;
         p.held_by = Surface::none;
-      } else if (secondaryHolds(p, p.held_by, *chemistry(p.held_by))) {
+      } else if (secondaryHolds(p, p.held_by, *chemistry(p.held_by), model)) {
         hold(p.held_by);
       }
     }
@@ -793,7 +817,7 @@ void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched) 
   }
   bool plate = on_bottom || on_top;
   // Torque balance (optional): a particle the shear would roll off the plate stays mobile.
-  if (plate && at.torque_balance) plate = m_model.plateAdhesionHolds(p.x, on_bottom);
+  if (plate && at.torque_balance) plate = model.plateAdhesionHolds(p.x, on_bottom);
   // Attachment efficiency: one draw per arrival on a plate; a rejected particle rolls on until it
   // leaves the capture distance (then a later arrival draws again).
   if (at.plate_efficiency < 1) {
@@ -814,12 +838,12 @@ double OverdampedEngine::releaseDistance() const {
   return r < 0 ? m_radius : r;
 }
 
-bool OverdampedEngine::beyondRelease(const ParticleState& p, Surface s, double release) const {
+bool OverdampedEngine::beyondRelease(const ParticleState& p, Surface s, double release, const FlowField& flow) const {
   const double a = m_radius;
   switch (s) {
     case Surface::bottom: return p.x.z() - a > release;
-    case Surface::top: return m_flow->depth(p.x.x(), p.x.y()) - p.x.z() - a > release;
-    case Surface::grain: return !m_flow->isSolid(p.x.x(), p.x.y()) && m_flow->wallDistance(p.x.x(), p.x.y()) - a > release;
+    case Surface::top: return flow.depth(p.x.x(), p.x.y()) - p.x.z() - a > release;
+    case Surface::grain: return !flow.isSolid(p.x.x(), p.x.y()) && flow.wallDistance(p.x.x(), p.x.y()) - a > release;
     case Surface::deposit: {
       // No deposited centre within 2 a + release.
       const double d = 2 * a + release;
@@ -829,7 +853,7 @@ bool OverdampedEngine::beyondRelease(const ParticleState& p, Surface s, double r
   }
 }
 
-bool OverdampedEngine::dlvoArrival(ParticleState& p, Surface s, const SurfaceChemistry& sc) {
+bool OverdampedEngine::dlvoArrival(ParticleState& p, Surface s, const SurfaceChemistry& sc, const HydroModel& model) {
   double u = arrivalDraw(p.id, ++p.arrivals);
   // Patchwise heterogeneity of the glass (Song, Johnson & Elimelech 1994; deposits are latex): the
   // arrival lands on a favourable patch with probability lambda and attaches in the primary
@@ -858,15 +882,15 @@ bool OverdampedEngine::dlvoArrival(ParticleState& p, Surface s, const SurfaceChe
   // translates in it (decideAttachment checks again every step).
   p.secondary = true;
   p.held_by = s;
-  return secondaryHolds(p, s, sc);
+  return secondaryHolds(p, s, sc, model);
 }
 
-bool OverdampedEngine::secondaryHolds(const ParticleState& p, Surface s, const SurfaceChemistry& sc) const {
+bool OverdampedEngine::secondaryHolds(const ParticleState& p, Surface s, const SurfaceChemistry& sc, const HydroModel& model) const {
   // Held at a distance by the well's attraction alone: only while that pull-off force holds
   // against the local shear's torque, on plates, grain walls and deposits alike.
   const bool plate = s == Surface::bottom || s == Surface::top;
-  return plate ? m_model.plateAdhesionHolds(p.x, s == Surface::bottom, nullptr, sc.secondary_force)
-               : m_model.surfaceAdhesionHolds(p.x, sc.secondary_force);
+  return plate ? model.plateAdhesionHolds(p.x, s == Surface::bottom, nullptr, sc.secondary_force)
+               : model.surfaceAdhesionHolds(p.x, sc.secondary_force);
 }
 
 bool OverdampedEngine::overlapsDeposit(const ParticleState& p, const std::vector<int>& fresh) const {
@@ -889,9 +913,8 @@ double OverdampedEngine::arrivalDraw(std::int64_t id, std::uint32_t arrival) con
 void OverdampedEngine::resolveContacts() {
   const double a = m_radius, d = 2 * a;
 
-  const auto fits = [&](const Vec3& x) { return !m_flow->isSolid(x.x(), x.y()) && m_flow->wallDistance(x.x(), x.y()) >= 0.9 * a; };
-  std::vector<Vec3> start(m_mobile.size());
-  for (std::size_t k = 0; k < m_mobile.size(); ++k) start[k] = m_particles[m_mobile[k]].x;
+  m_start.resize(m_mobile.size());
+  for (std::size_t k = 0; k < m_mobile.size(); ++k) m_start[k] = m_particles[m_mobile[k]].x;
   // A few Heyes-Melrose sweeps: each removes every overlap found; new ones made
   // by a push are caught by the next sweep. Dilute scenes need one. Mobile
   // particles are indexed per sweep, as (cell key, index) pairs sorted by key
@@ -922,11 +945,13 @@ void OverdampedEngine::resolveContacts() {
       any = true;
       if (q.status == ParticleStatus::deposited) {
         p.x += r * overlap;
+        m_clamp[i] = 1;
         m_touch[i] |= kDeposit;  // an arrival on a deposit, decided after the sweeps
         if (m_cfg.straining.enabled) m_deposit_contacts.emplace_back(i, j);
       } else {
         p.x += 0.5 * overlap * r;
         q.x -= 0.5 * overlap * r;
+        m_clamp[i] = m_clamp[j] = 1;
       }
     };
     for (const int i : m_mobile) {
@@ -948,8 +973,13 @@ void OverdampedEngine::resolveContacts() {
         }
     }
     // Pushes may have moved particles into the plates: clamp again (no capture here
-    // beyond the plate rule, which the next step's wall check applies).
+    // beyond the plate rule, which the next step's wall check applies). Only the particles pushed
+    // in this sweep, and in the first those the wall step left where the clamp moves them
+    // (m_clamp): the clamp of any other leaves its z as it is (z already in [a, h - a] at the same
+    // (x, y); std::clamp returns it unchanged), or as the previous sweep's clamp left it.
     for (const int i : m_mobile) {
+      if (!m_clamp[i]) continue;
+      m_clamp[i] = 0;
       auto& p = m_particles[i];
       if (p.status == ParticleStatus::left) continue;
       const double h = m_flow->depth(p.x.x(), p.x.y());
@@ -957,23 +987,28 @@ void OverdampedEngine::resolveContacts() {
     }
     if (!any) break;
   }
-  // A push must not carry a particle into a grain or through a throat narrower
-  // than itself (particles jammed at a throat push each other): such a push is
-  // undone in the plane, leaving the overlap to later steps.
-  for (std::size_t k = 0; k < m_mobile.size(); ++k) {
-    auto& p = m_particles[m_mobile[k]];
-    if (p.status == ParticleStatus::left || p.x == start[k]) continue;
-    if (!fits(p.x) && fits(start[k])) {
-      p.x.x() = start[k].x();
-      p.x.y() = start[k].y();
-    }
-  }
-  if (m_cfg.straining.enabled)
-    for (const int i : m_mobile)
-      if (m_particles[i].status == ParticleStatus::mobile) backOutOfDeposits(m_particles[i]);
 }
 
-void OverdampedEngine::backOutOfDeposits(ParticleState& p) const {
+void OverdampedEngine::afterContacts(std::size_t k, Worker& w) {
+  auto& p = m_particles[m_mobile[k]];
+  if (p.status != ParticleStatus::left) {
+    // A push must not carry a particle into a grain or through a throat narrower
+    // than itself (particles jammed at a throat push each other): such a push is
+    // undone in the plane, leaving the overlap to later steps.
+    const FlowField& flow = *w.flow;
+    const double a = m_radius;
+    const auto fits = [&](const Vec3& x) { return !flow.isSolid(x.x(), x.y()) && flow.wallDistance(x.x(), x.y()) >= 0.9 * a; };
+    const Vec3& start = m_start[k];
+    if (p.x != start && !fits(p.x) && fits(start)) {
+      p.x.x() = start.x();
+      p.x.y() = start.y();
+    }
+    if (m_cfg.straining.enabled && p.status == ParticleStatus::mobile) backOutOfDeposits(p, w);
+  }
+  reflectAtMirrors(p);  // the contact pushes can carry one across a plane
+}
+
+void OverdampedEngine::backOutOfDeposits(ParticleState& p, Worker& w) const {
   // Overlaps the sweeps leave with deposits: a particle stacked over or under a deposit at a
   // throat (in-plane offset ~0) is pushed along z, where the plate (or a deposit on its other
   // side) stops it, and in the plane the walls undo the push. It is moved back against its
@@ -987,7 +1022,7 @@ void OverdampedEngine::backOutOfDeposits(ParticleState& p) const {
   if (!overlapsDeposit(p, {})) return;
   const Vec2 e = -u / u.norm();
   const double reach = 2 * d;  // the farthest a back-out goes: past one deposit and a second behind it
-  std::vector<int>& near = m_near;
+  std::vector<int>& near = w.near;
   near.clear();
   const double r = d + reach;
   anyDepositNear(p.x, r, [&](int j) {
@@ -1014,7 +1049,7 @@ void OverdampedEngine::backOutOfDeposits(ParticleState& p) const {
   if (!clear || s <= 0 || s > reach) return;
   const Vec2 from(p.x.x(), p.x.y()), to = from + s * e, mid = from + 0.5 * s * e;
   for (const Vec2& q : {to, mid})
-    if (m_flow->isSolid(q.x(), q.y()) || m_flow->wallDistance(q.x(), q.y()) < 0.9 * a) return;
+    if (w.flow->isSolid(q.x(), q.y()) || w.flow->wallDistance(q.x(), q.y()) < 0.9 * a) return;
   p.x.x() = to.x();
   p.x.y() = to.y();
 }
@@ -1129,8 +1164,9 @@ nlohmann::json OverdampedEngine::describe() const {
           {"contact_modulus_GPa", c.attachment.contact_modulus * 1e-9},
           {"max_step_fraction", c.max_step_fraction},
           {"threads", m_threads},
-          {"threads_note", fmt::format("per-particle loops (drift, move and wall step) on {} thread(s) when {} or more particles are mobile; "
-                                       "results bit for bit one thread's", m_threads, kMinParallelMobile)},
+          {"threads_note", fmt::format("per-particle loops (drift, move and wall step; after the contact sweeps, which stay on one "
+                                       "thread: undo, back-out, attachment, straining) on {} thread(s) when {} or more particles are "
+                                       "mobile; results bit for bit one thread's", m_threads, kMinParallelMobile)},
           {"seed", c.seed},
           {"contacts", "hard spheres, Heyes-Melrose overlap removal"},
           {"ito_drift", c.ito_drift},

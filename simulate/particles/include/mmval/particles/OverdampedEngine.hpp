@@ -59,7 +59,11 @@
 // step are independent of the other particles', so a step computes them on several threads, each
 // with its own memo of flow queries and scratch over the same flow; the step's normal draws are
 // taken first, in mobile order, as one thread takes them. Results are bit for bit one thread's
-// for any thread count. The contact sweeps, attachment and straining stay on one thread.
+// for any thread count. After the contact sweeps, which stay on one thread (a push moves the
+// particles the next pair sees), each particle's undo of a push into a grain, its back-out of
+// deposits, attachment and straining clock are again independent of the others' (they read the
+// flow, the particle and deposits of earlier steps) and run on the threads; only the check that a
+// new deposit does not overlap one made earlier in the same step goes in mobile order on one thread.
 // Not modelled: the wall correction of the lag for the parabola's curvature (the
 // lag is that of the wall's linear shear), in-plane hindrance by grains,
 // hydrodynamic interactions between particles, re-entrainment.
@@ -149,12 +153,19 @@ class OverdampedEngine final : public ParticleEngine {
   /// Surfaces a particle touched in a step (bits of m_touch).
   /// kPinned: the walls held it against its drift (a refused move, or two walls closing in ahead).
   enum Touch : std::uint8_t { kGrain = 1, kBottom = 2, kTop = 4, kDeposit = 8, kPinned = 16 };
+  /// The contact sweeps (one thread): every overlap pushed apart, the plates' clamp after each
+  /// sweep; m_start keeps the positions before them. The rest of the contact step is per particle
+  /// (afterContacts).
   void resolveContacts();
   /// What one thread of a step's per-particle loops reads the flow through and writes scratch to.
   struct Worker;
   class Pool;
   /// Runs body(k, worker) for k in [0, n) over the workers (worker 0 on the calling thread).
   void forEachMobile(std::size_t n, const std::function<void(std::size_t, Worker&)>& body);
+  /// Per particle after the contact sweeps (any thread, `w` its worker): a push that carried the
+  /// particle into a grain or a throat narrower than itself undone in the plane (k: its place in
+  /// m_mobile), its back-out of deposits (straining), the mirror planes.
+  void afterContacts(std::size_t k, Worker& w);
   /// Grains, side walls, outlet and plates: pushes the particle back into the fluid and
   /// returns the Touch bits of the surfaces it hit (or marks it left). `flow` and `normals`: the
   /// calling thread's (Worker).
@@ -178,30 +189,30 @@ class OverdampedEngine final : public ParticleEngine {
   /// positive sum of the other two normals' in-plane parts, which is this cone (a stacked deposit's
   /// in-plane part has the direction of the offset, whatever its length). A 3D cone test added to
   /// it changed no bit of the paper strip's 240 s run (2026-12-05, issue 26), so there is none.
-  bool heldByDeposits(const ParticleState& p, int i) const;
+  bool heldByDeposits(const ParticleState& p, int i, Worker& w) const;
   /// The dot product above which two wall normals of the held tests are one wall: cos of
   /// kSmoothWallOneWallDeg on smooth grain walls, 2 (never) on exact walls.
   double oneWallCos() const;
   /// Straining only: a mobile particle the contact sweeps left overlapping deposits (stacked over
   /// or under one, its push stopped by a plate and undone by the walls) is moved back against its
   /// in-plane drift by the least distance that clears them, where it fits.
-  void backOutOfDeposits(ParticleState& p) const;
-  mutable std::vector<int> m_near;  ///< scratch of backOutOfDeposits
-  /// Scratch for the contact normals of applyWalls / heldByDeposits (one particle at a time).
-  mutable std::vector<Vec2> m_normals;
-  /// After contacts: attaches a particle that arrived at a sticky surface (either rule).
-  void decideAttachment(ParticleState& p, std::uint8_t touched);
+  void backOutOfDeposits(ParticleState& p, Worker& w) const;
+  /// After contacts: attaches a particle that arrived at a sticky surface (either rule). Reads the
+  /// flow and the model through worker `w`; writes p only.
+  void decideAttachment(ParticleState& p, std::uint8_t touched, const Worker& w);
   /// dlvo rule: one draw for an arrival on surface `s`; true when the particle attaches. A
   /// particle caught in the secondary minimum but not held is marked as translating in that
   /// well (secondary = true, held_by = s, still mobile).
-  bool dlvoArrival(ParticleState& p, Surface s, const SurfaceChemistry& sc);
+  bool dlvoArrival(ParticleState& p, Surface s, const SurfaceChemistry& sc, const HydroModel& model);
   /// dlvo rule: the gap (m) a rejected particle must exceed before its next arrival at the same
   /// surface draws (AttachmentModel::release_distance; < 0 there: one radius).
   double releaseDistance() const;
   /// dlvo rule: p is farther than `release` from surface s (deposits: from every indexed deposit).
-  bool beyondRelease(const ParticleState& p, Surface s, double release) const;
+  bool beyondRelease(const ParticleState& p, Surface s, double release, const FlowField& flow) const;
   /// dlvo rule: the secondary minimum of `s` holds p against the local shear's torque.
-  bool secondaryHolds(const ParticleState& p, Surface s, const SurfaceChemistry& sc) const;
+  bool secondaryHolds(const ParticleState& p, Surface s, const SurfaceChemistry& sc, const HydroModel& model) const;
+  /// favourablePatchAt with the flow of the calling thread.
+  bool favourablePatchAt(Surface s, const Vec3& x, const FlowField& flow) const;
   bool overlapsDeposit(const ParticleState& p, const std::vector<int>& fresh) const;
   /// Uniform [0, 1) draw of a particle's n-th plate arrival (plate attachment efficiency).
   double arrivalDraw(std::int64_t id, std::uint32_t arrival) const;
@@ -247,6 +258,11 @@ class OverdampedEngine final : public ParticleEngine {
   std::vector<int> m_mobile;  ///< indices of mobile particles, ascending
   std::unordered_map<std::int64_t, std::vector<int>> m_dep_cells;  ///< deposited particles by contact cell
   std::vector<std::uint8_t> m_touch;  ///< Touch bits of this step, by particle index
+  /// By particle index: the plates' clamp of resolveContacts may change it (moved by a push in
+  /// this sweep, or left by the wall step where the clamp does not hold: depth below a diameter).
+  /// The clamp leaves every other particle's z as it is, so it visits only these.
+  std::vector<std::uint8_t> m_clamp;
+  std::vector<Vec3> m_start;  ///< positions before the contact sweeps, indexed like m_mobile
   /// (mobile, deposited) pairs pushed apart in this step's contact sweeps, sorted after them (straining only)
   std::vector<std::pair<int, int>> m_deposit_contacts;
   std::unique_ptr<SurfaceChemistry> m_plate_chem, m_deposit_chem;  ///< dlvo rule only
