@@ -55,20 +55,7 @@ SceneConfig scene(int threads) {
 /// Particles on a lattice of the pore space (3 diameters apart in x, 2 in y, two heights) where
 /// insertionProblem allows them, up to `n`.
 std::vector<Vec3> startPositions(const FlowField& flow, std::size_t n) {
-  std::vector<Vec3> xs;
-  std::vector<ParticleState> placed;
-  const double a = 0.5 * kDiameter;
-  for (double x = 2 * a; x < 790e-6 && xs.size() < n; x += 3 * kDiameter)
-    for (double y = 10e-6 + a; y < 290e-6 - a && xs.size() < n; y += 2 * kDiameter)
-      for (const double z : {a + 1e-6, kDepth - a - 1e-6}) {
-        const Vec3 p(x, y, z);
-        if (xs.size() >= n || !insertionProblem(flow, a, p, placed).empty()) continue;
-        ParticleState s;
-        s.x = p;
-        placed.push_back(s);
-        xs.push_back(p);
-      }
-  return xs;
+  return test_support::latticeStarts(flow, n, kDiameter, kDepth, {3 * kDiameter, 2 * kDiameter, 790e-6, 10e-6, 290e-6, 1e-6});
 }
 
 struct ThreadRun {
