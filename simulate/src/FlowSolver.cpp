@@ -124,7 +124,7 @@ struct SteadyFlowSolver::Impl {
       throw;  // the solver's library failed (memory): its own advice names the solver to change, not the grid
     } catch (const FlowFailure& e) {  // not finite, or the linear solver diverged: say whether the grid resolves the flow path
       const std::string throat = throatDiagnosis();
-      if (throat.empty() && e.advice() != "refine the grid") throw;  // a resolved flow path, and a cause with its own advice (a wrong Krylov answer)
+      if (throat.empty() && !e.key().empty()) throw;  // a resolved flow path, and a failure naming its own key (a wrong Krylov answer)
       throw FlowFailure(e.cause() + throat, "refine the grid until every throat of the flow path is at least 2 cells wide");
     }
   }

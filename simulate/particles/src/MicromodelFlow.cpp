@@ -94,26 +94,30 @@ int mirroredFace(int f, int rows, bool& flipped) {
   return flipped ? period - r : r;
 }
 
-/// Net h-weighted outflow, per pixel width, of every fluid image pixel of the engines' face arrays
+/// Net h-weighted outflow, per pixel width, of fluid image pixel (c, b) of the engines' face arrays
 /// (MicromodelFlow's node layout: pixel (c, b), b from the bottom, is node (P + b) NX + c + 1, its
 /// east face ux[k], its north face uy[k]; faces to solid pixels and the sides' faces count as
 /// zero, the inlet faces (the padding column's ux) as they are, the outlet faces as they are).
 /// A face's depth is the mean of its two pixels' (what GriddedFlow::depth reads at the face's
-/// midpoint), an outlet or inlet face its pixel's. The largest |outflow| is returned.
+/// midpoint), an outlet or inlet face its pixel's.
+double pixelOutflow(const std::vector<double>& ux, const std::vector<double>& uy, const std::vector<std::uint8_t>& solid,
+                    const std::vector<double>& h, int nc, int nr, int P, int c, int b) {
+  const int NX = nc + 2;
+  const std::size_t k = static_cast<std::size_t>(P + b) * NX + c + 1;
+  const auto face = [&](std::size_t other, double u) { return solid[other] ? 0.0 : 0.5 * (h[k] + h[other]) * u; };
+  double out = (c == nc - 1 ? h[k] * ux[k] : face(k + 1, ux[k])) - (c == 0 ? h[k] * ux[k - 1] : face(k - 1, ux[k - 1]));
+  out += (b < nr - 1 ? face(k + NX, uy[k]) : 0.0) - (b > 0 ? face(k - NX, uy[k - NX]) : 0.0);
+  return out;
+}
+
+/// The largest |pixelOutflow| of the fluid image pixels.
 double largestImbalance(const std::vector<double>& ux, const std::vector<double>& uy, const std::vector<std::uint8_t>& solid,
                         const std::vector<double>& h, int nc, int nr, int P) {
   const int NX = nc + 2;
-  const auto node = [&](int c, int b) { return static_cast<std::size_t>(P + b) * NX + c + 1; };
   double worst = 0;
   for (int b = 0; b < nr; ++b)
-    for (int c = 0; c < nc; ++c) {
-      const std::size_t k = node(c, b);
-      if (solid[k]) continue;
-      const auto face = [&](std::size_t other, double u, bool open) { return open && !solid[other] ? 0.5 * (h[k] + h[other]) * u : 0.0; };
-      double out = (c == nc - 1 ? h[k] * ux[k] : face(k + 1, ux[k], true)) - (c == 0 ? h[k] * ux[k - 1] : face(k - 1, ux[k - 1], true));
-      out += face(k + NX, uy[k], b < nr - 1) - face(k - NX, uy[k - NX], b > 0);
-      worst = std::max(worst, std::abs(out));
-    }
+    for (int c = 0; c < nc; ++c)
+      if (!solid[static_cast<std::size_t>(P + b) * NX + c + 1]) worst = std::max(worst, std::abs(pixelOutflow(ux, uy, solid, h, nc, nr, P, c, b)));
   return worst;
 }
 
@@ -255,11 +259,7 @@ BalanceStats balanceFaceFluxes(std::vector<double>& ux, std::vector<double>& uy,
     double worst = 0;
     for (int q = 0; q < n_pix; ++q) {
       if (comp[q] < 0) continue;
-      const int c = q % nc, b = q / nc;
-      const std::size_t k = node(c, b);
-      const auto face = [&](std::size_t other, double u) { return solid[other] ? 0.0 : hFace(k, other) * u; };
-      double out = (c == nc - 1 ? h[k] * ux[k] : face(k + 1, ux[k])) - (c == 0 ? h[k] * ux[k - 1] : face(k - 1, ux[k - 1]));
-      out += (b < nr - 1 ? face(k + NX, uy[k]) : 0.0) - (b > 0 ? face(k - NX, uy[k - NX]) : 0.0);
+      const double out = pixelOutflow(ux, uy, solid, h, nc, nr, P, q % nc, q / nc);
       worst = std::max(worst, std::abs(out));
       if (index[q] >= 0) rhs[index[q]] = -out;
     }
