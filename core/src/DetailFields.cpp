@@ -77,7 +77,11 @@ std::vector<DetailFieldDecl> makeDeclarations() {
        "the iterative solver's accepted answer: its true relative residual, the 2-norm of b - A x over that of b, checked against 100 times the "
        "tolerance before the answer is kept (a larger one counts as a failed solve: the fallback, or exit 5 naming it); absent after a direct solve",
        kSteadyMmvalKinds},
-      {F::runs, "runs", top, T::array, T::object, 0, "-", "every solved level of every depth model (the ladder holds one model's)", "image-permeability"},
+      {F::ladder_flux_change, "flux_change", F::ladder, T::number, none, 0, "1",
+       "the relative change the outlet flux still has to make when the steady solver stopped, estimated as the geometric tail of its last changes",
+       "`mmval peer openfoam` (steady)"},
+      {F::runs, "runs", top, T::array, T::object, 0, "-", "every solved level of every depth model (the ladder holds one model's)",
+       "image-permeability, `mmval peer openfoam` (image cases)"},
       {F::runs_3d, "runs_3d", top, T::array, T::object, 0, "-", "the levels of the coarse 3D Stokes solve", "image-permeability (depth_model 3d or all)"},
       {F::grid_convergence, "grid_convergence", top, T::object, none, 0, "-",
        "per depth model: observed order, extrapolated value, GCI band and a status (`monotone`, `least squares`, `two levels`, ...); with four or "

@@ -9,6 +9,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <vector>
 
 #include <unistd.h>
 
@@ -150,6 +151,60 @@ TEST(CaseWriter, UnsteadyCaseUsesPimpleFoam) {
   EXPECT_THAT(slurp(dir / "system/fvSolution"), HasSubstr("PIMPLE"));
 }
 
+TEST(CaseWriter, DepthAveragedSceneHasTheHeleShawFrictionOnEveryCell) {
+  // mmval's depth-averaged model (FlowOperator: friction 12 mu u / h^2; docs/validation/depth-model.md)
+  // as OpenFOAM's Darcy porosity: d = 12 / h^2 along x and y, none along z (the empty direction),
+  // on the cellZone that topoSet makes of every cell before checkMesh and the solve.
+  Scene s;
+  s.kind = Scene::Kind::channel;
+  s.length = 80e-6;
+  s.height = 40e-6;
+  s.depth = 5e-6;
+  s.hele_shaw_depth = 17e-6;  // 12 / h^2 = 4.15224913495e10 m^-2
+  s.cells_around = 16;
+  const auto dir = std::filesystem::path(MMVAL_BINARY_DIR) / "test-output" / "foam-writer-hele-shaw";
+  std::filesystem::remove_all(dir);
+  writeCase(s, dir);
+  const std::string fv = slurp(dir / "constant/fvOptions");
+  EXPECT_THAT(fv, HasSubstr("type explicitPorositySource;"));
+  EXPECT_THAT(fv, HasSubstr("type DarcyForchheimer;"));
+  EXPECT_THAT(fv, HasSubstr("cellZone depthAveraged;"));
+  EXPECT_THAT(fv, HasSubstr("f (0 0 0);"));
+  const std::string key = "\n        d (";
+  const auto at = fv.find(key);
+  ASSERT_NE(at, std::string::npos) << fv;
+  std::istringstream d(fv.substr(at + key.size()));
+  double dx = 0, dy = 0, dz = -1;
+  d >> dx >> dy >> dz;
+  const double expected = 12.0 / (17e-6 * 17e-6);
+  // Written with 12 significant digits: round-off class.
+  EXPECT_NEAR(dx, expected, 1e-11 * expected);
+  EXPECT_NEAR(dy, expected, 1e-11 * expected);
+  EXPECT_EQ(dz, 0.0);
+  const std::string topo = slurp(dir / "system/topoSetDict");
+  EXPECT_THAT(topo, HasSubstr("name depthAveraged; type cellSet; action new; source boxToCell;"));
+  EXPECT_THAT(topo, HasSubstr("name depthAveraged; type cellZoneSet; action new; source setToCellZone; set depthAveraged;"));
+  const std::string allrun = slurp(dir / "Allrun");
+  const auto topo_at = allrun.find("topoSet > log.topoSet 2>&1 || exit 1\n"), check_at = allrun.find("checkMesh > log.checkMesh");
+  ASSERT_NE(topo_at, std::string::npos) << allrun;
+  EXPECT_LT(allrun.find("blockMesh > log.blockMesh"), topo_at);
+  EXPECT_LT(topo_at, check_at);
+
+  // Plane 2D (depth 0) has no friction and no zone; a negative depth and a cylinder scene are refused.
+  s.hele_shaw_depth = 0;
+  const auto plane = std::filesystem::path(MMVAL_BINARY_DIR) / "test-output" / "foam-writer-plane";
+  std::filesystem::remove_all(plane);
+  writeCase(s, plane);
+  EXPECT_FALSE(std::filesystem::exists(plane / "constant/fvOptions"));
+  EXPECT_FALSE(std::filesystem::exists(plane / "system/topoSetDict"));
+  EXPECT_THAT(slurp(plane / "Allrun"), ::testing::Not(HasSubstr("topoSet")));
+  s.hele_shaw_depth = -1e-6;
+  EXPECT_THROW(writeCase(s, plane), std::invalid_argument);
+  Scene cyl;
+  cyl.hele_shaw_depth = 20e-6;
+  EXPECT_THROW(writeCase(cyl, plane), std::invalid_argument);
+}
+
 TEST(BlockMesh, ChannelSidesKeepUniformCells) {
   // Schaefer-Turek (2.2 m x 0.41 m, D 0.1 m at (0.2, 0.2)) at 64 cells around: box half side
   // a = D, h = 2a / 16 = 0.0125 m; left 8, below 8, above round(0.11 / h) = 9 columns/rows of
@@ -283,6 +338,23 @@ TEST(Results, ExecutionTimeIsTheSolversLastOne) {
   ASSERT_TRUE(executionTime(log).has_value());
   EXPECT_DOUBLE_EQ(*executionTime(log), 93.51);
   EXPECT_FALSE(executionTime("Time = 0.01\nFOAM FATAL ERROR\n").has_value());
+}
+
+TEST(Results, FluxChangeIsTheGeometricTailOfTheLastChanges) {
+  // Q_i = 1 + 2^-i converges geometrically (r = 1/2): at i = 29 the rest of the series is
+  // 2^-29 = |d_29| r / (1 - r), relative to Q_29.
+  std::vector<double> q;
+  for (int i = 0; i < 30; ++i) q.push_back(1 + std::ldexp(1.0, -i));
+  ASSERT_TRUE(fluxChange(q));
+  EXPECT_NEAR(*fluxChange(q), std::ldexp(1.0, -29) / (1 + std::ldexp(1.0, -29)), 1e-12 * std::ldexp(1.0, -29));
+  // Changes that do not shrink (here growing: 1, 2, 4, ..., 2^29): the change over the last 20
+  // entries, (2^30 - 2^10) / 2^30; two entries: their change; one entry or a zero flux: nothing.
+  std::vector<double> growing;
+  for (int i = 0; i < 30; ++i) growing.push_back(std::ldexp(1.0, i + 1) - 1);  // sum of 1, 2, ..., 2^i
+  EXPECT_NEAR(*fluxChange(growing), (std::ldexp(1.0, 30) - std::ldexp(1.0, 10)) / (std::ldexp(1.0, 30) - 1), 1e-15);
+  EXPECT_NEAR(*fluxChange({2.0, 1.0}), 1.0, 1e-15);
+  EXPECT_FALSE(fluxChange({1.0}));
+  EXPECT_FALSE(fluxChange({1.0, 0.0}));
 }
 
 TEST(Results, FatalMessageIsExtracted) {

@@ -246,6 +246,64 @@ TEST(PeerScene, Pore2ChipMaskPixelAndDrive) {
   EXPECT_DOUBLE_EQ(s.pressure_drop, 1e-3);  // 1 Pa over 1000 kg/m3: the peer's pressures are kinematic
 }
 
+TEST(PeerScene, DepthModelsOfAnImageCaseRunAsMmvalsDo) {
+  // cases/fluid-pore2chip-peer.toml (ladder 0.25 / 0.5 / 1 cells per pixel) with depth_model
+  // "both": the peer solves plane 2D, then the depth-averaged model with the friction of
+  // geometry.depth (default 20 um), each on the whole ladder, as mmval's image kind does; its
+  // `permeability` is the depth-averaged one and each model has its own extrapolated metrics.
+  Case c = load("fluid-pore2chip-peer.toml");
+  c.set("numerics.depth_model", std::string("both"));
+  // Canned levels: k_2d = 30 + 8 h^2 and k_da = 3 + 0.4 h^2 darcy (h = 1 / cells_per_pixel), so
+  // the Richardson values of the three levels (second order, smooth boundary) are 30 and 3 D.
+  constexpr double kDarcy = 9.869233e-13;
+  std::vector<std::pair<double, fs::path>> seen;  // (hele_shaw_depth, folder) of each run
+  PeerRunOptions o;
+  o.runner = [&](const Scene& s, const fs::path& dir, int) {
+    seen.emplace_back(s.hele_shaw_depth, dir.filename());
+    const double h = 1 / s.cells_per_pixel;
+    Result r;
+    r.ok = true;
+    r.cells = 1000;
+    r.permeability = (s.hele_shaw_depth > 0 ? 3 + 0.4 * h * h : 30 + 8 * h * h) * kDarcy;
+    return r;
+  };
+  const RunOutput out = runPeer(c, RunContext{fs::temp_directory_path(), true, false, 0}, o);
+  ASSERT_EQ(seen.size(), 6u);
+  for (std::size_t i = 0; i < 6; ++i) EXPECT_DOUBLE_EQ(seen[i].first, i < 3 ? 0.0 : 20e-6) << i;
+  EXPECT_EQ(seen[0].second, "openfoam-2d-level0");
+  EXPECT_EQ(seen[5].second, "openfoam-depth-averaged-level2");
+  EXPECT_NEAR(out.metrics.at("permeability") / kDarcy, 3.4, 1e-9);
+  EXPECT_NEAR(out.metrics.at("permeability_depth_averaged") / kDarcy, 3.4, 1e-9);
+  EXPECT_NEAR(out.metrics.at("permeability_2d") / kDarcy, 38.0, 1e-9);
+  EXPECT_NEAR(out.metrics.at("depth_model_ratio"), 3.4 / 38.0, 1e-12);
+  EXPECT_NEAR(out.metrics.at("permeability_depth_averaged_extrapolated") / kDarcy, 3.0, 1e-9);
+  EXPECT_NEAR(out.metrics.at("permeability_2d_extrapolated") / kDarcy, 30.0, 1e-9);
+  EXPECT_NEAR(out.metrics.at("permeability_depth_averaged_observed_order"), 2.0, 1e-9);
+  EXPECT_EQ(out.details.at("grid_convergence").at("depth-averaged").at("status"), "monotone");
+  EXPECT_EQ(out.details.at("grid_convergence").at("2d").at("status"), "monotone");
+  const auto& ladder = out.details.at("ladder");
+  ASSERT_EQ(ladder.size(), 3u);
+  EXPECT_EQ(ladder[2].at("depth_model"), "depth-averaged");
+  EXPECT_NEAR(ladder[2].at("value").get<double>() / kDarcy, 3.4, 1e-9);
+  EXPECT_EQ(out.details.at("runs").size(), 6u);
+
+  // "depth-averaged" alone: one ladder in the plain folders; "3d" is refused naming the key.
+  c.set("numerics.depth_model", std::string("depth-averaged"));
+  seen.clear();
+  const RunOutput da = runPeer(c, RunContext{fs::temp_directory_path(), true, false, 0}, o);
+  ASSERT_EQ(seen.size(), 3u);
+  EXPECT_EQ(seen[0].second, "openfoam-level0");
+  EXPECT_DOUBLE_EQ(peerScene(c).hele_shaw_depth, 20e-6);
+  EXPECT_FALSE(da.metrics.count("permeability_2d"));
+  c.set("numerics.depth_model", std::string("3d"));
+  try {
+    peerScene(c);
+    FAIL() << "a 3d-only case reached the peer";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("numerics.depth_model"), std::string::npos) << e.what();
+  }
+}
+
 TEST(PeerScene, OtherKindsAreRefusedNamingTheKind) {
   try {
     peerScene(load("fluid-poiseuille.toml"));

@@ -4,6 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <string>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -53,6 +56,27 @@ Scene arrayScene(const Case& c) {
   return s;
 }
 
+/// One depth model of an image ladder: its name (numerics.depth_model's word, a metric's infix)
+/// and the chip depth its friction uses (0: plane 2D).
+struct DepthModel {
+  std::string name;
+  double depth_m = 0;
+};
+
+/// The depth models the peer solves for an image case, in mmval's order (2d first): 2d,
+/// depth-averaged (geometry.depth), or both for "both" and "all" (the peer has no 3D model; "3d"
+/// alone is refused naming the key).
+std::vector<DepthModel> imageDepthModels(const Case& c) {
+  const std::string model = c.text("numerics.depth_model");
+  if (model == "3d")
+    throw InputError(c.where("numerics.depth_model"), "the OpenFOAM peer solves no 3D model of a chip", model,
+                     "\"2d\", \"depth-averaged\", \"both\" or \"all\" (the peer then runs its 2d and depth-averaged parts)");
+  std::vector<DepthModel> out;
+  if (model != "depth-averaged") out.push_back({"2d", 0.0});
+  if (model != "2d") out.push_back({"depth-averaged", c.quantity("geometry.depth")});
+  return out;
+}
+
 Scene imageScene(const Case& c) {
   Scene s;
   s.kind = Scene::Kind::image;
@@ -72,6 +96,7 @@ Scene imageScene(const Case& c) {
   s.pressure_drop = c.quantity("flow.pressure_drop") / s.rho;
   s.max_iterations = static_cast<int>(c.integer("numerics.max_iterations"));
   s.residual = c.real("numerics.residual");
+  s.hele_shaw_depth = imageDepthModels(c).back().depth_m;  // the model of the case's `permeability`, as mmval's
   return s;
 }
 
@@ -120,7 +145,7 @@ void addMetrics(const Scene& s, const Result& r, RunOutput& out) {
     put("porosity_total", r.porosity_total);
     put("porosity_connected", r.porosity_connected);
     put("porosity_mesh", r.porosity_mesh);
-    put("permeability_2d", r.permeability, "D");
+    put(s.hele_shaw_depth > 0 ? "permeability_depth_averaged" : "permeability_2d", r.permeability, "D");
   }
 }
 
@@ -163,10 +188,11 @@ void addImageMeshRow(const Scene& s, const Result& r, const std::string& sub, nl
          quiet);
 }
 
-/// The image ladder's grid convergence (Celik et al. 2008 via simulate::gridConvergence, spacing
-/// 1 / cells_per_pixel): details.grid_convergence and the permeability_2d_* metrics, as mmval's own
-/// image kind reports them. Formal order 2 on the smooth (snapped) boundary, 1 on the staircase.
-void addImageConvergence(const Scene& s, const std::vector<double>& cpp, const nlohmann::json& ladder, RunOutput& out,
+/// The image ladder's grid convergence of one depth model (Celik et al. 2008 via
+/// simulate::gridConvergence, spacing 1 / cells_per_pixel): details.grid_convergence.<model> and the
+/// permeability_<model>_* metrics (model 2d or depth_averaged), as mmval's own image kind reports
+/// them. Formal order 2 on the smooth (snapped) boundary, 1 on the staircase.
+void addImageConvergence(const Scene& s, const std::string& model, const std::vector<double>& cpp, const nlohmann::json& ladder, RunOutput& out,
                          nlohmann::json& warnings, const std::string& name, bool quiet) {
   std::vector<double> h, k;
   for (std::size_t i = 0; i < ladder.size(); ++i)
@@ -176,7 +202,8 @@ void addImageConvergence(const Scene& s, const std::vector<double>& cpp, const n
     }
   if (h.size() < 2) return;
   const simulate::GridConvergence g = simulate::gridConvergence(h, k, s.smooth_boundary ? 2.0 : 1.0);
-  out.details["grid_convergence"] = {{"status", g.status}, {"note", g.note}, {"levels", h.size()},
+  nlohmann::json& gc = out.details["grid_convergence"][model];
+  gc = {{"status", g.status}, {"note", g.note}, {"levels", h.size()},
                                      {"permeability_fine_D", finiteOrNull(g.fine)}, {"permeability_extrapolated_D", finiteOrNull(g.extrapolated)},
                                      {"observed_order", g.has_order ? nlohmann::json(g.observed_order) : nlohmann::json(g.status)},
                                      {"gci", finiteOrNull(g.gci)}, {"order_used", finiteOrNull(g.order_used)},
@@ -184,17 +211,18 @@ void addImageConvergence(const Scene& s, const std::vector<double>& cpp, const n
                                                 "Richardson extrapolation, GCI = Fs |e21| / (r21^p - 1); four or more levels: the least-squares "
                                                 "fit stands for the ladder (status \"least squares\")"}};
   if (g.has_fit)
-    out.details["grid_convergence"]["least_squares"] = {{"levels", g.fit_levels}, {"order", g.fit_order},
+    gc["least_squares"] = {{"levels", g.fit_levels}, {"order", g.fit_order},
                                                         {"permeability_extrapolated_D", finiteOrNull(g.fit_extrapolated)}, {"scatter_D", finiteOrNull(g.fit_scatter)},
                                                         {"uncertainty", finiteOrNull(g.fit_uncertainty)}, {"order_used", g.fit_order_used},
                                                         {"method", "Eca & Hoekstra 2014 (J. Comput. Phys. 262, 104), as mmval's image kind"}};
+  const std::string metric = model == "2d" ? "permeability_2d" : "permeability_depth_averaged";
   if (std::isfinite(g.extrapolated)) {
-    out.metrics["permeability_2d_extrapolated"] = g.extrapolated * kDarcy;
-    out.units["permeability_2d_extrapolated"] = "D";
+    out.metrics[metric + "_extrapolated"] = g.extrapolated * kDarcy;
+    out.units[metric + "_extrapolated"] = "D";
   }
-  if (g.has_order) out.metrics["permeability_2d_observed_order"] = g.observed_order;
-  if (std::isfinite(g.gci)) out.metrics["permeability_2d_gci"] = g.gci;
-  if (!g.has_order) warn(warnings, name, "2d permeability (OpenFOAM): " + g.note, quiet);
+  if (g.has_order) out.metrics[metric + "_observed_order"] = g.observed_order;
+  if (std::isfinite(g.gci)) out.metrics[metric + "_gci"] = g.gci;
+  if (!g.has_order) warn(warnings, name, model + " permeability (OpenFOAM): " + g.note, quiet);
 }
 
 }  // namespace
@@ -267,6 +295,7 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
   if (image) {
     cpp_levels = c.has("numerics.cells_per_pixel_levels") ? c.reals("numerics.cells_per_pixel_levels")
                                                           : std::vector<double>{c.real("numerics.cells_per_pixel")};
+    levels.clear();
     for (std::size_t i = 0; i < cpp_levels.size(); ++i) levels.push_back(static_cast<int>(i));
     // The pixel staircase is meshed exactly (pixelImageMesh) when every level puts a whole number
     // of cells on a pixel edge; otherwise snappyHexMesh snaps to the pixel outlines' STL.
@@ -286,6 +315,9 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
     if (!array && (l < 8 || l > 4096 || l % 4 != 0))
       throw InputError(c.where(level_key), "a resolution level must be a multiple of 4 from 8 to 4096", std::to_string(l), "8, 12, 16, ... 4096");
   }
+  // An image case solves each of its depth models (2d, depth-averaged) on the whole ladder, as
+  // mmval's own image kind does; the other kinds have one model.
+  const std::vector<DepthModel> models = image ? imageDepthModels(c) : std::vector<DepthModel>{{"", 0.0}};
   const std::string primary_metric = primaryMetric(c, scene.unsteady);
   // An unsteady cylinder's error is against the first single-value reference (2D-2 lists the 1996
   // interval first); the steady kinds keep the first entry's, as mmval's own ladders do.
@@ -295,68 +327,86 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
   // On the diameter, as simulate::CylinderScene::reynolds (mmval's details.Re), whatever l_ref is.
   if (scene.kind == Scene::Kind::cylinder_channel) out.details["Re"] = scene.u_ref * scene.diameter / scene.nu;
   out.details["ranks"] = options.ranks;
-  nlohmann::json ladder = nlohmann::json::array();
+  nlohmann::json ladder = nlohmann::json::array(), runs = nlohmann::json::array();
   nlohmann::json warnings = nlohmann::json::array();
-  Progress progress("openfoam " + c.name(), levels.size(), ctx.quiet);
+  Progress progress("openfoam " + c.name(), levels.size() * models.size(), ctx.quiet);
   Result last;
-  std::vector<int> cells_around;  // the O-grid's refinement, for the observed order
-  for (std::size_t i = 0; i < levels.size(); ++i) {
-    if (image) scene.cells_per_pixel = cpp_levels[i];
-    else scene.cells_around = array ? arrayCellsAround(scene, levels[i]) : levels[i];
-    cells_around.push_back(scene.cells_around);
-    const std::string sub = levels.size() > 1 ? fmt::format("openfoam-level{}", i) : "openfoam";
-    last = options.runner ? options.runner(scene, ctx.out_dir / sub, options.ranks) : runCase(scene, ctx.out_dir / sub, options.ranks);
-    if (!last.ok) throw std::runtime_error(fmt::format("OpenFOAM run of '{}' failed (case kept in {}): {}", c.name(), (ctx.out_dir / sub).string(), last.failure));
-    nlohmann::json row = {{"level", i}, {"cells_around", levels[i]}, {"cells", last.cells}, {"ranks", last.ranks},
-                          {"mesh_seconds", last.mesh_seconds}, {"solve_seconds", last.solve_seconds},
-                          {"wall_seconds", last.mesh_seconds + last.solve_seconds}, {"iterations", last.iterations}, {"case_dir", sub}};
-    // The solver's own CPU seconds (its ExecutionTime; meshing is not in it): on a shared machine
-    // the wall time depends on the load, the CPU time much less.
-    if (last.cpu_seconds) row["cpu_seconds"] = *last.cpu_seconds;
-    if (array) {
-      // Both numbers of one resolution: mmval's cells along the side and the O-grid's around the
-      // cylinder, with the spacings they give (h = L / n; pi D / cells_around at the surface).
-      row["cells_per_side"] = levels[i];
-      row["cells_around"] = scene.cells_around;
-      row["spacing_m"] = scene.cell / levels[i];
-      row["surface_spacing_m"] = 2 * M_PI * scene.radius / scene.cells_around;
-    }
-    if (scene.unsteady) {
-      // Each level's periodic statistics (the primary c_D is the last instant's): the ladder of an
-      // unsteady case compares levels on these.
-      row["shedding_periods"] = last.shedding_periods;
-      for (const auto& [name, v] : {std::pair{"c_D_mean", last.c_d_mean}, {"c_D_max", last.c_d_max}, {"c_L_max", last.c_l_max}, {"St", last.strouhal}})
-        if (v) row[name] = *v;
-    }
-    if (image) {
-      row.erase("cells_around");
-      row["cells_per_pixel"] = cpp_levels[i];
-      addImageMeshRow(scene, last, sub, row, warnings, c.name(), ctx.quiet);
-    }
-    if (!last.converged) {
-      // The last iterate of a SIMPLE loop that ran out of iterations is no solution: no value, no
-      // error, so the row stays out of the observed order and of the speed-against-error plot.
-      row["status"] = "not converged";
-      row["residuals"] = last.residuals;
-      warnings.push_back(notConvergedText(scene, last, sub));
-      if (!ctx.quiet) std::fprintf(stderr, "mmval: warning: %s: %s\n", c.name().c_str(), warnings.back().get<std::string>().c_str());
-    } else {
-      RunOutput level_out;
-      addMetrics(scene, last, level_out);
-      auto it = level_out.metrics.find(primary_metric);
-      if (it != level_out.metrics.end()) {
-        row["value"] = it->second;
-        if (primary != nullptr && !primary->reference.isInterval() && primary->reference.value != 0)
-          row["error"] = (it->second - primary->reference.value) / primary->reference.value;
+  bool all_converged = true;
+  std::size_t done = 0;
+  std::map<std::string, double> k_of;  // each depth model's finest permeability (m2)
+  std::string last_sub;
+  for (const DepthModel& model : models) {
+    scene.hele_shaw_depth = model.depth_m;
+    ladder = nlohmann::json::array();
+    std::vector<int> cells_around;  // the O-grid's refinement, for the observed order
+    // Folders: openfoam[-levelN], with the model's name in front of the level when there are two.
+    const std::string prefix = models.size() > 1 ? "openfoam-" + model.name : "openfoam";
+    for (std::size_t i = 0; i < levels.size(); ++i) {
+      if (image) scene.cells_per_pixel = cpp_levels[i];
+      else scene.cells_around = array ? arrayCellsAround(scene, levels[i]) : levels[i];
+      cells_around.push_back(scene.cells_around);
+      const std::string sub = levels.size() > 1 ? fmt::format("{}-level{}", prefix, i) : prefix;
+      last_sub = sub;
+      last = options.runner ? options.runner(scene, ctx.out_dir / sub, options.ranks) : runCase(scene, ctx.out_dir / sub, options.ranks);
+      if (!last.ok) throw std::runtime_error(fmt::format("OpenFOAM run of '{}' failed (case kept in {}): {}", c.name(), (ctx.out_dir / sub).string(), last.failure));
+      nlohmann::json row = {{"level", i}, {"cells_around", levels[i]}, {"cells", last.cells}, {"ranks", last.ranks},
+                            {"mesh_seconds", last.mesh_seconds}, {"solve_seconds", last.solve_seconds},
+                            {"wall_seconds", last.mesh_seconds + last.solve_seconds}, {"iterations", last.iterations}, {"case_dir", sub}};
+      // The solver's own CPU seconds (its ExecutionTime; meshing is not in it): on a shared machine
+      // the wall time depends on the load, the CPU time much less.
+      if (last.cpu_seconds) row["cpu_seconds"] = *last.cpu_seconds;
+      if (last.flux_change) row["flux_change"] = *last.flux_change;
+      if (array) {
+        // Both numbers of one resolution: mmval's cells along the side and the O-grid's around the
+        // cylinder, with the spacings they give (h = L / n; pi D / cells_around at the surface).
+        row["cells_per_side"] = levels[i];
+        row["cells_around"] = scene.cells_around;
+        row["spacing_m"] = scene.cell / levels[i];
+        row["surface_spacing_m"] = 2 * M_PI * scene.radius / scene.cells_around;
       }
+      if (scene.unsteady) {
+        // Each level's periodic statistics (the primary c_D is the last instant's): the ladder of an
+        // unsteady case compares levels on these.
+        row["shedding_periods"] = last.shedding_periods;
+        for (const auto& [name, v] : {std::pair{"c_D_mean", last.c_d_mean}, {"c_D_max", last.c_d_max}, {"c_L_max", last.c_l_max}, {"St", last.strouhal}})
+          if (v) row[name] = *v;
+      }
+      if (image) {
+        row.erase("cells_around");
+        row["cells_per_pixel"] = cpp_levels[i];
+        row["depth_model"] = model.name;  // as mmval's image rows
+        addImageMeshRow(scene, last, sub, row, warnings, c.name(), ctx.quiet);
+      }
+      if (!last.converged) {
+        // The last iterate of a SIMPLE loop that ran out of iterations is no solution: no value, no
+        // error, so the row stays out of the observed order and of the speed-against-error plot.
+        row["status"] = "not converged";
+        row["residuals"] = last.residuals;
+        warnings.push_back(notConvergedText(scene, last, sub));
+        if (!ctx.quiet) std::fprintf(stderr, "mmval: warning: %s: %s\n", c.name().c_str(), warnings.back().get<std::string>().c_str());
+      } else {
+        RunOutput level_out;
+        addMetrics(scene, last, level_out);
+        auto it = level_out.metrics.find(primary_metric);
+        if (it != level_out.metrics.end()) {
+          row["value"] = it->second;
+          if (primary != nullptr && !primary->reference.isInterval() && primary->reference.value != 0)
+            row["error"] = (it->second - primary->reference.value) / primary->reference.value;
+        }
+      }
+      ladder.push_back(row);
+      progress.update(++done);
     }
-    ladder.push_back(row);
-    progress.update(i + 1);
+    if (image) addImageConvergence(scene, model.name, cpp_levels, ladder, out, warnings, c.name(), ctx.quiet);
+    else addObservedOrder(ladder, cells_around);
+    for (const auto& row : ladder) runs.push_back(row);
+    all_converged = all_converged && last.converged;
+    addMetrics(scene, last, out);  // the last model's `permeability` stays: depth-averaged when run, as mmval's
+    if (last.permeability) k_of[model.name] = *last.permeability;
   }
   progress.finish();
-  if (image) addImageConvergence(scene, cpp_levels, ladder, out, warnings, c.name(), ctx.quiet);
-  else addObservedOrder(ladder, cells_around);
-  out.details["ladder"] = ladder;
+  out.details["ladder"] = ladder;  // the last depth model's, as mmval's; `runs` holds every model's
+  if (image) out.details["runs"] = runs;
   out.details["cells"] = last.cells;
   if (image) {
     out.details["boundary"] = scene.direct_mesh && !scene.smooth_boundary
@@ -372,10 +422,10 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
     out.details["mesh_seconds"] = last.mesh_seconds;
     // Not a metric: the image kind's schema (mmval's) declares no such metric; the finest level's value.
     out.details["porosity_boundary"] = last.porosity_boundary;
+    if (k_of.count("2d") && k_of.count("depth-averaged") && all_converged) out.metrics["depth_model_ratio"] = k_of["depth-averaged"] / k_of["2d"];
   }
   if (!warnings.empty()) out.details["warnings"] = warnings;
-  addMetrics(scene, last, out);
-  if (!last.converged) {
+  if (!all_converged) {
     // Reported as "not converged", never as a value: every metric of the finest level is null
     // but the porosities (acceptance entries on them fail: nothing was measured); the status and
     // residuals are in details.
@@ -385,7 +435,7 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
     for (auto& [name, value] : out.metrics)
       if (name.rfind("porosity", 0) != 0) value = std::nan("");  // porosities are the geometry's and the mesh's, not the flow's
   }
-  out.files.push_back(levels.size() > 1 ? fmt::format("openfoam-level{}", levels.size() - 1) : "openfoam");
+  out.files.push_back(last_sub);
   return out;
 }
 

@@ -165,6 +165,35 @@ std::string setExprFieldsDict(const Scene& s) {
                      xv, yv, s.diameter, amp);
 }
 
+/// The cellZone of every cell that the depth-averaged model's friction acts on (topoSet makes it).
+const char* const kDepthZone = "depthAveraged";
+
+/// topoSet's actions for the depth-averaged model: a cellSet of every cell (a box beyond any
+/// mesh the peer writes), then the cellZone of it that explicitPorositySource needs.
+std::string topoSetDict() {
+  return foamHeader("dictionary", "topoSetDict", "system") +
+         fmt::format("actions\n(\n"
+                     "    {{ name {0}; type cellSet; action new; source boxToCell; box (-1e6 -1e6 -1e6) (1e6 1e6 1e6); }}\n"
+                     "    {{ name {0}; type cellZoneSet; action new; source setToCellZone; set {0}; }}\n);\n",
+                     kDepthZone);
+}
+
+/// The depth-averaged (Brinkman-Hele-Shaw) friction -12 nu u / h^2 of a parabolic profile across
+/// the depth h (mmval's FlowOperator, docs/validation/depth-model.md) as a Darcy porosity with
+/// d = 12 / h^2 along x and y and none along z (the empty direction). DarcyForchheimer multiplies
+/// d by the laminar nu and adds tr(nu d) = 2 nu d to the momentum diagonal, taking nu d u back
+/// explicitly: implicit, so SIMPLEC keeps its plane-flow convergence.
+std::string heleShawFvOptions(const Scene& s) {
+  const double d = 12.0 / (s.hele_shaw_depth * s.hele_shaw_depth);
+  return foamHeader("dictionary", "fvOptions", "constant") +
+         fmt::format("// Depth-averaged model: chip depth h = {:.12g} m, friction -12 nu U / h^2\n"
+                     "depthFriction\n{{\n    type explicitPorositySource;\n    explicitPorositySourceCoeffs\n    {{\n"
+                     "        selectionMode cellZone;\n        cellZone {};\n        type DarcyForchheimer;\n"
+                     "        d ({:.12g} {:.12g} 0);\n        f (0 0 0);\n"
+                     "        coordinateSystem {{ origin (0 0 0); e1 (1 0 0); e2 (0 1 0); }}\n    }}\n}}\n",
+                     s.hele_shaw_depth, kDepthZone, d, d);
+}
+
 bool perturbedStart(const Scene& s) { return s.kind == Scene::Kind::cylinder_channel && s.unsteady && s.initial_perturbation > 0; }
 
 const std::string kNoSlip = "        type noSlip;\n";
@@ -253,6 +282,11 @@ double imageMeshThickness(const Scene& s, int image_cols, int image_rows, double
 }
 
 long long writeCase(const Scene& s, const fs::path& dir, int ranks, MesherReport* mesher) {
+  const bool hele_shaw = s.hele_shaw_depth > 0;
+  if (!(s.hele_shaw_depth >= 0 && std::isfinite(s.hele_shaw_depth)))
+    throw std::invalid_argument(fmt::format("writeCase: hele_shaw_depth {} m; expected 0 (plane 2D) or a positive depth", s.hele_shaw_depth));
+  if (hele_shaw && s.kind != Scene::Kind::image && s.kind != Scene::Kind::channel)
+    throw std::invalid_argument("writeCase: the depth-averaged model (hele_shaw_depth > 0) is for channel and image scenes only");
   fs::create_directories(dir / "system");
   fs::create_directories(dir / "constant");
   fs::create_directories(dir / "0");
@@ -379,17 +413,24 @@ long long writeCase(const Scene& s, const fs::path& dir, int ranks, MesherReport
   put(dir / "0" / "U", u_file);
   put(dir / "0" / "p", p_file);
   if (perturbedStart(s)) put(dir / "system" / "setExprFieldsDict", setExprFieldsDict(s));
-  // Allrun repeats the runner's steps (runWrittenCase): mesh, checkMesh, solve, and for a
+  if (hele_shaw) {
+    put(dir / "system" / "topoSetDict", topoSetDict());
+    put(dir / "constant" / "fvOptions", heleShawFvOptions(s));
+  }
+  // Allrun repeats the runner's steps (runWrittenCase): mesh, topoSet (depth-averaged model), checkMesh, solve, and for a
   // parallel run the latest time reconstructed so that case.foam opens it whole in ParaView.
   put(dir / "Allrun",
       fmt::format("#!/bin/sh\n# Reruns this case by hand (written by mmval); ./Allclean undoes it.\ncd \"$(dirname \"$0\")\"\n"
                   "export WM_PROJECT_DIR=${{WM_PROJECT_DIR:-/usr/share/openfoam}}\n"
                   "{}{}"
-                  "checkMesh > log.checkMesh 2>&1 || exit 1\n{}{}",
+                  "{}checkMesh > log.checkMesh 2>&1 || exit 1\n{}{}",
                   direct_cells >= 0 ? "# constant/polyMesh was written by mmval's own mesher (directImageMesh)\n" : "blockMesh > log.blockMesh 2>&1 || exit 1\n",
                   s.kind == Scene::Kind::image && direct_cells < 0 ? std::string("snappyHexMesh -overwrite > log.snappyHexMesh 2>&1 || exit 1\n") +
                                                      (s.surface_level > 0 ? "extrudeMesh > log.extrudeMesh 2>&1 || exit 1\n" : "")
                                                : std::string(),
+                  hele_shaw ? "# the cellZone of every cell that the depth-averaged friction (constant/fvOptions) acts on\n"
+                              "topoSet > log.topoSet 2>&1 || exit 1\n"
+                            : "",
                   perturbedStart(s) ? "setExprFields > log.setExprFields 2>&1 || exit 1\n" : "",
                   ranks > 1 ? fmt::format("decomposePar -force > log.decomposePar 2>&1 || exit 1\n"
                                           "mpirun --allow-run-as-root -np {} {} -parallel > log.solver 2>&1 || exit 1\n"
@@ -545,6 +586,20 @@ int lastIteration(const std::string& log) {
   return n;
 }
 
+/// Column `col` of every data row of a function object's .dat file.
+std::vector<double> column(const fs::path& file, std::size_t col) {
+  std::ifstream in(file);
+  std::vector<double> out;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream row(line);
+    std::vector<double> cur;
+    for (double x; row >> x;) cur.push_back(x);
+    if (cur.size() > col) out.push_back(cur[col]);
+  }
+  return out;
+}
+
 std::vector<double> lastRow(const fs::path& file) {
   std::ifstream in(file);
   std::vector<double> v;
@@ -559,6 +614,20 @@ std::vector<double> lastRow(const fs::path& file) {
 }
 
 }  // namespace
+
+std::optional<double> fluxChange(const std::vector<double>& history) {
+  const std::size_t n = history.size();
+  if (n < 2 || history.back() == 0.0) return std::nullopt;
+  const double q = std::abs(history.back());
+  if (n >= 3) {
+    const double d = std::abs(history[n - 1] - history[n - 2]), d_before = std::abs(history[n - 2] - history[n - 3]);
+    if (d == 0.0) return 0.0;
+    const double r = d_before > 0 ? d / d_before : 1.0;
+    if (r < 1) return d * r / (1 - r) / q;
+  }
+  const std::size_t back = std::min<std::size_t>(kFluxChangeIterations, n - 1);
+  return std::abs(history.back() - history[n - 1 - back]) / q;
+}
 
 std::optional<double> executionTime(const std::string& solver_log) {
   static const std::string key = "\nExecutionTime = ";
@@ -622,6 +691,10 @@ Result runWrittenCase(const Scene& s, const fs::path& dir, int ranks) {
       if (!step("extrudeMesh", "log.extrudeMesh")) return r;
       r.mesh_seconds += r.steps.back().wall_seconds;
     }
+  }
+  if (s.hele_shaw_depth > 0) {
+    if (!step("topoSet", "log.topoSet")) return r;
+    r.mesh_seconds += r.steps.back().wall_seconds;
   }
   if (!step("checkMesh", "log.checkMesh")) return r;
   const std::string check = readText(dir / "log.checkMesh");
@@ -697,6 +770,7 @@ Result runWrittenCase(const Scene& s, const fs::path& dir, int ranks) {
     case Scene::Kind::channel: {
       const auto row = lastRow(dir / "postProcessing" / "flowRate" / "0" / "surfaceFieldValue.dat");
       if (row.size() >= 2) r.flow_rate = row[1] / s.depth;  // per unit depth
+      if (!s.unsteady) r.flux_change = fluxChange(column(dir / "postProcessing" / "flowRate" / "0" / "surfaceFieldValue.dat", 1));
       break;
     }
     case Scene::Kind::image: {
@@ -716,6 +790,7 @@ Result runWrittenCase(const Scene& s, const fs::path& dir, int ranks) {
       // Darcy: k = mu U_d L / dp with U_d = Q / (H * thickness) and kinematic p.
       const double u_darcy = std::abs(row[1]) / (g.height() * cell);
       r.flow_rate = std::abs(row[1]) / cell;
+      r.flux_change = fluxChange(column(dir / "postProcessing" / "flowRate" / "0" / "surfaceFieldValue.dat", 1));
       r.permeability = s.nu * u_darcy * g.width() / s.pressure_drop;
       break;
     }

@@ -9,10 +9,16 @@
 // root; scotch/metis are stubs, so decomposition is "simple"; nothing
 // compiled at run time works, so inlet profiles use exprFixedValue.
 //
-// Image geometries are solved 2D only. A depth-averaged (Hele-Shaw) friction
-// as a vectorSemiImplicitSource made simpleFoam diverge on snapped meshes
-// (SIMPLEC) or stall without converging (SIMPLE, relaxed); the explicit
-// porosity model needs a cellZone. Quasi-2D chip permeability is ours alone.
+// Image geometries are solved in plane 2D or with mmval's depth-averaged
+// (Brinkman-Hele-Shaw) model: the friction -12 nu u / h^2 of a parabolic profile
+// across the chip depth h (docs/validation/depth-model.md) as an
+// explicitPorositySource (Darcy, d = 12 / h^2 in x and y) on a cellZone of every
+// cell, which topoSet makes after meshing. The porosity model puts the friction on
+// the momentum matrix's diagonal (twice it, with the surplus taken back
+// explicitly), so SIMPLEC converges as in plane flow. An earlier
+// vectorSemiImplicitSource did not converge (it diverged with SIMPLEC on snapped
+// meshes, stalled with relaxed SIMPLE). docs/validation/peer-smooth.md has the
+// measurements.
 #pragma once
 #include <filesystem>
 #include <map>
@@ -48,6 +54,10 @@ struct Scene {
   bool uniform_inflow = false;      ///< uniform instead of parabolic inflow
   bool slip_walls = false;          ///< slip (free-stream) instead of no-slip channel walls
   double pressure_drop = 0.0;       ///< inlet - outlet, kinematic (channel)
+  /// Depth-averaged (Brinkman-Hele-Shaw) model: the chip depth h (m) whose friction -12 nu u / h^2
+  /// every cell gets (channel and image scenes; the velocity is then the depth-averaged one).
+  /// 0: plane 2D, no friction. Not the mesh thickness (`depth` above, or one cell for images).
+  double hele_shaw_depth = 0.0;
   double cx = 0.2, cy = 0.2, diameter = 0.1;
   double u_ref = 0.2, l_ref = 0.1;  ///< for force coefficients: c = 2F / (rho u_ref^2 l_ref depth)
   std::vector<std::array<double, 2>> pressure_probes;  ///< dp = p(first) - p(second)
@@ -121,6 +131,10 @@ struct Result {
   /// Always true for unsteady runs.
   bool converged = true;
   std::map<std::string, double> residuals;  ///< steady: initial residual of each field (Ux, Uy, p) in the last iteration
+  /// Steady channel and image scenes: how far the outlet flux still is from its limit, relative
+  /// (fluxChange of its history): that the measured quantity itself has settled, beside the
+  /// residuals. Absent without a flux history.
+  std::optional<double> flux_change;
   // outputs (SI, kinematic pressures multiplied by rho)
   double porosity_total = 0, porosity_connected = 0, porosity_mesh = 0;
   /// Image: the pore fraction of the boundary the STL describes (the smooth field's fluid side, or
@@ -187,6 +201,17 @@ struct SimpleConvergence {
   std::map<std::string, double> residuals;
 };
 SimpleConvergence simpleConvergence(const std::string& log, double target);
+
+/// The iterations over which fluxChange falls back to the plain change.
+constexpr int kFluxChangeIterations = 20;
+
+/// The change still to come in the last value Q_n of an iterated quantity's `history`, relative
+/// to it: SIMPLE converges geometrically, so with the last change d_n = Q_n - Q_(n-1) and the ratio
+/// r = |d_n / d_(n-1)| < 1 of the last two, the rest of the series is |d_n| r / (1 - r). When the
+/// changes do not shrink (r >= 1, or only two entries), the change over the last
+/// kFluxChangeIterations entries (all of them when fewer) instead, |Q_n - Q_(n-k)|. Nothing for
+/// fewer than two entries or Q_n = 0.
+std::optional<double> fluxChange(const std::vector<double>& history);
 
 /// "Ux 0.91, Uy 0.88, p 0.93": residuals for messages.
 std::string residualText(const std::map<std::string, double>& residuals);
