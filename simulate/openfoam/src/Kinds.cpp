@@ -149,16 +149,22 @@ void addMetrics(const Scene& s, const Result& r, RunOutput& out) {
   }
 }
 
-void warn(nlohmann::json& warnings, const std::string& name, const std::string& text, bool quiet) {
-  warnings.push_back(text);
-  if (!quiet) std::fprintf(stderr, "mmval: warning: %s: %s\n", name.c_str(), text.c_str());
-}
+/// A run's warnings: kept for details.warnings and, unless quiet, printed as they arise.
+struct Warnings {
+  std::string case_name;
+  bool quiet = false;
+  nlohmann::json list = nlohmann::json::array();
+
+  void add(const std::string& text) {
+    list.push_back(text);
+    if (!quiet) std::fprintf(stderr, "mmval: warning: %s: %s\n", case_name.c_str(), text.c_str());
+  }
+};
 
 /// An image level's mesh in its ladder row: the meshed pore fraction against the boundary's (the
 /// STL's) and the mask's, snappyHexMesh's time; a warning when the mesh misses the boundary's
 /// pore fraction by more than kMeshPorosityTolerance.
-void addImageMeshRow(const Scene& s, const Result& r, const std::string& sub, nlohmann::json& row, nlohmann::json& warnings,
-                     const std::string& name, bool quiet) {
+void addImageMeshRow(const Scene& s, const Result& r, const std::string& sub, nlohmann::json& row, Warnings& warnings) {
   row["mesher"] = s.direct_mesh ? "direct" : "snappyHexMesh";
   if (s.direct_mesh) {
     const MesherReport& m = r.mesher;
@@ -180,12 +186,10 @@ void addImageMeshRow(const Scene& s, const Result& r, const std::string& sub, nl
   const double miss = r.porosity_mesh / r.porosity_boundary - 1;
   row["porosity_mesh_error"] = miss;
   if (std::abs(miss) > kMeshPorosityTolerance)
-    warn(warnings, name,
-         fmt::format("the mesh in {} has pore fraction {:.4f}, {:+.2f} % from the {} boundary's {:.4f} (more than {:.1f} %): "
-                     "{}; refine (numerics.cells_per_pixel_levels)",
-                     sub, r.porosity_mesh, 100 * miss, s.smooth_boundary ? "smooth" : "pixel", r.porosity_boundary, 100 * kMeshPorosityTolerance,
-                     s.direct_mesh ? "the mesher's grid misses grains or throats under a cell" : "snappyHexMesh did not hold the grains (see log.snappyHexMesh)"),
-         quiet);
+    warnings.add(fmt::format("the mesh in {} has pore fraction {:.4f}, {:+.2f} % from the {} boundary's {:.4f} (more than {:.1f} %): "
+                             "{}; refine (numerics.cells_per_pixel_levels)",
+                             sub, r.porosity_mesh, 100 * miss, s.smooth_boundary ? "smooth" : "pixel", r.porosity_boundary, 100 * kMeshPorosityTolerance,
+                             s.direct_mesh ? "the mesher's grid misses grains or throats under a cell" : "snappyHexMesh did not hold the grains (see log.snappyHexMesh)"));
 }
 
 /// The image ladder's grid convergence of one depth model (Celik et al. 2008 via
@@ -193,7 +197,7 @@ void addImageMeshRow(const Scene& s, const Result& r, const std::string& sub, nl
 /// permeability_<model>_* metrics (model 2d or depth_averaged), as mmval's own image kind reports
 /// them. Formal order 2 on the smooth (snapped) boundary, 1 on the staircase.
 void addImageConvergence(const Scene& s, const std::string& model, const std::vector<double>& cpp, const nlohmann::json& ladder, RunOutput& out,
-                         nlohmann::json& warnings, const std::string& name, bool quiet) {
+                         Warnings& warnings) {
   std::vector<double> h, k;
   for (std::size_t i = 0; i < ladder.size(); ++i)
     if (ladder[i].contains("value")) {
@@ -222,7 +226,205 @@ void addImageConvergence(const Scene& s, const std::string& model, const std::ve
   }
   if (g.has_order) out.metrics[metric + "_observed_order"] = g.observed_order;
   if (std::isfinite(g.gci)) out.metrics[metric + "_gci"] = g.gci;
-  if (!g.has_order) warn(warnings, name, model + " permeability (OpenFOAM): " + g.note, quiet);
+  if (!g.has_order) warnings.add(model + " permeability (OpenFOAM): " + g.note);
+}
+
+/// A case's resolution ladder as the peer solves it. `levels` are the O-grid's cells around a
+/// cylinder, the cells along a periodic array's unit-cell side (mmval's h = L / n), or for an
+/// image the indices 0, 1, ... of `cells_per_pixel` (numerics.cells_per_pixel_levels, cells per
+/// pixel at the grains, as mmval's own image ladder).
+struct Ladder {
+  std::vector<int> levels;
+  std::vector<double> cells_per_pixel;  ///< image only
+};
+
+/// Stage 1, the ladder: --levels, else numerics.levels, else the kind's single resolution key; an
+/// image's numerics.cells_per_pixel_levels or numerics.cells_per_pixel. A level out of range is an
+/// InputError naming the key it came from.
+Ladder readLadder(const Case& c, const PeerRunOptions& options) {
+  const bool image = c.kind() == "image-permeability";
+  const bool array = c.kind() == "periodic-array";
+  Ladder ladder;
+  if (options.levels) {
+    ladder.levels = *options.levels;
+  } else if (!image && c.has("numerics.levels")) {
+    for (auto v : c.integers("numerics.levels")) ladder.levels.push_back(static_cast<int>(v));
+  }
+  if (image) {
+    ladder.cells_per_pixel = c.has("numerics.cells_per_pixel_levels") ? c.reals("numerics.cells_per_pixel_levels")
+                                                                      : std::vector<double>{c.real("numerics.cells_per_pixel")};
+    ladder.levels.clear();
+    for (std::size_t i = 0; i < ladder.cells_per_pixel.size(); ++i) ladder.levels.push_back(static_cast<int>(i));
+  }
+  const char* single_key = array ? "numerics.cells_per_side" : "numerics.cells_around";
+  if (ladder.levels.empty()) ladder.levels.push_back(static_cast<int>(c.integer(single_key)));
+  if (image) return ladder;
+  const std::string level_key = c.has("numerics.levels") || options.levels ? "numerics.levels" : single_key;
+  for (int l : ladder.levels) {
+    if (array && (l < 8 || l > 4096))
+      throw InputError(c.where(level_key), "a resolution level (cells along the unit-cell side) must be from 8 to 4096", std::to_string(l), "8 ... 4096");
+    if (!array && (l < 8 || l > 4096 || l % 4 != 0))
+      throw InputError(c.where(level_key), "a resolution level must be a multiple of 4 from 8 to 4096", std::to_string(l), "8, 12, 16, ... 4096");
+  }
+  return ladder;
+}
+
+/// Stage 2, an image's mesher: mmval's direct mesher unless options.snappy_image_mesh, for the
+/// smooth boundary always (wall vertices moved onto the level, no refinement band) and for the
+/// pixel staircase when every level puts a whole number of cells on a pixel edge (then meshed
+/// exactly); otherwise snappyHexMesh snaps to the boundary's STL.
+void chooseImageMesher(Scene& scene, const Ladder& ladder, const PeerRunOptions& options) {
+  if (scene.kind != Scene::Kind::image || options.snappy_image_mesh) return;
+  const std::vector<double>& cpp = ladder.cells_per_pixel;
+  const bool whole = std::all_of(cpp.begin(), cpp.end(), [](double v) { return v >= 1 && std::abs(v - std::round(v)) < 1e-9; });
+  if (scene.smooth_boundary) {
+    scene.direct_mesh = true;
+    scene.surface_level = 0;
+  } else if (whole) {
+    scene.direct_mesh = true;
+  }
+}
+
+/// What a ladder row's `value` and `error` are: the kind's primary metric (primaryMetric) and the
+/// reference it is judged against, if the case has one. An unsteady cylinder's error is against
+/// the first single-value reference (2D-2 lists the 1996 interval first); the steady kinds keep
+/// the first entry's, as mmval's own ladders do.
+struct RowValue {
+  std::string metric;
+  const Acceptance* reference = nullptr;
+};
+
+RowValue rowValue(const Case& c, bool unsteady) {
+  RowValue v;
+  v.metric = primaryMetric(c, unsteady);
+  v.reference = unsteady ? pointReference(c, v.metric) : c.acceptanceFor(v.metric);
+  return v;
+}
+
+/// A level's case folder under the output folder: openfoam[-<model>][-level<i>], the model's name
+/// when the case solves two depth models, the level's when the ladder has more than one.
+std::string levelFolder(const std::string& model, bool several_models, std::size_t level, bool several_levels) {
+  const std::string prefix = several_models ? "openfoam-" + model : "openfoam";
+  return several_levels ? fmt::format("{}-level{}", prefix, level) : prefix;
+}
+
+/// Runs one level (options.runner, else openfoam::runCase) into ctx.out_dir / sub; a run that
+/// failed (Result::ok false) stops the whole run naming the case folder kept.
+Result solveLevel(const Case& c, const RunContext& ctx, const PeerRunOptions& options, const Scene& scene, const std::string& sub) {
+  Result r = options.runner ? options.runner(scene, ctx.out_dir / sub, options.ranks) : runCase(scene, ctx.out_dir / sub, options.ranks);
+  if (!r.ok) throw std::runtime_error(fmt::format("OpenFOAM run of '{}' failed (case kept in {}): {}", c.name(), (ctx.out_dir / sub).string(), r.failure));
+  return r;
+}
+
+/// Stage 3, a level's ladder row from its result: cells, ranks, times, iterations, folder; an
+/// array's two resolutions, an unsteady cylinder's periodic statistics, an image's mesh
+/// (addImageMeshRow) and depth model; `value` and `error` (against value.reference) of a
+/// converged level, "not converged" and the residuals (and a warning) of one that is not.
+nlohmann::json levelRow(const Scene& scene, const Result& r, const Ladder& ladder, std::size_t i, const std::string& model, const std::string& sub,
+                        const RowValue& value, Warnings& warnings) {
+  const int level = ladder.levels[i];
+  nlohmann::json row = {{"level", i}, {"cells_around", level}, {"cells", r.cells}, {"ranks", r.ranks},
+                        {"mesh_seconds", r.mesh_seconds}, {"solve_seconds", r.solve_seconds},
+                        {"wall_seconds", r.mesh_seconds + r.solve_seconds}, {"iterations", r.iterations}, {"case_dir", sub}};
+  // The solver's own CPU seconds (its ExecutionTime; meshing is not in it): on a shared machine
+  // the wall time depends on the load, the CPU time much less.
+  if (r.cpu_seconds) row["cpu_seconds"] = *r.cpu_seconds;
+  if (r.flux_change) row["flux_change"] = *r.flux_change;
+  if (scene.kind == Scene::Kind::periodic_array) {
+    // Both numbers of one resolution: mmval's cells along the side and the O-grid's around the
+    // cylinder, with the spacings they give (h = L / n; pi D / cells_around at the surface).
+    row["cells_per_side"] = level;
+    row["cells_around"] = scene.cells_around;
+    row["spacing_m"] = scene.cell / level;
+    row["surface_spacing_m"] = 2 * M_PI * scene.radius / scene.cells_around;
+  }
+  if (scene.unsteady) {
+    // Each level's periodic statistics (the primary c_D is the last instant's): the ladder of an
+    // unsteady case compares levels on these.
+    row["shedding_periods"] = r.shedding_periods;
+    for (const auto& [name, v] : {std::pair{"c_D_mean", r.c_d_mean}, {"c_D_max", r.c_d_max}, {"c_L_max", r.c_l_max}, {"St", r.strouhal}})
+      if (v) row[name] = *v;
+  }
+  if (scene.kind == Scene::Kind::image) {
+    row.erase("cells_around");
+    row["cells_per_pixel"] = ladder.cells_per_pixel[i];
+    row["depth_model"] = model;  // as mmval's image rows
+    addImageMeshRow(scene, r, sub, row, warnings);
+  }
+  if (!r.converged) {
+    // The last iterate of a SIMPLE loop that ran out of iterations is no solution: no value, no
+    // error, so the row stays out of the observed order and of the speed-against-error plot.
+    row["status"] = "not converged";
+    row["residuals"] = r.residuals;
+    warnings.add(notConvergedText(scene, r, sub));
+    return row;
+  }
+  RunOutput level_out;
+  addMetrics(scene, r, level_out);
+  const auto it = level_out.metrics.find(value.metric);
+  if (it == level_out.metrics.end()) return row;
+  row["value"] = it->second;
+  const Acceptance* ref = value.reference;
+  if (ref != nullptr && !ref->reference.isInterval() && ref->reference.value != 0) row["error"] = (it->second - ref->reference.value) / ref->reference.value;
+  return row;
+}
+
+/// One depth model's ladder as solved: its rows and the finest level's result and case folder.
+struct ModelLadder {
+  nlohmann::json rows = nlohmann::json::array();
+  Result finest;
+  std::string finest_folder;
+};
+
+/// Stage 4, one depth model's ladder: every level solved in turn (scene.cells_per_pixel or
+/// scene.cells_around set per level; scene.hele_shaw_depth is the model's), its row made, and
+/// then the ladder's grid convergence: an image's details.grid_convergence.<model> and
+/// permeability_<model>_* metrics (addImageConvergence), else each row's observed order on the
+/// O-grid's refinement (addObservedOrder).
+ModelLadder runModelLadder(const Case& c, const RunContext& ctx, const PeerRunOptions& options, Scene& scene, const Ladder& ladder,
+                           const std::string& model, bool several_models, const RowValue& value, Progress& progress, RunOutput& out,
+                           Warnings& warnings) {
+  const bool image = scene.kind == Scene::Kind::image;
+  const bool array = scene.kind == Scene::Kind::periodic_array;
+  ModelLadder result;
+  std::vector<int> cells_around;  // the O-grid's refinement, for the observed order
+  for (std::size_t i = 0; i < ladder.levels.size(); ++i) {
+    if (image) scene.cells_per_pixel = ladder.cells_per_pixel[i];
+    else scene.cells_around = array ? arrayCellsAround(scene, ladder.levels[i]) : ladder.levels[i];
+    cells_around.push_back(scene.cells_around);
+    result.finest_folder = levelFolder(model, several_models, i, ladder.levels.size() > 1);
+    result.finest = solveLevel(c, ctx, options, scene, result.finest_folder);
+    result.rows.push_back(levelRow(scene, result.finest, ladder, i, model, result.finest_folder, value, warnings));
+    progress.advance();
+  }
+  if (image) addImageConvergence(scene, model, ladder.cells_per_pixel, result.rows, out, warnings);
+  else addObservedOrder(result.rows, cells_around);
+  return result;
+}
+
+/// How an image case's grain boundary was meshed, for details.boundary.
+std::string imageBoundaryText(const Scene& s) {
+  if (s.direct_mesh && !s.smooth_boundary)
+    return "pixels (mmval's direct mesher: Cartesian cells, a whole number per pixel edge, the mask's staircase exactly, as mmval's solver sees it)";
+  if (s.direct_mesh)
+    return fmt::format("smooth (1/2 level of the mask smoothed by a Gaussian of {:g} px, as mmval's; mmval's direct mesher: "
+                       "Cartesian cells at cells_per_pixel, wall vertices moved onto the level)", s.smoothing_px);
+  if (s.smooth_boundary)
+    return fmt::format("smooth (1/2 level of the mask smoothed by a Gaussian of {:g} px, as mmval's; snapped, surface level {} "
+                       "with {} cells per band)", s.smoothing_px, s.surface_level, s.cells_between_levels);
+  return "pixels (outlines of the mask's grain pixels)";
+}
+
+/// Stage 5, a run that did not converge (the finest level of some depth model): reported as "not
+/// converged", never as a value: every metric is null but the porosities (the geometry's and the
+/// mesh's, not the flow's; acceptance entries on the others fail: nothing was measured); the
+/// status and the last level's residuals and iterations are in details.
+void markNotConverged(const Result& finest, RunOutput& out) {
+  out.details["status"] = "not converged";
+  out.details["residuals"] = finest.residuals;
+  out.details["iterations"] = finest.iterations;
+  for (auto& [name, value] : out.metrics)
+    if (name.rfind("porosity", 0) != 0) value = std::nan("");
 }
 
 }  // namespace
@@ -279,163 +481,48 @@ RunOutput runPeer(const Case& c, const RunContext& ctx, const PeerRunOptions& op
   const Installation inst = options.runner ? Installation{true, "(test runner)", {}, {}} : detect();
   if (!inst.available) throw InputError({c.file().string(), 0, 0, "case.kind"}, "cannot run this case: " + inst.reason, {}, "OpenFOAM v1912 installed");
   Scene scene = peerScene(c);
-  if (scene.kind == Scene::Kind::image && scene.smooth_boundary && !options.snappy_image_mesh) {
-    scene.direct_mesh = true;
-    scene.surface_level = 0;
-  }
-  std::vector<int> levels;
-  if (options.levels) {
-    levels = *options.levels;
-  } else if (c.kind() != "image-permeability" && c.has("numerics.levels")) {
-    for (auto v : c.integers("numerics.levels")) levels.push_back(static_cast<int>(v));
-  }
-  // Image ladders are in cells per pixel at the grains (numerics.cells_per_pixel_levels, as mmval's own).
+  const Ladder ladder = readLadder(c, options);
+  chooseImageMesher(scene, ladder, options);
   const bool image = scene.kind == Scene::Kind::image;
-  std::vector<double> cpp_levels;
-  if (image) {
-    cpp_levels = c.has("numerics.cells_per_pixel_levels") ? c.reals("numerics.cells_per_pixel_levels")
-                                                          : std::vector<double>{c.real("numerics.cells_per_pixel")};
-    levels.clear();
-    for (std::size_t i = 0; i < cpp_levels.size(); ++i) levels.push_back(static_cast<int>(i));
-    // The pixel staircase is meshed exactly (pixelImageMesh) when every level puts a whole number
-    // of cells on a pixel edge; otherwise snappyHexMesh snaps to the pixel outlines' STL.
-    const bool whole = std::all_of(cpp_levels.begin(), cpp_levels.end(), [](double v) { return v >= 1 && std::abs(v - std::round(v)) < 1e-9; });
-    if (!scene.smooth_boundary && whole && !options.snappy_image_mesh) scene.direct_mesh = true;
-  }
-  // A cylinder's levels are the O-grid's cells around it; an array's are cells along the unit-cell
-  // side, mmval's spacing h = L / n, from which the O-grid's cells around follow (arrayCellsAround).
-  const bool array = scene.kind == Scene::Kind::periodic_array;
-  const char* single_key = array ? "numerics.cells_per_side" : "numerics.cells_around";
-  if (levels.empty()) levels.push_back(static_cast<int>(c.integer(single_key)));
-  const std::string level_key = c.has("numerics.levels") || options.levels ? "numerics.levels" : single_key;
-  for (int l : levels) {
-    if (image) continue;
-    if (array && (l < 8 || l > 4096))
-      throw InputError(c.where(level_key), "a resolution level (cells along the unit-cell side) must be from 8 to 4096", std::to_string(l), "8 ... 4096");
-    if (!array && (l < 8 || l > 4096 || l % 4 != 0))
-      throw InputError(c.where(level_key), "a resolution level must be a multiple of 4 from 8 to 4096", std::to_string(l), "8, 12, 16, ... 4096");
-  }
   // An image case solves each of its depth models (2d, depth-averaged) on the whole ladder, as
   // mmval's own image kind does; the other kinds have one model.
   const std::vector<DepthModel> models = image ? imageDepthModels(c) : std::vector<DepthModel>{{"", 0.0}};
-  const std::string primary_metric = primaryMetric(c, scene.unsteady);
-  // An unsteady cylinder's error is against the first single-value reference (2D-2 lists the 1996
-  // interval first); the steady kinds keep the first entry's, as mmval's own ladders do.
-  const Acceptance* primary = scene.unsteady ? pointReference(c, primary_metric) : c.acceptanceFor(primary_metric);
+  const RowValue value = rowValue(c, scene.unsteady);
+
   RunOutput out;
   out.details["solver"] = "openfoam " + inst.version;
   // On the diameter, as simulate::CylinderScene::reynolds (mmval's details.Re), whatever l_ref is.
   if (scene.kind == Scene::Kind::cylinder_channel) out.details["Re"] = scene.u_ref * scene.diameter / scene.nu;
   out.details["ranks"] = options.ranks;
-  nlohmann::json ladder = nlohmann::json::array(), runs = nlohmann::json::array();
-  nlohmann::json warnings = nlohmann::json::array();
-  Progress progress("openfoam " + c.name(), levels.size() * models.size(), ctx.quiet);
-  Result last;
+  Warnings warnings{c.name(), ctx.quiet};
+  Progress progress("openfoam " + c.name(), ladder.levels.size() * models.size(), ctx.quiet);
+  nlohmann::json runs = nlohmann::json::array();  // every model's rows
+  ModelLadder last;                               // the last model's ladder
   bool all_converged = true;
-  std::size_t done = 0;
   std::map<std::string, double> k_of;  // each depth model's finest permeability (m2)
-  std::string last_sub;
   for (const DepthModel& model : models) {
     scene.hele_shaw_depth = model.depth_m;
-    ladder = nlohmann::json::array();
-    std::vector<int> cells_around;  // the O-grid's refinement, for the observed order
-    // Folders: openfoam[-levelN], with the model's name in front of the level when there are two.
-    const std::string prefix = models.size() > 1 ? "openfoam-" + model.name : "openfoam";
-    for (std::size_t i = 0; i < levels.size(); ++i) {
-      if (image) scene.cells_per_pixel = cpp_levels[i];
-      else scene.cells_around = array ? arrayCellsAround(scene, levels[i]) : levels[i];
-      cells_around.push_back(scene.cells_around);
-      const std::string sub = levels.size() > 1 ? fmt::format("{}-level{}", prefix, i) : prefix;
-      last_sub = sub;
-      last = options.runner ? options.runner(scene, ctx.out_dir / sub, options.ranks) : runCase(scene, ctx.out_dir / sub, options.ranks);
-      if (!last.ok) throw std::runtime_error(fmt::format("OpenFOAM run of '{}' failed (case kept in {}): {}", c.name(), (ctx.out_dir / sub).string(), last.failure));
-      nlohmann::json row = {{"level", i}, {"cells_around", levels[i]}, {"cells", last.cells}, {"ranks", last.ranks},
-                            {"mesh_seconds", last.mesh_seconds}, {"solve_seconds", last.solve_seconds},
-                            {"wall_seconds", last.mesh_seconds + last.solve_seconds}, {"iterations", last.iterations}, {"case_dir", sub}};
-      // The solver's own CPU seconds (its ExecutionTime; meshing is not in it): on a shared machine
-      // the wall time depends on the load, the CPU time much less.
-      if (last.cpu_seconds) row["cpu_seconds"] = *last.cpu_seconds;
-      if (last.flux_change) row["flux_change"] = *last.flux_change;
-      if (array) {
-        // Both numbers of one resolution: mmval's cells along the side and the O-grid's around the
-        // cylinder, with the spacings they give (h = L / n; pi D / cells_around at the surface).
-        row["cells_per_side"] = levels[i];
-        row["cells_around"] = scene.cells_around;
-        row["spacing_m"] = scene.cell / levels[i];
-        row["surface_spacing_m"] = 2 * M_PI * scene.radius / scene.cells_around;
-      }
-      if (scene.unsteady) {
-        // Each level's periodic statistics (the primary c_D is the last instant's): the ladder of an
-        // unsteady case compares levels on these.
-        row["shedding_periods"] = last.shedding_periods;
-        for (const auto& [name, v] : {std::pair{"c_D_mean", last.c_d_mean}, {"c_D_max", last.c_d_max}, {"c_L_max", last.c_l_max}, {"St", last.strouhal}})
-          if (v) row[name] = *v;
-      }
-      if (image) {
-        row.erase("cells_around");
-        row["cells_per_pixel"] = cpp_levels[i];
-        row["depth_model"] = model.name;  // as mmval's image rows
-        addImageMeshRow(scene, last, sub, row, warnings, c.name(), ctx.quiet);
-      }
-      if (!last.converged) {
-        // The last iterate of a SIMPLE loop that ran out of iterations is no solution: no value, no
-        // error, so the row stays out of the observed order and of the speed-against-error plot.
-        row["status"] = "not converged";
-        row["residuals"] = last.residuals;
-        warnings.push_back(notConvergedText(scene, last, sub));
-        if (!ctx.quiet) std::fprintf(stderr, "mmval: warning: %s: %s\n", c.name().c_str(), warnings.back().get<std::string>().c_str());
-      } else {
-        RunOutput level_out;
-        addMetrics(scene, last, level_out);
-        auto it = level_out.metrics.find(primary_metric);
-        if (it != level_out.metrics.end()) {
-          row["value"] = it->second;
-          if (primary != nullptr && !primary->reference.isInterval() && primary->reference.value != 0)
-            row["error"] = (it->second - primary->reference.value) / primary->reference.value;
-        }
-      }
-      ladder.push_back(row);
-      progress.update(++done);
-    }
-    if (image) addImageConvergence(scene, model.name, cpp_levels, ladder, out, warnings, c.name(), ctx.quiet);
-    else addObservedOrder(ladder, cells_around);
-    for (const auto& row : ladder) runs.push_back(row);
-    all_converged = all_converged && last.converged;
-    addMetrics(scene, last, out);  // the last model's `permeability` stays: depth-averaged when run, as mmval's
-    if (last.permeability) k_of[model.name] = *last.permeability;
+    last = runModelLadder(c, ctx, options, scene, ladder, model.name, models.size() > 1, value, progress, out, warnings);
+    for (const auto& row : last.rows) runs.push_back(row);
+    all_converged = all_converged && last.finest.converged;
+    addMetrics(scene, last.finest, out);  // the last model's `permeability` stays: depth-averaged when run, as mmval's
+    if (last.finest.permeability) k_of[model.name] = *last.finest.permeability;
   }
   progress.finish();
-  out.details["ladder"] = ladder;  // the last depth model's, as mmval's; `runs` holds every model's
-  if (image) out.details["runs"] = runs;
-  out.details["cells"] = last.cells;
+
+  out.details["ladder"] = last.rows;  // the last depth model's, as mmval's; `runs` holds every model's
+  out.details["cells"] = last.finest.cells;
   if (image) {
-    out.details["boundary"] = scene.direct_mesh && !scene.smooth_boundary
-                                  ? std::string("pixels (mmval's direct mesher: Cartesian cells, a whole number per pixel edge, the mask's "
-                                                "staircase exactly, as mmval's solver sees it)")
-                              : scene.direct_mesh
-                                  ? fmt::format("smooth (1/2 level of the mask smoothed by a Gaussian of {:g} px, as mmval's; mmval's direct mesher: "
-                                                "Cartesian cells at cells_per_pixel, wall vertices moved onto the level)", scene.smoothing_px)
-                              : scene.smooth_boundary
-                                  ? fmt::format("smooth (1/2 level of the mask smoothed by a Gaussian of {:g} px, as mmval's; snapped, surface level {} "
-                                                "with {} cells per band)", scene.smoothing_px, scene.surface_level, scene.cells_between_levels)
-                                  : std::string("pixels (outlines of the mask's grain pixels)");
-    out.details["mesh_seconds"] = last.mesh_seconds;
+    out.details["runs"] = runs;
+    out.details["boundary"] = imageBoundaryText(scene);
+    out.details["mesh_seconds"] = last.finest.mesh_seconds;
     // Not a metric: the image kind's schema (mmval's) declares no such metric; the finest level's value.
-    out.details["porosity_boundary"] = last.porosity_boundary;
+    out.details["porosity_boundary"] = last.finest.porosity_boundary;
     if (k_of.count("2d") && k_of.count("depth-averaged") && all_converged) out.metrics["depth_model_ratio"] = k_of["depth-averaged"] / k_of["2d"];
   }
-  if (!warnings.empty()) out.details["warnings"] = warnings;
-  if (!all_converged) {
-    // Reported as "not converged", never as a value: every metric of the finest level is null
-    // but the porosities (acceptance entries on them fail: nothing was measured); the status and
-    // residuals are in details.
-    out.details["status"] = "not converged";
-    out.details["residuals"] = last.residuals;
-    out.details["iterations"] = last.iterations;
-    for (auto& [name, value] : out.metrics)
-      if (name.rfind("porosity", 0) != 0) value = std::nan("");  // porosities are the geometry's and the mesh's, not the flow's
-  }
-  out.files.push_back(last_sub);
+  if (!warnings.list.empty()) out.details["warnings"] = warnings.list;
+  if (!all_converged) markNotConverged(last.finest, out);
+  out.files.push_back(last.finest_folder);
   return out;
 }
 
