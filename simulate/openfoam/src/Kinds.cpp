@@ -219,13 +219,19 @@ void addImageConvergence(const Scene& s, const std::string& model, const std::ve
                                                         {"permeability_extrapolated_D", finiteOrNull(g.fit_extrapolated)}, {"scatter_D", finiteOrNull(g.fit_scatter)},
                                                         {"uncertainty", finiteOrNull(g.fit_uncertainty)}, {"order_used", g.fit_order_used},
                                                         {"method", "Eca & Hoekstra 2014 (J. Comput. Phys. 262, 104), as mmval's image kind"}};
-  const std::string metric = model == "2d" ? "permeability_2d" : "permeability_depth_averaged";
-  if (std::isfinite(g.extrapolated)) {
-    out.metrics[metric + "_extrapolated"] = g.extrapolated * kDarcy;
-    out.units[metric + "_extrapolated"] = "D";
+  // Literal names, one branch per model, so that tests/apps/MetricContractTest.cpp sees each one.
+  const bool extrapolated = std::isfinite(g.extrapolated), gci = std::isfinite(g.gci);
+  if (model == "2d") {
+    if (extrapolated) out.metrics["permeability_2d_extrapolated"] = g.extrapolated * kDarcy;
+    if (g.has_order) out.metrics["permeability_2d_observed_order"] = g.observed_order;
+    if (gci) out.metrics["permeability_2d_gci"] = g.gci;
+    if (extrapolated) out.units["permeability_2d_extrapolated"] = "D";
+  } else {
+    if (extrapolated) out.metrics["permeability_depth_averaged_extrapolated"] = g.extrapolated * kDarcy;
+    if (g.has_order) out.metrics["permeability_depth_averaged_observed_order"] = g.observed_order;
+    if (gci) out.metrics["permeability_depth_averaged_gci"] = g.gci;
+    if (extrapolated) out.units["permeability_depth_averaged_extrapolated"] = "D";
   }
-  if (g.has_order) out.metrics[metric + "_observed_order"] = g.observed_order;
-  if (std::isfinite(g.gci)) out.metrics[metric + "_gci"] = g.gci;
   if (!g.has_order) warnings.add(model + " permeability (OpenFOAM): " + g.note);
 }
 
