@@ -2,17 +2,26 @@
 // seed on the same ranks gives byte-identical outputs, and 2 ranks give the 1-rank
 // scene. Ranks share the fluid solve (PETSc distributes its rows; the answer is the
 // same to solver tolerance) and every rank moves all particles with the same random
-// streams, so 2 ranks must reproduce the 1-rank trajectories up to the fluid
-// solver's tolerance (measured 1e-5 um, the printed precision), not merely within
-// statistical noise. The scene is the default case, shortened to 6 s.
+// streams, so until the first deposit 2 ranks must reproduce the 1-rank trajectories
+// up to the fluid solver's tolerance (measured 4e-5 um), not merely within statistical
+// noise. After it they may part: a particle that reaches a grain at a grazing angle
+// deposits where a 1e-12 change of the field puts it, and its deposit then changes the
+// re-solved flow and later paths (the stream-function near-wall layer, 2026-12-06: a
+// uniform 1e-12 scaling of the faces on one rank moves later positions by 62 um, as 2
+// ranks do; docs/validation/particle-physics.md). So from the first deposit on, the test
+// compares what a user reads: every particle injected alike, and the retained and left
+// counts within their binomial noise. The scene is the default case, shortened to 6 s.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <map>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -76,26 +85,80 @@ TEST(Ranks, MicromodelSceneIsDeterministicAndTwoRanksGiveTheOneRankScene) {
   for (const char* f : {"trajectories.csv", "retention.csv", "permeability.csv"})
     EXPECT_EQ(slurp(dir / "a" / f), slurp(dir / "b" / f)) << f << ": same seed, same ranks, different output";
 
-  // 2 ranks: same rows (frame, particle, state), same counts, positions within 1 nm.
+  // 2 ranks, before the first deposit in either run: same rows (frame, particle, state),
+  // positions within 1 nm.
   const auto one = csv(dir / "a" / "trajectories.csv"), two = csv(dir / "np2" / "trajectories.csv");
-  ASSERT_EQ(one.size(), two.size());
   ASSERT_GT(one.size(), 1000u);
   const auto& head = one[0];
-  double worst = 0;
-  for (std::size_t r = 1; r < one.size(); ++r) {
-    ASSERT_EQ(one[r].size(), head.size());
-    ASSERT_EQ(two[r].size(), head.size());
-    for (std::size_t k = 0; k < head.size(); ++k) {
-      if (head[k] == "x_um" || head[k] == "y_um" || head[k] == "z_um")
-        worst = std::max(worst, std::abs(std::stod(one[r][k]) - std::stod(two[r][k])));
-      else if (head[k] == "frame" || head[k] == "particle" || head[k] == "state") {
-        ASSERT_EQ(one[r][k], two[r][k]) << "row " << r << " column " << head[k];
-      }
+  ASSERT_EQ(two[0], head);
+  const auto column = [&](const char* name) {
+    return static_cast<std::size_t>(std::find(head.begin(), head.end(), name) - head.begin());
+  };
+  const std::size_t frame = column("frame"), state = column("state");
+  ASSERT_LT(state, head.size());
+  const auto firstDeposit = [&](const std::vector<std::vector<std::string>>& rows) {
+    int first = std::numeric_limits<int>::max();
+    for (std::size_t r = 1; r < rows.size(); ++r)
+      if (rows[r].size() == head.size() && rows[r][state] == "deposited") first = std::min(first, std::stoi(rows[r][frame]));
+    return first;
+  };
+  const int until = std::min(firstDeposit(one), firstDeposit(two));
+  // Rows run particle by particle, so after the runs part a row index no longer matches: key
+  // each run's rows before `until` by (particle, frame).
+  const std::size_t particle = column("particle");
+  const auto before = [&](const std::vector<std::vector<std::string>>& rows) {
+    std::map<std::pair<int, int>, const std::vector<std::string>*> keyed;
+    for (std::size_t r = 1; r < rows.size(); ++r) {
+      EXPECT_EQ(rows[r].size(), head.size()) << "row " << r;
+      if (rows[r].size() == head.size() && std::stoi(rows[r][frame]) < until)
+        keyed[{std::stoi(rows[r][particle]), std::stoi(rows[r][frame])}] = &rows[r];
     }
+    return keyed;
+  };
+  const auto a1 = before(one), a2 = before(two);
+  ASSERT_EQ(a1.size(), a2.size());
+  double worst = 0;
+  std::size_t compared = 0;
+  for (const auto& [key, row] : a1) {
+    const auto it = a2.find(key);
+    ASSERT_NE(it, a2.end()) << "particle " << key.first << " frame " << key.second << " only on 1 rank";
+    ASSERT_EQ((*row)[state], (*it->second)[state]) << "particle " << key.first << " frame " << key.second;
+    for (std::size_t k = 0; k < head.size(); ++k)
+      if (head[k] == "x_um" || head[k] == "y_um" || head[k] == "z_um") worst = std::max(worst, std::abs(std::stod((*row)[k]) - std::stod((*it->second)[k])));
+    ++compared;
   }
-  std::printf("1 vs 2 ranks: %zu trajectory rows, largest position difference %.3g um\n", one.size() - 1, worst);
+  std::printf("1 vs 2 ranks: %zu trajectory rows before the first deposit (frame %d), largest position difference %.3g um\n", compared,
+              until, worst);
+  EXPECT_GT(compared, 300u);  // the shortened default scene's first deposit comes at frame 37-72 (585-1900 rows)
   EXPECT_LT(worst, 1e-3);
-  EXPECT_EQ(slurp(dir / "a" / "retention.csv"), slurp(dir / "np2" / "retention.csv"));
+
+  // The clean chip's flow: the same permeability to the solver's tolerance.
+  const auto k1 = csv(dir / "a" / "permeability.csv"), k2 = csv(dir / "np2" / "permeability.csv");
+  ASSERT_GT(k1.size(), 1u);
+  ASSERT_GT(k2.size(), 1u);
+  ASSERT_EQ(k1[0], k2[0]);
+  const auto kcol = static_cast<std::size_t>(std::find(k1[0].begin(), k1[0].end(), "k_m2") - k1[0].begin());
+  ASSERT_LT(kcol, k1[0].size());
+  EXPECT_NEAR(std::stod(k2[1][kcol]) / std::stod(k1[1][kcol]), 1.0, 1e-8);
+
+  // The whole run: the same injection, and counts within binomial noise of each other.
+  const auto r1 = csv(dir / "a" / "retention.csv"), r2 = csv(dir / "np2" / "retention.csv");
+  ASSERT_EQ(r1.size(), r2.size());
+  ASSERT_EQ(r1[0], r2[0]);
+  const auto count = [&](const std::vector<std::vector<std::string>>& rows, const char* name) {
+    const auto& h = rows[0];
+    const auto k = static_cast<std::size_t>(std::find(h.begin(), h.end(), name) - h.begin());
+    return std::stod(rows.back().at(k));
+  };
+  const double injected = count(r1, "injected");
+  ASSERT_GT(injected, 50.0);
+  EXPECT_EQ(count(r2, "injected"), injected);
+  for (const char* name : {"retained", "left"}) {
+    const double a = count(r1, name), b = count(r2, name), p = a / injected;
+    const double tolerance = 4 * std::sqrt(2 * injected * p * (1 - p)) + 1;  // two independent binomial draws, 4 SD
+    std::printf("%s: 1 rank %.0f, 2 ranks %.0f of %.0f injected (tolerance %.1f)\n", name, a, b, injected, tolerance);
+    EXPECT_LE(std::abs(a - b), tolerance) << name;
+  }
 }
 
 }  // namespace

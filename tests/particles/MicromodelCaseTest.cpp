@@ -106,30 +106,30 @@ TEST(MicromodelCase, SameSeedIdenticalAndResumeEqualsUninterrupted) {
   const auto b = fx.run(caseText(mask, run, o), "det-b");
   for (const char* f : {"trajectories.csv", "retention.csv", "permeability.csv"})
     EXPECT_EQ(readText(testDir() / "det-a" / f), readText(testDir() / "det-b" / f)) << f;
-  // Interrupted after 12 frames (a checkpoint is left in the staging folder), then resumed.
+  // Interrupted after 20 frames (the first re-solve comes at frame ~17) (a checkpoint is left in the staging folder), then resumed.
   fs::remove_all(testDir() / "det-c");
   fs::remove_all(testDir() / "det-c.partial");
-  const std::string stop = "[run]\nduration = \"3 s\"\noutput_interval = \"0.1 s\"\nseed = 9\ncheckpoint_every = 500\nstop_after_frames = 12\n";
+  const std::string stop = "[run]\nduration = \"3 s\"\noutput_interval = \"0.1 s\"\nseed = 9\ncheckpoint_every = 500\nstop_after_frames = 20\n";
   EXPECT_THROW(fx.run(caseText(mask, stop, o), "det-c"), RunStopped);
   ASSERT_TRUE(fs::exists(testDir() / "det-c.partial" / "checkpoint.bin"));
   const auto c = fx.run(caseText(mask, run, o), "det-c", /*resume=*/true);
-  EXPECT_EQ(c.result["details"]["resumed_from_frame"].get<long long>(), 12);
+  EXPECT_EQ(c.result["details"]["resumed_from_frame"].get<long long>(), 20);
   for (const char* f : {"trajectories.csv", "retention.csv", "permeability.csv"})
     EXPECT_EQ(readText(testDir() / "det-a" / f), readText(testDir() / "det-c" / f)) << f;
   EXPECT_EQ(metric(a, "retained"), metric(c, "retained"));
   EXPECT_EQ(metric(a, "count_balance_error"), 0.0);
-  // The window must exercise what the checkpoint carries: plate layers and re-solves on both sides of frame 12.
+  // The window must exercise what the checkpoint carries: plate layers and re-solves on both sides of frame 20.
   EXPECT_GT(a.result["details"]["coupling"]["deposits_on_plates"].get<long long>(), 0);
   std::istringstream perm(readText(testDir() / "det-a" / "permeability.csv"));
   std::string line;
   std::getline(perm, line);
-  long long at12 = -1, last = -1;
+  long long at20 = -1, last = -1;
   for (int frame = 0; std::getline(perm, line); ++frame) {
     last = std::stoll(line.substr(line.rfind(',') + 1));
-    if (frame == 12) at12 = last;
+    if (frame == 20) at20 = last;
   }
-  EXPECT_GT(at12, 0) << "no re-solve before the interruption";
-  EXPECT_GT(last, at12) << "no re-solve after the interruption";
+  EXPECT_GT(at20, 0) << "no re-solve before the interruption";
+  EXPECT_GT(last, at20) << "no re-solve after the interruption";
 }
 
 TEST(MicromodelBadInputCase, ZeroFlowInjectsNothingAndStaysFinite) {

@@ -109,11 +109,11 @@ std::string micromodelText(const fs::path& mask) {
   return "[case]\nname = \"details-micromodel\"\nkind = \"particles-micromodel\"\n"
          "[geometry]\nmask = \"" + mask.string() + "\"\npixel_size = \"5 um\"\ndepth = \"20 um\"\n"
          "[flow]\nrate = \"20 uL/min\"\n"
-         "[particles]\ndiameter = \"5 um\"\ncount = 30\n"
+         "[particles]\ndiameter = \"5 um\"\ncount = 60\n"
          "[coupling]\nmode = \"four-way\"\n"
          "[numerics]\ncells_per_pixel = 0.5\n"
          "[analysis]\ntable3_case = \"III\"\n"
-         "[run]\nduration = \"1 s\"\noutput_interval = \"0.1 s\"\ncheckpoint_every = 0\n";
+         "[run]\nduration = \"2 s\"\noutput_interval = \"0.1 s\"\ncheckpoint_every = 0\n";
 }
 
 TEST(ParticleDetails, MicromodelRunWritesCouplingAndTheTable3CaseAsDeclared) {
@@ -131,12 +131,13 @@ TEST(ParticleDetails, MicromodelRunWritesCouplingAndTheTable3CaseAsDeclared) {
   double retained = NAN;
   for (const auto& m : r["metrics"])
     if (m["name"] == "retained") retained = m["value"].get<double>();
+  // 60 particles over 2 s: 5 retained with the stream-function near-wall layer (30 over 1 s: none).
   EXPECT_GT(retained, 0.0) << "the scene must deposit something for the sum to test anything";
   EXPECT_EQ(static_cast<double>(*at_walls + *on_plates), retained);
   // cells_per_pixel 0.5 on a 60 x 30 px mask: 30 x 15 fluid cells.
   EXPECT_EQ(coupling->value->at("fluid_grid_cells"), nlohmann::json::array({30, 15}));
   // The run ended at its end time (no pump limit set).
-  EXPECT_NEAR(detailNumber(d, F::end_time_s).value_or(-1), 1.0, 1e-9);
+  EXPECT_NEAR(detailNumber(d, F::end_time_s).value_or(-1), 2.0, 1e-9);
 }
 
 TEST(ParticleDetails, Table3CasesNameTheirCase) {

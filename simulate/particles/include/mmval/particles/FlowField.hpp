@@ -129,15 +129,23 @@ enum class GridWalls {
   /// cell and the pixel; the half spacing puts the match point at the middle of the first
   /// pixel beyond it), the pore is taken as a straight slot across the normal n: its
   /// half-width D is the distance along n from q to the medial axis (where another wall
-  /// becomes as near; D = infinity if that is beyond d_m), and across it the exact slot
-  /// profile g(d) = 1 - cosh((D - d) / delta) / cosh(D / delta) holds (-> 1 - exp(-d / delta)
-  /// for D >> delta). The face velocity at the match point q + min(d_m, D) n sets the
-  /// amplitude: its tangential part is a mean over the face's pixel, so it is divided by g's
-  /// mean over that pixel's span along n; its normal part follows continuity,
-  /// u_n ~ G(d) = integral of g from 0 to d (zero flux through the wall, ~ d^2 at it). Beyond
-  /// the match distance: the face velocity unchanged. Assumes the wall is locally straight
-  /// over ~d_m (pixel-edge walls are, except within d_m of a corner) and the depth is uniform
-  /// across the layer.
+  /// becomes as near, counting only walls that face the ray, i.e. whose direction to the ray point
+  /// is more than 96 degrees from n, so that a step or kink of the same wall is no slot while the
+  /// converging gap between two grains is; D = infinity if that is beyond d_m), and across it the
+  /// exact slot profile g(d) = 1 - cosh((D - d) / delta) / cosh(D / delta) holds (-> 1 - exp(-d /
+  /// delta) for D >> delta), with G(d) its integral from the wall. The layer is the curl of a stream
+  /// function (u h = curl psi, so div(h u) = 0 and no flux through the wall): psi of the faces'
+  /// fluxes h_f u_f at the cell corners (single-valued where the faces balance, as MicromodelFlow's
+  /// do), psi_l = psi_w + B G(d), psi_w the wall's value. B: in a slot the half-slot's flux, psi at
+  /// q + D n (Catmull-Rom of the corners) minus psi_w over G(D), so psi_l is the corners' psi on the
+  /// medial axis from both sides; at an open wall the flux through the strip of one spacing around
+  /// d_m, across the smoothed normal (the gradient of the nodes' distance transform, continuous where
+  /// q jumps at a concave corner or kink), over G's share of it, and over the outer half spacing
+  /// psi_l goes into the corners' bilinear psi (smoothstep in d). The velocity: the derivative along
+  /// q's normal analytically, the one along the wall by a central difference of psi (0.002
+  /// spacings either side; each point with its own nearest wall, D and B). Beyond d_m: the face velocity
+  /// unchanged (the curl of the bilinear psi where the depth is uniform). Assumes the depth uniform
+  /// across the layer's shape (the flux h u is conserved where it is not).
   brinkman,
 };
 
@@ -229,20 +237,43 @@ class GriddedFlow final : public FlowField {
   /// cell (i, j) nearer than s at an earlier point of the same ray, tried first ({-1, -1}: none),
   /// set to the cell that answered false; the answer is the same with any hint (a wall cell nearer
   /// than s <= the match distance lies in the searched block).
-  bool nearestWallIsAt(const Vec2& p, double s, std::pair<int, int>& hint) const;
+  /// `facing_cos` < 1: only walls that face the ray count, i.e. whose direction from their point
+  /// nearest p to p has a cosine below facing_cos with n (a slot's other side faces it; the same
+  /// wall turned by a step or a kink does not).
+  bool nearestWallIsAt(const Vec2& p, double s, std::pair<int, int>& hint, const Vec2& n = Vec2::Zero(), double facing_cos = 2.0) const;
   int nearestNode(double f, int n) const;
   /// GridWalls::cells, brinkman: fills m_wall_start and m_wall_cells from m_edge and m_reach.
   void indexWallCells();
+  /// GridWalls::brinkman: fills m_psi from the face velocities and depths.
+  void integrateStream();
   /// The face velocities interpolated in the cell of (x, y) (Pollock), nothing imposed at walls.
   Vec2 faceVelocity(double x, double y) const;
   /// GridWalls::brinkman: the velocity at wall distance d < match distance d_m (see there) at depth h.
   Vec2 layerVelocity(double x, double y, double d, const Vec2& q, double h, double d_m) const;
+  /// GridWalls::brinkman: the layer's stream function (of h u) at p, whose nearest wall point is q at
+  /// distance 0 < d < d_m, and its derivative along the wall normal (if asked).
+  double layerStream(const Vec2& p, double d, const Vec2& q, double h, double d_m, double* dpsi_dn) const;
+  /// The stream function at any fluid point p (the layer's within d_m of a wall, else the corners'
+  /// bilinear one); false in solid.
+  bool streamAt(const Vec2& p, double h, double d_m, double& psi) const;
+  /// The corners' stream function: Catmull-Rom (C1) and bilinear (its curl is the faces' Pollock
+  /// field of h u; `grad` its gradient).
+  double psiCubic(const Vec2& p) const;
+  double psiBilinear(const Vec2& p, Vec2* grad) const;
+  /// The unit gradient of the nodes' distance transform, Catmull-Rom interpolated (continuous
+  /// where the nearest wall point jumps); `fallback` where it vanishes.
+  Vec2 smoothNormal(const Vec2& p, const Vec2& fallback) const;
+  /// The stream function's value on the wall through q (its solid cells' corners).
+  double wallPsi(const Vec2& q, const Vec2& n) const;
   int m_nx, m_ny;
   double m_x0, m_y0, m_dx, m_dy;
   GridWalls m_walls;
   double m_resolved = 0;  ///< m, GridWalls::brinkman
   int m_reach = kExactCells;  ///< cells searched around a node for the exact wall distance
   std::vector<double> m_ux, m_uy, m_h, m_dist;
+  /// GridWalls::brinkman: the stream function of the face fluxes h_f u_f at the cell corners,
+  /// (nx + 1) x (ny + 1), corner (I, J) at (x0 + (I - 1/2) dx, y0 + (J - 1/2) dy).
+  std::vector<double> m_psi;
   std::vector<std::uint8_t> m_solid;
   std::vector<std::uint8_t> m_edge;  ///< GridWalls::cells, brinkman: solid nodes with a fluid 4-neighbour (only they can be nearest)
   std::vector<std::uint8_t> m_near;  ///< GridWalls::cells, brinkman: fluid nodes with a solid 8-neighbour (only their cells come within l of a wall)
