@@ -14,7 +14,8 @@
 // elsewhere); the tests allow 1e-7, still 10 times below the 6 digits written. Unit tier: masks of 120 x 60 pixels, under a second each. The
 // DISABLED_ benchmark replays a deposit sequence on the full Pore2Chip mask (minutes; run with
 // --gtest_also_run_disabled_tests; MMVAL_BENCH_STEPS re-solves, MMVAL_BENCH_ITS GMRES budget,
-// MMVAL_BENCH_CPP cells per pixel, MMVAL_BENCH_SAME_PATTERN aperture-only steps, MMVAL_BENCH_FIXED the
+// MMVAL_BENCH_CPP cells per pixel, MMVAL_BENCH_MASK another mask (grains dark) and MMVAL_BENCH_PIXEL_UM its
+// pixel size, MMVAL_BENCH_LOSS the pore columns lost per step (fraction, 5e-3), MMVAL_BENCH_SAME_PATTERN aperture-only steps, MMVAL_BENCH_FIXED the
 // clean chip's pattern kept (SolverOptions::fixed_pattern) by the warm solver, MMVAL_BENCH_WARM_ONLY
 // no direct solves, MMVAL_BENCH_SAVE / MMVAL_BENCH_REF a file the warm re-solves' k and velocities
 // are written to / compared with (another build's answers); measurements in
@@ -209,10 +210,13 @@ TEST(WarmResolve, FixedPatternFallsBackToANewSolverWhenRowsDoNotFitAndKeepsItsOw
 /// pore columns are lost (the full case's resolve_threshold until 2026-12-05), then a warm and a direct re-solve
 /// (MMVAL_BENCH_SAME_PATTERN: a uniformly thinner aperture instead, which keeps the matrix pattern).
 TEST(WarmResolve, DISABLED_BenchmarkPore2Chip) {
-  const PixelMask solid = simulate::analysePoreSpace(simulate::readMask(std::string(MMVAL_SHARED_DATA_DIR) + "/pore2chip/grain_network.png", true)).solid_connected;
+  const char* mask = std::getenv("MMVAL_BENCH_MASK");
+  const PixelMask solid =
+      simulate::analysePoreSpace(simulate::readMask(mask ? std::string(mask) : std::string(MMVAL_SHARED_DATA_DIR) + "/pore2chip/grain_network.png", true))
+          .solid_connected;
   MicromodelFlowOptions o = options(true);
   o.warm_max_iterations = std::getenv("MMVAL_BENCH_ITS") ? std::atoi(std::getenv("MMVAL_BENCH_ITS")) : 0;
-  o.pixel = 10e-6;
+  o.pixel = std::getenv("MMVAL_BENCH_PIXEL_UM") ? 1e-6 * std::atof(std::getenv("MMVAL_BENCH_PIXEL_UM")) : 10e-6;
   o.darcy_velocity = 4.17e-4;
   if (const char* cpp = std::getenv("MMVAL_BENCH_CPP")) o.cells_per_pixel = std::atof(cpp);
   o.fixed_pattern = std::getenv("MMVAL_BENCH_FIXED") != nullptr;  // the clean chip's pattern kept (numeric LU only while it fits)
@@ -232,7 +236,7 @@ TEST(WarmResolve, DISABLED_BenchmarkPore2Chip) {
   if (const char* path = std::getenv("MMVAL_BENCH_SAVE")) save.open(path, std::ios::binary);
   if (const char* path = std::getenv("MMVAL_BENCH_REF")) ref.open(path, std::ios::binary);
   for (int step = 0; step < (std::getenv("MMVAL_BENCH_STEPS") ? std::atoi(std::getenv("MMVAL_BENCH_STEPS")) : 12); ++step) {
-    const double target = d.lostColumns() + 5e-3 * pore;
+    const double target = d.lostColumns() + (std::getenv("MMVAL_BENCH_LOSS") ? std::atof(std::getenv("MMVAL_BENCH_LOSS")) : 5e-3) * pore;
     for (int n = 0; d.lostColumns() < target; ++n) {
       const int c = col(rng), r = row(rng);
       if (solid(r, c) || d.closed()(r, c)) continue;
