@@ -647,6 +647,21 @@ constexpr double kFacingCos = -0.10452846326765347;
 /// bisector (where q jumps) the difference and the normal derivative are taken in different
 /// frames over a band of twice the step: a disc's loop fluxes were 5-12 % at 0.025, 0.5-1.2 % at 0.002.
 constexpr double kCurlStep = 0.002;
+
+/// Catmull-Rom weights of the four nodes around fraction u in [0, 1] of an interval, and with `dw`
+/// their derivatives in u.
+void catmullRomWeights(double u, double w[4], double dw[4] = nullptr) {
+  const double u2 = u * u, u3 = u2 * u;
+  w[0] = 0.5 * (-u3 + 2 * u2 - u);
+  w[1] = 0.5 * (3 * u3 - 5 * u2 + 2);
+  w[2] = 0.5 * (-3 * u3 + 4 * u2 + u);
+  w[3] = 0.5 * (u3 - u2);
+  if (dw == nullptr) return;
+  dw[0] = 0.5 * (-3 * u2 + 4 * u - 1);
+  dw[1] = 0.5 * (9 * u2 - 10 * u);
+  dw[2] = 0.5 * (-9 * u2 + 8 * u + 1);
+  dw[3] = 0.5 * (3 * u2 - 2 * u);
+}
 }  // namespace
 
 double GriddedFlow::psiCubic(const Vec2& p) const {
@@ -655,16 +670,9 @@ double GriddedFlow::psiCubic(const Vec2& p) const {
   const double fy = std::clamp((p.y() - m_y0) / m_dy + 0.5, 0.0, static_cast<double>(m_ny));
   const int I = std::min(static_cast<int>(fx), m_nx - 1), J = std::min(static_cast<int>(fy), m_ny - 1);
   const double s = fx - I, t = fy - J;
-  const auto weights = [](double u, double w[4]) {
-    const double u2 = u * u, u3 = u2 * u;
-    w[0] = 0.5 * (-u3 + 2 * u2 - u);
-    w[1] = 0.5 * (3 * u3 - 5 * u2 + 2);
-    w[2] = 0.5 * (-3 * u3 + 4 * u2 + u);
-    w[3] = 0.5 * (u3 - u2);
-  };
   double wx[4], wy[4];
-  weights(s, wx);
-  weights(t, wy);
+  catmullRomWeights(s, wx);
+  catmullRomWeights(t, wy);
   const int cx = m_nx + 1;
   double sum = 0;
   for (int b = 0; b < 4; ++b) {
@@ -713,20 +721,9 @@ Vec2 GriddedFlow::smoothNormal(const Vec2& p, const Vec2& fallback) const {
   const double fx = std::clamp((p.x() - m_x0) / m_dx, 0.0, m_nx - 1.0), fy = std::clamp((p.y() - m_y0) / m_dy, 0.0, m_ny - 1.0);
   const int i = std::min(static_cast<int>(fx), m_nx - 2), j = std::min(static_cast<int>(fy), m_ny - 2);
   const double s = fx - i, t = fy - j;
-  const auto weights = [](double u, double w[4], double dw[4]) {
-    const double u2 = u * u, u3 = u2 * u;
-    w[0] = 0.5 * (-u3 + 2 * u2 - u);
-    w[1] = 0.5 * (3 * u3 - 5 * u2 + 2);
-    w[2] = 0.5 * (-3 * u3 + 4 * u2 + u);
-    w[3] = 0.5 * (u3 - u2);
-    dw[0] = 0.5 * (-3 * u2 + 4 * u - 1);
-    dw[1] = 0.5 * (9 * u2 - 10 * u);
-    dw[2] = 0.5 * (-9 * u2 + 8 * u + 1);
-    dw[3] = 0.5 * (3 * u2 - 2 * u);
-  };
   double wx[4], wy[4], dwx[4], dwy[4];
-  weights(s, wx, dwx);
-  weights(t, wy, dwy);
+  catmullRomWeights(s, wx, dwx);
+  catmullRomWeights(t, wy, dwy);
   const double cap = 1e3 * std::max(m_dx, m_dy);  // no wall at all: 1e300
   double gx = 0, gy = 0;
   for (int b = 0; b < 4; ++b) {
