@@ -64,6 +64,20 @@ constexpr double kCurlStep = 0.002;
 /// differ by more than this share of their sizes, plus this share of the flux along the wall.
 constexpr double kJumpShare = 0.5;
 constexpr double kJumpFloor = 0.1;
+/// Slots narrower than this many spacings (half-width) have their amplitude tapered (layerStream).
+constexpr double kThinSlot = 0.25;
+
+/// The derivative at the middle of three values e apart: the central difference, unless the two
+/// one-sided ones differ by more than kJumpShare of their sizes plus `floor` (a jump between two
+/// of the points: each takes its own nearest wall, slot and amplitude). Then the smallest of the
+/// three differences: the one-sided one on the side without the jump, or the central one when the
+/// middle value is the odd one out (both one-sided differences large and opposite).
+double jumpFreeDerivative(double minus, double mid, double plus, double e, double floor) {
+  const double fwd = (plus - mid) / e, bwd = (mid - minus) / e, central = (plus - minus) / (2 * e);
+  if (std::abs(fwd - bwd) <= kJumpShare * (std::abs(fwd) + std::abs(bwd)) + floor) return central;
+  const double one_sided = std::abs(fwd) < std::abs(bwd) ? fwd : bwd;
+  return std::abs(central) < std::abs(one_sided) ? central : one_sided;
+}
 
 /// Catmull-Rom weights of the four nodes around fraction u in [0, 1] of an interval, and with `dw`
 /// their derivatives in u.
@@ -171,7 +185,11 @@ double GriddedFlow::layerStream(const Vec2& p, double d, const Vec2& q, double h
       const double mid = 0.5 * (lo + hi);
       (qNearest(mid) ? lo : hi) = mid;
     }
-    D = std::max(lo, d);
+    // The switch below the point itself (beyond the bisection's accuracy) is not a slot the point
+    // is in: at a concave corner of one grain (or a smooth contour's kink) q's ray meets the other
+    // side at once, and a slot of half-width d made B g(d) = 2 (psi - psi_w) / d, unbounded at
+    // the wall. An open wall there.
+    if (lo >= d - 2e-3 * kCurlStep * spacing) D = std::max(lo, d);
   }
   const SlotProfile slot{h / std::sqrt(12.0), D};
   const double psi_w = wallPsi(q, n);
@@ -179,6 +197,11 @@ double GriddedFlow::layerStream(const Vec2& p, double d, const Vec2& q, double h
   if (std::isfinite(D)) {
     // Slot: the half-slot's flux, wall to medial axis.
     B = (psiCubic(q + D * n) - psi_w) / slot.G(D);
+    // A slot much narrower than a spacing (a concave corner's wedge, two contours all but
+    // touching) carries the interpolation's error of psi over G(D) ~ D^2 / (2 delta): tapered as
+    // (D / D0)^2 below D0 = kThinSlot spacings, B stays bounded and goes to zero with the slot.
+    const double D0 = kThinSlot * spacing;
+    if (D < D0) B *= (D / D0) * (D / D0);
   }
   double dB_dn = 0;
   if (!std::isfinite(D)) {
@@ -197,7 +220,9 @@ double GriddedFlow::layerStream(const Vec2& p, double d, const Vec2& q, double h
     B = amplitude(p, d);
     if (dpsi_dn) {
       const double e = kCurlStep * spacing;
-      dB_dn = (amplitude(p + e * n, d + e) - amplitude(p - e * n, d - e)) / (2 * e);
+      // The smoothed normal can turn to q's own (the 0.5 test above) between the two points: the
+      // same jump test as along the wall, on the scale of B's change over a spacing.
+      dB_dn = jumpFreeDerivative(amplitude(p - e * n, d - e), B, amplitude(p + e * n, d + e), e, kJumpFloor * std::abs(B) / spacing);
     }
   }
   const double psi_l = psi_w + B * slot.G(d);
@@ -246,9 +271,7 @@ Vec2 GriddedFlow::layerVelocity(double x, double y, double d, const Vec2& q, dou
     // fastest flow on the paper's strip (LayerSpikeTest). A smooth psi's one-sided differences
     // differ by e psi_tt, a small part of either; a jump makes them differ by jump / e. Then the
     // side without the jump, the smaller difference, is the flow on this side of it.
-    const double fwd = (plus - psi0) / e, bwd = (psi0 - minus) / e;
-    const bool jump = std::abs(fwd - bwd) > kJumpShare * (std::abs(fwd) + std::abs(bwd)) + kJumpFloor * std::abs(dpsi_dn);
-    dpsi_dt = !jump ? (plus - minus) / (2 * e) : std::abs(fwd) < std::abs(bwd) ? fwd : bwd;
+    dpsi_dt = jumpFreeDerivative(minus, psi0, plus, e, kJumpFloor * std::abs(dpsi_dn));
   } else if (has_plus) dpsi_dt = (plus - psi0) / e;
   else if (has_minus) dpsi_dt = (psi0 - minus) / e;
   return (dpsi_dn * t - dpsi_dt * n) / h;
