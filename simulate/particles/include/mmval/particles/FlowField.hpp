@@ -143,7 +143,9 @@ enum class GridWalls {
   /// q jumps at a concave corner or kink), over G's share of it, and over the outer half spacing
   /// psi_l goes into the corners' bilinear psi (smoothstep in d). The velocity: the derivative along
   /// q's normal analytically, the one along the wall by a central difference of psi (0.002
-  /// spacings either side; each point with its own nearest wall, D and B). Beyond d_m: the face velocity
+  /// spacings either side; each point with its own nearest wall, D and B), one-sided where psi
+  /// jumps between the points (FlowFieldLayer.cpp, jumpFreeDerivative); slots under a quarter
+  /// spacing have B tapered as (D / D0)^2. Beyond d_m: the face velocity
   /// unchanged (the curl of the bilinear psi where the depth is uniform). Assumes the depth uniform
   /// across the layer's shape (the flux h u is conserved where it is not).
   brinkman,
