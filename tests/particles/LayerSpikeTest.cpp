@@ -12,9 +12,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <memory>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "mmval/particles/FlowField.hpp"
@@ -35,7 +37,17 @@ double fastestBulk(const MicromodelFlow& f) {
 /// case's 0.5 cells per pixel (2 um per pixel, 20 um deep, 5 uL/min over 10 mm: Darcy velocity
 /// 4.17e-4 m/s).
 constexpr double kPixel = 2e-6;
-std::unique_ptr<MicromodelFlow> solvedCrop(int c0, int cols, bool smooth) {
+/// The crops solved so far, for all the tests of this file (LayerSpike::TearDownTestSuite drops
+/// them while the solver's libraries are still up).
+std::map<std::tuple<int, int, bool>, std::shared_ptr<const MicromodelFlow>>& solvedCrops() {
+  static std::map<std::tuple<int, int, bool>, std::shared_ptr<const MicromodelFlow>> crops;
+  return crops;
+}
+
+std::shared_ptr<const MicromodelFlow> solvedCrop(int c0, int cols, bool smooth) {
+  auto& solved = solvedCrops();
+  const auto key = std::make_tuple(c0, cols, smooth);
+  if (const auto it = solved.find(key); it != solved.end()) return it->second;
   static const auto full = simulate::readMask(std::string(MMVAL_SOURCE_DIR) + "/cases/data/paper-chip-strip.png", true);
   MicromodelFlowOptions o;
   o.pixel = kPixel;
@@ -43,23 +55,29 @@ std::unique_ptr<MicromodelFlow> solvedCrop(int c0, int cols, bool smooth) {
   o.cells_per_pixel = 0.5;
   o.darcy_velocity = 4.17e-4;
   o.smooth_walls = smooth;
-  auto f = std::make_unique<MicromodelFlow>(PixelMask(full.block(0, c0, full.rows(), cols)), o);
-  if (f->solve({}).blocked) return nullptr;
-  return f;
+  auto f = std::make_shared<MicromodelFlow>(PixelMask(full.block(0, c0, full.rows(), cols)), o);
+  if (f->solve({}).blocked) f.reset();
+  return solved[key] = f;
 }
+
+class LayerSpike : public ::testing::Test {
+ protected:
+  static void TearDownTestSuite() { solvedCrops().clear(); }
+};
 
 // Crops of the paper's strip (cases/data/paper-chip-strip.png, 2 um per pixel, 20 um deep; the
 // strip's own flow rate, 5 uL/min over 10 mm: Darcy velocity 4.17e-4 m/s), both wall kinds, the
 // case's 0.5 cells per pixel. 40,000 random points in the pore space of each crop: the layer's speed
 // against the fastest node velocity of the crop (the bulk's fastest flow). A Brinkman layer beside a
 // wall is slower than the flow beyond it (its profile g(d) <= 1 in a slot and on an open wall); the
-// bound, 8x, leaves room for what the layer does that is not yet right but is not a jump: the
-// blend into the bilinear psi over the outer half spacing (d 6.0-6.6 um of d_m 7.8) reaches 2-3x
-// (4-23 points of 40,000 over 2x). Measured with the central difference across jumps: 74-114x,
-// 14-24 points of 40,000 over 8x (the test fails); with the jump test: 2.3-3.2x, none over 8x.
+// bound, 8x, leaves room for what is not a jump: a narrow throat's flow beside a wide one's node.
+// Measured with the central difference across jumps: 74-114x, 14-24 points of 40,000 over 8x (the
+// test fails); with the jump test: 2.3-3.2x, none over 8x (the blend band into the bilinear psi
+// reached 2-3x); with the open wall's amplitude from psi's value (TheBlendBandIntoTheBulkIsSmooth):
+// 1.28-1.49x.
 constexpr double kBound = 8;
 
-TEST(LayerSpike, NoPointOfTheNearWallLayerOutrunsTheFlowOnTheStrip) {
+TEST_F(LayerSpike, NoPointOfTheNearWallLayerOutrunsTheFlowOnTheStrip) {
   const int cols = 400;
   for (const int c0 : {1000, 5200})
     for (const bool smooth : {false, true}) {
@@ -97,7 +115,7 @@ TEST(LayerSpike, NoPointOfTheNearWallLayerOutrunsTheFlowOnTheStrip) {
 // the thin-slot taper a point where q's ray met another part of the contour at once (a concave
 // kink) made a slot of half-width ~d, and B g(d) ~ 2 (psi - psi_w) / d: up to 17x (columns 1000)
 // and 8.7x (5200) the fastest node speed (the test fails); after it, 0.005-0.006.
-TEST(LayerSpike, TheLayerIsAtRestOnTheSmoothWall) {
+TEST_F(LayerSpike, TheLayerIsAtRestOnTheSmoothWall) {
   const int cols = 400;
   for (const int c0 : {1000, 5200}) {
     SCOPED_TRACE(::testing::Message() << "columns " << c0 << "+" << cols);
@@ -123,6 +141,52 @@ TEST(LayerSpike, TheLayerIsAtRestOnTheSmoothWall) {
     EXPECT_GE(at_wall, 100);
     EXPECT_LT(worst, 0.1 * bulk);
   }
+}
+
+
+// The blend band: over the outer half spacing of the layer (d_m - spacing / 2 < d < d_m, here
+// 5.8-6.8 um) the layer's stream function is blended into the corners' bilinear one. A Stokes
+// flow's velocity changes over 10 nm by ~(10 nm / 2 um) of itself; the test counts the band's
+// points whose velocity changes by more than 5 % of the mean pore speed (Darcy velocity over the
+// crop's porosity) within 10 nm along x or y (5,000 band points per crop), and prints the same
+// share in the layer inside the band (1-5 um from the wall: the pixel steps and the bilinear
+// psi's cell edges, 0.8-2.1 %). With the open wall's amplitude from psi's slope over the strip
+// around d_m, the layer's psi at d_m missed the bilinear one by the flux the slope left out, and
+// the band carried it: 26-33 % of its points (the test fails); with psi's value half a
+// spacing beyond d_m, 2.6-4.9 %. Bound 10 %.
+TEST_F(LayerSpike, TheBlendBandIntoTheBulkIsSmooth) {
+  const int cols = 400;
+  for (const int c0 : {1000, 5200})
+    for (const bool smooth : {false, true}) {
+      SCOPED_TRACE(::testing::Message() << "columns " << c0 << "+" << cols << ", " << (smooth ? "smooth" : "pixels"));
+      const auto f = solvedCrop(c0, cols, smooth);
+      ASSERT_TRUE(f);
+      const GriddedFlow& g = *f->field();
+      const double X = cols * kPixel, Y = static_cast<double>(f->grains().rows()) * kPixel;
+      const double d_m = g.matchDistance(20e-6), half = 0.5 * std::min(X / g.nx(), Y / g.ny());
+      const double porosity = 1.0 - f->grains().cast<double>().mean(), U = 4.17e-4 / porosity;
+      std::mt19937_64 rng(13);
+      std::uniform_real_distribution<double> ux(0, X), uy(0, Y);
+      int band = 0, band_jumps = 0, inner = 0, inner_jumps = 0;
+      while (band < 5000) {
+        const double x = ux(rng), y = uy(rng);
+        if (g.isSolid(x, y)) continue;
+        const double d = g.wallDistance(x, y);
+        const bool in_band = d > d_m - half && d < d_m, in_inner = d > 1e-6 && d < 5e-6;
+        if (!in_band && !(in_inner && inner < 5000)) continue;
+        const Vec2 u0 = g.meanVelocity(x, y);
+        double change = 0;
+        for (const Vec2& e : {Vec2(1e-8, 0), Vec2(0, 1e-8)})
+          if (!g.isSolid(x + e.x(), y + e.y())) change = std::max(change, (g.meanVelocity(x + e.x(), y + e.y()) - u0).norm());
+        const bool jump = change > 0.05 * U;
+        (in_band ? band : inner) += 1;
+        (in_band ? band_jumps : inner_jumps) += jump;
+      }
+      const double band_share = 100.0 * band_jumps / band, inner_share = 100.0 * inner_jumps / std::max(1, inner);
+      std::printf("%s columns %d: band %.2f-%.2f um, %.1f %% of %d points change by > 5 %% U in 10 nm; inner layer %.1f %% of %d\n",
+                  smooth ? "smooth" : "pixels", c0, (d_m - half) * 1e6, d_m * 1e6, band_share, band, inner_share, inner);
+      EXPECT_LE(band_share, 10.0);
+    }
 }
 
 }  // namespace

@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include "mmval/particles/FlowField.hpp"
 #include "mmval/particles/MicromodelFlow.hpp"
@@ -195,23 +197,27 @@ TEST(SubCellWall, InterceptionInANoSlipFlowFollowsTheStreamline) {
   }
 }
 
-TEST(SubCellWall, BrinkmanLayerAtAStraightWallIsTheAnalyticProfileAtEveryGrid) {
+TEST(SubCellWall, BrinkmanLayerAtAStraightWallConvergesToTheAnalyticProfile) {
   // A straight channel 120 um wide (rows 2-13 open) in a 20 um deep chip: the depth-averaged
   // Brinkman-Hele-Shaw flow is u(y) = U0 (1 - cosh((y - w/2) / delta) / cosh(w / (2 delta))),
   // delta = h / sqrt(12), its mean (the Darcy velocity times H / w, the flux the solve is scaled
   // to) U0 (1 - (2 delta / w) tanh(w / (2 delta))). The velocity particles feel at 2.5, 5 and
-  // 10 um from either wall must follow it at 10, 5 and 2.5 um fluid cells alike.
-  // Tolerance 6 %: the amplitude comes from the solved velocity one pixel beyond the wall's
-  // cell, which carries the solve's wall error: measured 4.6 / 1.3 / 0.45 % low at 0.5 / 1 / 2
-  // cells per pixel with the sharp solve (second order: the error falls 3.5 and 2.9 times per
-  // halving); the penalized solve it replaced gave 6.3 / 1.3 / 0.7 % (its walls first order) and
-  // needed 8 %. The profile's shape is exact by construction: the ratio of two distances within
-  // 1e-6 (round-off and the far wall's e^-20 tail). No flow into the walls: the transverse
-  // velocity is the solve's round-off (measured below 2e-14 U0; 1.5e-6 U0 while the outlet's
-  // face nodes read fluid beyond the image and let flow out through the walls, see
-  // MicromodelFlow's solverShape). The linear no-slip expansion (GridWalls::cells) gives
-  // 0.95-1.49 of the analytic value on the same grids.
-  constexpr double kAmplitude = 0.06, kShape = 1e-6;
+  // 10 um from either wall must follow it, converging with the fluid cell (20, 10, 5, 2.5 um).
+  // The layer's amplitude is the solve's flux between the wall and half a spacing beyond the
+  // match distance (psi's value there, over the profile's integral G), so it carries the solve's error
+  // in the flux beside the wall, where delta (5.8 um) is not resolved on the coarse grids:
+  // measured +6.6 / +7.1 / +2.4 / +0.7 % at 0.5 / 1 / 2 / 4 cells per pixel. Bounds: 8 % on the
+  // two coarse grids, 3 % and 1 % on the fine ones, and the error falls from 1 to 2 to 4 cells per
+  // pixel. (The slope of psi over the strip around the match distance gave -4.6 / -1.3 / -0.45 %
+  // on the first three, but the flux it left out of the layer re-entered in the blend band beyond
+  // it: a ribbon whose velocity changed by over 5 % of the mean flow within 10 nm at 10-18 % of
+  // the band's points on the paper's strip, 2-3 % with the value; LayerSpikeTest.) The profile's
+  // shape is exact by construction: the ratio of two distances within 1e-6 (round-off and the far
+  // wall's e^-20 tail). No flow into the walls: the transverse velocity is the solve's round-off
+  // (measured below 2e-14 U0; 1.5e-6 U0 while the outlet's face nodes read fluid beyond the image
+  // and let flow out through the walls, see MicromodelFlow's solverShape). The linear no-slip
+  // expansion (GridWalls::cells) gives 0.95-1.49 of the analytic value on the same grids.
+  constexpr double kShape = 1e-6;
   const int rows = 16, cols = 24, wall = 2;
   PixelMask m = PixelMask::Constant(rows, cols, false);
   m.topRows(wall) = true;
@@ -219,20 +225,27 @@ TEST(SubCellWall, BrinkmanLayerAtAStraightWallIsTheAnalyticProfileAtEveryGrid) {
   const double depth = 20e-6, delta = depth / std::sqrt(12.0), w = (rows - 2 * wall) * kPixel, darcy = 1e-3;
   const double U0 = darcy * rows * kPixel / w / (1 - 2 * delta / w * std::tanh(w / (2 * delta)));
   const auto exact = [&](double d) { return U0 * (1 - std::cosh((d - w / 2) / delta) / std::cosh(w / (2 * delta))); };
-  for (const double cpp : {0.5, 1.0, 2.0}) {
+  const std::vector<std::pair<double, double>> grids = {{0.5, 0.08}, {1.0, 0.08}, {2.0, 0.03}, {4.0, 0.01}};
+  std::vector<double> worst;
+  for (const auto& [cpp, bound] : grids) {
     const MicromodelFlow f = solved(m, cpp, darcy);
     const auto& g = *f.field();
     const double x = 12.3 * kPixel, y_low = wall * kPixel, y_high = (rows - wall) * kPixel;
+    double err = 0;
     for (const double d : {2.5e-6, 5e-6, 10e-6}) {
       for (const double y : {y_low + d, y_high - d}) {
         const Vec2 u = g.meanVelocity(x, y);
-        EXPECT_NEAR(u.x() / exact(d), 1.0, kAmplitude) << "cpp " << cpp << ", d " << d * 1e6 << " um, y " << y * 1e6 << " um";
+        EXPECT_NEAR(u.x() / exact(d), 1.0, bound) << "cpp " << cpp << ", d " << d * 1e6 << " um, y " << y * 1e6 << " um";
+        err = std::max(err, std::abs(u.x() / exact(d) - 1.0));
         EXPECT_LE(std::abs(u.y()), 1e-9 * U0) << "cpp " << cpp;  // no flow into a straight wall
       }
       const double ratio = g.meanVelocity(x, y_low + d).x() / g.meanVelocity(x, y_low + 10e-6).x();
       EXPECT_NEAR(ratio, exact(d) / exact(10e-6), kShape) << "cpp " << cpp << ", d " << d * 1e6 << " um";
     }
+    worst.push_back(err);
   }
+  EXPECT_LT(worst[2], worst[1]);
+  EXPECT_LT(worst[3], worst[2]);
 }
 
 TEST(SubCellWall, DiscGrainDistanceIsToTheBoundaryTheSolverUses) {
