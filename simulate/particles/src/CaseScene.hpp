@@ -13,8 +13,11 @@ namespace mmval::particles {
 /// Declares physics.gravity, physics.brownian, physics.wall_hindrance,
 /// physics.faxen_curvature and the deposition.* keys read below.
 void declarePhysicsAndDeposition(Schema& s, double hamaker_default);
-/// numerics.threads (OverdampedEngine's per-particle loops), for every kind that runs the overdamped engine.
-void declareEngineThreads(Schema& s);
+/// numerics.threads (OverdampedEngine's per-particle loops) and numerics.substeps (its per-particle
+/// steps), for every kind that runs the overdamped engine.
+void declareEngineNumerics(Schema& s);
+/// Those two keys into `s`; InputError naming numerics.substeps when it is not a power of 2.
+void engineNumericsFromCase(const Case& c, SceneConfig& s);
 
 /// [physics] (Brownian motion from the engine choice when "auto", wall
 /// hindrance, Faxen curvature) and [deposition] (capture distance, sticky

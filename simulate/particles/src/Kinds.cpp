@@ -52,7 +52,7 @@ void declareChannel(Schema& s) {
   s.quantity("run.output_interval", "s", "Output (frame) interval").def("0.05 s").positive();
   s.integer("run.seed", "Random seed (Brownian motion, injection)").def(1).min(0);
   s.real("numerics.max_step_fraction", "Overdamped engine: largest displacement per step, in radii").def(0.1).min(1e-4).max(1);
-  declareEngineThreads(s);
+  declareEngineNumerics(s);
   s.real("numerics.rayleigh_fraction", "LIGGGHTS engine: DEM step as a fraction of the Rayleigh time").def(0.1).min(1e-3).max(0.3);
   s.quantity("output.pixel_size", "um", "Pixel size for the pixel columns of trajectories.csv (0: none)").def(0.0).nonNegative();
 }
@@ -73,7 +73,7 @@ SceneConfig sceneFromCase(const Case& c, const EngineChoice& choice, const std::
   physicsAndDepositionFromCase(c, choice, s);
   s.seed = static_cast<std::uint64_t>(c.integer("run.seed"));
   s.max_step_fraction = c.real("numerics.max_step_fraction");
-  s.threads = static_cast<int>(c.integer("numerics.threads"));
+  engineNumericsFromCase(c, s);
   s.rayleigh_fraction = c.real("numerics.rayleigh_fraction");
   s.work_dir = work_dir;
   return s;
@@ -312,13 +312,29 @@ DlvoParameters chemistryFromCase(const Case& c, const char* temperature_key) {
   return p;
 }
 
-void declareEngineThreads(Schema& s) {
+void declareEngineNumerics(Schema& s) {
   s.integer("numerics.threads",
             "Overdamped engine: threads of a step's per-particle loops (drift, move and wall step), the results bit for bit one "
             "thread's; 0: auto (the hardware's cores, 2 to 8). Default 1, so that the runs of mmval sweep --jobs N do not share cores")
       .def(1)
       .min(0)
       .max(OverdampedEngine::kMaxThreads);
+  s.integer("numerics.substeps",
+            "Overdamped engine: the most steps of its own a particle takes within one engine step, a power of 2. 1: every particle "
+            "takes the step the fastest one allows; K: the engine's step is up to K times that, and a particle whose own limit "
+            "(numerics.max_step_fraction radii of travel) is shorter takes up to K steps within it, stopping early at a grain "
+            "or where it meets another particle (docs/validation/particle-physics.md, \"Per-particle steps\")")
+      .def(1)
+      .min(1)
+      .max(64);
+}
+
+void engineNumericsFromCase(const Case& c, SceneConfig& s) {
+  s.threads = static_cast<int>(c.integer("numerics.threads"));
+  const auto k = c.integer("numerics.substeps");
+  if ((k & (k - 1)) != 0)
+    throw InputError(c.where("numerics.substeps"), fmt::format("expected a power of 2 (1, 2, 4, ... 64), got {}", k));
+  s.substeps = static_cast<int>(k);
 }
 
 void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {

@@ -129,7 +129,7 @@ void declareMicromodel(Schema& s) {
            "pattern is ordered and analysed anew, bit for bit a new solver's")
       .def("fixed");
   s.real("numerics.max_step_fraction", "Largest particle displacement per step, in radii").def(0.5).min(1e-4).max(1);
-  declareEngineThreads(s);
+  declareEngineNumerics(s);
   s.quantity("engines.compare_window", "s",
              "Before the run: the overdamped engine against LIGGGHTS (Hertz contacts, grains as an STL mesh wall) on a shared window of "
              "this scene's flow, from the same particles spread over the pore space, without Brownian motion; 0: no comparison")

@@ -145,7 +145,7 @@ SceneConfig readScene(const Case& c, const EngineChoice& choice, const SceneGeom
   scene.outlet_x = geo.width;
   scene.mirror_sides = mirrorSides(c);
   scene.max_step_fraction = c.real("numerics.max_step_fraction");
-  scene.threads = static_cast<int>(c.integer("numerics.threads"));
+  engineNumericsFromCase(c, scene);
   return scene;
 }
 

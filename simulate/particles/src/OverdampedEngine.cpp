@@ -278,6 +278,8 @@ OverdampedEngine::OverdampedEngine(std::shared_ptr<const FlowField> flow, SceneC
   if (m_cfg.threads < 0 || m_cfg.threads > kMaxThreads)
     throw InputError(keyLocation("numerics.threads"), "not a thread count", std::to_string(m_cfg.threads),
                      fmt::format("1 to {}, or 0 (auto: the hardware's cores, 2 to 8)", kMaxThreads));
+  if (m_cfg.substeps < 1 || m_cfg.substeps > 64 || (m_cfg.substeps & (m_cfg.substeps - 1)) != 0)
+    throw InputError(keyLocation("numerics.substeps"), "not a substep count", std::to_string(m_cfg.substeps), "a power of 2 from 1 to 64");
   m_threads = m_cfg.threads > 0 ? m_cfg.threads : static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 2u, 8u));
   auto first = std::make_unique<Worker>();
   first->flow = m_flow.get();
@@ -411,26 +413,59 @@ void OverdampedEngine::insert(const std::vector<Vec3>& positions) {
   m_particles = std::move(trial);
 }
 
-double OverdampedEngine::chooseStep(const std::vector<Vec3>& drift) const {
+double OverdampedEngine::ownStep(std::size_t k, const Vec3& v) const {
   const double lim = m_cfg.max_step_fraction * m_radius;
   // Approaching a plate the mobility changes over the gap, not the radius: the
   // drift across the depth may cover only the same fraction of the gap (floored
   // at the capture distance, or 1 % of a radius), else explicit steps overshoot.
   const double floor = std::max(m_cfg.attachment.capture_distance, 0.01 * m_radius);
   double dt = m_cfg.max_dt;
-  for (std::size_t k = 0; k < m_mobile.size(); ++k) {
-    const double v = drift[k].norm();
-    if (v > 0) dt = std::min(dt, lim / v);
+  const double speed = v.norm();
+  if (speed > 0) dt = std::min(dt, lim / speed);
+  const double vz = std::abs(v.z());
+  if (vz > 0) {
     const auto& x = m_particles[m_mobile[k]].x;
-    const double vz = std::abs(drift[k].z());
-    if (vz > 0) {
-      const double h = m_flow->depth(x.x(), x.y());
-      const double gap = drift[k].z() < 0 ? x.z() - m_radius : h - x.z() - m_radius;
-      dt = std::min(dt, m_cfg.max_step_fraction * std::max(gap, floor) / vz);
-    }
+    const double h = m_flow->depth(x.x(), x.y());
+    const double gap = v.z() < 0 ? x.z() - m_radius : h - x.z() - m_radius;
+    dt = std::min(dt, m_cfg.max_step_fraction * std::max(gap, floor) / vz);
   }
   if (m_cfg.brownian) dt = std::min(dt, lim * lim / (2.0 * m_model.diffusivity()));
   return dt;
+}
+
+double OverdampedEngine::chooseStep(const std::vector<Vec3>& drift) const {
+  double dt = m_cfg.max_dt;
+  for (std::size_t k = 0; k < m_mobile.size(); ++k) dt = std::min(dt, ownStep(k, drift[k]));
+  return dt;
+}
+
+bool OverdampedEngine::meetsNeighbour(const ParticleState& p, std::size_t k, const Vec3& from, double tau_from, double tau,
+                                      const std::vector<Vec3>& drift) const {
+  // Nearer than a diameter (the contact sweeps' tolerance) and nearer than at the substep's start:
+  // particles that start in contact and move apart, or side by side, go on.
+  const double dmin = 2 * m_radius * (1 - 1e-3);
+  const auto meets = [&](const Vec3& y, const Vec3& y_before) {
+    const double now = (p.x - y).norm();
+    return now < dmin && now < (from - y_before).norm();
+  };
+  const auto deposit = [&](int j) { return meets(m_particles[j].x, m_particles[j].x); };
+  if (anyDepositNear(p.x, 2 * m_radius, deposit)) return true;
+  const double cs = 4 * m_radius;
+  const auto ix = static_cast<std::int64_t>(std::floor(p.x.x() / cs)), iy = static_cast<std::int64_t>(std::floor(p.x.y() / cs));
+  for (auto cx = ix - 1; cx <= ix + 1; ++cx)
+    for (auto cy = iy - 1; cy <= iy + 1; ++cy) {
+      const std::int64_t key = columnKey(cx, cy);
+      auto it = std::lower_bound(m_snapshot_cells.begin(), m_snapshot_cells.end(), std::make_pair(key, -1));
+      for (; it != m_snapshot_cells.end() && it->first == key; ++it) {
+        const auto j = static_cast<std::size_t>(it->second);
+        if (j == k) continue;
+        // Along its drift, unless the walls or deposits hold it (its straining clock runs): there.
+        const Vec3 v = std::isnan(m_particles[m_mobile[j]].pinned_since) ? drift[j] : Vec3::Zero();
+        const Vec3 y = m_snapshot[j] + v * tau, y_before = m_snapshot[j] + v * tau_from;
+        if (meets(y, y_before)) return true;
+      }
+    }
+  return false;
 }
 
 void OverdampedEngine::indexDeposited(int i) {
@@ -479,33 +514,79 @@ void OverdampedEngine::advance(double t_end) {
     });
     const auto mobile = static_cast<std::int64_t>(m_mobile.size());
     double dt = mobile ? chooseStep(drift) : t_end - m_t;
+    // Substeps: the engine's step up to K times the fastest particle's; each particle takes as many
+    // steps of its own within it as its own limit asks (a power of 2 up to K).
+    const int K = std::max(1, m_cfg.substeps);
+    if (mobile && K > 1) dt = std::min(K * dt, m_cfg.max_dt);
     dt = std::min(dt, t_end - m_t);
     if (mobile) {
       const auto& c = m_cfg;
       m_touch.assign(m_particles.size(), 0);
       m_clamp.assign(m_particles.size(), 0);
-      // The step's normal draws first, in mobile order (one thread's order), then the moves and
-      // wall steps, which are independent per particle (each writes its own particle and touch bits).
+      m_substeps.assign(m_mobile.size(), 1);
+      bool any_substeps = false;
+      if (K > 1)
+        for (std::size_t k = 0; k < m_mobile.size(); ++k) {
+          const double own = ownStep(k, drift[k]);
+          while (m_substeps[k] < K && own * m_substeps[k] < dt * (1 - 1e-12)) m_substeps[k] *= 2;
+          any_substeps = any_substeps || m_substeps[k] > 1;
+        }
+      if (any_substeps) {
+        // The places before the step, indexed by contact column, for meetsNeighbour.
+        m_snapshot.resize(m_mobile.size());
+        m_snapshot_cells.resize(m_mobile.size());
+        for (std::size_t k = 0; k < m_mobile.size(); ++k) {
+          m_snapshot[k] = m_particles[m_mobile[k]].x;
+          m_snapshot_cells[k] = {cellKey(m_snapshot[k]), static_cast<int>(k)};
+        }
+        std::sort(m_snapshot_cells.begin(), m_snapshot_cells.end());
+      }
+      // The step's normal draws first, in mobile order (one thread's order), 3 per substep, then the
+      // moves and wall steps, which are independent per particle (each writes its own particle and
+      // touch bits).
       if (c.brownian) {
-        m_draws.resize(3 * m_mobile.size());
+        m_draw_offset.resize(m_mobile.size());
+        std::size_t n = 0;
+        for (std::size_t k = 0; k < m_mobile.size(); ++k) {
+          m_draw_offset[k] = n;
+          n += 3 * static_cast<std::size_t>(m_substeps[k]);
+        }
+        m_draws.resize(n);
         for (double& r : m_draws) r = m_rng->normal();
       }
       forEachMobile(m_mobile.size(), [&](std::size_t k, Worker& w) {
         auto& p = m_particles[m_mobile[k]];
-        const Vec3 before = p.x;
-        Vec3 dx = drift[k] * dt;
-        if (c.brownian) {
-          const auto [par, perp] = hindrance[k];  // at p.x: the drift's point, not moved since
-          const double sp = std::sqrt(2.0 * m_model.diffusivity() * dt / par), sz = std::sqrt(2.0 * m_model.diffusivity() * dt / perp);
-          // z, y, x from the particle's three draws: the order GCC evaluated the three draws of the
-          // single-threaded step (Vec3(sp * normal(), sp * normal(), sz * normal()), its arguments
-          // right to left), so runs keep the random paths of the binaries before threads.
-          dx += Vec3(sp * m_draws[3 * k + 2], sp * m_draws[3 * k + 1], sz * m_draws[3 * k]);
+        const int i = m_mobile[k], n = m_substeps[k];
+        const double h = dt / n;
+        Vec3 v = drift[k];
+        std::pair<double, double> hind = hindrance[k];  // at p.x: the drift's point, not moved since
+        std::uint8_t touched = 0;
+        int taken = 0;
+        while (taken < n) {
+          if (taken > 0) v = driftAndHindrance(*w.flow, *w.model, m_cfg, m_radius, p.x, hind);
+          const Vec3 before = p.x;
+          Vec3 dx = v * h;
+          if (c.brownian) {
+            const auto [par, perp] = hind;
+            const double sp = std::sqrt(2.0 * m_model.diffusivity() * h / par), sz = std::sqrt(2.0 * m_model.diffusivity() * h / perp);
+            // z, y, x from the substep's three draws: the order GCC evaluated the three draws of the
+            // single-threaded step (Vec3(sp * normal(), sp * normal(), sz * normal()), its arguments
+            // right to left), so runs keep the random paths of the binaries before threads.
+            const double* r = &m_draws[m_draw_offset[k] + 3 * static_cast<std::size_t>(taken)];
+            dx += Vec3(sp * r[2], sp * r[1], sz * r[0]);
+          }
+          p.x += dx;
+          p.v = v;
+          touched |= applyWalls(p, before, *w.flow, w.normals);
+          ++taken;
+          // The rest of the step waits for the contact sweeps where the particle met a grain, was held
+          // by the walls or left, or came to a deposit or another particle (no substep passes through
+          // one); on the plates it goes on (a particle on the bottom plate touches it every substep).
+          if (taken == n || p.status != ParticleStatus::mobile || (touched & (kGrain | kPinned)) != 0) break;
+          if (meetsNeighbour(p, k, before, (taken - 1) * h, taken * h, drift)) break;
         }
-        p.x += dx;
-        p.v = drift[k];
-        const int i = m_mobile[k];
-        m_touch[i] = applyWalls(p, before, *w.flow, w.normals);
+        m_substeps[k] = taken;
+        m_touch[i] = touched;
         // Where the plates' clamp of the contact sweeps would move a particle no push moves (the
         // depth there below a diameter), it is marked for it; every other one it leaves as it is.
         if (p.status != ParticleStatus::left) {
@@ -549,7 +630,7 @@ void OverdampedEngine::advance(double t_end) {
         fresh.push_back(i);
       }
       compactMobile(m_t + dt);
-      m_stats.particle_steps += mobile;
+      for (const int n : m_substeps) m_stats.particle_steps += n;
       ++m_stats.steps;
       m_stats.last_dt = dt;
       m_stats.min_dt = std::min(m_stats.min_dt, dt);

@@ -64,6 +64,17 @@
 // deposits, attachment and straining clock are again independent of the others' (they read the
 // flow, the particle and deposits of earlier steps) and run on the threads; only the check that a
 // new deposit does not overlap one made earlier in the same step goes in mobile order on one thread.
+// Substeps (SceneConfig::substeps = K > 1): the step one particle's limit sets for all (the fastest,
+// in a throat, ~10x the median's speed on the paper's strip) is most particles' waste. The engine's
+// step is then up to K times the fastest one's, and each particle takes the power of 2 (up to K) of
+// steps of its own within it that its own limit asks (ownStep): drift again at each substep's
+// start, Brownian draws 3 per substep (taken first, in mobile order), the wall step after each. A
+// particle stops short of the step's end where it met a grain or was held by the walls (the step's
+// attachment and straining then see it where it touched), or where it came nearer than a diameter
+// to a deposit or to the place another mobile particle is predicted at (its place before the step
+// plus its drift times the time; a held particle's place stays): no substep passes through another
+// particle; the contact sweeps, attachment and straining then run once per engine step, as before.
+// K = 1 is the single step for all, bit for bit.
 // Not modelled: the wall correction of the lag for the parabola's curvature (the
 // lag is that of the wall's linear shear), in-plane hindrance by grains,
 // hydrodynamic interactions between particles, re-entrainment.
@@ -217,6 +228,15 @@ class OverdampedEngine final : public ParticleEngine {
   /// Uniform [0, 1) draw of a particle's n-th plate arrival (plate attachment efficiency).
   double arrivalDraw(std::int64_t id, std::uint32_t arrival) const;
   double chooseStep(const std::vector<Vec3>& drift) const;  ///< drift indexed like m_mobile
+  /// The step mobile particle k (its place in m_mobile) may take at drift v: max_step_fraction
+  /// radii of travel, of the gap to the plate it approaches, and of Brownian rms, and max_dt.
+  double ownStep(std::size_t k, const Vec3& v) const;
+  /// Substeps: mobile particle k, moved from `from` to p.x in the substep from tau_from to tau
+  /// into the engine's step, came nearer than a diameter to a deposit or to another mobile
+  /// particle's place predicted then (its place before the step, m_snapshot, plus its drift times
+  /// the time; a particle whose straining clock runs, held by walls or deposits, stays there),
+  /// and nearer than at the substep's start.
+  bool meetsNeighbour(const ParticleState& p, std::size_t k, const Vec3& from, double tau_from, double tau, const std::vector<Vec3>& drift) const;
   std::int64_t cellKey(const Vec3& x) const;
   /// The key of contact column (ix, iy) (cellKey's columns).
   static std::int64_t columnKey(std::int64_t ix, std::int64_t iy) { return (ix * 73856093) ^ (iy * 19349663); }
@@ -275,7 +295,13 @@ class OverdampedEngine final : public ParticleEngine {
   int m_threads = 1;
   std::vector<std::unique_ptr<Worker>> m_workers;  ///< one per thread; [0]: the calling thread's (m_flow, m_model)
   std::unique_ptr<Pool> m_pool;                    ///< threads 1.. of the loops (none with one thread)
-  std::vector<double> m_draws;                     ///< a step's normal draws, 3 per mobile particle in mobile order
+  std::vector<double> m_draws;                     ///< a step's normal draws, 3 per substep of each mobile particle in mobile order
+  std::vector<int> m_substeps;                     ///< a step's substeps per mobile particle (taken, after the moves)
+  std::vector<std::size_t> m_draw_offset;          ///< a step's first draw of each mobile particle
+  /// Substeps: the mobile particles' places before the step, and (contact column, place in m_mobile)
+  /// pairs sorted, for meetsNeighbour.
+  std::vector<Vec3> m_snapshot;
+  std::vector<std::pair<std::int64_t, int>> m_snapshot_cells;
 };
 
 }  // namespace mmval::particles

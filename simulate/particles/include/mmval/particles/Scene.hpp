@@ -154,6 +154,11 @@ struct SceneConfig {
   /// (the hardware's cores, 2 to 8). The results are bit for bit those of one thread.
   int threads = 1;
   double max_dt = std::numeric_limits<double>::infinity();  ///< s
+  /// Overdamped engine: the most steps of its own a particle takes within one engine step
+  /// (numerics.substeps, a power of 2). 1: every particle takes the engine's step, set by the
+  /// fastest; K > 1: the engine's step is up to K times that, and a particle whose own limit is
+  /// shorter takes up to K steps of its own within it (OverdampedEngine, "Substeps").
+  int substeps = 1;
   /// LIGGGHTS engine: DEM step as a fraction of the Rayleigh time (<= 0.2 usual).
   double rayleigh_fraction = 0.1;
   /// LIGGGHTS engine: sjkr cohesion energy density, J/m3 (0: off).
