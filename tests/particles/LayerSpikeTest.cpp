@@ -60,6 +60,20 @@ std::shared_ptr<const MicromodelFlow> solvedCrop(int c0, int cols, bool smooth) 
   return solved[key] = f;
 }
 
+/// Runs body(flow, field, width, height, first column, smooth) on the four crops of the tests:
+/// 400 columns from 1000 and from 5200, pixel and smooth walls.
+template <class Body>
+void onEachCrop(Body&& body) {
+  const int cols = 400;
+  for (const int c0 : {1000, 5200})
+    for (const bool smooth : {false, true}) {
+      SCOPED_TRACE(::testing::Message() << "columns " << c0 << "+" << cols << ", " << (smooth ? "smooth" : "pixels"));
+      const auto f = solvedCrop(c0, cols, smooth);
+      ASSERT_TRUE(f);
+      body(*f, *f->field(), cols * kPixel, static_cast<double>(f->grains().rows()) * kPixel, c0, smooth);
+    }
+}
+
 class LayerSpike : public ::testing::Test {
  protected:
   static void TearDownTestSuite() { solvedCrops().clear(); }
@@ -78,15 +92,8 @@ class LayerSpike : public ::testing::Test {
 constexpr double kBound = 8;
 
 TEST_F(LayerSpike, NoPointOfTheNearWallLayerOutrunsTheFlowOnTheStrip) {
-  const int cols = 400;
-  for (const int c0 : {1000, 5200})
-    for (const bool smooth : {false, true}) {
-      SCOPED_TRACE(::testing::Message() << "columns " << c0 << "+" << cols << ", " << (smooth ? "smooth" : "pixels"));
-      const auto f = solvedCrop(c0, cols, smooth);
-      ASSERT_TRUE(f);
-      const GriddedFlow& g = *f->field();
-      const double X = cols * kPixel, Y = static_cast<double>(f->grains().rows()) * kPixel;
-      const double bulk = fastestBulk(*f);
+  onEachCrop([](const MicromodelFlow& f, const GriddedFlow& g, double X, double Y, int c0, bool smooth) {
+      const double bulk = fastestBulk(f);
       std::mt19937_64 rng(7);
       std::uniform_real_distribution<double> ux(0, X), uy(0, Y);
       int n = 0, over = 0;
@@ -106,7 +113,7 @@ TEST_F(LayerSpike, NoPointOfTheNearWallLayerOutrunsTheFlowOnTheStrip) {
       std::printf("%s columns %d: fastest node %.3g m/s, fastest layer point %.3g m/s (%.3g x) at %.2f, %.2f px; %d of %d over the bound\n",
                   smooth ? "smooth" : "pixels", c0, bulk, worst, worst / bulk, worst_at.x() / kPixel, worst_at.y() / kPixel, over, n);
       EXPECT_EQ(over, 0);
-    }
+  });
 }
 
 // No slip on the smooth walls: within 10 nm of the contour the layer moves at ~d / delta of the
@@ -155,16 +162,9 @@ TEST_F(LayerSpike, TheLayerIsAtRestOnTheSmoothWall) {
 // the band carried it: 26-33 % of its points (the test fails); with psi's value half a
 // spacing beyond d_m, 2.6-4.9 %. Bound 10 %.
 TEST_F(LayerSpike, TheBlendBandIntoTheBulkIsSmooth) {
-  const int cols = 400;
-  for (const int c0 : {1000, 5200})
-    for (const bool smooth : {false, true}) {
-      SCOPED_TRACE(::testing::Message() << "columns " << c0 << "+" << cols << ", " << (smooth ? "smooth" : "pixels"));
-      const auto f = solvedCrop(c0, cols, smooth);
-      ASSERT_TRUE(f);
-      const GriddedFlow& g = *f->field();
-      const double X = cols * kPixel, Y = static_cast<double>(f->grains().rows()) * kPixel;
+  onEachCrop([](const MicromodelFlow& f, const GriddedFlow& g, double X, double Y, int c0, bool smooth) {
       const double d_m = g.matchDistance(20e-6), half = 0.5 * std::min(X / g.nx(), Y / g.ny());
-      const double porosity = 1.0 - f->grains().cast<double>().mean(), U = 4.17e-4 / porosity;
+      const double porosity = 1.0 - f.grains().cast<double>().mean(), U = 4.17e-4 / porosity;
       std::mt19937_64 rng(13);
       std::uniform_real_distribution<double> ux(0, X), uy(0, Y);
       int band = 0, band_jumps = 0, inner = 0, inner_jumps = 0;
@@ -186,7 +186,7 @@ TEST_F(LayerSpike, TheBlendBandIntoTheBulkIsSmooth) {
       std::printf("%s columns %d: band %.2f-%.2f um, %.1f %% of %d points change by > 5 %% U in 10 nm; inner layer %.1f %% of %d\n",
                   smooth ? "smooth" : "pixels", c0, (d_m - half) * 1e6, d_m * 1e6, band_share, band, inner_share, inner);
       EXPECT_LE(band_share, 10.0);
-    }
+  });
 }
 
 }  // namespace
