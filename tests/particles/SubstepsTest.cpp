@@ -36,6 +36,22 @@ class StreakFlow final : public FlowField {
   double m_u0, m_s, m_slow;
 };
 
+/// Plane flow (U, -U / 10) onto a flat grain wall at y = 0 (solid below).
+class OntoWall final : public FlowField {
+ public:
+  explicit OntoWall(double u) : m_u(u) {}
+  Vec2 meanVelocity(double, double y) const override { return y < 0 ? Vec2(0, 0) : Vec2(m_u, -0.1 * m_u); }
+  double depth(double, double) const override { return kDepth; }
+  bool isSolid(double, double y) const override { return y < 0; }
+  double wallDistance(double, double y) const override { return std::max(0.0, y); }
+  Vec2 wallNormal(double, double) const override { return {0, 1}; }
+  std::uint64_t version() const override { return 1; }
+  Bounds2 bounds() const override { return {0, 10e-3, -1e-3, 1e-3}; }
+
+ private:
+  double m_u;
+};
+
 SceneConfig plane(int substeps) {
   SceneConfig c;
   c.particle.diameter = kDiameter;
@@ -112,6 +128,31 @@ TEST(Substeps, NoParticlePassesThroughAnother) {
   train.advance(0.1);
   EXPECT_EQ(train.stats().particle_steps, 2 * 8 * train.stats().steps);
   EXPECT_NEAR(train.particles()[0].x.x(), x0 + 1e-4, 1e-15);
+}
+
+// A particle pressed onto a grain wall slides along it: with 8 substeps it takes all 8 in every
+// engine step and goes as far as with one step for all, U t (the wall step is exact on a flat
+// wall). A particle that comes to the wall in a step stops there for the rest of it (an arrival
+// the step's attachment sees where it touched); one already at the wall does not, else every
+// particle sliding along a grain would move 8x slower (measured with the first rule, which
+// stopped at every grain contact: the travel was 1/8 of U t, the test fails).
+TEST(Substeps, AParticleSlidesAlongAGrainWallThroughItsSubsteps) {
+  auto flow = std::make_shared<OntoWall>(1e-3);
+  SceneConfig c = plane(8);
+  c.attachment.grains = false;
+  double travel[2] = {0, 0};
+  for (const int K : {1, 8}) {
+    c.substeps = K;
+    OverdampedEngine e(flow, c);
+    e.insert({Vec3(1e-3, kA, 0.5 * kDepth)});
+    e.advance(0.1);
+    ASSERT_EQ(e.particles()[0].status, ParticleStatus::mobile);
+    EXPECT_NEAR(e.particles()[0].x.y(), kA, 1e-3 * kA);
+    travel[K == 8] = e.particles()[0].x.x() - 1e-3;
+    if (K == 8) EXPECT_GE(e.stats().particle_steps, 8 * (e.stats().steps - 1));  // the last step ends at 0.1 s
+  }
+  EXPECT_NEAR(travel[0], 1e-4, 1e-12);
+  EXPECT_NEAR(travel[1], travel[0], 1e-12);
 }
 
 TEST(Substeps, ACountThatIsNotAPowerOfTwoIsAnInputErrorNamingTheKey) {
