@@ -132,10 +132,9 @@ TEST(Substeps, NoParticlePassesThroughAnother) {
 
 // A particle pressed onto a grain wall slides along it: with 8 substeps it takes all 8 in every
 // engine step and goes as far as with one step for all, U t (the wall step is exact on a flat
-// wall). A particle that comes to the wall in a step stops there for the rest of it (an arrival
-// the step's attachment sees where it touched); one already at the wall does not, else every
-// particle sliding along a grain would move 8x slower (measured with the first rule, which
-// stopped at every grain contact: the travel was 1/8 of U t, the test fails).
+// wall). With the first rule, which stopped a particle at every grain contact for the rest of the
+// engine step, it went 1/8 as far (the test fails), and every particle sliding along a grain moved
+// 8x slower than its flow.
 TEST(Substeps, AParticleSlidesAlongAGrainWallThroughItsSubsteps) {
   auto flow = std::make_shared<OntoWall>(1e-3);
   SceneConfig c = plane(8);

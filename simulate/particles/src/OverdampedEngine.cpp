@@ -562,9 +562,6 @@ void OverdampedEngine::advance(double t_end) {
         std::pair<double, double> hind = hindrance[k];  // at p.x: the drift's point, not moved since
         std::uint8_t touched = 0;
         int taken = 0;
-        // Substeps: a particle already at a grain wall when the step starts slides along it; one that
-        // comes to a wall in the step stops there (an arrival, seen by the step's attachment).
-        const bool at_wall = n > 1 && w.flow->wallDistance(p.x.x(), p.x.y()) < m_radius * (1 + kSlideContact);
         while (taken < n) {
           if (taken > 0) v = driftAndHindrance(*w.flow, *w.model, m_cfg, m_radius, p.x, hind);
           const Vec3 before = p.x;
@@ -580,14 +577,15 @@ void OverdampedEngine::advance(double t_end) {
           }
           p.x += dx;
           p.v = v;
+          // The surfaces it touched in any substep (arrivals for the step's attachment); held by the
+          // walls (kPinned, the straining clock's test) only as the last substep left it, as one step
+          // for all would: a particle held in one substep and freed in the next is not held.
           const std::uint8_t now = applyWalls(p, before, *w.flow, w.normals);
-          touched |= now;
+          touched = static_cast<std::uint8_t>((touched & ~kPinned) | now);
           ++taken;
-          // The rest of the step waits for the contact sweeps where the particle came to a grain wall
-          // (not one it slides along), was held by the walls or left, or came to a deposit or another
-          // particle (no substep passes through one); on the plates it goes on (a particle on the
-          // bottom plate touches it every substep).
-          if (taken == n || p.status != ParticleStatus::mobile || (now & kPinned) != 0 || ((now & kGrain) != 0 && !at_wall)) break;
+          // The rest of the step waits for the contact sweeps where the particle left or came to a
+          // deposit or another particle (no substep passes through one).
+          if (taken == n || p.status != ParticleStatus::mobile) break;
           if (meetsNeighbour(p, k, before, (taken - 1) * h, taken * h, drift)) break;
         }
         m_substeps[k] = taken;

@@ -69,10 +69,10 @@
 // step is then up to K times the fastest one's, and each particle takes the power of 2 (up to K) of
 // steps of its own within it that its own limit asks (ownStep): drift again at each substep's
 // start, Brownian draws 3 per substep (taken first, in mobile order), the wall step after each. A
-// particle stops short of the step's end where it came to a grain wall (one it was not already
-// sliding along, kSlideContact) or was held by the walls (the step's attachment and straining then
-// see it where it touched), or where it came nearer than a diameter
-// to a deposit or to the place another mobile particle is predicted at (its place before the step
+// particle goes on through its substeps at the walls (it slides, or is refused and tries again: the
+// straining clock's "held" is the last substep's, as with one step for all; its touches of any
+// substep are the step's arrivals) and stops short of the step's end only where it left or came
+// nearer than a diameter to a deposit or to the place another mobile particle is predicted at (its place before the step
 // plus its drift times the time; a held particle's place stays): no substep passes through another
 // particle; the contact sweeps, attachment and straining then run once per engine step, as before.
 // K = 1 is the single step for all, bit for bit.
@@ -118,10 +118,6 @@ class OverdampedEngine final : public ParticleEngine {
   /// (74 degrees at R = 4 a; 30 degrees only at R = 28 a). Exact walls (pixel edges, where a
   /// staircase notch's 65-90 degrees is the rendered geometry; analytic fields) keep every pair.
   static constexpr double kSmoothWallOneWallDeg = 30.0;
-  /// Substeps: a particle whose centre is within (1 + this) radii of a grain wall when the step
-  /// starts is in contact with it and slides along it through its substeps (125 nm for the 5 um
-  /// latex: ~20x a step's Brownian rms there); one that comes to a wall stops at it for the step.
-  static constexpr double kSlideContact = 0.05;
   OverdampedEngine(std::shared_ptr<const FlowField> flow, SceneConfig config);
   ~OverdampedEngine() override;
   OverdampedEngine(const OverdampedEngine&) = delete;
