@@ -433,12 +433,6 @@ double OverdampedEngine::ownStep(std::size_t k, const Vec3& v) const {
   return dt;
 }
 
-double OverdampedEngine::chooseStep(const std::vector<Vec3>& drift) const {
-  double dt = m_cfg.max_dt;
-  for (std::size_t k = 0; k < m_mobile.size(); ++k) dt = std::min(dt, ownStep(k, drift[k]));
-  return dt;
-}
-
 bool OverdampedEngine::meetsNeighbour(const ParticleState& p, std::size_t k, const Vec3& from, double tau_from, double tau,
                                       const std::vector<Vec3>& drift) const {
   // Nearer than a diameter (the contact sweeps' tolerance) and nearer than at the substep's start:
@@ -513,11 +507,17 @@ void OverdampedEngine::advance(double t_end) {
       drift[k] = driftAndHindrance(*w.flow, *w.model, m_cfg, m_radius, m_particles[m_mobile[k]].x, hindrance[k]);
     });
     const auto mobile = static_cast<std::int64_t>(m_mobile.size());
-    double dt = mobile ? chooseStep(drift) : t_end - m_t;
-    // Substeps: the engine's step up to K times the fastest particle's; each particle takes as many
-    // steps of its own within it as its own limit asks (a power of 2 up to K).
+    // Each particle's own step once; the engine's is the smallest, or with substeps up to K times it,
+    // each particle then taking as many steps of its own within it as its own limit asks (a power of
+    // 2 up to K).
     const int K = std::max(1, m_cfg.substeps);
-    if (mobile && K > 1) dt = std::min(K * dt, m_cfg.max_dt);
+    double dt = t_end - m_t;
+    if (mobile) {
+      m_own.resize(m_mobile.size());
+      dt = m_cfg.max_dt;
+      for (std::size_t k = 0; k < m_mobile.size(); ++k) dt = std::min(dt, m_own[k] = ownStep(k, drift[k]));
+      if (K > 1) dt = std::min(K * dt, m_cfg.max_dt);
+    }
     dt = std::min(dt, t_end - m_t);
     if (mobile) {
       const auto& c = m_cfg;
@@ -527,8 +527,7 @@ void OverdampedEngine::advance(double t_end) {
       bool any_substeps = false;
       if (K > 1)
         for (std::size_t k = 0; k < m_mobile.size(); ++k) {
-          const double own = ownStep(k, drift[k]);
-          while (m_substeps[k] < K && own * m_substeps[k] < dt * (1 - 1e-12)) m_substeps[k] *= 2;
+          while (m_substeps[k] < K && m_own[k] * m_substeps[k] < dt * (1 - 1e-12)) m_substeps[k] *= 2;
           any_substeps = any_substeps || m_substeps[k] > 1;
         }
       if (any_substeps) {

@@ -228,7 +228,6 @@ class OverdampedEngine final : public ParticleEngine {
   bool overlapsDeposit(const ParticleState& p, const std::vector<int>& fresh) const;
   /// Uniform [0, 1) draw of a particle's n-th plate arrival (plate attachment efficiency).
   double arrivalDraw(std::int64_t id, std::uint32_t arrival) const;
-  double chooseStep(const std::vector<Vec3>& drift) const;  ///< drift indexed like m_mobile
   /// The step mobile particle k (its place in m_mobile) may take at drift v: max_step_fraction
   /// radii of travel, of the gap to the plate it approaches, and of Brownian rms, and max_dt.
   double ownStep(std::size_t k, const Vec3& v) const;
@@ -297,6 +296,7 @@ class OverdampedEngine final : public ParticleEngine {
   std::vector<std::unique_ptr<Worker>> m_workers;  ///< one per thread; [0]: the calling thread's (m_flow, m_model)
   std::unique_ptr<Pool> m_pool;                    ///< threads 1.. of the loops (none with one thread)
   std::vector<double> m_draws;                     ///< a step's normal draws, 3 per substep of each mobile particle in mobile order
+  std::vector<double> m_own;                       ///< a step's own step of each mobile particle (ownStep)
   std::vector<int> m_substeps;                     ///< a step's substeps per mobile particle (taken, after the moves)
   std::vector<std::size_t> m_draw_offset;          ///< a step's first draw of each mobile particle
   /// Substeps: the mobile particles' places before the step, and (contact column, place in m_mobile)
