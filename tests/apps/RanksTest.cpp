@@ -86,7 +86,11 @@ TEST(Ranks, MicromodelSceneIsDeterministicAndTwoRanksGiveTheOneRankScene) {
     EXPECT_EQ(slurp(dir / "a" / f), slurp(dir / "b" / f)) << f << ": same seed, same ranks, different output";
 
   // 2 ranks, before the first deposit in either run: same rows (frame, particle, state),
-  // positions within 1 nm.
+  // positions within 10 nm (4e-3 radii). The two flows differ by the solver's tolerance (~1e-11 of
+  // the flow); the particles' paths keep that difference except where one crosses a line where
+  // the near-wall layer's velocity jumps (its nearest wall or slot switches), which can amplify
+  // it: measured 2e-5 um until 2026-12-07, then 1.9e-3 um at frame 37 (particle 2, along the mirror
+  // side y = 0) once the slot search took the first switch along the ray (LayerSpikeTest).
   const auto one = csv(dir / "a" / "trajectories.csv"), two = csv(dir / "np2" / "trajectories.csv");
   ASSERT_GT(one.size(), 1000u);
   const auto& head = one[0];
@@ -130,7 +134,7 @@ TEST(Ranks, MicromodelSceneIsDeterministicAndTwoRanksGiveTheOneRankScene) {
   std::printf("1 vs 2 ranks: %zu trajectory rows before the first deposit (frame %d), largest position difference %.3g um\n", compared,
               until, worst);
   EXPECT_GT(compared, 300u);  // the shortened default scene's first deposit comes at frame 37-72 (585-1900 rows)
-  EXPECT_LT(worst, 1e-3);
+  EXPECT_LT(worst, 1e-2);
 
   // The clean chip's flow: the same permeability to the solver's tolerance.
   const auto k1 = csv(dir / "a" / "permeability.csv"), k2 = csv(dir / "np2" / "permeability.csv");

@@ -28,6 +28,13 @@ struct NearestWallMemo {
   Entry slots[2];
   int next = 0;  ///< the slot the next miss overwrites
 };
+/// The squared distance from x to the segment c = (x0, y0, x1, y1) and the segment's point qq nearest x.
+double segmentNearest(const double* c, const Vec2& x, Vec2& qq) {
+  const double ex = c[2] - c[0], ey = c[3] - c[1], l2 = ex * ex + ey * ey;
+  const double t = l2 > 0 ? std::clamp(((x.x() - c[0]) * ex + (x.y() - c[1]) * ey) / l2, 0.0, 1.0) : 0.0;
+  qq = Vec2(c[0] + t * ex, c[1] + t * ey);
+  return (x - qq).squaredNorm();
+}
 }  // namespace
 
 double poiseuilleProfile(double z, double h) {
@@ -389,15 +396,12 @@ void GriddedFlow::nearestOfNode(int i, int j, double x, double y, double& d2, Ve
     q = Vec2(px, py);
     return;  // the contour's segments in a solid square are no nearer than the square
   }
+  Vec2 qq;
   for (std::uint32_t s = m_seg_start[k]; s < m_seg_start[k + 1]; ++s) {
-    const double* g = &m_seg[4 * static_cast<std::size_t>(s)];
-    const double ex = g[2] - g[0], ey = g[3] - g[1], l2 = ex * ex + ey * ey;
-    const double t = l2 > 0 ? std::clamp(((x - g[0]) * ex + (y - g[1]) * ey) / l2, 0.0, 1.0) : 0.0;
-    const double px = g[0] + t * ex, py = g[1] + t * ey;
-    const double e2 = (x - px) * (x - px) + (y - py) * (y - py);
+    const double e2 = segmentNearest(&m_seg[4 * static_cast<std::size_t>(s)], Vec2(x, y), qq);
     if (e2 < d2) {
       d2 = e2;
-      q = Vec2(px, py);
+      q = qq;
     }
   }
 }
@@ -521,7 +525,24 @@ bool GriddedFlow::nearestWallIsAt(const Vec2& p, double s, std::pair<int, int>& 
       if (!(e2 < t2 && std::sqrt(e2) < t)) return false;
       return facing_cos > 1.0 || !(e2 > 0) || (p - qq).dot(n) < facing_cos * std::sqrt(e2);
     };
-    if (hint.first >= 0 && nearerThanT(exact(hint.first, hint.second))) return false;
+    // Node (i, j)'s walls, piece by piece (its square, or each of its contour segments): one nearer
+    // than t that faces the ray, though another of the node's pieces may be nearer (two segments
+    // at a vertex of the contour: the nearer one turned away, the other facing); e2 its least
+    // squared distance.
+    const auto nodeNearer = [&](int i, int j, double& e2) {
+      const std::size_t kc = static_cast<std::size_t>(j) * m_nx + i;
+      if (squareWall(kc)) return nearerThanT(e2 = exact(i, j));
+      e2 = std::numeric_limits<double>::infinity();
+      bool any = false;
+      for (std::uint32_t sg = m_seg_start[kc]; sg < m_seg_start[kc + 1] && !any; ++sg) {
+        const double e = segmentNearest(&m_seg[4 * static_cast<std::size_t>(sg)], p, qq);
+        e2 = std::min(e2, e);
+        any = nearerThanT(e);
+      }
+      return any;
+    };
+    double e2 = 0;
+    if (hint.first >= 0 && nodeNearer(hint.first, hint.second, e2)) return false;
     bool within = false;
     for (std::size_t e = m_wall_start[k]; e < m_wall_start[k + 1]; ++e) {
       const int i = m_wall_cells[2 * e], j = m_wall_cells[2 * e + 1];
@@ -532,8 +553,7 @@ bool GriddedFlow::nearestWallIsAt(const Vec2& p, double s, std::pair<int, int>& 
         if (!within && box2 <= reach2) within = exact(i, j) <= reach2;
         continue;
       }
-      const double e2 = exact(i, j);
-      if (nearerThanT(e2)) {
+      if (nodeNearer(i, j, e2)) {
         hint = {i, j};
         return false;
       }
@@ -586,6 +606,88 @@ bool GriddedFlow::nearestWallIsAt(const Vec2& p, double s, std::pair<int, int>& 
     if (x < cx - hx && (within || e2 > reach2)) skip_row = j;
   }
   return within;
+}
+
+double GriddedFlow::slotSwitch(const Vec2& q, const Vec2& n, double s_max, double tol, double facing_cos) const {
+  // The first s at which a wall facing the ray is nearer than s, wall piece by wall piece: a cell's
+  // square or one contour segment is convex, so along the ray its distance minus s, g(s), is convex
+  // and non-increasing (its slope, the cosine of the ray with the direction from the piece to the
+  // point, minus 1, is <= 0 and grows with s). So a piece is nearer than s from the one root of g on
+  // (0, s_max] on, if g(s_max) < 0, and faces the ray (that slope below facing_cos - 1) up to some s
+  // and not after: it makes a switch only at its root, if it faces the ray there. The earliest of
+  // those is the answer, found on each piece alone (regula falsi, Illinois, to tol), the pieces
+  // pruned by the earliest so far; one search of all walls at the answer confirms it (a point in
+  // solid, or no wall within reach, answers false there too: then a bisection of the search, as
+  // before). Every piece that can be nearer than s <= s_max lies within s_max of q + s_max n, in the
+  // wall list of its node.
+  const Vec2 end = q + s_max * n;
+  const int ie = std::clamp(nearestNode((end.x() - m_x0) / m_dx, m_nx), 0, m_nx - 1);
+  const int je = std::clamp(nearestNode((end.y() - m_y0) / m_dy, m_ny), 0, m_ny - 1);
+  const std::size_t k = static_cast<std::size_t>(je) * m_nx + ie;
+  const double hx = 0.5 * m_dx, hy = 0.5 * m_dy, keep = 1 - 1e-9;  // nearestWallIsAt's "nearer than s (1 - 1e-9)"
+  double first = s_max, answer = s_max;  // the earliest switch's far side (pruning) and near side
+  bool found = false;
+  // One piece, by its nearest point to a point: the root of d(s) - s keep on (0, first], if any,
+  // facing there.
+  const auto piece = [&](auto&& nearest) {
+    Vec2 qq;
+    const auto g = [&](double s) { return std::sqrt(nearest(q + s * n, qq)) - s * keep; };
+    double b = first, gb = g(b);
+    if (!(gb < 0)) return;
+    double a = 0, ga = g(0);
+    if (!(ga >= 0)) ga = 0;  // q itself on the piece (its own wall): a root at 0 at the earliest
+    int kept = 0;  // the end kept by the last step: -1 a, +1 b (Illinois halves a twice-kept end's value)
+    for (int step = 0; step < 200 && b - a > tol; ++step) {
+      double r = ga - gb > 0 ? (a * gb - b * ga) / (gb - ga) : 0.5 * (a + b);
+      r = std::clamp(r, a + 0.5 * tol, b - 0.5 * tol);  // at least half the tolerance inside: the bracket closes near the root
+      const double gr = g(r);
+      if (gr >= 0) {
+        a = r, ga = gr;
+        if (kept == 1) gb *= 0.5;
+        kept = 1;
+      } else {
+        b = r, gb = gr;
+        if (kept == -1) ga *= 0.5;
+        kept = -1;
+      }
+    }
+    const Vec2 pb = q + b * n;
+    const double len = std::sqrt(nearest(pb, qq));
+    if (!(len > 0) || (pb - qq).dot(n) < facing_cos * len) {
+      first = b;
+      answer = a;
+      found = true;
+    }
+  };
+  for (std::size_t e = m_wall_start[k]; e < m_wall_start[k + 1]; ++e) {
+    const int i = m_wall_cells[2 * e], j = m_wall_cells[2 * e + 1];
+    const double cx = m_x0 + i * m_dx, cy = m_y0 + j * m_dy;
+    const auto box = [&](const Vec2& x, Vec2& qq) {
+      qq = Vec2(std::clamp(x.x(), cx - hx, cx + hx), std::clamp(x.y(), cy - hy, cy + hy));
+      return (x - qq).squaredNorm();
+    };
+    const std::size_t kc = static_cast<std::size_t>(j) * m_nx + i;
+    if (!m_smooth || squareWall(kc)) {
+      piece(box);
+      continue;
+    }
+    Vec2 qq;
+    if (!(box(q + first * n, qq) < first * first)) continue;  // the segments lie in the square
+    for (std::uint32_t sg = m_seg_start[kc]; sg < m_seg_start[kc + 1]; ++sg) {
+      const double* c = &m_seg[4 * static_cast<std::size_t>(sg)];
+      piece([c](const Vec2& x, Vec2& qq) { return segmentNearest(c, x, qq); });
+    }
+  }
+  if (!found) answer = s_max;
+  std::pair<int, int> hint(-1, -1);
+  const auto at = [&](double s) { return nearestWallIsAt(q + s * n, s, hint, n, facing_cos); };
+  if (at(answer)) return answer;
+  double lo = 0, hi = answer;
+  while (hi - lo > tol) {
+    const double mid = 0.5 * (lo + hi);
+    (at(mid) ? lo : hi) = mid;
+  }
+  return lo;
 }
 
 Vec2 GriddedFlow::faceVelocity(double x, double y) const {

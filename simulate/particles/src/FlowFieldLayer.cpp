@@ -174,17 +174,13 @@ double GriddedFlow::layerStream(const Vec2& p, double d, const Vec2& q, double h
   const Vec2 n = (p - q) / d;
   const double spacing = std::min(m_dx, m_dy), half = 0.5 * spacing;
   // The slot's half-width: the largest s <= d_m with q still the nearest facing wall point of
-  // q + s n, by bisection from [0, d_m] (a bracket that depends on the ray only, so that D is a
-  // function of q and n) to 1e-3 of the curl's step.
+  // q + s n, searched in [0, d_m] (a bracket that depends on the ray only, so that D is a function
+  // of q and n) to 1e-3 of the curl's step (slotSwitch).
   double D = std::numeric_limits<double>::infinity();
   std::pair<int, int> hint(-1, -1);
   const auto qNearest = [&](double s) { return nearestWallIsAt(q + s * n, s, hint, n, kFacingCos); };
   if (!qNearest(d_m)) {
-    double lo = 0, hi = d_m;
-    while (hi - lo > 1e-3 * kCurlStep * spacing) {
-      const double mid = 0.5 * (lo + hi);
-      (qNearest(mid) ? lo : hi) = mid;
-    }
+    const double lo = slotSwitch(q, n, d_m, 1e-3 * kCurlStep * spacing, kFacingCos);
     // The switch below the point itself (beyond the bisection's accuracy) is not a slot the point
     // is in: at a concave corner of one grain (or a smooth contour's kink) q's ray meets the other
     // side at once, and a slot of half-width d made B g(d) = 2 (psi - psi_w) / d, unbounded at

@@ -220,18 +220,8 @@ class GriddedFlow final : public FlowField {
   GridWalls walls() const { return m_walls; }
   /// GridWalls::brinkman: the match distance at depth h, m: max(h / sqrt(12), resolved) + spacing / 2.
   double matchDistance(double h) const;
-
- private:
-  double bilinear(const std::vector<double>& a, double x, double y) const;
-  /// Bilinear over the fluid corners of the cell of (x, y) only; false when it has none.
-  bool fluidBilinear(const std::vector<double>& a, double x, double y, double& value) const;
-  /// GridWalls::cells: squared distance to the nearest solid cell within reach and the
-  /// nearest point on it; false when none is within kExactCells cells.
-  /// The answer is remembered per thread for the last points asked of this update (by the
-  /// exact bits of x and y), so that the distance, the normal and the velocity of one point
-  /// search the wall cells once: the engines ask all three at each particle's position.
-  bool nearestWallPoint(double x, double y, double& d2, Vec2& q) const;
-  /// nearestWallPoint's search, without the memo.
+  /// GridWalls::cells, brinkman: the squared distance to the nearest wall within reach and its nearest
+  /// point q (false: none within reach), searched without nearestWallPoint's memo.
   bool searchNearestWall(double x, double y, double& d2, Vec2& q) const;
   /// GridWalls::brinkman: whether the ray point p = q + s n still has q as its nearest wall
   /// point (p fluid, a wall within reach, none nearer than s (1 - 1e-9)); the same answer as
@@ -243,6 +233,22 @@ class GriddedFlow final : public FlowField {
   /// nearest p to p has a cosine below facing_cos with n (a slot's other side faces it; the same
   /// wall turned by a step or a kink does not).
   bool nearestWallIsAt(const Vec2& p, double s, std::pair<int, int>& hint, const Vec2& n = Vec2::Zero(), double facing_cos = 2.0) const;
+  /// GridWalls::brinkman: the slot half-width along the ray q + s n, 0 < s <= s_max: the first s
+  /// (to within tol) at which q stops being the nearest facing wall point (nearestWallIsAt's
+  /// answer turns false), given that it is not q's at s_max. (The ray can pass beside a corner
+  /// that faces it and come out where q is nearest again: the slot ends at the first switch.)
+  double slotSwitch(const Vec2& q, const Vec2& n, double s_max, double tol, double facing_cos) const;
+
+ private:
+  double bilinear(const std::vector<double>& a, double x, double y) const;
+  /// Bilinear over the fluid corners of the cell of (x, y) only; false when it has none.
+  bool fluidBilinear(const std::vector<double>& a, double x, double y, double& value) const;
+  /// GridWalls::cells: squared distance to the nearest solid cell within reach and the
+  /// nearest point on it; false when none is within kExactCells cells.
+  /// The answer is remembered per thread for the last points asked of this update (by the
+  /// exact bits of x and y), so that the distance, the normal and the velocity of one point
+  /// search the wall cells once: the engines ask all three at each particle's position.
+  bool nearestWallPoint(double x, double y, double& d2, Vec2& q) const;
   int nearestNode(double f, int n) const;
   /// GridWalls::cells, brinkman: fills m_wall_start and m_wall_cells from m_edge and m_reach.
   void indexWallCells();
