@@ -508,8 +508,7 @@ void OverdampedEngine::advance(double t_end) {
     });
     const auto mobile = static_cast<std::int64_t>(m_mobile.size());
     // Each particle's own step once; the engine's is the smallest, or with substeps up to K times it,
-    // each particle then taking as many steps of its own within it as its own limit asks (a power of
-    // 2 up to K).
+    // each particle then taking as many steps of its own within it as its own limit asks (up to K).
     const int K = std::max(1, m_cfg.substeps);
     double dt = t_end - m_t;
     if (mobile) {
@@ -527,7 +526,10 @@ void OverdampedEngine::advance(double t_end) {
       bool any_substeps = false;
       if (K > 1)
         for (std::size_t k = 0; k < m_mobile.size(); ++k) {
-          while (m_substeps[k] < K && m_own[k] * m_substeps[k] < dt * (1 - 1e-12)) m_substeps[k] *= 2;
+          // As many as its own limit asks, up to K: the ceiling of dt / own (an integer, not a power
+          // of 2, which took up to twice the steps a particle needed where the own steps are alike).
+          const double need = m_own[k] > 0 ? std::ceil(dt / m_own[k] * (1 - 1e-12)) : static_cast<double>(K);
+          m_substeps[k] = static_cast<int>(std::clamp(need, 1.0, static_cast<double>(K)));
           any_substeps = any_substeps || m_substeps[k] > 1;
         }
       if (any_substeps) {

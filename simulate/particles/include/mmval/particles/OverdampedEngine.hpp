@@ -66,7 +66,7 @@
 // new deposit does not overlap one made earlier in the same step goes in mobile order on one thread.
 // Substeps (SceneConfig::substeps = K > 1): the step one particle's limit sets for all (the fastest,
 // in a throat, ~10x the median's speed on the paper's strip) is most particles' waste. The engine's
-// step is then up to K times the fastest one's, and each particle takes the power of 2 (up to K) of
+// step is then up to K times the fastest one's, and each particle takes the number (up to K) of
 // steps of its own within it that its own limit asks (ownStep): drift again at each substep's
 // start, Brownian draws 3 per substep (taken first, in mobile order), the wall step after each. A
 // particle goes on through its substeps at the walls (it slides, or is refused and tries again: the
