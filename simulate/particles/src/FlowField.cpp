@@ -626,7 +626,6 @@ double GriddedFlow::slotSwitch(const Vec2& q, const Vec2& n, double s_max, doubl
   const std::size_t k = static_cast<std::size_t>(je) * m_nx + ie;
   const double hx = 0.5 * m_dx, hy = 0.5 * m_dy, keep = 1 - 1e-9;  // nearestWallIsAt's "nearer than s (1 - 1e-9)"
   double first = s_max, answer = s_max;  // the earliest switch's far side (pruning) and near side
-  bool found = false;
   // One piece, by its nearest point to a point: the root of d(s) - s keep on (0, first], if any,
   // facing there.
   const auto piece = [&](auto&& nearest) {
@@ -656,7 +655,6 @@ double GriddedFlow::slotSwitch(const Vec2& q, const Vec2& n, double s_max, doubl
     if (!(len > 0) || (pb - qq).dot(n) < facing_cos * len) {
       first = b;
       answer = a;
-      found = true;
     }
   };
   for (std::size_t e = m_wall_start[k]; e < m_wall_start[k + 1]; ++e) {
@@ -678,7 +676,6 @@ double GriddedFlow::slotSwitch(const Vec2& q, const Vec2& n, double s_max, doubl
       piece([c](const Vec2& x, Vec2& qq) { return segmentNearest(c, x, qq); });
     }
   }
-  if (!found) answer = s_max;
   std::pair<int, int> hint(-1, -1);
   const auto at = [&](double s) { return nearestWallIsAt(q + s * n, s, hint, n, facing_cos); };
   if (at(answer)) return answer;

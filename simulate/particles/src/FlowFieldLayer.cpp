@@ -178,10 +178,9 @@ double GriddedFlow::layerStream(const Vec2& p, double d, const Vec2& q, double h
   // of q and n) to 1e-3 of the curl's step (slotSwitch).
   double D = std::numeric_limits<double>::infinity();
   std::pair<int, int> hint(-1, -1);
-  const auto qNearest = [&](double s) { return nearestWallIsAt(q + s * n, s, hint, n, kFacingCos); };
-  if (!qNearest(d_m)) {
+  if (!nearestWallIsAt(q + d_m * n, d_m, hint, n, kFacingCos)) {
     const double lo = slotSwitch(q, n, d_m, 1e-3 * kCurlStep * spacing, kFacingCos);
-    // The switch below the point itself (beyond the bisection's accuracy) is not a slot the point
+    // The switch below the point itself (beyond the search's accuracy) is not a slot the point
     // is in: at a concave corner of one grain (or a smooth contour's kink) q's ray meets the other
     // side at once, and a slot of half-width d made B g(d) = 2 (psi - psi_w) / d, unbounded at
     // the wall. An open wall there.
