@@ -452,13 +452,20 @@ bool GriddedFlow::nearestWallPoint(double x, double y, double& d2, Vec2& q) cons
   return slot->found;
 }
 
-bool GriddedFlow::searchNearestWall(double x, double y, double& d2, Vec2& q) const {
+bool GriddedFlow::searchNearestWall(double x, double y, double& d2, Vec2& q, double bound2) const {
   const std::size_t k = static_cast<std::size_t>(nearestNode((y - m_y0) / m_dy, m_ny)) * m_nx + nearestNode((x - m_x0) / m_dx, m_nx);
   const double hx = 0.5 * m_dx, hy = 0.5 * m_dy;
-  d2 = std::numeric_limits<double>::infinity();
+  // Every comparison below is strict (a wall is taken only nearer than the best so far, and what is
+  // passed over is no nearer than it), so starting from any value above the least distance finds
+  // the same wall point as starting from infinity: the first in the list at that distance.
+  d2 = bound2;
+  const bool bounded = bound2 < std::numeric_limits<double>::infinity();
+  // None under the bound (it was not above the least distance, or that wall lies outside this block).
+  const auto unbounded = [&] { return bounded && d2 == bound2 && searchNearestWall(x, y, d2, q); };
   if (m_smooth) {
     // The wall squares and contour segments of the listed cells (a segment lies within its cell).
     for (std::size_t e = m_wall_start[k]; e < m_wall_start[k + 1]; ++e) nearestOfNode(m_wall_cells[2 * e], m_wall_cells[2 * e + 1], x, y, d2, q);
+    if (unbounded()) return true;
     const double reach = m_reach * std::min(m_dx, m_dy);
     return d2 <= reach * reach;
   }
@@ -492,6 +499,7 @@ bool GriddedFlow::searchNearestWall(double x, double y, double& d2, Vec2& q) con
       skip_row = j;
     }
   }
+  if (unbounded()) return true;
   // Any solid cell beyond the searched block is at least m_reach cells away.
   const double reach = m_reach * std::min(m_dx, m_dy);
   return d2 <= reach * reach;

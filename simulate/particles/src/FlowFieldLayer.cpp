@@ -239,11 +239,11 @@ double GriddedFlow::layerStream(const Vec2& p, double d, const Vec2& q, double h
   return psi_l;
 }
 
-bool GriddedFlow::streamAt(const Vec2& p, double h, double d_m, double& psi) const {
+bool GriddedFlow::streamAt(const Vec2& p, double h, double d_m, double& psi, double bound2) const {
   if (isSolid(p.x(), p.y())) return false;
   double d2 = 0;
   Vec2 q;
-  if (!searchNearestWall(p.x(), p.y(), d2, q) || d2 >= d_m * d_m) {
+  if (!searchNearestWall(p.x(), p.y(), d2, q, bound2) || d2 >= d_m * d_m) {
     psi = psiBilinear(p, nullptr);
     return true;
   }
@@ -263,7 +263,10 @@ Vec2 GriddedFlow::layerVelocity(double x, double y, double d, const Vec2& q, dou
   const double psi0 = layerStream(p, d, q, h, d_m, &dpsi_dn);
   const double e = kCurlStep * std::min(m_dx, m_dy);
   double plus = 0, minus = 0;
-  const bool has_plus = streamAt(p + e * t, h, d_m, plus), has_minus = streamAt(p - e * t, h, d_m, minus);
+  // The stencil's points are no farther than sqrt(d^2 + e^2) from q: their searches pass over the
+  // walls beyond that on their boxes (the same answer, searchNearestWall).
+  const double bound2 = (d * d + e * e) * (1 + 1e-6);
+  const bool has_plus = streamAt(p + e * t, h, d_m, plus, bound2), has_minus = streamAt(p - e * t, h, d_m, minus, bound2);
   double dpsi_dt = 0;
   if (has_plus && has_minus) {
     // Each point takes its own nearest wall: where two points of the stencil take walls of two

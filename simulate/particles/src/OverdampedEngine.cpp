@@ -137,10 +137,12 @@ struct OverdampedEngine::Worker {
   std::unique_ptr<HydroModel> own_model;      ///< threads 1..: the engine's model over own_flow
 };
 
-/// Threads 1..n-1 of the per-particle loops, kept for the engine's life. A job is split into one
-/// contiguous chunk per thread (so a particle's flow queries of one step meet the same thread's
-/// memo in the next); each thread takes its own chunk first, then any chunk no thread has taken,
-/// so that a thread the machine has not scheduled yet never holds up the step.
+/// Threads 1..n-1 of the per-particle loops, kept for the engine's life. A job is split into
+/// kChunksPerThread contiguous chunks per thread, thread w owning the w-th run of them (so a
+/// particle's flow queries of one step mostly meet the same thread's memo in the next). Each thread
+/// takes its own chunks first, in order, then any chunk no thread has taken yet, from the far end
+/// of another thread's run: a thread that meets slow particles (near walls, with many substeps) or
+/// that the machine has not scheduled yet never holds up the step while the other waits.
 class OverdampedEngine::Pool {
  public:
   using Body = std::function<void(std::size_t, Worker&)>;
@@ -212,19 +214,27 @@ class OverdampedEngine::Pool {
       if (--m_active == 0) m_done.notify_all();
     }
   }
-  /// Chunk c of the job: [n c / C, n (c + 1) / C) with C the thread count.
+  /// Chunks per thread: enough that the last chunks even out the threads' loads, few enough that
+  /// stolen chunks seldom leave a particle's memo on another thread.
+  static constexpr std::size_t kChunksPerThread = 8;
+  /// Chunk c of the job: [n c / C, n (c + 1) / C) with C chunks in all (at most 64, the bits of
+  /// m_taken); thread w owns chunks [w C / T, (w + 1) C / T) of T threads.
   void work(std::size_t w) {
-    const std::size_t chunks = m_workers.size();
+    const std::size_t threads = m_workers.size(), chunks = std::min<std::size_t>(64, kChunksPerThread * threads);
     const auto take = [&](std::size_t c) { return (m_taken.fetch_or(std::uint64_t{1} << c) >> c & 1u) == 0; };
-    for (std::size_t k = 0; k < chunks; ++k) {
-      const std::size_t c = (w + k) % chunks;
-      if (!take(c)) continue;
+    const auto run = [&](std::size_t c) {
+      if (!take(c)) return;
       try {
         for (std::size_t i = m_n * c / chunks, end = m_n * (c + 1) / chunks; i < end; ++i) (*m_body)(i, *m_workers[w]);
       } catch (...) {
         const std::lock_guard<std::mutex> lock(m_mutex);
         if (!m_failed) m_failed = std::current_exception();
       }
+    };
+    for (std::size_t c = w * chunks / threads; c < (w + 1) * chunks / threads; ++c) run(c);
+    for (std::size_t k = 1; k < threads; ++k) {
+      const std::size_t v = (w + k) % threads;
+      for (std::size_t c = (v + 1) * chunks / threads; c-- > v * chunks / threads;) run(c);
     }
   }
   std::vector<std::unique_ptr<Worker>>& m_workers;

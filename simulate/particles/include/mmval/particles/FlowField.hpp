@@ -12,6 +12,7 @@
 #pragma once
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -221,8 +222,12 @@ class GriddedFlow final : public FlowField {
   /// GridWalls::brinkman: the match distance at depth h, m: max(h / sqrt(12), resolved) + spacing / 2.
   double matchDistance(double h) const;
   /// GridWalls::cells, brinkman: the squared distance to the nearest wall within reach and its nearest
-  /// point q (false: none within reach), searched without nearestWallPoint's memo.
-  bool searchNearestWall(double x, double y, double& d2, Vec2& q) const;
+  /// point q (false: none within reach), searched without nearestWallPoint's memo. `bound2`: a
+  /// squared distance known to be above the nearest wall's (a wall point's, plus a margin): cells
+  /// no nearer than it are passed over on their box alone. The answer is the same with any bound
+  /// (the first wall in the search's order at the least distance); with none found under it, the
+  /// search runs again without it.
+  bool searchNearestWall(double x, double y, double& d2, Vec2& q, double bound2 = std::numeric_limits<double>::infinity()) const;
   /// GridWalls::brinkman: whether the ray point p = q + s n still has q as its nearest wall
   /// point (p fluid, a wall within reach, none nearer than s (1 - 1e-9)); the same answer as
   /// nearestWallPoint's distance tested against s, without finding the minimum. `hint`: a wall
@@ -263,7 +268,7 @@ class GriddedFlow final : public FlowField {
   double layerStream(const Vec2& p, double d, const Vec2& q, double h, double d_m, double* dpsi_dn) const;
   /// The stream function at any fluid point p (the layer's within d_m of a wall, else the corners'
   /// bilinear one); false in solid.
-  bool streamAt(const Vec2& p, double h, double d_m, double& psi) const;
+  bool streamAt(const Vec2& p, double h, double d_m, double& psi, double bound2 = std::numeric_limits<double>::infinity()) const;
   /// The corners' stream function: Catmull-Rom (C1) and bilinear (its curl is the faces' Pollock
   /// field of h u; `grad` its gradient).
   double psiCubic(const Vec2& p) const;
