@@ -35,6 +35,54 @@ double segmentNearest(const double* c, const Vec2& x, Vec2& qq) {
   qq = Vec2(c[0] + t * ex, c[1] + t * ey);
   return (x - qq).squaredNorm();
 }
+
+/// The least s in (lo, hi] at which A s^2 + B s + C (positive at lo) reaches 0, +infinity if none:
+/// the stable pair of roots (one of them C / q, accurate when A is tiny).
+double firstRootAfter(double A, double B, double C, double lo, double hi) {
+  const double disc = B * B - 4 * A * C;
+  if (!(disc >= 0)) return std::numeric_limits<double>::infinity();
+  const double qq = -0.5 * (B + std::copysign(std::sqrt(disc), B));
+  double best = std::numeric_limits<double>::infinity();
+  for (const double r : {A != 0 ? qq / A : best, qq != 0 ? C / qq : best})
+    if (r > lo && r <= hi) best = std::min(best, r);
+  return best;
+}
+
+/// The least s in [0, s_max] at which the segment c = (x0, y0, x1, y1) lies within kappa s of
+/// q + s n (+infinity if none): its distance there is the least of the distances to its two ends
+/// and, where the point projects inside it, to its line; each of those is within kappa s from a
+/// root of a quadratic on. An estimate for slotSwitch, which checks it on the distance itself.
+double segmentReach(const double* c, const Vec2& q, const Vec2& n, double kappa, double s_max) {
+  double best = std::numeric_limits<double>::infinity();
+  const double k2 = kappa * kappa;
+  for (int end = 0; end < 2; ++end) {
+    const Vec2 w(q.x() - c[2 * end], q.y() - c[2 * end + 1]);
+    const double C = w.squaredNorm();
+    if (!(C > 0)) return 0.0;  // q is that end
+    best = std::min(best, firstRootAfter(1 - k2, 2 * n.dot(w), C, 0.0, s_max));
+  }
+  const Vec2 e(c[2] - c[0], c[3] - c[1]);
+  const double len = e.norm();
+  if (!(len > 0)) return best;
+  const Vec2 u = e / len, m(-u.y(), u.x());
+  // Along the ray the projection's parameter on the segment is t0 + t1 s, in [0, len] on [s0, s1].
+  const Vec2 w(q.x() - c[0], q.y() - c[1]);
+  const double t0 = w.dot(u), t1 = n.dot(u);
+  double s0 = 0, s1 = s_max;
+  if (t1 != 0) {
+    const double sa = -t0 / t1, sb = (len - t0) / t1;
+    s0 = std::max(s0, std::min(sa, sb));
+    s1 = std::min(s1, std::max(sa, sb));
+  } else if (t0 < 0 || t0 > len) {
+    return best;
+  }
+  if (!(s0 <= s1)) return best;
+  // The line's distance |alpha + beta s|; within kappa s where (alpha + beta s)^2 <= k2 s^2.
+  const double alpha = w.dot(m), beta = n.dot(m);
+  const double A = beta * beta - k2, B = 2 * alpha * beta, C = alpha * alpha;
+  if (A * s0 * s0 + B * s0 + C <= 0) return std::min(best, s0);
+  return std::min(best, firstRootAfter(A, B, C, s0, s1));
+}
 }  // namespace
 
 double poiseuilleProfile(double z, double h) {
@@ -635,14 +683,31 @@ double GriddedFlow::slotSwitch(const Vec2& q, const Vec2& n, double s_max, doubl
   const double hx = 0.5 * m_dx, hy = 0.5 * m_dy, keep = 1 - 1e-9;  // nearestWallIsAt's "nearer than s (1 - 1e-9)"
   double first = s_max, answer = s_max;  // the earliest switch's far side (pruning) and near side
   // One piece, by its nearest point to a point: the root of d(s) - s keep on (0, first], if any,
-  // facing there.
-  const auto piece = [&](auto&& nearest) {
+  // facing there. `guess`: the root from the piece's shape (its ends' and lines' quadratics,
+  // segmentReach), taken when g brackets it within a thousandth of tol (g(a) >= 0 > g(b)): the
+  // roots of the pieces then stand apart as they are, whichever piece comes first; else regula
+  // falsi from [0, first] to tol. The earliest root's bracket is kept.
+  const auto piece = [&](auto&& nearest, auto&& guess) {
     Vec2 qq;
     const auto g = [&](double s) { return std::sqrt(nearest(q + s * n, qq)) - s * keep; };
     double b = first, gb = g(b);
     if (!(gb < 0)) return;
-    double a = 0, ga = g(0);
-    if (!(ga >= 0)) ga = 0;  // q itself on the piece (its own wall): a root at 0 at the earliest
+    double a = 0, ga = 0;
+    const double r = guess(first);
+    bool bracketed = false;
+    if (r >= 0 && r <= first) {
+      const double lo = std::max(0.0, r - 1e-3 * tol), hi = std::min(first, r + 1e-3 * tol);
+      const double glo = lo > 0 ? g(lo) : 0.0;  // at 0 q is on the piece or nearer than it (as below)
+      const double ghi = hi < first ? g(hi) : gb;
+      if (glo >= 0 && ghi < 0) {
+        a = lo, ga = glo, b = hi, gb = ghi;
+        bracketed = true;
+      }
+    }
+    if (!bracketed) {
+      ga = g(0);
+      if (!(ga >= 0)) ga = 0;  // q itself on the piece (its own wall): a root at 0 at the earliest
+    }
     int kept = 0;  // the end kept by the last step: -1 a, +1 b (Illinois halves a twice-kept end's value)
     for (int step = 0; step < 200 && b - a > tol; ++step) {
       double r = ga - gb > 0 ? (a * gb - b * ga) / (gb - ga) : 0.5 * (a + b);
@@ -660,7 +725,7 @@ double GriddedFlow::slotSwitch(const Vec2& q, const Vec2& n, double s_max, doubl
     }
     const Vec2 pb = q + b * n;
     const double len = std::sqrt(nearest(pb, qq));
-    if (!(len > 0) || (pb - qq).dot(n) < facing_cos * len) {
+    if ((!(len > 0) || (pb - qq).dot(n) < facing_cos * len) && a < answer) {
       first = b;
       answer = a;
     }
@@ -674,14 +739,22 @@ double GriddedFlow::slotSwitch(const Vec2& q, const Vec2& n, double s_max, doubl
     };
     const std::size_t kc = static_cast<std::size_t>(j) * m_nx + i;
     if (!m_smooth || squareWall(kc)) {
-      piece(box);
+      // The square's root: its four sides' least (outside the square its distance is theirs).
+      piece(box, [&](double s_max) {
+        const double x0 = cx - hx, x1 = cx + hx, y0 = cy - hy, y1 = cy + hy;
+        const double sides[4][4] = {{x0, y0, x1, y0}, {x1, y0, x1, y1}, {x1, y1, x0, y1}, {x0, y1, x0, y0}};
+        double r = std::numeric_limits<double>::infinity();
+        for (const auto& c : sides) r = std::min(r, segmentReach(c, q, n, keep, s_max));
+        return r;
+      });
       continue;
     }
     Vec2 qq;
     if (!(box(q + first * n, qq) < first * first)) continue;  // the segments lie in the square
     for (std::uint32_t sg = m_seg_start[kc]; sg < m_seg_start[kc + 1]; ++sg) {
       const double* c = &m_seg[4 * static_cast<std::size_t>(sg)];
-      piece([c](const Vec2& x, Vec2& qq) { return segmentNearest(c, x, qq); });
+      piece([c](const Vec2& x, Vec2& qq) { return segmentNearest(c, x, qq); },
+            [&](double s_max) { return segmentReach(c, q, n, keep, s_max); });
     }
   }
   std::pair<int, int> hint(-1, -1);
