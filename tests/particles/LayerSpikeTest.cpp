@@ -253,5 +253,48 @@ TEST_F(LayerSpike, TheSlotSearchFindsTheFirstSwitch) {
   });
 }
 
+TEST_F(LayerSpike, ABoundedWallSearchFindsTheUnboundedOnesWall) {
+  // searchNearestWall with an upper bound (the layer's curl passes its stencil points the centre's
+  // nearest wall distance, sqrt(d^2 + e^2)) must return the very wall point and distance of the
+  // search without one: bounds just above the answer, the stencil's, and below it (the fallback).
+  onEachCrop([](const MicromodelFlow&, const GriddedFlow& g, double X, double Y, int c0, bool smooth) {
+    const double d_m = g.matchDistance(20e-6), e = 0.002 * std::min(X / g.nx(), Y / g.ny());
+    std::mt19937_64 rng(29);
+    std::uniform_real_distribution<double> ux(0, X), uy(0, Y);
+    int points = 0, differ = 0, stencils = 0, under = 0;
+    const auto same = [&](double x, double y, double bound2) {
+      double d2 = 0, b2 = 0;
+      Vec2 q(0, 0), qb(0, 0);
+      const bool found = g.searchNearestWall(x, y, d2, q), bfound = g.searchNearestWall(x, y, b2, qb, bound2);
+      return found == bfound && (!found || (d2 == b2 && q == qb));
+    };
+    while (points < 5000) {
+      const double x = ux(rng), y = uy(rng);
+      double d2 = 0;
+      Vec2 q;
+      if (g.isSolid(x, y) || !g.searchNearestWall(x, y, d2, q) || !(d2 > 0) || d2 >= d_m * d_m) continue;
+      ++points;
+      const Vec2 p(x, y), n = (p - q) / std::sqrt(d2), t(n.y(), -n.x());
+      const double stencil = (d2 + e * e) * (1 + 1e-6);
+      bool ok = same(x, y, d2 * (1 + 1e-12)) && same(x, y, 0.25 * d2);
+      for (const Vec2& s : {Vec2(p + e * t), Vec2(p - e * t)}) {
+        if (g.isSolid(s.x(), s.y())) continue;
+        ok = ok && same(s.x(), s.y(), stencil);
+        ++stencils;
+        double s2 = 0;
+        Vec2 sq;
+        under += g.searchNearestWall(s.x(), s.y(), s2, sq) && s2 < stencil;
+      }
+      differ += !ok;
+    }
+    std::printf("%s columns %d: %d points, %d with a different wall; stencil points under their bound: %d of %d\n",
+                smooth ? "smooth" : "pixels", c0, points, differ, under, stencils);
+    EXPECT_EQ(differ, 0);
+    // The stencil's bound is a wall point's distance: every stencil point's wall lies under it
+    // (else its search would run twice).
+    EXPECT_EQ(under, stencils);
+  });
+}
+
 }  // namespace
 }  // namespace mmval::particles
