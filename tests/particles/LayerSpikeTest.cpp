@@ -202,22 +202,34 @@ TEST_F(LayerSpike, TheBlendBandIntoTheBulkIsSmooth) {
 // probes met: on 1-2 % of the slot rays (pixel walls) a ray passes beside a corner that faces it and
 // comes out where its own wall is nearest again, and the slot ended up to 2.9 spacings beyond the
 // first switch.
+/// A pore point of the crop drawn uniformly until one lies within d_m of a wall (not on it): the
+/// point p, its nearest wall point q and their squared distance d2.
+struct NearWallPoint {
+  Vec2 p, q;
+  double d2;
+};
+NearWallPoint drawNearWall(const GriddedFlow& g, double X, double Y, double d_m, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> ux(0, X), uy(0, Y);
+  for (;;) {
+    const double x = ux(rng), y = uy(rng);
+    double d2 = 0;
+    Vec2 q;
+    if (!g.isSolid(x, y) && g.searchNearestWall(x, y, d2, q) && d2 > 0 && d2 < d_m * d_m) return {Vec2(x, y), q, d2};
+  }
+}
+
 TEST_F(LayerSpike, TheSlotSearchFindsTheFirstSwitch) {
   onEachCrop([](const MicromodelFlow&, const GriddedFlow& g, double X, double Y, int c0, bool smooth) {
       constexpr double kFacingCos = -0.10452846326765347;
       const double d_m = g.matchDistance(20e-6), spacing = std::min(X / g.nx(), Y / g.ny()), tol = 1e-3 * 0.002 * spacing;
       std::mt19937_64 rng(17);
-      std::uniform_real_distribution<double> ux(0, X), uy(0, Y);
       int points = 0, slots = 0, later = 0, earlier = 0, stepped_over = 0;
       double worst = 0;
       while (points < 20000) {
-        const double x = ux(rng), y = uy(rng);
-        double d2 = 0;
-        Vec2 q;
-        if (g.isSolid(x, y) || !g.searchNearestWall(x, y, d2, q) || !(d2 > 0) || d2 >= d_m * d_m) continue;
+        const auto [p, q, d2] = drawNearWall(g, X, Y, d_m, rng);
         ++points;
         const double d = std::sqrt(d2);
-        const Vec2 n = (Vec2(x, y) - q) / d;
+        const Vec2 n = (p - q) / d;
         std::pair<int, int> hint(-1, -1);
         const auto at = [&](double s) { return g.nearestWallIsAt(q + s * n, s, hint, n, kFacingCos); };
         if (at(d_m)) continue;  // an open wall
@@ -260,7 +272,6 @@ TEST_F(LayerSpike, ABoundedWallSearchFindsTheUnboundedOnesWall) {
   onEachCrop([](const MicromodelFlow&, const GriddedFlow& g, double X, double Y, int c0, bool smooth) {
     const double d_m = g.matchDistance(20e-6), e = 0.002 * std::min(X / g.nx(), Y / g.ny());
     std::mt19937_64 rng(29);
-    std::uniform_real_distribution<double> ux(0, X), uy(0, Y);
     int points = 0, differ = 0, stencils = 0, under = 0;
     const auto same = [&](double x, double y, double bound2) {
       double d2 = 0, b2 = 0;
@@ -269,14 +280,11 @@ TEST_F(LayerSpike, ABoundedWallSearchFindsTheUnboundedOnesWall) {
       return found == bfound && (!found || (d2 == b2 && q == qb));
     };
     while (points < 5000) {
-      const double x = ux(rng), y = uy(rng);
-      double d2 = 0;
-      Vec2 q;
-      if (g.isSolid(x, y) || !g.searchNearestWall(x, y, d2, q) || !(d2 > 0) || d2 >= d_m * d_m) continue;
+      const auto [p, q, d2] = drawNearWall(g, X, Y, d_m, rng);
       ++points;
-      const Vec2 p(x, y), n = (p - q) / std::sqrt(d2), t(n.y(), -n.x());
+      const Vec2 n = (p - q) / std::sqrt(d2), t(n.y(), -n.x());
       const double stencil = (d2 + e * e) * (1 + 1e-6);
-      bool ok = same(x, y, d2 * (1 + 1e-12)) && same(x, y, 0.25 * d2);
+      bool ok = same(p.x(), p.y(), d2 * (1 + 1e-12)) && same(p.x(), p.y(), 0.25 * d2);
       for (const Vec2& s : {Vec2(p + e * t), Vec2(p - e * t)}) {
         if (g.isSolid(s.x(), s.y())) continue;
         ok = ok && same(s.x(), s.y(), stencil);
