@@ -48,22 +48,22 @@ double firstRootAfter(double A, double B, double C, double lo, double hi) {
   return best;
 }
 
-/// The least s in [0, s_max] at which the segment c = (x0, y0, x1, y1) lies within kappa s of
-/// q + s n (+infinity if none): its distance there is the least of the distances to its two ends
-/// and, where the point projects inside it, to its line; each of those is within kappa s from a
-/// root of a quadratic on. An estimate for slotSwitch, which checks it on the distance itself.
-double segmentReach(const double* c, const Vec2& q, const Vec2& n, double kappa, double s_max) {
-  double best = std::numeric_limits<double>::infinity();
-  const double k2 = kappa * kappa;
-  for (int end = 0; end < 2; ++end) {
-    const Vec2 w(q.x() - c[2 * end], q.y() - c[2 * end + 1]);
-    const double C = w.squaredNorm();
-    if (!(C > 0)) return 0.0;  // q is that end
-    best = std::min(best, firstRootAfter(1 - k2, 2 * n.dot(w), C, 0.0, s_max));
-  }
+/// The least s in [0, s_max] at which the point c lies within kappa s of q + s n (+infinity if
+/// none; 0 if q is c): |w + s n|^2 = kappa^2 s^2 with w = q - c.
+double pointReach(const double* c, const Vec2& q, const Vec2& n, double kappa, double s_max) {
+  const Vec2 w(q.x() - c[0], q.y() - c[1]);
+  const double C = w.squaredNorm();
+  if (!(C > 0)) return 0.0;
+  return firstRootAfter(1 - kappa * kappa, 2 * n.dot(w), C, 0.0, s_max);
+}
+
+/// The least s in [0, s_max] at which q + s n, projected inside the segment c = (x0, y0, x1, y1),
+/// lies within kappa s of its line (+infinity if none).
+double lineReach(const double* c, const Vec2& q, const Vec2& n, double kappa, double s_max) {
+  const double inf = std::numeric_limits<double>::infinity();
   const Vec2 e(c[2] - c[0], c[3] - c[1]);
   const double len = e.norm();
-  if (!(len > 0)) return best;
+  if (!(len > 0)) return inf;
   const Vec2 u = e / len, m(-u.y(), u.x());
   // Along the ray the projection's parameter on the segment is t0 + t1 s, in [0, len] on [s0, s1].
   const Vec2 w(q.x() - c[0], q.y() - c[1]);
@@ -74,14 +74,21 @@ double segmentReach(const double* c, const Vec2& q, const Vec2& n, double kappa,
     s0 = std::max(s0, std::min(sa, sb));
     s1 = std::min(s1, std::max(sa, sb));
   } else if (t0 < 0 || t0 > len) {
-    return best;
+    return inf;
   }
-  if (!(s0 <= s1)) return best;
-  // The line's distance |alpha + beta s|; within kappa s where (alpha + beta s)^2 <= k2 s^2.
+  if (!(s0 <= s1)) return inf;
+  // The line's distance |alpha + beta s|; within kappa s where (alpha + beta s)^2 <= kappa^2 s^2.
   const double alpha = w.dot(m), beta = n.dot(m);
-  const double A = beta * beta - k2, B = 2 * alpha * beta, C = alpha * alpha;
-  if (A * s0 * s0 + B * s0 + C <= 0) return std::min(best, s0);
-  return std::min(best, firstRootAfter(A, B, C, s0, s1));
+  const double A = beta * beta - kappa * kappa, B = 2 * alpha * beta, C = alpha * alpha;
+  if (A * s0 * s0 + B * s0 + C <= 0) return s0;
+  return firstRootAfter(A, B, C, s0, s1);
+}
+
+/// The least s in [0, s_max] at which the segment c lies within kappa s of q + s n (+infinity if
+/// none): its distance is the least of its ends' and, where the point projects inside it, its
+/// line's. An estimate for slotSwitch, which checks it on the distance itself.
+double segmentReach(const double* c, const Vec2& q, const Vec2& n, double kappa, double s_max) {
+  return std::min({pointReach(c, q, n, kappa, s_max), pointReach(c + 2, q, n, kappa, s_max), lineReach(c, q, n, kappa, s_max)});
 }
 }  // namespace
 
@@ -739,12 +746,13 @@ double GriddedFlow::slotSwitch(const Vec2& q, const Vec2& n, double s_max, doubl
     };
     const std::size_t kc = static_cast<std::size_t>(j) * m_nx + i;
     if (!m_smooth || squareWall(kc)) {
-      // The square's root: its four sides' least (outside the square its distance is theirs).
+      // The square's root: its four sides' least (outside the square its distance is theirs), each
+      // corner taken once.
       piece(box, [&](double s_max) {
         const double x0 = cx - hx, x1 = cx + hx, y0 = cy - hy, y1 = cy + hy;
         const double sides[4][4] = {{x0, y0, x1, y0}, {x1, y0, x1, y1}, {x1, y1, x0, y1}, {x0, y1, x0, y0}};
         double r = std::numeric_limits<double>::infinity();
-        for (const auto& c : sides) r = std::min(r, segmentReach(c, q, n, keep, s_max));
+        for (const auto& c : sides) r = std::min({r, pointReach(c, q, n, keep, s_max), lineReach(c, q, n, keep, s_max)});
         return r;
       });
       continue;
