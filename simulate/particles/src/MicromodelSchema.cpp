@@ -33,13 +33,15 @@ void declareMicromodel(Schema& s) {
            "(mmval chip --wall-px 0)")
       .def("walls");
   s.choice("geometry.boundary", {"pixels", "smooth"},
-           "Grain boundary of the fluid solve and of the particles' walls. pixels: the mask's staircase (its concave notches hold "
-           "particles a real grain would let slide past, docs/validation/paper-window.md). smooth: reconstructed below pixel "
+           "Grain boundary of the fluid solve and of the particles' walls. smooth (the default since 2026-12-07): reconstructed below pixel "
            "resolution as the image-permeability kind's geometry.boundary = \"smooth\" (the 1/2 level of the mask smoothed by "
            "geometry.smoothing, cubic interpolation, every pixel centre kept on its side): the fluid solve cuts its cells against it, "
            "and the particles' wall distance, normal and contact are measured to its contour (docs/validation/particle-physics.md, "
-           "\"Smooth grain walls\"). Closed pixels (deposits, pockets) and the side walls stay pixel squares either way")
-      .def("pixels");
+           "\"Smooth grain walls\"). pixels: the mask's staircase (its concave notches hold particles a real grain would let slide "
+           "past, docs/validation/paper-window.md, and the near-wall layer's rays from its corners make lines the particles converge "
+           "on, so counts do not converge in the step: particle-physics.md, \"Per-particle steps\"). Closed pixels (deposits, pockets) "
+           "and the side walls stay pixel squares either way")
+      .def("smooth");
   s.real("geometry.smoothing", "Smooth boundary: Gaussian width in pixels applied to the mask before its 1/2 level is taken (as the "
                                "image-permeability kind's; 0.75 removes the staircase's pixel-period steps, wider rounds corners more "
                                "and narrows gaps of 1-2 pixels)")
