@@ -22,7 +22,8 @@ void registerSweepCommand(CLI::App& app, const CaseKindRegistry& registry) {
   sw->add_flag("--quiet", o->quiet, "No progress output from the runs");
   sw->add_option("--jobs", o->jobs,
                  "Runs at once, each as its own process (mmval run; its messages in runs/run-NNN.log while it runs, no progress of its own); "
-                 "1: one after another in this process. The same tables either way, timings apart")
+                 "1: one after another in this process. The same tables either way, timings apart. A run whose thread count is auto "
+                 "(numerics.threads = 0) takes its share of the cores, cores / N (MMVAL_AUTO_THREADS, unless set already)")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
   sw->add_option("--grid", o->grid_key, "A --vary key (numeric values) that is the grid resolution: its two finest levels (and the order from three) give each metric's grid part");

@@ -2,7 +2,10 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -51,6 +54,15 @@ void requireCount(double count, double limit, const std::string& what, const Inp
   if (std::isfinite(count) && count <= limit) return;
   throw InputError(where, fmt::format("{} would be {:.3g}, more than the limit of {:.3g}", what, count, limit),
                    {}, advice);
+}
+
+int autoThreads(int max_threads) {
+  if (const char* share = std::getenv(kAutoThreadsVariable)) {
+    char* end = nullptr;
+    const long n = std::strtol(share, &end, 10);
+    if (end != share && *end == '\0' && n >= 1 && n <= max_threads) return static_cast<int>(n);
+  }
+  return static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 2u, 8u));
 }
 
 }  // namespace mmval

@@ -7,12 +7,15 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <fmt/format.h>
@@ -23,6 +26,7 @@
 #include "mmval/validate/Sweep.hpp"
 #include "mmval/core/CaseKind.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/Resources.hpp"
 #include "mmval/reports/Plot.hpp"
 #include "mmval/reports/Report.hpp"
 #include "mmval/reports/Site.hpp"
@@ -543,6 +547,7 @@ TEST(Sweep, AChildThatFailsEndsTheSweepOnceTheOthersHaveFinished) {
   const fs::path fake = dir / "fake-mmval";
   std::ofstream(fake) << "#!/bin/sh\n"
                          "printf '%s\\n' \"$@\" > \"$4.args\"\n"
+                         "printf '%s' \"$MMVAL_AUTO_THREADS\" > \"$4.threads\"\n"
                          "case \"$4\" in *run-002) echo 'mmval: internal error: boom' >&2; exit 4;; esac\n"
                          "sleep 1; touch \"$4.finished\"; echo 'mmval: numerical failure: fake' >&2; exit 5\n";
   fs::permissions(fake, fs::perms::owner_all);
@@ -573,6 +578,13 @@ TEST(Sweep, AChildThatFailsEndsTheSweepOnceTheOthersHaveFinished) {
   for (std::string a; std::getline(in, a);) argv.push_back(a);
   EXPECT_EQ(argv, (std::vector<std::string>{"run", o.file, "--out", (runs / "run-001").string(), "--quiet", "--set", "numerics.step=0.25", "--set",
                                             "run.seed=1"}));
+  // Each child's share of the cores for an "auto" thread count (two at a time: half of them, at least 1),
+  // and the sweep's own environment as it was.
+  std::ifstream threads(runs / "run-001.threads");
+  std::string share;
+  std::getline(threads, share);
+  EXPECT_EQ(share, std::to_string(std::max(1u, std::max(1u, std::thread::hardware_concurrency()) / 2)));
+  EXPECT_EQ(std::getenv(mmval::kAutoThreadsVariable), nullptr);
 }
 
 }  // namespace

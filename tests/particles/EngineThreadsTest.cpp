@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <memory>
@@ -17,6 +18,7 @@
 
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
+#include "mmval/core/Resources.hpp"
 #include "mmval/particles/OverdampedEngine.hpp"
 #include "GridField.hpp"
 #include "KindTestFiles.hpp"
@@ -143,10 +145,28 @@ TEST(EngineThreads, TwoThreadsGiveOneThreadsParticlesWithSubsteps) {
 
 TEST(EngineThreads, AutoTakesTwoToEightThreads) {
   auto flow = test_support::gridField(kNx, kNy, 400e-6, kDepth, solidNode);
+  ASSERT_EQ(std::getenv(kAutoThreadsVariable), nullptr) << "the test's environment sets " << kAutoThreadsVariable;
   const OverdampedEngine e(flow, scene(0));
   EXPECT_GE(e.threads(), 2);
   EXPECT_LE(e.threads(), 8);
   EXPECT_EQ(e.describe().at("threads"), e.threads());
+}
+
+// mmval sweep --jobs N gives each run its share of the cores (kAutoThreadsVariable): "auto" takes
+// it when it is a whole thread count, and ignores anything else; an explicit count ignores it.
+TEST(EngineThreads, AutoTakesTheShareASweepGivesItsRuns) {
+  auto flow = test_support::gridField(kNx, kNy, 400e-6, kDepth, solidNode);
+  const auto autoWith = [&](const char* share, int threads = 0) {
+    ::setenv(kAutoThreadsVariable, share, 1);
+    const int n = OverdampedEngine(flow, scene(threads)).threads();
+    ::unsetenv(kAutoThreadsVariable);
+    return n;
+  };
+  EXPECT_EQ(autoWith("1"), 1);
+  EXPECT_EQ(autoWith("3"), 3);
+  EXPECT_EQ(autoWith("2", 5), 5);
+  const int plain = OverdampedEngine(flow, scene(0)).threads();
+  for (const char* ignored : {"0", "-1", "x", "2.5", "", "65"}) EXPECT_EQ(autoWith(ignored), plain) << "'" << ignored << "'";
 }
 
 TEST(EngineThreads, ABadThreadCountIsAnInputErrorNamingTheKey) {

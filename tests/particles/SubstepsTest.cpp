@@ -149,7 +149,9 @@ TEST(Substeps, AParticleSlidesAlongAGrainWallThroughItsSubsteps) {
     ASSERT_EQ(e.particles()[0].status, ParticleStatus::mobile);
     EXPECT_NEAR(e.particles()[0].x.y(), kA, 1e-3 * kA);
     travel[K == 8] = e.particles()[0].x.x() - 1e-3;
-    if (K == 8) EXPECT_GE(e.stats().particle_steps, 8 * (e.stats().steps - 1));  // the last step ends at 0.1 s
+    if (K == 8) {
+      EXPECT_GE(e.stats().particle_steps, 8 * (e.stats().steps - 1));  // the last step ends at 0.1 s
+    }
   }
   EXPECT_NEAR(travel[0], 1e-4, 1e-12);
   EXPECT_NEAR(travel[1], travel[0], 1e-12);

@@ -16,6 +16,7 @@
 #include <stdexcept>
 
 #include <sys/wait.h>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -23,6 +24,7 @@
 #include "mmval/core/Case.hpp"
 #include "mmval/core/Error.hpp"
 #include "mmval/core/JsonNumbers.hpp"
+#include "mmval/core/Resources.hpp"
 #include "mmval/core/Run.hpp"
 #include "mmval/reports/Plot.hpp"
 #include "mmval/validate/RunFolders.hpp"
@@ -440,9 +442,32 @@ using detail::statusText;
 /// the case hash in the child's result.json checks it). Fills results[i] (none: a numerical
 /// failure, recorded in runs[i].status). A child that fails otherwise ends the sweep once the
 /// others have finished.
+/// While it lives, the runs started as children get their share of the cores for a thread count of
+/// "auto" (numerics.threads = 0): the hardware's cores / jobs, at least 1, in kAutoThreadsVariable,
+/// unless that is set already (the user's own share is kept). Without it N runs at once would each
+/// take every core.
+class CoreShare {
+ public:
+  explicit CoreShare(int jobs) {
+    if (std::getenv(kAutoThreadsVariable) != nullptr) return;
+    const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+    ::setenv(kAutoThreadsVariable, std::to_string(std::max(1u, cores / static_cast<unsigned>(jobs))).c_str(), 1);
+    m_set = true;
+  }
+  ~CoreShare() {
+    if (m_set) ::unsetenv(kAutoThreadsVariable);
+  }
+  CoreShare(const CoreShare&) = delete;
+  CoreShare& operator=(const CoreShare&) = delete;
+
+ private:
+  bool m_set = false;
+};
+
 void runChildren(const SweepOptions& o, const std::vector<Case>& cases, std::vector<SweepRun>& runs, const fs::path& out,
                  std::vector<std::optional<nlohmann::json>>& results) {
   const std::string executable = o.executable.empty() ? std::string("/proc/self/exe") : o.executable;
+  const CoreShare share(o.jobs);
   detail::Children children;
   std::size_t next = 0, finished = 0;
   std::string fatal;

@@ -315,7 +315,8 @@ DlvoParameters chemistryFromCase(const Case& c, const char* temperature_key) {
 void declareEngineNumerics(Schema& s) {
   s.integer("numerics.threads",
             "Overdamped engine: threads of a step's per-particle loops (drift, move and wall step), the results bit for bit one "
-            "thread's; 0: auto (the hardware's cores, 2 to 8). Default 1, so that the runs of mmval sweep --jobs N do not share cores")
+            "thread's; 0: auto (the hardware's cores, 2 to 8; in a run of mmval sweep --jobs N, its share: cores / N, at least 1). Default 1, "
+            "so that the runs of mmval sweep --jobs N do not share cores")
       .def(1)
       .min(0)
       .max(OverdampedEngine::kMaxThreads);

@@ -19,6 +19,7 @@
 #include <gsl/gsl_rng.h>
 
 #include "mmval/core/Error.hpp"
+#include "mmval/core/Resources.hpp"
 
 namespace mmval::particles {
 
@@ -290,7 +291,7 @@ OverdampedEngine::OverdampedEngine(std::shared_ptr<const FlowField> flow, SceneC
                      fmt::format("1 to {}, or 0 (auto: the hardware's cores, 2 to 8)", kMaxThreads));
   if (m_cfg.substeps < 1 || m_cfg.substeps > 64 || (m_cfg.substeps & (m_cfg.substeps - 1)) != 0)
     throw InputError(keyLocation("numerics.substeps"), "not a substep count", std::to_string(m_cfg.substeps), "a power of 2 from 1 to 64");
-  m_threads = m_cfg.threads > 0 ? m_cfg.threads : static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 2u, 8u));
+  m_threads = m_cfg.threads > 0 ? m_cfg.threads : mmval::autoThreads(kMaxThreads);
   auto first = std::make_unique<Worker>();
   first->flow = m_flow.get();
   first->model = &m_model;

@@ -38,6 +38,14 @@ void requireMemory(double estimate_bytes, double limit_bytes, const std::string&
 /// The same with the limit from `c` and the location of `key` in `c`.
 void requireMemory(const Case& c, double estimate_bytes, const std::string& what, const std::string& key, const std::string& advice);
 
+/// The environment variable through which `mmval sweep --jobs N` gives each of its runs its share
+/// of the cores (the hardware's cores / N, at least 1), read by autoThreads.
+inline constexpr const char* kAutoThreadsVariable = "MMVAL_AUTO_THREADS";
+
+/// A thread count of "auto" (numerics.threads = 0): the share kAutoThreadsVariable names when it is
+/// a whole number from 1 to max_threads, else the hardware's cores, 2 to 8.
+int autoThreads(int max_threads);
+
 /// Throws InputError at `where` when a count (frames, particles, output
 /// records, mesh levels) exceeds `limit`: guards loops whose length comes
 /// from user input (run.duration / run.output_interval, --levels).
