@@ -437,11 +437,6 @@ using detail::fileText;
 using detail::messageAfter;
 using detail::statusText;
 
-/// The runs of a sweep `jobs` at a time, each in a child process running `mmval run` with the
-/// run's overrides as --set (their text form is what --set parses, so each reads back as given;
-/// the case hash in the child's result.json checks it). Fills results[i] (none: a numerical
-/// failure, recorded in runs[i].status). A child that fails otherwise ends the sweep once the
-/// others have finished.
 /// While it lives, the runs started as children get their share of the cores for a thread count of
 /// "auto" (numerics.threads = 0): the hardware's cores / jobs, at least 1, in kAutoThreadsVariable,
 /// unless that is set already (the user's own share is kept). Without it N runs at once would each
@@ -464,6 +459,11 @@ class CoreShare {
   bool m_set = false;
 };
 
+/// The runs of a sweep `jobs` at a time, each in a child process running `mmval run` with the
+/// run's overrides as --set (their text form is what --set parses, so each reads back as given;
+/// the case hash in the child's result.json checks it). Fills results[i] (none: a numerical
+/// failure, recorded in runs[i].status). A child that fails otherwise ends the sweep once the
+/// others have finished.
 void runChildren(const SweepOptions& o, const std::vector<Case>& cases, std::vector<SweepRun>& runs, const fs::path& out,
                  std::vector<std::optional<nlohmann::json>>& results) {
   const std::string executable = o.executable.empty() ? std::string("/proc/self/exe") : o.executable;
