@@ -189,19 +189,6 @@ TEST_F(LayerSpike, TheBlendBandIntoTheBulkIsSmooth) {
   });
 }
 
-// The slot's half-width (GriddedFlow::slotSwitch: the first switch, wall piece by wall piece, one
-// search of all walls to confirm it) against the first switch of nearestWallIsAt itself found the
-// slow way: the ray sampled at 1,000 points from the point's own distance d (where its wall is the
-// nearest by construction) to the match distance, then the first false sample's interval bisected
-// (~30 searches of the wall cells per ray), to the search's tolerance (1e-3 of the curl's step, 2e-6
-// spacings), on every slot ray of 20,000 pore points within the match distance of a wall per crop,
-// both wall kinds (the facing filter's cosine, cos 96 deg, FlowFieldLayer.cpp). slotSwitch is never
-// later than that; where it is earlier it must be a switch the samples stepped over (true at it,
-// false 2 tolerances on: a corner the ray grazes, facing it for less than a sample's length), and
-// those are counted. The bisection of [0, d_m] the layer used before took whichever switch its
-// probes met: on 1-2 % of the slot rays (pixel walls) a ray passes beside a corner that faces it and
-// comes out where its own wall is nearest again, and the slot ended up to 2.9 spacings beyond the
-// first switch.
 /// A pore point of the crop drawn uniformly until one lies within d_m of a wall (not on it): the
 /// point p, its nearest wall point q and their squared distance d2.
 struct NearWallPoint {
@@ -218,6 +205,19 @@ NearWallPoint drawNearWall(const GriddedFlow& g, double X, double Y, double d_m,
   }
 }
 
+// The slot's half-width (GriddedFlow::slotSwitch: the first switch, wall piece by wall piece, one
+// search of all walls to confirm it) against the first switch of nearestWallIsAt itself found the
+// slow way: the ray sampled at 1,000 points from the point's own distance d (where its wall is the
+// nearest by construction) to the match distance, then the first false sample's interval bisected
+// (~30 searches of the wall cells per ray), to the search's tolerance (1e-3 of the curl's step, 2e-6
+// spacings), on every slot ray of 20,000 pore points within the match distance of a wall per crop,
+// both wall kinds (the facing filter's cosine, cos 96 deg, FlowFieldLayer.cpp). slotSwitch is never
+// later than that; where it is earlier it must be a switch the samples stepped over (true at it,
+// false 2 tolerances on: a corner the ray grazes, facing it for less than a sample's length), and
+// those are counted. The bisection of [0, d_m] the layer used before took whichever switch its
+// probes met: on 1-2 % of the slot rays (pixel walls) a ray passes beside a corner that faces it and
+// comes out where its own wall is nearest again, and the slot ended up to 2.9 spacings beyond the
+// first switch.
 TEST_F(LayerSpike, TheSlotSearchFindsTheFirstSwitch) {
   onEachCrop([](const MicromodelFlow&, const GriddedFlow& g, double X, double Y, int c0, bool smooth) {
       constexpr double kFacingCos = -0.10452846326765347;
