@@ -193,7 +193,7 @@ const std::map<std::string, KindSources>& sources() {
       {"physics-diffusion-slit", {{{"simulate/particles/src/checks/SlitChecks.cpp", "RunOutput runDiffusion(", "", 2}}}},
       {"physics-collector-interception", {{{"simulate/particles/src/checks/CollectorCheck.cpp", "RunOutput runInterception(", "void interceptionMetrics("}}}},
       {"physics-collector-diffusion", {{{"simulate/particles/src/checks/CollectorDiffusion.cpp", "RunOutput runDiffusion(", "void diffusionMetrics("}}}},
-      {"physics-dlvo", {{{"simulate/particles/src/checks/DlvoChecks.cpp", "void profileStage(", "void registerDlvoChecks("}}}},
+      {"physics-dlvo", {{{"simulate/particles/src/checks/DlvoChecks.cpp", "void profileStage(", "void registerDlvoChecks(", 2}}}},
       {"physics-near-wall-shear", {{{"simulate/particles/src/checks/ShearCheck.cpp", "RunOutput runShear(", "void registerShearChecks(", 1}}}},
   };
   return s;

@@ -364,7 +364,7 @@ TEST(Dlvo, HamakerDefaultFollowsCombiningRule) {
 TEST(Dlvo, CasesRunAndRejectBadInput) {
   CaseKindRegistry reg;
   registerParticleKinds(reg);
-  for (const char* name : {"physics-dlvo", "physics-dlvo-latex-glass", "physics-dlvo-sphere-sphere"}) {
+  for (const char* name : {"physics-dlvo", "physics-dlvo-latex-glass", "physics-dlvo-sphere-sphere", "physics-dlvo-peer"}) {
     const Case c = Case::load(fs::path(MMVAL_SOURCE_DIR) / "cases" / (std::string(name) + ".toml"), reg);
     const fs::path out = fs::path(MMVAL_BINARY_DIR) / "tests" / "particles" / (std::string(name) + "-run");
     const RunSummary s = runCase(c, reg, out, {.quiet = true});

@@ -20,6 +20,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <string>
 
 #include <fmt/format.h>
 
@@ -73,7 +74,23 @@ void dlvoMetrics(Schema& s) {
   s.metric("alpha_slope_ratio", "1", "alpha_slope / alpha_slope_theory");
   s.metric("alpha_slope_ratio_worst", "1", "The scan pair whose slope ratio is farthest from 1 (pairs with barriers > 10 kT at both ends)");
   s.metric("slope_pairs", "1", "Scan pairs with barriers > 10 kT at both ends (used for the slope ratios)");
+  s.metric("barrier_height_at_*", "1",
+           "Phi_max / kT at the scan's ionic strength the suffix names in mol/m3 (= mM; p for the decimal point), one per scan point "
+           "with a barrier");
+  s.metric("secondary_minimum_depth_at_*", "1", "-Phi_2min / kT at the scan point the suffix names, as barrier_height_at_*");
   s.metric("wall_time", "s", "Wall-clock time of the run");
+}
+
+/// The metric suffix of a scan point: its ionic strength in mol/m3 (= mM), "p" for the
+/// decimal point and "m" for a minus sign ("0p01", "10", "1e-05" -> "1em05").
+std::string scanTag(double ionic_strength) {
+  std::string t = fmt::format("{:g}", ionic_strength);
+  for (char& ch : t) {
+    if (ch == '.') ch = 'p';
+    if (ch == '-') ch = 'm';
+  }
+  t.erase(std::remove(t.begin(), t.end(), '+'), t.end());
+  return t;
 }
 
 DlvoParameters parametersFromCase(const Case& c) {
@@ -219,6 +236,11 @@ void scanStage(const Case& c, const DlvoParameters& p, const std::vector<double>
   std::vector<ScanPoint> points;
   for (double I : scan) points.push_back(scanPoint(p, I, gaps.min, gaps.max));
   writeScan(p, points, ctx.out_dir / "attachment-vs-ionic-strength.csv");
+  for (const ScanPoint& s : points) {
+    if (s.features.has_barrier) out.metrics[fmt::format("barrier_height_at_{}", scanTag(s.ionic_strength))] = s.features.barrier_kT;
+    if (s.features.has_secondary_minimum)
+      out.metrics[fmt::format("secondary_minimum_depth_at_{}", scanTag(s.ionic_strength))] = -s.features.secondary_minimum_kT;
+  }
 
   // A pair is in the barrier-limited regime when both ends have a barrier above 10 kT and a primary minimum behind it.
   const auto usable = [&](std::size_t i) {
