@@ -16,6 +16,10 @@ void declarePhysicsAndDeposition(Schema& s, double hamaker_default);
 /// numerics.threads (OverdampedEngine's per-particle loops) and numerics.substeps (its per-particle
 /// steps), for every kind that runs the overdamped engine.
 void declareEngineNumerics(Schema& s);
+/// numerics.drift_integrator ("euler" or "heun": SceneConfig::heun_drift), declared by
+/// declareEngineNumerics and by the kinds that set the engine's numerics themselves.
+void declareDriftIntegrator(Schema& s);
+bool heunDriftFromCase(const Case& c);
 /// Those two keys into `s`; InputError naming numerics.substeps when it is not a power of 2.
 void engineNumericsFromCase(const Case& c, SceneConfig& s);
 

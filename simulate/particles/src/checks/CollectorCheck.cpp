@@ -16,6 +16,8 @@
 // This file: the shared set-up (CollectorSetup.hpp) and the interception kind;
 // the diffusion kind is in CollectorDiffusion.cpp.
 #include "CollectorSetup.hpp"
+
+#include "../CaseScene.hpp"
 #include "PhysicsChecks.hpp"
 
 #include <algorithm>
@@ -44,6 +46,7 @@ void declareCollectorKeys(Schema& s) {
       .def("0.01 um")
       .positive();
   s.integer("run.seed", "Random seed (release positions, Brownian motion)").def(1).min(0);
+  declareDriftIntegrator(s);
 }
 
 CollectorSetup setupFromCase(const Case& c) {
@@ -55,6 +58,7 @@ CollectorSetup setupFromCase(const Case& c) {
   s.capture_distance = c.quantity("deposition.capture_distance");
   s.max_step_fraction = c.real("numerics.max_step_fraction");
   s.seed = static_cast<std::uint64_t>(c.integer("run.seed"));
+  s.heun_drift = heunDriftFromCase(c);
   return s;
 }
 
@@ -78,6 +82,7 @@ SceneConfig collectorScene(const CollectorSetup& s, double particle_radius, bool
   cfg.outlet_x = outlet_x;
   cfg.seed = seed;
   cfg.max_step_fraction = s.max_step_fraction;
+  cfg.heun_drift = s.heun_drift;
   return cfg;
 }
 

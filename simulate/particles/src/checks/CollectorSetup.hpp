@@ -19,6 +19,7 @@ namespace mmval::particles::checks {
 struct CollectorSetup {
   double post_radius = 0, phi = 0, viscosity = 0, temperature = 0, capture_distance = 0, max_step_fraction = 0;
   std::uint64_t seed = 1;
+  bool heun_drift = false;  ///< numerics.drift_integrator = "heun"
   double cellRadius() const { return post_radius / std::sqrt(phi); }
 };
 

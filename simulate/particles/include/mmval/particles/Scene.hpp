@@ -159,6 +159,10 @@ struct SceneConfig {
   /// fastest; K > 1: the engine's step is up to K times that, and a particle whose own limit is
   /// shorter takes up to K steps of its own within it (OverdampedEngine, "Substeps").
   int substeps = 1;
+  /// Overdamped engine: the drift's part of a step (numerics.drift_integrator). false: Euler, v(x) dt;
+  /// true: Heun's predictor-corrector, (v(x) + v(x + v(x) dt)) dt / 2, second order along curved
+  /// streamlines; the Brownian displacement is the same draw at x either way.
+  bool heun_drift = false;
   /// LIGGGHTS engine: DEM step as a fraction of the Rayleigh time (<= 0.2 usual).
   double rayleigh_fraction = 0.1;
   /// LIGGGHTS engine: sjkr cohesion energy density, J/m3 (0: off).
