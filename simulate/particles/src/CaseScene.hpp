@@ -13,14 +13,14 @@ namespace mmval::particles {
 /// Declares physics.gravity, physics.brownian, physics.wall_hindrance,
 /// physics.faxen_curvature and the deposition.* keys read below.
 void declarePhysicsAndDeposition(Schema& s, double hamaker_default);
-/// numerics.threads (OverdampedEngine's per-particle loops) and numerics.substeps (its per-particle
-/// steps), for every kind that runs the overdamped engine.
+/// numerics.threads (OverdampedEngine's per-particle loops), numerics.substeps (its per-particle
+/// steps) and numerics.drift_integrator, for every kind that runs the overdamped engine.
 void declareEngineNumerics(Schema& s);
 /// numerics.drift_integrator ("euler" or "heun": SceneConfig::heun_drift), declared by
 /// declareEngineNumerics and by the kinds that set the engine's numerics themselves.
 void declareDriftIntegrator(Schema& s);
 bool heunDriftFromCase(const Case& c);
-/// Those two keys into `s`; InputError naming numerics.substeps when it is not a power of 2.
+/// Those three keys into `s`; InputError naming numerics.substeps when it is not a power of 2.
 void engineNumericsFromCase(const Case& c, SceneConfig& s);
 
 /// [physics] (Brownian motion from the engine choice when "auto", wall

@@ -16,9 +16,9 @@
 // This file: the shared set-up (CollectorSetup.hpp) and the interception kind;
 // the diffusion kind is in CollectorDiffusion.cpp.
 #include "CollectorSetup.hpp"
+#include "PhysicsChecks.hpp"
 
 #include "../CaseScene.hpp"
-#include "PhysicsChecks.hpp"
 
 #include <algorithm>
 #include <chrono>
