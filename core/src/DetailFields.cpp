@@ -77,6 +77,11 @@ std::vector<DetailFieldDecl> makeDeclarations() {
        "the iterative solver's accepted answer: its true relative residual, the 2-norm of b - A x over that of b, checked against 100 times the "
        "tolerance before the answer is kept (a larger one counts as a failed solve: the fallback, or exit 5 naming it); absent after a direct solve",
        kSteadyMmvalKinds},
+      {F::ladder_velocity_preconditioner, "velocity_preconditioner", F::ladder, T::string, none, 0, "-",
+       "plane Stokes solved iteratively: the velocity block's preconditioner, one BoomerAMG V-cycle over both components, or on exactly two ranks "
+       "one component per rank (rank 0 u, rank 1 v, a serial BoomerAMG each; PETSc option -fluidm_fieldsplit_0_by_component 0 turns it off); "
+       "absent otherwise",
+       kSteadyMmvalKinds},
       {F::ladder_flux_change, "flux_change", F::ladder, T::number, none, 0, "1",
        "the relative change the outlet flux still has to make when the steady solver stopped, estimated as the geometric tail of its last changes",
        "`mmval peer openfoam` (steady)"},

@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 #include <petscksp.h>
 
+#include "ComponentSplit.hpp"
 #include "SolverUtil.hpp"
 
 namespace mmval::simulate {
@@ -144,6 +145,7 @@ struct CoupledSystem::Impl {
   std::vector<PetscInt> to_petsc, to_natural;
   PetscInt local_rows = PETSC_DECIDE;
   PetscInt row_lo = 0, row_hi = 0;  ///< this rank's rows of A (PETSc numbering)
+  std::string velocity_pc;  ///< the last plane-Stokes iterative solve's velocity-block preconditioner (splitByComponent)
   PetscInt natural(PetscInt g) const { return to_natural.empty() ? g : to_natural[static_cast<std::size_t>(g)]; }
   PetscInt petsc(PetscInt n) const { return to_petsc.empty() ? n : to_petsc[static_cast<std::size_t>(n)]; }
 
@@ -304,6 +306,21 @@ struct CoupledSystem::Impl {
     check(PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR), "schur");
     check(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER), "schur fact");
     if (selfp) check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELFP, nullptr), "selfp");
+  }
+
+  /// Plane Stokes on exactly two ranks (both stages): the velocity block preconditioned one
+  /// component per rank (ComponentSplit.hpp; off with -<prefix>fieldsplit_0_by_component 0).
+  /// Sets `k` up (its fieldsplit's blocks) first: the velocity block's KSP exists only then.
+  void splitByComponent(const FlowOperator& op, KSP k, const char* prefix) {
+    velocity_pc = "BoomerAMG on the velocity block";
+    if (!detail::componentSplitWanted(comm, prefix)) return;
+    velocity_pc = "by component: rank 0 u, rank 1 v, a serial BoomerAMG each";
+    check(KSPSetUp(k), "KSPSetUp");
+    const PetscInt u_end = static_cast<PetscInt>(op.normalCount(0)) * op.ny(), off = op.pressureOffset();
+    std::vector<char> is_u;
+    for (PetscInt r = row_lo; r < row_hi; ++r)
+      if (natural(r) < off) is_u.push_back(natural(r) < u_end ? 1 : 0);
+    detail::installComponentSplit(k, is_u);
   }
 
   /// Plane Stokes, the second stage (see switchToSelfp): GMRES with the Schur complement
@@ -543,6 +560,7 @@ struct CoupledSystem::Impl {
       check(PetscOptionsGetInt(nullptr, "fluidm_", "-schur_switch_iterations", &at, nullptr), "option");
       probe.at = static_cast<int>(std::max<PetscInt>(0, at));
     }
+    if (mass_schur) splitByComponent(op, ksp, "fluidm_");
     kspSolve();
     KSPConvergedReason reason;
     KSPGetConvergedReason(ksp, &reason);
@@ -603,6 +621,7 @@ struct CoupledSystem::Impl {
     check(KSPSetOperators(ksp_selfp, A, A), "KSPSetOperators");
     check(KSPSetTolerances(ksp_selfp, opt.linear_rtol, 1e-30, PETSC_DEFAULT, std::max(1, opt.linear_max_iterations - probe.at)), "tol");
     check(KSPSetInitialGuessNonzero(ksp_selfp, PETSC_TRUE), "initial guess");
+    splitByComponent(op, ksp_selfp, "fluidp_");
     std::swap(ksp, ksp_selfp);  // kspSolve's error handling serves the second stage as the first
     try {
       kspSolve();
@@ -847,6 +866,8 @@ int CoupledSystem::schurSwitchIterations() const { return m->switched_at; }
 double CoupledSystem::schurSwitchResidual() const { return m->switched_drop; }
 
 double CoupledSystem::lastTrueResidual() const { return m->true_residual; }
+
+const std::string& CoupledSystem::velocityPreconditioner() const { return m->velocity_pc; }
 
 void CoupledSystem::solve(const FlowOperator& op, Linearisation mode, std::vector<double>& state, FlowStats& stats) {
   if (m->warm) m->solveWarm(op, mode, state, stats);

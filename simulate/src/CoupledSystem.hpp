@@ -73,6 +73,10 @@ class CoupledSystem {
   /// kept: a solve PETSc reports converged above that bound throws FlowFailure ("true residual X
   /// above Y") as one that did not converge. NaN after a direct solve or a failed one.
   double lastTrueResidual() const;
+  /// Plane Stokes solved iteratively: the velocity block's preconditioner of the last solve (one
+  /// BoomerAMG over both components, or on two ranks one component per rank: ComponentSplit.hpp);
+  /// empty for other solves.
+  const std::string& velocityPreconditioner() const;
 
   /// Direct solver only (else nothing): solves of a steady system whose matrix changes between
   /// solves (SteadyFlowSolver::update). A factorisation of a matrix with the last one's pattern is

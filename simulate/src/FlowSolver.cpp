@@ -211,6 +211,7 @@ struct SteadyFlowSolver::Impl {
                                          sys->schurSwitchIterations(), sys->schurSwitchResidual());
     stats.linear_fallback = fell_back;
     stats.linear_true_residual = sys->lastTrueResidual();
+    stats.velocity_preconditioner = opt.linear == "iterative" ? sys->velocityPreconditioner() : std::string();
     stats.pattern_kept = fixed() && fits && !first;
     if (parked) sys = std::move(parked);  // the new solver's factors go; the kept pattern's solver serves the next problem
     op.unpack(state, u, v, p);

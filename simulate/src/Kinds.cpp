@@ -93,6 +93,7 @@ nlohmann::json ladderRow(std::size_t index, int resolution, const SteadyFlowSolv
                         {"linear_solver_fallback", st.linear_fallback},
                         {"value", value}};
   if (std::isfinite(st.linear_true_residual)) row["linear_true_residual"] = st.linear_true_residual;
+  if (!st.velocity_preconditioner.empty()) row["velocity_preconditioner"] = st.velocity_preconditioner;
   if (primary != nullptr && !primary->reference.isInterval() && primary->reference.value != 0)
     row["error"] = (value - primary->reference.value) / primary->reference.value;
   return row;

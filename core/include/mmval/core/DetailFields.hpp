@@ -51,6 +51,7 @@ enum class DetailField {
   ladder_linear_solver_reason,
   ladder_linear_solver_fallback,
   ladder_linear_true_residual,
+  ladder_velocity_preconditioner,
   ladder_flux_change,
   runs,
   runs_3d,

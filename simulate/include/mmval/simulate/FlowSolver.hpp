@@ -222,6 +222,8 @@ struct FlowStats {
   /// The iterative solver's accepted answer: its true relative residual ||b - A x|| / ||b||
   /// (CoupledSystem::lastTrueResidual, checked against 100 x the tolerance); NaN after a direct solve.
   double linear_true_residual = std::numeric_limits<double>::quiet_NaN();
+  /// Plane Stokes solved iteratively: the velocity block's preconditioner (CoupledSystem::velocityPreconditioner); else empty.
+  std::string velocity_preconditioner;
   /// fixed_pattern: the solve factorised into the kept pattern, numerically only (not the first
   /// solve, nor one whose rows did not fit and took a new solver).
   bool pattern_kept = false;
