@@ -33,6 +33,19 @@ FlowProblem cylinderProblem() {
   return p;
 }
 
+constexpr double kCellSide = 1e-4;  ///< m
+
+/// A periodic cell of side kCellSide on n x n cells with discs as grains, driven by a body force.
+FlowProblem periodicCell(int n, Eigen::Vector2d force, std::vector<Circle> discs) {
+  FlowProblem p;
+  p.x = uniformAxis(0, kCellSide, n);
+  p.y = uniformAxis(0, kCellSide, n);
+  for (auto& b : p.boundary) b.type = BoundaryType::periodic;
+  p.body_force = force;
+  p.shape = std::make_shared<Circles>(std::move(discs), kCellSide, kCellSide);
+  return p;
+}
+
 }  // namespace
 
 TEST(Mpi, TwoRanksGiveTheOneRankAnswer) {
@@ -76,13 +89,8 @@ TEST(Mpi, TwoRanksIterativeStokesGiveTheOneRankDirectAnswer) {
   // Periodic square array (phi 0.2, 48 cells): FGMRES + fieldsplit (BoomerAMG, mass-matrix Schur)
   // on 2 ranks against serial LU. Relative tolerance 1e-10 on the residual; 1e-7 on the flux.
   PetscSession::ensure();
-  const double L = 1e-4;
-  FlowProblem p;
-  p.x = uniformAxis(0, L, 48);
-  p.y = uniformAxis(0, L, 48);
-  for (auto& b : p.boundary) b.type = BoundaryType::periodic;
-  p.body_force = {1.0, 0};
-  p.shape = std::make_shared<Circles>(std::vector<Circle>{{0.5 * L, 0.5 * L, L * std::sqrt(0.2 / M_PI)}}, L, L);
+  const double L = kCellSide;
+  const FlowProblem p = periodicCell(48, {1.0, 0}, {{0.5 * L, 0.5 * L, L * std::sqrt(0.2 / M_PI)}});
   SolverOptions it;
   it.linear = "iterative";
   SteadyFlowSolver serial(p, {}, MPI_COMM_SELF), parallel(p, it, MPI_COMM_WORLD);
@@ -177,13 +185,8 @@ TEST(Mpi, TwoRanksPreconditionTheVelocityBlockOneComponentPerRank) {
   // gives the same answer. Grain: a disc off the cell centres and an ellipse-like pair of discs,
   // so that the u and v cut-cell rows differ.
   PetscSession::ensure();
-  const double L = 1e-4;
-  FlowProblem p;
-  p.x = uniformAxis(0, L, 80);
-  p.y = uniformAxis(0, L, 80);
-  for (auto& b : p.boundary) b.type = BoundaryType::periodic;
-  p.body_force = {0.7, 0.3};
-  p.shape = std::make_shared<Circles>(std::vector<Circle>{{0.43 * L, 0.52 * L, 0.21 * L}, {0.61 * L, 0.37 * L, 0.12 * L}}, L, L);
+  const double L = kCellSide;
+  const FlowProblem p = periodicCell(80, {0.7, 0.3}, {{0.43 * L, 0.52 * L, 0.21 * L}, {0.61 * L, 0.37 * L, 0.12 * L}});
   SolverOptions it;
   it.linear = "iterative";
   SteadyFlowSolver lu(p, {}, MPI_COMM_SELF), one(p, it, MPI_COMM_SELF), two(p, it, MPI_COMM_WORLD);
