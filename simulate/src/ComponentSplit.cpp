@@ -1,6 +1,7 @@
 #include "ComponentSplit.hpp"
 
 #include <string>
+#include <utility>
 
 #include "SolverUtil.hpp"
 
@@ -118,7 +119,7 @@ bool componentSplitWanted(MPI_Comm comm, const char* prefix) {
   return on == PETSC_TRUE;
 }
 
-void installComponentSplit(KSP k, const std::vector<char>& is_u) {
+PC velocityBlockToSplit(KSP k) {
   PC pc = nullptr;
   check(KSPGetPC(k, &pc), "KSPGetPC");
   KSP* subs = nullptr;
@@ -126,16 +127,19 @@ void installComponentSplit(KSP k, const std::vector<char>& is_u) {
   check(PCFieldSplitGetSubKSP(pc, &n, &subs), "PCFieldSplitGetSubKSP");
   KSP vel = n > 0 ? subs[0] : nullptr;
   PetscFree(subs);
-  if (vel == nullptr) throw std::runtime_error("PETSc error in installComponentSplit: the fieldsplit has no velocity block");
+  if (vel == nullptr) throw std::runtime_error("PETSc error in velocityBlockToSplit: the fieldsplit has no velocity block");
   PC vpc = nullptr;
   check(KSPGetPC(vel, &vpc), "KSPGetPC");
   PetscBool shell = PETSC_FALSE;
   check(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(vpc), PCSHELL, &shell), "type");
-  if (shell == PETSC_TRUE) return;
+  return shell == PETSC_TRUE ? nullptr : vpc;
+}
+
+void installComponentSplit(PC vpc, std::vector<char> is_u) {
   const char* prefix = nullptr;
-  check(KSPGetOptionsPrefix(vel, &prefix), "prefix");
+  check(PCGetOptionsPrefix(vpc, &prefix), "prefix");
   auto* c = new Component;
-  c->is_u = is_u;
+  c->is_u = std::move(is_u);
   c->prefix = std::string(prefix != nullptr ? prefix : "") + "comp_";
   check(PCSetType(vpc, PCSHELL), "PCSetType shell");
   check(PCShellSetContext(vpc, c), "shell context");

@@ -23,11 +23,15 @@ namespace mmval::simulate::detail {
 /// `-<prefix>fieldsplit_0_by_component` not set false (default true).
 bool componentSplitWanted(MPI_Comm comm, const char* prefix);
 
-/// Makes the velocity sub-KSP of the Schur fieldsplit of `k` (set up: KSPSetUp done) precondition
-/// by component, unless it already does. `is_u`: for each of this rank's rows of the velocity
-/// block, in order, whether it is a u unknown (else v). The serial KSP on each rank takes the
-/// options prefix `<prefix>fieldsplit_0_comp_` (default preonly with BoomerAMG). Throws
-/// std::runtime_error naming a failed PETSc call.
-void installComponentSplit(KSP k, const std::vector<char>& is_u);
+/// The preconditioner of the velocity sub-KSP of the Schur fieldsplit of `k` (set up: KSPSetUp
+/// done), or nullptr when it already preconditions by component. Throws std::runtime_error naming
+/// a failed PETSc call.
+PC velocityBlockToSplit(KSP k);
+
+/// Makes `vpc` (from velocityBlockToSplit) precondition by component. `is_u`: for each of this
+/// rank's rows of the velocity block, in order, whether it is a u unknown (else v). The serial KSP
+/// on each rank takes the options prefix `<prefix>fieldsplit_0_comp_` (default preonly with
+/// BoomerAMG). Throws std::runtime_error naming a failed PETSc call.
+void installComponentSplit(PC vpc, std::vector<char> is_u);
 
 }  // namespace mmval::simulate::detail

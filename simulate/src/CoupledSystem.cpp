@@ -316,11 +316,13 @@ struct CoupledSystem::Impl {
     if (!detail::componentSplitWanted(comm, prefix)) return;
     velocity_pc = "by component: rank 0 u, rank 1 v, a serial BoomerAMG each";
     check(KSPSetUp(k), "KSPSetUp");
+    PC vpc = detail::velocityBlockToSplit(k);
+    if (vpc == nullptr) return;  // split at an earlier solve of this KSP
     const PetscInt u_end = static_cast<PetscInt>(op.normalCount(0)) * op.ny(), off = op.pressureOffset();
     std::vector<char> is_u;
     for (PetscInt r = row_lo; r < row_hi; ++r)
       if (natural(r) < off) is_u.push_back(natural(r) < u_end ? 1 : 0);
-    detail::installComponentSplit(k, is_u);
+    detail::installComponentSplit(vpc, std::move(is_u));
   }
 
   /// Plane Stokes, the second stage (see switchToSelfp): GMRES with the Schur complement
