@@ -446,6 +446,30 @@ std::string inputErrorOf(const std::function<void()>& f) {
   return "";
 }
 
+// deposition.surface_rule: read under the capture rule (with plate_rule alongside), refused under
+// the dlvo rule, whose DLVO profile decides attachment, naming the key; reported by the engine.
+TEST(Heterogeneity, SurfaceRuleIsReadAndRefusedUnderDlvo) {
+  const auto withRule = [](const std::string& model) {
+    const std::string text = "[case]\nname = \"rule\"\nkind = \"particles-channel\"\n[channel]\nlength = \"300 um\"\nwidth = \"100 um\"\n"
+                             "[particles]\ncount = 3\n[deposition]\nmodel = \"" + model + "\"\nsurface_rule = \"torque-balance\"\n";
+    return Case::parse(text, "rule.toml", test_support::particleRegistry());
+  };
+  SceneConfig s;
+  physicsAndDepositionFromCase(withRule("capture"), EngineChoice{}, s);
+  EXPECT_TRUE(s.attachment.surface_torque_balance);
+  EXPECT_FALSE(s.attachment.torque_balance);  // the plates keep their own key
+  SceneConfig d;
+  physicsAndDepositionFromCase(channelCase("capture", "0.0"), EngineChoice{}, d);
+  EXPECT_FALSE(d.attachment.surface_torque_balance);  // default: the capture rule
+  const std::string msg = inputErrorOf([&] {
+    SceneConfig x;
+    physicsAndDepositionFromCase(withRule("dlvo"), EngineChoice{}, x);
+  });
+  EXPECT_NE(msg.find("deposition.surface_rule"), std::string::npos) << msg;
+  const auto described = OverdampedEngine(std::make_shared<UniformFlow>(Vec2(0, 0), 20e-6), s).describe();
+  EXPECT_NE(described["surface_attachment"].get<std::string>().find("torque balance"), std::string::npos);
+}
+
 // The key: read under the dlvo rule, refused outside [0, 1] and with the capture rule, naming it.
 TEST(Heterogeneity, CaseKeyIsValidated) {
   SceneConfig s;

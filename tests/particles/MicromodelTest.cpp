@@ -371,6 +371,62 @@ TEST(Micromodel, PlateTorqueBalanceAgainstItsClosedForm) {
   EXPECT_EQ(stuck[1], 0);
 }
 
+TEST(Micromodel, SurfaceTorqueBalanceHoldsOnlyWhereTheFlowIsSlow) {
+  // A 5 um polystyrene sphere touching a side wall of a 20 um Hele-Shaw channel at mid-depth
+  // (walls count as grains). Held when the DMT contact adhesion torque F (F a / K)^(1/3),
+  // F = A a / (6 z0^2), exceeds the Goldman-Cox-Brenner moment a (1.7009 6 pi mu a^2 + 0.944 4 pi
+  // mu a^2) G with G = u / a, u the fluid speed at its centre. Against a deposit F uses a / 2.
+  // By hand for A = 1e-20 J, z0 = 0.4 nm, K = 4.84 GPa: F = 26.04 nN, critical u = 2.26 mm/s.
+  const double h = 20e-6, a = 2.5e-6, mu = 1e-3;
+  SceneConfig c = colloidScene(1);
+  c.attachment.surface_torque_balance = true;
+  const double fa = 1e-20 * a / (6 * 0.4e-9 * 0.4e-9);
+  const auto critical = [&](double f) { return f * std::cbrt(f * a / 4.84e9) / (1.7009 * 6 * kPi * mu * a * a + 0.944 * 4 * kPi * mu * a * a); };
+  const double u_c = critical(fa);
+  EXPECT_NEAR(u_c, 2.256e-3, 1e-6);
+  const Vec3 x(1e-3, a + 0.05e-6, 0.5 * h);
+  {
+    auto probe = std::make_shared<HeleShawChannel>(2e-3, 200e-6, h, 1e-3);
+    HydroModel m(probe, c);
+    EXPECT_NEAR(m.contactAdhesion(false), fa, 1e-12 * fa);
+    EXPECT_NEAR(m.contactAdhesion(true), 0.5 * fa, 1e-12 * fa);
+  }
+  // The flow that puts the centre's speed at f u_c: the depth profile at mid-depth over the mean.
+  const double per_mean = [&] {
+    auto unit = std::make_shared<HeleShawChannel>(2e-3, 200e-6, h, 1.0);
+    return HydroModel(unit, c).fluidVelocity(x).norm();
+  }();
+  EXPECT_NEAR(per_mean, 1.5 - 2 * a * a / (h * h), 1e-9);  // Poiseuille at mid-depth, Faxen's a^2/6 term
+  for (double f : {0.9, 1.1}) {
+    auto flow = std::make_shared<HeleShawChannel>(2e-3, 200e-6, h, f * u_c / per_mean);
+    HydroModel m(flow, c);
+    double margin = 0;
+    EXPECT_EQ(m.surfaceAdhesionHolds(x, m.contactAdhesion(false), &margin), f < 1) << f;
+    EXPECT_NEAR(margin, 1 / f, 1e-9);
+  }
+  // In the engine, grains (the side walls) sticky, plates not: at 0.5 u_c every particle touching
+  // the wall is held at once; at 2 u_c none is under the torque balance, all under the capture rule.
+  int held[3] = {0, 0, 0};
+  for (int run = 0; run < 3; ++run) {
+    SceneConfig sc = colloidScene(2);
+    sc.attachment.bottom = false;
+    sc.attachment.deposited = false;
+    sc.attachment.surface_torque_balance = run > 0;
+    const double u = (run == 2 ? 0.5 : 2.0) * u_c / per_mean;
+    auto flow = std::make_shared<HeleShawChannel>(2e-3, 200e-6, h, u);
+    OverdampedEngine e(flow, sc);
+    std::vector<Vec3> pos;
+    for (int i = 0; i < 10; ++i) pos.emplace_back(20e-6 + 12e-6 * i, a + 0.05e-6, 0.5 * h);
+    for (int i = 0; i < 10; ++i) pos.emplace_back(20e-6 + 12e-6 * i, 200e-6 - a - 0.05e-6, 0.5 * h);
+    e.insert(pos);
+    e.advance(0.02);
+    held[run] = static_cast<int>(e.counts().deposited);
+  }
+  EXPECT_EQ(held[0], 20);  // capture rule, fast flow: every contact holds
+  EXPECT_EQ(held[1], 0);   // torque balance, fast flow: none
+  EXPECT_EQ(held[2], 20);  // torque balance, slow flow: all
+}
+
 TEST(MicromodelBadInput, OverlappingInsertionIsRefusedWholesale) {
   auto flow = std::make_shared<HeleShawChannel>(2e-3, 200e-6, 20e-6, 0.7e-3);
   OverdampedEngine e(flow, colloidScene(1));

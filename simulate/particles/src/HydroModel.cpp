@@ -142,10 +142,15 @@ bool HydroModel::plateAdhesionHolds(const Vec3& x, bool bottom, double* margin, 
   const double h = m_flow->depth(x.x(), x.y());
   // Wall shear rate of the plane-Poiseuille depth profile: du/dz = 6 u_mean / h at both plates.
   const double shear = m_flow->isSolid(x.x(), x.y()) ? 0.0 : 6.0 * m_flow->meanVelocity(x.x(), x.y()).norm() / h;
-  const double z0 = at.adhesion_separation;
-  const double adhesion = adhesion_force >= 0 ? adhesion_force : at.hamaker > 0 && z0 > 0 ? at.hamaker * a / (6.0 * z0 * z0) : 0.0;
+  const double adhesion = adhesion_force >= 0 ? adhesion_force : contactAdhesion(false);
   const double weight = (c.particle.density - c.fluid.density) * c.particle.volume() * c.gravity;
   return torqueBalanceHolds(shear, adhesion + (bottom ? weight : -weight), a, c.fluid.viscosity, at.contact_modulus, margin);
+}
+
+double HydroModel::contactAdhesion(bool sphere_sphere) const {
+  const auto& at = m_cfg.attachment;
+  const double z0 = at.adhesion_separation, r = sphere_sphere ? 0.5 * m_radius : m_radius;
+  return at.hamaker > 0 && z0 > 0 ? at.hamaker * r / (6.0 * z0 * z0) : 0.0;
 }
 
 bool HydroModel::surfaceAdhesionHolds(const Vec3& x, double adhesion_force, double* margin) const {

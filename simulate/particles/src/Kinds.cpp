@@ -388,6 +388,12 @@ void declarePhysicsAndDeposition(Schema& s, double hamaker_default) {
            "only if the DMT adhesion torque (Hamaker constant, adhesion_separation, contact_modulus) holds against the "
            "Goldman-Cox-Brenner drag and torque of the local wall shear, else the particle rolls on")
       .def("capture");
+  s.choice("deposition.surface_rule", {"capture", "torque-balance"},
+           "Attachment to sticky grain walls, side walls and deposits. capture: within the capture distance, for good; "
+           "torque-balance (overdamped engine): only if the DMT contact adhesion torque (as plate_rule; against a deposit with "
+           "Derjaguin's radius a/2) holds against the Goldman-Cox-Brenner drag and torque of the shear u/a, u the fluid speed at "
+           "the particle's centre; else it moves on and is checked again every step (held where the flow is slow)")
+      .def("capture");
   s.real("deposition.release_radii",
          "dlvo rule: after an arrival that did not attach, the gap (in particle radii) the particle must exceed before its next "
          "arrival at that surface draws again; 1: back in the bulk, beyond the DLVO force's range (an assumption, see "
@@ -461,6 +467,7 @@ void physicsAndDepositionFromCase(const Case& c, const EngineChoice& choice, Sce
   s.attachment.hamaker = c.quantity("deposition.hamaker");
   s.attachment.attraction_range = c.quantity("deposition.attraction_range");
   s.attachment.torque_balance = c.text("deposition.plate_rule") == "torque-balance";
+  s.attachment.surface_torque_balance = c.text("deposition.surface_rule") == "torque-balance";
   s.attachment.plate_efficiency = c.real("deposition.plate_attachment_efficiency");
   if (s.attachment.plate_efficiency < 1 && choice.engine == EngineKind::liggghts)
     throw InputError(c.where("deposition.plate_attachment_efficiency"), "an attachment efficiency applies to the overdamped engine only",
@@ -477,6 +484,7 @@ void physicsAndDepositionFromCase(const Case& c, const EngineChoice& choice, Sce
     if (!(s.attachment.capture_distance > 0)) conflict("deposition.capture_distance", "0", "> 0: arrivals are drawn within it");
     if (s.attachment.plate_efficiency < 1) conflict("deposition.plate_attachment_efficiency", fmt::format("{:g}", s.attachment.plate_efficiency), "1");
     if (s.attachment.torque_balance) conflict("deposition.plate_rule", "torque-balance", "\"capture\"");
+    if (s.attachment.surface_torque_balance) conflict("deposition.surface_rule", "torque-balance", "\"capture\"");
     s.attachment.rule = AttachmentModel::Rule::dlvo;
     s.attachment.chemistry = chemistryFromCase(c, "fluid.temperature");
     s.attachment.favourable_fraction = c.real("chemistry.favourable_fraction");

@@ -48,6 +48,9 @@ LiggghtsEngine::LiggghtsEngine(std::shared_ptr<const FlowField> flow, SceneConfi
   if (m_cfg.attachment.torque_balance)
     throw InputError(keyLocation("deposition.plate_rule"), "the torque balance on the plates is implemented in the overdamped engine only",
                      "torque-balance", "plate_rule = \"capture\" with LIGGGHTS, or the overdamped engine");
+  if (m_cfg.attachment.surface_torque_balance)
+    throw InputError(keyLocation("deposition.surface_rule"), "the torque balance on grains and deposits is implemented in the overdamped engine only",
+                     "torque-balance", "surface_rule = \"capture\" with LIGGGHTS (its sjkr cohesion decides), or the overdamped engine");
   m_outlet = std::isnan(m_cfg.outlet_x) ? m_flow->bounds().x1 : m_cfg.outlet_x;
   m_setup = liggghtsSetupFor(*m_flow, m_cfg, m_outlet);
   const std::vector<std::string> commands = liggghtsSetupCommands(m_setup);  // validates; throws before LIGGGHTS starts

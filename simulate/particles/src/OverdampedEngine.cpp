@@ -937,9 +937,16 @@ void OverdampedEngine::decideAttachment(ParticleState& p, std::uint8_t touched, 
       plate = false;
     }
   }
-  if (on_deposit) hold(Surface::deposit);
+  // Torque balance on grain walls and deposits (optional): held only where the contact adhesion
+  // withstands the local shear; otherwise the particle moves on and is checked again next step.
+  bool deposit = on_deposit, grain = on_grain;
+  if (at.surface_torque_balance) {
+    if (deposit) deposit = model.surfaceAdhesionHolds(p.x, model.contactAdhesion(true));
+    if (grain) grain = model.surfaceAdhesionHolds(p.x, model.contactAdhesion(false));
+  }
+  if (deposit) hold(Surface::deposit);
   else if (plate) hold(on_bottom ? Surface::bottom : Surface::top);
-  else if (on_grain) hold(Surface::grain);
+  else if (grain) hold(Surface::grain);
 }
 
 double OverdampedEngine::releaseDistance() const {
@@ -1268,6 +1275,8 @@ nlohmann::json OverdampedEngine::describe() const {
                                 ? "DLVO sphere-plate force of the chemistry (the attachment's profile) towards sticky plates and grains"
                                 : "van der Waals A a / (6 gap^2) towards sticky plates and grains"},
           {"plate_attachment", c.attachment.torque_balance ? "torque balance (GCB shear vs DMT adhesion)" : "capture distance"},
+          {"surface_attachment", c.attachment.surface_torque_balance ? "torque balance (GCB shear at the centre's speed vs DMT adhesion)"
+                                                                     : "capture distance"},
           {"plate_attachment_efficiency", c.attachment.plate_efficiency},
           {"adhesion_separation_nm", c.attachment.adhesion_separation * 1e9},
           {"contact_modulus_GPa", c.attachment.contact_modulus * 1e-9},

@@ -89,6 +89,10 @@ class HydroModel {
   /// touching a wall in linear shear), no weight in the load (grain walls are vertical; the
   /// direction of a deposit contact is not tracked, so gravity is left out for it too).
   bool surfaceAdhesionHolds(const Vec3& x, double adhesion_force, double* margin = nullptr) const;
+  /// DMT contact adhesion of the capture rule (N): A a / (6 z0^2) against a wall, A (a/2) / (6 z0^2)
+  /// against another particle of the same radius (Derjaguin's effective radius); 0 without a
+  /// Hamaker constant.
+  double contactAdhesion(bool sphere_sphere) const;
   bool nearWallShear() const { return m_near_wall_shear; }    ///< shear lag on (SceneConfig::near_wall_shear and wall_hindrance)
   bool nearContactDrag() const { return m_near_contact_drag; }  ///< GCB parallel drag on (SceneConfig::near_contact_drag)
   /// Single-wall Brenner factor at surface gap `gap` (tabulated, log-interpolated; exact series in Physics.hpp).

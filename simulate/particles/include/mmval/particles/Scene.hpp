@@ -78,6 +78,13 @@ struct AttachmentModel {
   /// (HydroModel::plateAdhesionHolds); otherwise it stays mobile and rolls on
   /// (checked again every step). Off: the capture rule above alone.
   bool torque_balance = false;
+  /// Grain walls, side walls and deposits: the same torque balance for a particle held against
+  /// them by its DMT contact adhesion (sphere-wall A a / (6 z0^2); sphere-sphere on a deposit
+  /// A (a/2) / (6 z0^2), Derjaguin for two equal spheres), against the local shear of the fluid
+  /// speed at its centre over its radius (HydroModel::surfaceAdhesionHolds); a particle the shear
+  /// would roll off stays mobile and is checked again every step, so it is held where the flow is
+  /// slow. Off: every contact within the capture distance holds (the capture rule).
+  bool surface_torque_balance = false;
   /// Plates only: the probability that a particle arriving on a sticky plate attaches (colloid
   /// filtration theory's attachment efficiency alpha; 1: every arrival sticks). Drawn once per
   /// arrival (deterministic from the seed and the particle); a rejected particle stays mobile on
