@@ -113,10 +113,20 @@ bool componentSplitWanted(MPI_Comm comm, const char* prefix) {
   int size = 1;
   MPI_Comm_size(comm, &size);
   if (size != 2) return false;
-  PetscBool on = PETSC_TRUE;
+  PetscBool on = PETSC_TRUE, set = PETSC_FALSE;
   const std::string key = "-" + std::string(prefix) + "fieldsplit_0_by_component";
-  PetscOptionsGetBool(nullptr, nullptr, key.c_str(), &on, nullptr);
-  return on == PETSC_TRUE;
+  PetscOptionsGetBool(nullptr, nullptr, key.c_str(), &on, &set);
+  if (set == PETSC_TRUE) return on == PETSC_TRUE;
+  return userVelocityPcType(prefix).empty();
+}
+
+std::string userVelocityPcType(const char* prefix) {
+  char value[256] = {0};
+  PetscBool set = PETSC_FALSE;
+  const std::string key = "-" + std::string(prefix) + "fieldsplit_0_pc_type";
+  PetscOptionsGetString(nullptr, nullptr, key.c_str(), value, sizeof value, &set);
+  // The solver itself puts "hypre" there as the default (CoupledSystem::createKsp): only another value is a choice.
+  return set == PETSC_TRUE && std::string(value) != "hypre" ? std::string(value) : std::string();
 }
 
 PC velocityBlockToSplit(KSP k) {

@@ -13,6 +13,7 @@
 // application). Entries that couple u to v (none under a constant viscosity) are dropped, as a
 // block-Jacobi preconditioner drops them; the Krylov method still sees the whole operator.
 #pragma once
+#include <string>
 #include <vector>
 
 #include <petscksp.h>
@@ -20,8 +21,14 @@
 namespace mmval::simulate::detail {
 
 /// Whether the by-component split applies: exactly two ranks on `comm` and the PETSc option
-/// `-<prefix>fieldsplit_0_by_component` not set false (default true).
+/// `-<prefix>fieldsplit_0_by_component` not set false. Unset, it is on unless the user chose the
+/// velocity block's preconditioner (`-<prefix>fieldsplit_0_pc_type` other than the default hypre):
+/// a choice the split would otherwise replace.
 bool componentSplitWanted(MPI_Comm comm, const char* prefix);
+
+/// The value of `-<prefix>fieldsplit_0_pc_type` in PETSc's options database when it is not the
+/// solver's own default ("hypre"), else "".
+std::string userVelocityPcType(const char* prefix);
 
 /// The preconditioner of the velocity sub-KSP of the Schur fieldsplit of `k` (set up: KSPSetUp
 /// done), or nullptr when it already preconditions by component. Throws std::runtime_error naming

@@ -312,7 +312,8 @@ struct CoupledSystem::Impl {
   /// component per rank (ComponentSplit.hpp; off with -<prefix>fieldsplit_0_by_component 0).
   /// Sets `k` up (its fieldsplit's blocks) first: the velocity block's KSP exists only then.
   void splitByComponent(const FlowOperator& op, KSP k, const char* prefix) {
-    velocity_pc = "BoomerAMG on the velocity block";
+    const std::string user = detail::userVelocityPcType(prefix);
+    velocity_pc = user.empty() ? std::string("BoomerAMG on the velocity block") : "-" + std::string(prefix) + "fieldsplit_0_pc_type " + user + " (the user's)";
     if (!detail::componentSplitWanted(comm, prefix)) return;
     velocity_pc = "by component: rank 0 u, rank 1 v, a serial BoomerAMG each";
     check(KSPSetUp(k), "KSPSetUp");

@@ -197,6 +197,14 @@ TEST(Mpi, TwoRanksPreconditionTheVelocityBlockOneComponentPerRank) {
   SteadyFlowSolver block(p, it, MPI_COMM_WORLD);
   const FlowStats sb = block.solve();
   PetscOptionsClearValue(nullptr, "-fluidm_fieldsplit_0_by_component");
+  // A user's own choice of the block's preconditioner is kept (the split does not replace it) and
+  // recorded as the user's.
+  PetscOptionsSetValue(nullptr, "-fluidm_fieldsplit_0_pc_type", "gamg");
+  SteadyFlowSolver chosen(p, it, MPI_COMM_WORLD);
+  const FlowStats sc = chosen.solve();
+  PetscOptionsSetValue(nullptr, "-fluidm_fieldsplit_0_pc_type", "hypre");  // back to the solver's default
+  EXPECT_EQ(sc.velocity_preconditioner, "-fluidm_fieldsplit_0_pc_type gamg (the user's)");
+  EXPECT_NEAR(chosen.superficialVelocity() / lu.superficialVelocity(), 1.0, 1e-7);
   const double a = lu.superficialVelocity();
   if (PetscSession::rank() == 0)
     std::printf("velocity block on %d ranks by component: %d iterations (one rank %d, block AMG on 2 ranks %d), Darcy velocity ratio - 1 = %.3e\n",
