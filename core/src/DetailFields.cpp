@@ -79,8 +79,8 @@ std::vector<DetailFieldDecl> makeDeclarations() {
        kSteadyMmvalKinds},
       {F::ladder_velocity_preconditioner, "velocity_preconditioner", F::ladder, T::string, none, 0, "-",
        "plane Stokes solved iteratively: the velocity block's preconditioner, one BoomerAMG V-cycle over both components, or on exactly two ranks "
-       "one component per rank (rank 0 u, rank 1 v, a serial BoomerAMG each; PETSc option -fluidm_fieldsplit_0_by_component 0 turns it off); "
-       "absent otherwise",
+       "one component per rank (rank 0 u, rank 1 v, a serial BoomerAMG each; PETSc option -fluidm_fieldsplit_0_by_component 0 turns it off), "
+       "or the user's own choice, \"-fluidm_fieldsplit_0_pc_type VALUE (the user's)\", which the split then leaves in place; absent otherwise",
        kSteadyMmvalKinds},
       {F::ladder_flux_change, "flux_change", F::ladder, T::number, none, 0, "1",
        "the relative change the outlet flux still has to make when the steady solver stopped, estimated as the geometric tail of its last changes",
