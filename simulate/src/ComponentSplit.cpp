@@ -109,7 +109,7 @@ PetscErrorCode destroyComponent(PC pc) {
 
 }  // namespace
 
-bool componentSplitWanted(MPI_Comm comm, const char* prefix) {
+bool componentSplitWanted(MPI_Comm comm, const char* prefix, const std::string& user_pc) {
   int size = 1;
   MPI_Comm_size(comm, &size);
   if (size != 2) return false;
@@ -117,7 +117,7 @@ bool componentSplitWanted(MPI_Comm comm, const char* prefix) {
   const std::string key = "-" + std::string(prefix) + "fieldsplit_0_by_component";
   PetscOptionsGetBool(nullptr, nullptr, key.c_str(), &on, &set);
   if (set == PETSC_TRUE) return on == PETSC_TRUE;
-  return userVelocityPcType(prefix).empty();
+  return user_pc.empty();
 }
 
 std::string userVelocityPcType(const char* prefix) {
@@ -125,8 +125,8 @@ std::string userVelocityPcType(const char* prefix) {
   PetscBool set = PETSC_FALSE;
   const std::string key = "-" + std::string(prefix) + "fieldsplit_0_pc_type";
   PetscOptionsGetString(nullptr, nullptr, key.c_str(), value, sizeof value, &set);
-  // The solver itself puts "hypre" there as the default (CoupledSystem::createKsp): only another value is a choice.
-  return set == PETSC_TRUE && std::string(value) != "hypre" ? std::string(value) : std::string();
+  // The solver itself puts its default there (CoupledSystem::createKsp): only another value is a choice.
+  return set == PETSC_TRUE && std::string(value) != kVelocityBlockPcDefault ? std::string(value) : std::string();
 }
 
 PC velocityBlockToSplit(KSP k) {

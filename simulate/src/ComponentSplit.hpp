@@ -20,14 +20,18 @@
 
 namespace mmval::simulate::detail {
 
+/// The velocity block's preconditioner the solver puts in PETSc's options database as its default
+/// (`-fluidm_` and `-fluidp_fieldsplit_0_pc_type`; CoupledSystem): BoomerAMG.
+inline constexpr const char* kVelocityBlockPcDefault = "hypre";
+
 /// Whether the by-component split applies: exactly two ranks on `comm` and the PETSc option
-/// `-<prefix>fieldsplit_0_by_component` not set false. Unset, it is on unless the user chose the
-/// velocity block's preconditioner (`-<prefix>fieldsplit_0_pc_type` other than the default hypre):
-/// a choice the split would otherwise replace.
-bool componentSplitWanted(MPI_Comm comm, const char* prefix);
+/// `-<prefix>fieldsplit_0_by_component` not set false. Unset, it is on unless `user_pc` names the
+/// user's own choice of the velocity block's preconditioner (userVelocityPcType), which the split
+/// would otherwise replace.
+bool componentSplitWanted(MPI_Comm comm, const char* prefix, const std::string& user_pc);
 
 /// The value of `-<prefix>fieldsplit_0_pc_type` in PETSc's options database when it is not the
-/// solver's own default ("hypre"), else "".
+/// solver's own default (kVelocityBlockPcDefault), else "".
 std::string userVelocityPcType(const char* prefix);
 
 /// The preconditioner of the velocity sub-KSP of the Schur fieldsplit of `k` (set up: KSPSetUp

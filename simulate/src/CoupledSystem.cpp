@@ -314,7 +314,7 @@ struct CoupledSystem::Impl {
   void splitByComponent(const FlowOperator& op, KSP k, const char* prefix) {
     const std::string user = detail::userVelocityPcType(prefix);
     velocity_pc = user.empty() ? std::string("BoomerAMG on the velocity block") : "-" + std::string(prefix) + "fieldsplit_0_pc_type " + user + " (the user's)";
-    if (!detail::componentSplitWanted(comm, prefix)) return;
+    if (!detail::componentSplitWanted(comm, prefix, user)) return;
     velocity_pc = "by component: rank 0 u, rank 1 v, a serial BoomerAMG each";
     check(KSPSetUp(k), "KSPSetUp");
     PC vpc = detail::velocityBlockToSplit(k);
@@ -392,11 +392,11 @@ struct CoupledSystem::Impl {
       def("-fluid_fieldsplit_1_ksp_type", "preonly");
       def("-fluid_fieldsplit_1_pc_type", "gamg");
       def("-fluidm_fieldsplit_0_ksp_type", "preonly");
-      def("-fluidm_fieldsplit_0_pc_type", "hypre");  // BoomerAMG: steadier than GAMG on the cut-cell velocity block (bench)
+      def("-fluidm_fieldsplit_0_pc_type", detail::kVelocityBlockPcDefault);  // BoomerAMG: steadier than GAMG on the cut-cell velocity block (bench)
       def("-fluidm_fieldsplit_1_ksp_type", "preonly");
       def("-fluidm_fieldsplit_1_pc_type", "jacobi");
       def("-fluidp_fieldsplit_0_ksp_type", "preonly");
-      def("-fluidp_fieldsplit_0_pc_type", "hypre");
+      def("-fluidp_fieldsplit_0_pc_type", detail::kVelocityBlockPcDefault);
       def("-fluidp_fieldsplit_1_ksp_type", "preonly");
       def("-fluidp_fieldsplit_1_pc_type", "hypre");  // BoomerAMG on B diag(A)^-1 B^T, a variable-coefficient pressure Laplacian
       def("-fluidh_fieldsplit_0_ksp_type", "preonly");
